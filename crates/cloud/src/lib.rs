@@ -1,0 +1,31 @@
+//! `cloud`: the data every pointsight method shares.
+//!
+//! - [`PointCloud`] (f64 positions, optional normals, colours, texture coordinates and surface
+//!   provenance) and [`TriMesh`], borrowed by the method crates without copies;
+//! - readers for PLY, OFF and XYZ and a binary PLY writer ([`io`]), with typed errors that name
+//!   the file and the line or byte ([`ReadError`]);
+//! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
+//! - the pinhole [`Camera`] and deterministic viewpoint sets ([`views`]);
+//! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]).
+//!
+//! This crate knows nothing of any method, of experiments, plots or the command line.
+
+pub mod bbox;
+pub mod camera;
+pub mod error;
+pub mod io;
+pub mod mesh;
+pub mod normals;
+pub mod points;
+pub mod rng;
+pub mod sample;
+pub mod synth;
+pub mod views;
+
+pub use bbox::Aabb;
+pub use camera::{Camera, Projection};
+pub use error::{Error, Location, ReadError, ReadErrorKind, Result};
+pub use glam;
+pub use mesh::TriMesh;
+pub use points::{PointCloud, SurfaceSample};
+pub use views::ViewSpec;
