@@ -49,8 +49,8 @@ mod tests {
 
     #[test]
     fn box_of_points() {
-        let b = Aabb::from_points(&[DVec3::new(1.0, -2.0, 0.0), DVec3::new(-1.0, 2.0, 3.0)])
-            .unwrap();
+        let b =
+            Aabb::from_points(&[DVec3::new(1.0, -2.0, 0.0), DVec3::new(-1.0, 2.0, 3.0)]).unwrap();
         assert_eq!(b.min, DVec3::new(-1.0, -2.0, 0.0));
         assert_eq!(b.max, DVec3::new(1.0, 2.0, 3.0));
         assert_eq!(b.center(), DVec3::new(0.0, 0.0, 1.5));

@@ -67,7 +67,9 @@ impl Camera {
         height: u32,
     ) -> Result<Self> {
         if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
-            return Err(Error::DegenerateCamera("non-finite eye, target or up".into()));
+            return Err(Error::DegenerateCamera(
+                "non-finite eye, target or up".into(),
+            ));
         }
         if !(fov_y_deg > 0.0 && fov_y_deg < 180.0) {
             return Err(Error::DegenerateCamera(format!(
@@ -75,7 +77,9 @@ impl Camera {
             )));
         }
         if width == 0 || height == 0 {
-            return Err(Error::DegenerateCamera(format!("image size {width}x{height}")));
+            return Err(Error::DegenerateCamera(format!(
+                "image size {width}x{height}"
+            )));
         }
         let forward = (target - eye).normalize_or_zero();
         if forward == DVec3::ZERO {
@@ -105,7 +109,14 @@ impl Camera {
 
     /// The same view at another image size (same vertical field of view).
     pub fn with_resolution(&self, width: u32, height: u32) -> Result<Self> {
-        Self::new(self.eye, self.target, self.up, self.fov_y_deg, width, height)
+        Self::new(
+            self.eye,
+            self.target,
+            self.up,
+            self.fov_y_deg,
+            width,
+            height,
+        )
     }
 
     /// Unit view direction.
@@ -173,7 +184,15 @@ mod tests {
     use super::*;
 
     fn cam() -> Camera {
-        Camera::new(DVec3::new(0.0, 0.0, 5.0), DVec3::ZERO, DVec3::Y, 90.0, 200, 100).unwrap()
+        Camera::new(
+            DVec3::new(0.0, 0.0, 5.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            90.0,
+            200,
+            100,
+        )
+        .unwrap()
     }
 
     #[test]

@@ -132,6 +132,15 @@ mod tests {
     #[test]
     fn out_of_range_index_is_rejected() {
         let err = TriMesh::new(vec![DVec3::ZERO; 3], vec![[0, 1, 3]]).unwrap_err();
-        assert!(matches!(err, Error::InvalidParameter { name: "triangles", .. }), "{err}");
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "triangles",
+                    ..
+                }
+            ),
+            "{err}"
+        );
     }
 }

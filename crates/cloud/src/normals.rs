@@ -46,7 +46,10 @@ pub fn estimate_normals(
     if k < 3 || k > positions.len() {
         return Err(Error::InvalidParameter {
             name: "k",
-            reason: format!("need 3 <= k <= {} (the number of points), got {k}", positions.len()),
+            reason: format!(
+                "need 3 <= k <= {} (the number of points), got {k}",
+                positions.len()
+            ),
         });
     }
     if let Orientation::Reference(r) = orientation
@@ -170,10 +173,17 @@ mod tests {
         let pts: Vec<DVec3> = (0..500)
             .map(|_| DVec3::new(rng.random::<f64>(), rng.random::<f64>(), 2.0))
             .collect();
-        let normals =
-            estimate_normals(&pts, 10, Orientation::TowardsViewpoint(DVec3::new(0.5, 0.5, -5.0)))
-                .unwrap();
-        assert!(normals.iter().all(|n| (n.z + 1.0).abs() < 1e-5), "{:?}", normals[0]);
+        let normals = estimate_normals(
+            &pts,
+            10,
+            Orientation::TowardsViewpoint(DVec3::new(0.5, 0.5, -5.0)),
+        )
+        .unwrap();
+        assert!(
+            normals.iter().all(|n| (n.z + 1.0).abs() < 1e-5),
+            "{:?}",
+            normals[0]
+        );
     }
 
     #[test]

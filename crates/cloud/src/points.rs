@@ -142,8 +142,7 @@ mod tests {
 
     #[test]
     fn select_carries_attributes() {
-        let mut cloud =
-            PointCloud::from_positions(vec![DVec3::X, DVec3::Y, DVec3::Z]).unwrap();
+        let mut cloud = PointCloud::from_positions(vec![DVec3::X, DVec3::Y, DVec3::Z]).unwrap();
         cloud.colors = Some(vec![[1, 1, 1], [2, 2, 2], [3, 3, 3]]);
         let sub = cloud.select(&[2, 0]);
         assert_eq!(sub.positions, vec![DVec3::Z, DVec3::X]);

@@ -6,8 +6,8 @@
 //! whose output is fixed by its specification: the same seed gives the same numbers on every
 //! platform and release, which `StdRng` does not promise.
 
-use rand::SeedableRng;
 pub use rand::RngExt;
+use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 
 /// The generator type used throughout pointsight.
@@ -37,9 +37,18 @@ mod tests {
 
     #[test]
     fn same_seed_same_stream_and_purposes_differ() {
-        let a: Vec<u64> = (0..4).map(|_| 0).scan(seeded(7, "x"), |r, _: u64| Some(r.random())).collect();
-        let b: Vec<u64> = (0..4).map(|_| 0).scan(seeded(7, "x"), |r, _: u64| Some(r.random())).collect();
-        let c: Vec<u64> = (0..4).map(|_| 0).scan(seeded(7, "y"), |r, _: u64| Some(r.random())).collect();
+        let a: Vec<u64> = (0..4)
+            .map(|_| 0)
+            .scan(seeded(7, "x"), |r, _: u64| Some(r.random()))
+            .collect();
+        let b: Vec<u64> = (0..4)
+            .map(|_| 0)
+            .scan(seeded(7, "x"), |r, _: u64| Some(r.random()))
+            .collect();
+        let c: Vec<u64> = (0..4)
+            .map(|_| 0)
+            .scan(seeded(7, "y"), |r, _: u64| Some(r.random()))
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
     }

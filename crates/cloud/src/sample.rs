@@ -79,7 +79,11 @@ pub fn sample_uv(mesh: &TriMesh, sample: &SurfaceSample) -> Option<Vec2> {
     let uvs = mesh.uvs.as_ref()?;
     let [a, b, c] = mesh.triangles[sample.triangle as usize];
     let w = sample.barycentric;
-    Some(uvs[a as usize] * w[0] as f32 + uvs[b as usize] * w[1] as f32 + uvs[c as usize] * w[2] as f32)
+    Some(
+        uvs[a as usize] * w[0] as f32
+            + uvs[b as usize] * w[1] as f32
+            + uvs[c as usize] * w[2] as f32,
+    )
 }
 
 #[cfg(test)]
@@ -135,10 +139,16 @@ mod tests {
 
     #[test]
     fn zero_area_mesh_is_an_error() {
-        let mesh = TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0], vec![[0, 1, 2]])
-            .unwrap();
-        assert!(matches!(sample_surface(&mesh, 10, 0), Err(Error::EmptyMesh)));
+        let mesh =
+            TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0], vec![[0, 1, 2]]).unwrap();
+        assert!(matches!(
+            sample_surface(&mesh, 10, 0),
+            Err(Error::EmptyMesh)
+        ));
         let empty = TriMesh::default();
-        assert!(matches!(sample_surface(&empty, 10, 0), Err(Error::EmptyMesh)));
+        assert!(matches!(
+            sample_surface(&empty, 10, 0),
+            Err(Error::EmptyMesh)
+        ));
     }
 }

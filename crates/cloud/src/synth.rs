@@ -118,7 +118,7 @@ pub fn sphere_scene(n: usize) -> Scene {
             normals: Some(normals),
             ..PointCloud::default()
         },
-        mesh: icosphere(6),
+        mesh: icosphere(7),
     }
 }
 
@@ -197,7 +197,7 @@ pub fn sphere_plane_scene(n_sphere: usize, n_plane: usize, seed: u64) -> (Scene,
         positions.push(DVec3::new(x, y, 0.0));
         normals.push(Vec3::Z);
     }
-    let mut mesh = icosphere(6);
+    let mut mesh = icosphere(7);
     for v in &mut mesh.vertices {
         *v = geometry.center + geometry.radius * *v;
     }
@@ -294,7 +294,10 @@ mod tests {
         assert_eq!(m.triangles.len(), 20 * 64);
         for t in 0..m.triangles.len() {
             let [a, b, c] = m.corners(t);
-            assert!(m.face_normal(t).dot((a + b + c) / 3.0) > 0.0, "triangle {t} faces inwards");
+            assert!(
+                m.face_normal(t).dot((a + b + c) / 3.0) > 0.0,
+                "triangle {t} faces inwards"
+            );
         }
     }
 
@@ -303,7 +306,11 @@ mod tests {
         let eye = DVec3::new(0.0, 0.0, 3.0);
         // The visible cap from distance 3 is z > 1/3.
         for p in fibonacci_sphere(500) {
-            assert_eq!(sphere_point_visible(DVec3::ZERO, p, eye), p.z > 1.0 / 3.0, "{p}");
+            assert_eq!(
+                sphere_point_visible(DVec3::ZERO, p, eye),
+                p.z > 1.0 / 3.0,
+                "{p}"
+            );
         }
     }
 
@@ -315,24 +322,48 @@ mod tests {
         assert!(g.visible(DVec3::new(1.9, 1.9, 0.0), eye));
         // From below, the square hides the whole ball.
         let below = DVec3::new(0.1, 0.2, -5.0);
-        assert!(scene.cloud.positions[..100].iter().all(|&p| !g.visible(p, below)));
+        assert!(
+            scene.cloud.positions[..100]
+                .iter()
+                .all(|&p| !g.visible(p, below))
+        );
         // ... and nothing hides the square's points.
-        assert!(scene.cloud.positions[100..].iter().all(|&p| g.visible(p, below)));
+        assert!(
+            scene.cloud.positions[100..]
+                .iter()
+                .all(|&p| g.visible(p, below))
+        );
     }
 
     #[test]
     fn torus_and_vase_carry_uvs_and_face_outwards() {
         let torus = torus_scene(2000, 5).unwrap();
-        assert!(torus.cloud.uvs.as_ref().unwrap().iter().all(|uv| {
-            (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y)
-        }));
+        assert!(
+            torus
+                .cloud
+                .uvs
+                .as_ref()
+                .unwrap()
+                .iter()
+                .all(|uv| { (0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y) })
+        );
         // Outward: the normal points away from the tube's centre line.
-        for (p, n) in torus.cloud.positions.iter().zip(torus.cloud.normals.as_ref().unwrap()) {
+        for (p, n) in torus
+            .cloud
+            .positions
+            .iter()
+            .zip(torus.cloud.normals.as_ref().unwrap())
+        {
             let ring_point = DVec3::new(p.x, p.y, 0.0).normalize();
             assert!(n.as_dvec3().dot(*p - ring_point) > 0.0);
         }
         let vase = vase_scene(2000, 5).unwrap();
-        for (p, n) in vase.cloud.positions.iter().zip(vase.cloud.normals.as_ref().unwrap()) {
+        for (p, n) in vase
+            .cloud
+            .positions
+            .iter()
+            .zip(vase.cloud.normals.as_ref().unwrap())
+        {
             assert!(n.as_dvec3().dot(DVec3::new(p.x, 0.0, p.z)) > 0.0);
         }
     }

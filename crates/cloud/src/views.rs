@@ -81,7 +81,14 @@ pub fn fibonacci_views(bbox: &Aabb, spec: &ViewSpec) -> Result<Vec<Camera>> {
             } else {
                 DVec3::Y
             };
-            Camera::new(center + distance * d, center, up, fov_y_deg, spec.width, spec.height)
+            Camera::new(
+                center + distance * d,
+                center,
+                up,
+                fov_y_deg,
+                spec.width,
+                spec.height,
+            )
         })
         .collect()
 }

@@ -7,8 +7,8 @@
 //! double precision; points are processed in parallel. It is the slow, obviously-correct check
 //! that the z-buffer [`crate::reference`] is validated against.
 
-use cloud::glam::DVec3;
 use cloud::TriMesh;
+use cloud::glam::DVec3;
 use parry3d_f64::query::{Ray, RayCast};
 use rayon::prelude::*;
 
@@ -44,16 +44,24 @@ impl ExactVisibility {
 
     /// Is the segment from `eye` to `p` free of the surface (before p)?
     pub fn is_visible(&self, eye: DVec3, p: DVec3) -> bool {
+        self.is_visible_with_margin(eye, p, SEGMENT_MARGIN)
+    }
+
+    /// Is the segment from `eye` to `p` free of the surface up to 1 − `margin` of its length?
+    pub fn is_visible_with_margin(&self, eye: DVec3, p: DVec3, margin: f64) -> bool {
         let ray = Ray::new(eye, p - eye);
         self.mesh
-            .cast_local_ray(&ray, 1.0 - SEGMENT_MARGIN, false)
+            .cast_local_ray(&ray, 1.0 - margin, false)
             .is_none()
     }
 
     /// Visibility of every point from `eye`.
     pub fn visibility(&self, eye: DVec3, points: &[DVec3]) -> Result<Vec<bool>> {
         cloud::points::check_finite(points)?;
-        Ok(points.par_iter().map(|&p| self.is_visible(eye, p)).collect())
+        Ok(points
+            .par_iter()
+            .map(|&p| self.is_visible(eye, p))
+            .collect())
     }
 }
 
@@ -82,7 +90,11 @@ mod tests {
 
         let (scene, g) = sphere_plane_scene(2_000, 4_000, 3);
         let exact = ExactVisibility::new(&scene.mesh).unwrap();
-        for eye in [DVec3::new(0.5, 0.5, 6.0), DVec3::new(3.0, -1.0, 0.5), DVec3::new(0.0, 0.1, -4.0)] {
+        for eye in [
+            DVec3::new(0.5, 0.5, 6.0),
+            DVec3::new(3.0, -1.0, 0.5),
+            DVec3::new(0.0, 0.1, -4.0),
+        ] {
             let vis = exact.visibility(eye, &scene.cloud.positions).unwrap();
             let agree = scene
                 .cloud
@@ -97,6 +109,9 @@ mod tests {
 
     #[test]
     fn empty_mesh_is_an_error() {
-        assert!(matches!(ExactVisibility::new(&TriMesh::default()), Err(Error::EmptyMesh)));
+        assert!(matches!(
+            ExactVisibility::new(&TriMesh::default()),
+            Err(Error::EmptyMesh)
+        ));
     }
 }

@@ -17,4 +17,4 @@ pub mod reference;
 pub use error::{Error, Result};
 pub use exact::ExactVisibility;
 pub use raster::{DepthBuffer, NO_TRIANGLE, rasterize};
-pub use reference::{Reference, ReferenceParams, reference_visibility};
+pub use reference::{Reference, ReferenceParams, ReferenceView, reference_visibility};

@@ -163,7 +163,11 @@ fn screen_triangles(mesh: &TriMesh, camera: &Camera) -> Vec<ScreenTri> {
 }
 
 /// Inclusive pixel range whose centres the triangle's bounding box may cover.
-fn pixel_bounds(t: &ScreenTri, width: usize, height: usize) -> Option<(usize, usize, usize, usize)> {
+fn pixel_bounds(
+    t: &ScreenTri,
+    width: usize,
+    height: usize,
+) -> Option<(usize, usize, usize, usize)> {
     let min = t.p[0].min(t.p[1]).min(t.p[2]);
     let max = t.p[0].max(t.p[1]).max(t.p[2]);
     // Centres at i + 0.5: the first centre >= min.x is ceil(min.x - 0.5).
@@ -183,7 +187,15 @@ fn edge(a: DVec2, b: DVec2, p: DVec2) -> f64 {
 }
 
 /// Draws one triangle into a tile's buffers.
-fn draw(t: &ScreenTri, ox: usize, oy: usize, tw: usize, th: usize, depth: &mut [f64], ids: &mut [u32]) {
+fn draw(
+    t: &ScreenTri,
+    ox: usize,
+    oy: usize,
+    tw: usize,
+    th: usize,
+    depth: &mut [f64],
+    ids: &mut [u32],
+) {
     let area = edge(t.p[0], t.p[1], t.p[2]);
     if area == 0.0 || !area.is_finite() {
         return;
@@ -192,7 +204,10 @@ fn draw(t: &ScreenTri, ox: usize, oy: usize, tw: usize, th: usize, depth: &mut [
     let (p, iz) = if area > 0.0 {
         (t.p, t.inv_z)
     } else {
-        ([t.p[0], t.p[2], t.p[1]], [t.inv_z[0], t.inv_z[2], t.inv_z[1]])
+        (
+            [t.p[0], t.p[2], t.p[1]],
+            [t.inv_z[0], t.inv_z[2], t.inv_z[1]],
+        )
     };
     let inv_area = 1.0 / area.abs();
     let Some((x0, y0, x1, y1)) = pixel_bounds(t, ox + tw, oy + th) else {
@@ -309,7 +324,11 @@ mod tests {
                 }
                 let d = cam.ray_direction(x as f64 + 0.5, y as f64 + 0.5);
                 let t = n.dot(a - cam.eye) / n.dot(d);
-                assert!((buf.depth[k] - t).abs() < 1e-9 * t, "{} vs {t}", buf.depth[k]);
+                assert!(
+                    (buf.depth[k] - t).abs() < 1e-9 * t,
+                    "{} vs {t}",
+                    buf.depth[k]
+                );
                 checked += 1;
             }
         }

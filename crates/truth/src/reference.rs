@@ -6,26 +6,33 @@
 //!
 //!   depth(p) ≤ surface_depth(p) + tolerance_px · pixel_size(depth(p)),
 //!
-//! where surface_depth(p) is the depth at which p's own ray (from the eye through p) first meets
-//! one of the triangles the buffer shows in the 3 × 3 pixels around p's pixel, and
-//! pixel_size(z) = z / focal_px is one reference pixel's footprint at depth z. Testing p's exact
-//! ray against the triangles the buffer found (and, before calling p visible, against the
-//! triangles around their corners, which catches occluding slivers between pixel centres) (rather than comparing with the depth at the pixel
-//! centre, as Mehra et al. 2010 do) removes the slope error of steep and silhouette triangles, so
-//! the tolerance only absorbs rounding and creases; half a pixel by default. When the ray meets
-//! none of the candidates (p sits on a silhouette between pixel centres), p is visible. Points
-//! that project outside the image or behind the eye are not visible. A triangle smaller than a
-//! reference pixel that slips between the nine pixel centres and still crosses p's ray is
-//! missed: the price of the z-buffer, measured against the exact test.
+//! where pixel_size(z) = z / focal_px is one reference pixel's footprint at depth z and
+//! surface_depth(p) is the depth at which p's own ray (from the eye through p) first meets one
+//! of the triangles the buffer shows in the 3 × 3 pixels around p's pixel. Testing p's exact ray
+//! against the triangles the buffer found, rather than comparing with the depth at the pixel
+//! centre as Mehra et al. (2010) do, removes the slope error of steep triangles, so the
+//! tolerance only absorbs rounding and creases: half a pixel by default. Before p is called
+//! visible its ray is also tried against the triangles around those triangles' corners, which
+//! catches occluders too thin to cover a pixel centre.
 //!
-//! The test in `tests/` checks this against the exact segment test ([`crate::exact`]) on the
-//! bunny: at least 99.5% agreement on every view.
+//! Silhouettes are where a z-buffer is unreliable: near an edge-on surface the occluder of a
+//! point can be a stack of slivers thinner than a pixel. A point is *ambiguous* when one of its
+//! nine pixels shows no triangle or one of its candidate triangles is within
+//! [`ReferenceParams::grazing_cos`] of edge-on (|n̂·d̂| < 0.2, about 12°); ambiguous points are
+//! resolved by the exact segment test ([`crate::exact`]) with the same tolerance. The share of
+//! points resolved that way is reported ([`ReferenceView::n_exact`]). Points that project
+//! outside the image or behind the eye are not visible.
+//!
+//! Validation: `tests/reference_bunny.rs` compares the pure z-buffer decision (no exact
+//! fallback) and the full reference with the exact test on bunny-69451, every view; the unit
+//! tests compare with the analytic answers of the synthetic sphere and sphere-plane scenes.
 
 use cloud::glam::DVec3;
 use cloud::{Camera, TriMesh};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::exact::ExactVisibility;
 use crate::raster::{DepthBuffer, NO_TRIANGLE, rasterize};
 
 /// Parameters of the reference.
@@ -35,6 +42,11 @@ pub struct ReferenceParams {
     pub min_long_side: u32,
     /// Depth tolerance in reference pixels at the point's depth.
     pub tolerance_px: f64,
+    /// A candidate triangle with |cos(normal, ray)| below this makes a point ambiguous.
+    pub grazing_cos: f64,
+    /// Resolve ambiguous points with the exact segment test (true) or keep the z-buffer
+    /// decision (false, for measuring the z-buffer alone).
+    pub exact_fallback: bool,
 }
 
 impl Default for ReferenceParams {
@@ -42,6 +54,8 @@ impl Default for ReferenceParams {
         Self {
             min_long_side: 2048,
             tolerance_px: 0.5,
+            grazing_cos: 0.2,
+            exact_fallback: true,
         }
     }
 }
@@ -53,99 +67,166 @@ impl ReferenceParams {
     }
 }
 
-/// Per-point visibility from the mesh depth buffer, and the buffer itself.
+/// The reference visibility of one view.
 #[derive(Debug, Clone)]
-pub struct Reference {
+pub struct ReferenceView {
     /// One flag per point.
     pub visible: Vec<bool>,
     /// The supersampled depth buffer.
     pub buffer: DepthBuffer,
     /// The camera the buffer was rendered with (the view at the supersampled resolution).
     pub camera: Camera,
+    /// How many points were ambiguous and resolved by the exact test.
+    pub n_exact: usize,
 }
 
-/// Computes the reference visibility of `points` (which should lie on `mesh`) from `camera`.
+/// A mesh prepared for reference queries: vertex rings and the exact test's BVH, built once
+/// and reused for every view.
+#[derive(Debug)]
+pub struct Reference {
+    mesh: TriMesh,
+    rings: VertexRings,
+    exact: ExactVisibility,
+}
+
+impl Reference {
+    /// Prepares `mesh`.
+    pub fn new(mesh: &TriMesh) -> Result<Self> {
+        let exact = ExactVisibility::new(mesh)?;
+        Ok(Self {
+            mesh: mesh.clone(),
+            rings: VertexRings::new(mesh),
+            exact,
+        })
+    }
+
+    /// The mesh.
+    pub fn mesh(&self) -> &TriMesh {
+        &self.mesh
+    }
+
+    /// The exact test over the same mesh.
+    pub fn exact(&self) -> &ExactVisibility {
+        &self.exact
+    }
+
+    /// The reference visibility of `points` (which should lie on the mesh) from `camera`.
+    pub fn visibility(
+        &self,
+        points: &[DVec3],
+        camera: &Camera,
+        params: &ReferenceParams,
+    ) -> Result<ReferenceView> {
+        if !(params.tolerance_px >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "tolerance_px",
+                reason: format!("must be >= 0, got {}", params.tolerance_px),
+            });
+        }
+        cloud::points::check_finite(points)?;
+        let s = params.factor(camera.width, camera.height);
+        let big = camera.with_resolution(camera.width * s, camera.height * s)?;
+        let buffer = rasterize(&self.mesh, &big);
+        let decisions: Vec<Decision> = points
+            .par_iter()
+            .map(|&p| self.decide(&buffer, &big, p, params))
+            .collect();
+        let n_exact = decisions
+            .iter()
+            .filter(|d| **d == Decision::Exact(true) || **d == Decision::Exact(false))
+            .count();
+        Ok(ReferenceView {
+            visible: decisions
+                .iter()
+                .map(|d| matches!(d, Decision::ZBuffer(true) | Decision::Exact(true)))
+                .collect(),
+            buffer,
+            camera: big,
+            n_exact,
+        })
+    }
+
+    fn decide(
+        &self,
+        buffer: &DepthBuffer,
+        cam: &Camera,
+        p: DVec3,
+        params: &ReferenceParams,
+    ) -> Decision {
+        let Some(proj) = cam.project(p) else {
+            return Decision::ZBuffer(false);
+        };
+        let Some((x, y)) = proj.pixel(buffer.width, buffer.height) else {
+            return Decision::ZBuffer(false);
+        };
+        let dir = p - cam.eye;
+        let dir_len = dir.length();
+        // The triangles the buffer shows around p's pixel are the candidates for the first
+        // surface along p's own ray.
+        let mut candidates = [NO_TRIANGLE; 9];
+        let mut n_candidates = 0;
+        let mut ambiguous = false;
+        for yy in y.saturating_sub(1)..=(y + 1).min(buffer.height - 1) {
+            for xx in x.saturating_sub(1)..=(x + 1).min(buffer.width - 1) {
+                let t = buffer.triangle[buffer.index(xx, yy)];
+                if t == NO_TRIANGLE {
+                    ambiguous = true;
+                } else if !candidates[..n_candidates].contains(&t) {
+                    candidates[n_candidates] = t;
+                    n_candidates += 1;
+                    let [a, b, c] = self.mesh.corners(t as usize);
+                    let n = (b - a).cross(c - a);
+                    if n.dot(dir).abs() < params.grazing_cos * n.length() * dir_len {
+                        ambiguous = true;
+                    }
+                }
+            }
+        }
+        let slack = params.tolerance_px * cam.pixel_size_at(proj.depth);
+        if ambiguous && params.exact_fallback {
+            let margin = (slack / proj.depth).max(crate::exact::SEGMENT_MARGIN);
+            return Decision::Exact(self.exact.is_visible_with_margin(cam.eye, p, margin));
+        }
+        let first_hit = |triangles: &mut dyn Iterator<Item = u32>| {
+            triangles
+                .filter_map(|t| segment_parameter(cam.eye, dir, self.mesh.corners(t as usize)))
+                .fold(f64::INFINITY, f64::min)
+        };
+        // `surface` is in units of the eye-to-p segment; compare in depth units.
+        let hidden_by = |surface: f64| proj.depth > surface * proj.depth + slack;
+        if hidden_by(first_hit(&mut candidates[..n_candidates].iter().copied())) {
+            return Decision::ZBuffer(false);
+        }
+        let rings = &self.rings;
+        Decision::ZBuffer(!hidden_by(first_hit(
+            &mut candidates[..n_candidates].iter().flat_map(|&t| {
+                self.mesh.triangles[t as usize]
+                    .into_iter()
+                    .flat_map(|v| rings.around(v).iter().copied())
+            }),
+        )))
+    }
+}
+
+/// How a point's visibility was decided.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Decision {
+    ZBuffer(bool),
+    Exact(bool),
+}
+
+/// One-shot convenience: prepares `mesh` and computes one view.
 pub fn reference_visibility(
     mesh: &TriMesh,
     points: &[DVec3],
     camera: &Camera,
     params: &ReferenceParams,
-) -> Result<Reference> {
-    if mesh.triangles.is_empty() {
-        return Err(Error::EmptyMesh);
-    }
-    if !(params.tolerance_px >= 0.0) {
-        return Err(Error::InvalidParameter {
-            name: "tolerance_px",
-            reason: format!("must be >= 0, got {}", params.tolerance_px),
-        });
-    }
-    cloud::points::check_finite(points)?;
-    let s = params.factor(camera.width, camera.height);
-    let big = camera.with_resolution(camera.width * s, camera.height * s)?;
-    let buffer = rasterize(mesh, &big);
-    let rings = VertexRings::new(mesh);
-    let visible = points
-        .par_iter()
-        .map(|&p| point_visible(mesh, &rings, &buffer, &big, p, params.tolerance_px))
-        .collect();
-    Ok(Reference {
-        visible,
-        buffer,
-        camera: big,
-    })
-}
-
-fn point_visible(
-    mesh: &TriMesh,
-    rings: &VertexRings,
-    buffer: &DepthBuffer,
-    cam: &Camera,
-    p: DVec3,
-    tol_px: f64,
-) -> bool {
-    let Some(proj) = cam.project(p) else {
-        return false;
-    };
-    let Some((x, y)) = proj.pixel(buffer.width, buffer.height) else {
-        return false;
-    };
-    // The triangles the buffer shows around p's pixel are the candidates for the first
-    // surface along p's own ray.
-    let mut candidates = [NO_TRIANGLE; 9];
-    let mut n_candidates = 0;
-    for yy in y.saturating_sub(1)..=(y + 1).min(buffer.height - 1) {
-        for xx in x.saturating_sub(1)..=(x + 1).min(buffer.width - 1) {
-            let t = buffer.triangle[buffer.index(xx, yy)];
-            if t != NO_TRIANGLE && !candidates[..n_candidates].contains(&t) {
-                candidates[n_candidates] = t;
-                n_candidates += 1;
-            }
-        }
-    }
-    let dir = p - cam.eye;
-    let first_hit = |triangles: &mut dyn Iterator<Item = u32>| {
-        triangles
-            .filter_map(|t| segment_parameter(cam.eye, dir, mesh.corners(t as usize)))
-            .fold(f64::INFINITY, f64::min)
-    };
-    let slack = tol_px * cam.pixel_size_at(proj.depth);
-    // `surface` is in units of the eye-to-p segment; compare in depth units.
-    let hidden_by = |surface: f64| proj.depth > surface * proj.depth + slack;
-    if hidden_by(first_hit(&mut candidates[..n_candidates].iter().copied())) {
-        return false;
-    }
-    // An occluder may be a sliver that covers none of the nine pixel centres: a triangle seen
-    // at a grazing angle near a silhouette, crossing p's ray between the centres. Try the
-    // triangles around the candidates' corners before calling p visible.
-    !hidden_by(first_hit(&mut candidates[..n_candidates].iter().flat_map(|&t| {
-        mesh.triangles[t as usize]
-            .into_iter()
-            .flat_map(|v| rings.around(v).iter().copied())
-    })))
+) -> Result<ReferenceView> {
+    Reference::new(mesh)?.visibility(points, camera, params)
 }
 
 /// The triangles around each vertex (compressed rows).
+#[derive(Debug)]
 struct VertexRings {
     start: Vec<u32>,
     triangles: Vec<u32>,
@@ -211,54 +292,77 @@ mod tests {
 
     use super::*;
 
-    fn agreement(a: &[bool], b: &[bool]) -> f64 {
-        a.iter().zip(b).filter(|(x, y)| x == y).count() as f64 / a.len() as f64
+    /// Checks the reference against an analytic answer: total agreement at least `min_total`,
+    /// and no disagreement at all on points the `ambiguous` predicate does not exempt. The
+    /// meshes are inscribed approximations (an icosphere of 81,920 triangles lies up to
+    /// 1.2e-4 inside the unit sphere), so rays grazing the true sphere within about 1e-2 rad
+    /// may legitimately disagree, and the z-buffer itself is approximate within a pixel or two of
+    /// a silhouette, where the rays are grazing.
+    fn check_against_analytic(
+        scene: &cloud::synth::Scene,
+        analytic: impl Fn(DVec3, DVec3) -> bool,
+        ambiguous: impl Fn(DVec3, DVec3) -> bool,
+        min_total: f64,
+    ) {
+        let bbox = scene.cloud.bbox().unwrap();
+        let spec = ViewSpec {
+            n_views: 6,
+            ..ViewSpec::default()
+        };
+        for cam in fibonacci_views(&bbox, &spec).unwrap() {
+            let r = reference_visibility(
+                &scene.mesh,
+                &scene.cloud.positions,
+                &cam,
+                &ReferenceParams::default(),
+            )
+            .unwrap();
+            let mut agree = 0;
+            for (&p, &v) in scene.cloud.positions.iter().zip(&r.visible) {
+                let expected = analytic(p, cam.eye);
+                if v == expected {
+                    agree += 1;
+                } else {
+                    assert!(ambiguous(p, cam.eye), "{p} from {}: reference {v}", cam.eye);
+                }
+            }
+            let total = agree as f64 / r.visible.len() as f64;
+            assert!(total >= min_total, "agreement {total} from {}", cam.eye);
+        }
+    }
+
+    /// |cos| of the angle between the sphere normal at p and the direction to the eye.
+    fn grazing(center: DVec3, p: DVec3, eye: DVec3) -> f64 {
+        (p - center).normalize().dot((eye - p).normalize()).abs()
     }
 
     #[test]
     fn sphere_matches_the_analytic_answer() {
         let scene = sphere_scene(20_000);
-        let bbox = scene.cloud.bbox().unwrap();
-        for cam in fibonacci_views(&bbox, &ViewSpec { n_views: 6, ..ViewSpec::default() }).unwrap() {
-            let r = reference_visibility(
-                &scene.mesh,
-                &scene.cloud.positions,
-                &cam,
-                &ReferenceParams::default(),
-            )
-            .unwrap();
-            let analytic: Vec<bool> = scene
-                .cloud
-                .positions
-                .iter()
-                .map(|&p| sphere_point_visible(DVec3::ZERO, p, cam.eye))
-                .collect();
-            let agree = agreement(&r.visible, &analytic);
-            assert!(agree >= 0.995, "agreement {agree} for eye {}", cam.eye);
-        }
+        check_against_analytic(
+            &scene,
+            |p, eye| sphere_point_visible(DVec3::ZERO, p, eye),
+            |p, eye| grazing(DVec3::ZERO, p, eye) < 0.1,
+            0.995,
+        );
     }
 
     #[test]
     fn sphere_plane_matches_the_analytic_answer() {
-        let (scene, geometry) = sphere_plane_scene(8_000, 16_000, 9);
-        let bbox = scene.cloud.bbox().unwrap();
-        for cam in fibonacci_views(&bbox, &ViewSpec { n_views: 6, ..ViewSpec::default() }).unwrap() {
-            let r = reference_visibility(
-                &scene.mesh,
-                &scene.cloud.positions,
-                &cam,
-                &ReferenceParams::default(),
-            )
-            .unwrap();
-            let analytic: Vec<bool> = scene
-                .cloud
-                .positions
-                .iter()
-                .map(|&p| geometry.visible(p, cam.eye))
-                .collect();
-            let agree = agreement(&r.visible, &analytic);
-            assert!(agree >= 0.995, "agreement {agree} for eye {}", cam.eye);
-        }
+        let (scene, g) = sphere_plane_scene(8_000, 16_000, 9);
+        check_against_analytic(
+            &scene,
+            |p, eye| g.visible(p, eye),
+            |p, eye| {
+                let on_sphere = ((p - g.center).length() - g.radius).abs() < 1e-9;
+                // Distance from the ball's centre to the eye-to-p segment.
+                let d = p - eye;
+                let t = ((g.center - eye).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+                let miss = (eye + t * d - g.center).length() / g.radius - 1.0;
+                (on_sphere && grazing(g.center, p, eye) < 0.1) || (!on_sphere && miss.abs() < 0.02)
+            },
+            0.995,
+        );
     }
 
     #[test]
@@ -272,17 +376,38 @@ mod tests {
     #[test]
     fn bad_inputs() {
         let scene = sphere_scene(100);
-        let cam = Camera::new(DVec3::new(0.0, 0.0, 3.0), DVec3::ZERO, DVec3::Y, 60.0, 64, 64).unwrap();
+        let cam = Camera::new(
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            60.0,
+            64,
+            64,
+        )
+        .unwrap();
         let empty = TriMesh::default();
         assert!(matches!(
-            reference_visibility(&empty, &scene.cloud.positions, &cam, &ReferenceParams::default()),
+            reference_visibility(
+                &empty,
+                &scene.cloud.positions,
+                &cam,
+                &ReferenceParams::default()
+            ),
             Err(Error::EmptyMesh)
         ));
         assert!(matches!(
-            reference_visibility(&scene.mesh, &[DVec3::NAN], &cam, &ReferenceParams::default()),
+            reference_visibility(
+                &scene.mesh,
+                &[DVec3::NAN],
+                &cam,
+                &ReferenceParams::default()
+            ),
             Err(Error::Cloud(cloud::Error::NonFinite { index: 0 }))
         ));
-        let bad = ReferenceParams { tolerance_px: -1.0, ..ReferenceParams::default() };
+        let bad = ReferenceParams {
+            tolerance_px: -1.0,
+            ..ReferenceParams::default()
+        };
         assert!(matches!(
             reference_visibility(&scene.mesh, &scene.cloud.positions, &cam, &bad),
             Err(Error::InvalidParameter { .. })

@@ -297,9 +297,11 @@ mod tests {
 
     #[test]
     fn non_numeric_coordinate() {
-        check_err("OFF\n3 0 0\n0 0 0\n1 zero 0\n0 1 0\n", 4, |k| {
-            matches!(k, ReadErrorKind::NotANumber { field } if field == "zero")
-        });
+        check_err(
+            "OFF\n3 0 0\n0 0 0\n1 zero 0\n0 1 0\n",
+            4,
+            |k| matches!(k, ReadErrorKind::NotANumber { field } if field == "zero"),
+        );
     }
 
     #[test]
@@ -344,6 +346,8 @@ mod tests {
 
     #[test]
     fn bad_counts_line() {
-        check_err("OFF\nthree 1 0\n", 2, |k| matches!(k, ReadErrorKind::BadHeader(_)));
+        check_err("OFF\nthree 1 0\n", 2, |k| {
+            matches!(k, ReadErrorKind::BadHeader(_))
+        });
     }
 }

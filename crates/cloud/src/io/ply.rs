@@ -15,7 +15,9 @@ use std::path::Path;
 
 use glam::{DVec3, Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult};
+use ply_rs_bw::ply::{
+    ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult,
+};
 
 use super::{CountingReader, Loaded, capacity_for, open};
 use crate::error::{Location, ReadError, ReadErrorKind};
@@ -142,10 +144,7 @@ fn read_elements<R: BufRead>(
                 if n == 0 || line.trim().is_empty() {
                     return Err(truncated(here));
                 }
-                if let Some(token) = line
-                    .split_whitespace()
-                    .find(|t| t.parse::<f64>().is_err())
-                {
+                if let Some(token) = line.split_whitespace().find(|t| t.parse::<f64>().is_err()) {
                     return Err((
                         here,
                         ReadErrorKind::NotANumber {
@@ -199,12 +198,10 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     }
     let mut reader = Reader::new(counting);
     let parser = Parser::<Record>::new();
-    let header = parser
-        .read_header(&mut reader)
-        .map_err(|e| {
-            let location = e.line().map_or(Location::File, Location::Line);
-            (location, ReadErrorKind::BadHeader(e.to_string()))
-        })?;
+    let header = parser.read_header(&mut reader).map_err(|e| {
+        let location = e.line().map_or(Location::File, Location::Line);
+        (location, ReadErrorKind::BadHeader(e.to_string()))
+    })?;
     // The number of lines the header used: ASCII payload lines are numbered after it.
     let mut next_line = reader.line();
 
@@ -283,9 +280,7 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
                                 },
                             ));
                         }
-                        if let Some(&vertex) =
-                            r.list.iter().find(|&&v| v < 0 || v as usize >= n)
-                        {
+                        if let Some(&vertex) = r.list.iter().find(|&&v| v < 0 || v as usize >= n) {
                             return Err((
                                 here,
                                 ReadErrorKind::FaceIndexOutOfRange {
@@ -402,7 +397,10 @@ mod tests {
     fn absurd_count_is_truncation_not_an_allocation() {
         let bytes = binary(false, &[[1.0, 2.0, 3.0]], usize::MAX / 2);
         let (_, kind) = parse(&bytes).unwrap_err();
-        assert!(matches!(kind, ReadErrorKind::Truncated { found: 1, .. }), "{kind}");
+        assert!(
+            matches!(kind, ReadErrorKind::Truncated { found: 1, .. }),
+            "{kind}"
+        );
     }
 
     #[test]
@@ -411,7 +409,10 @@ mod tests {
         let header_len = bytes.len() - 24;
         let (location, kind) = parse(&bytes).unwrap_err();
         assert_eq!(location, Location::Byte(header_len as u64 + 12));
-        assert!(matches!(kind, ReadErrorKind::NonFinite { index: 1, .. }), "{kind}");
+        assert!(
+            matches!(kind, ReadErrorKind::NonFinite { index: 1, .. }),
+            "{kind}"
+        );
     }
 
     #[test]
@@ -446,7 +447,10 @@ mod tests {
         let text = ASCII.replace("0 1 0 0 0 255", "0 inf 0 0 0 255");
         let (location, kind) = parse(text.as_bytes()).unwrap_err();
         assert_eq!(location, Location::Line(16));
-        assert!(matches!(kind, ReadErrorKind::NonFinite { index: 2, .. }), "{kind}");
+        assert!(
+            matches!(kind, ReadErrorKind::NonFinite { index: 2, .. }),
+            "{kind}"
+        );
     }
 
     #[test]

@@ -73,7 +73,10 @@ mod tests {
     #[test]
     fn round_trip_through_ply_rs_bw() {
         let cloud = PointCloud {
-            positions: vec![DVec3::new(0.1, -2.5, 1e-9), DVec3::new(981.0717163086, 3.0, 4.0)],
+            positions: vec![
+                DVec3::new(0.1, -2.5, 1e-9),
+                DVec3::new(981.0717163086, 3.0, 4.0),
+            ],
             normals: Some(vec![Vec3::X, Vec3::Z]),
             colors: Some(vec![[1, 2, 3], [250, 251, 252]]),
             uvs: Some(vec![Vec2::new(0.25, 0.5), Vec2::new(1.0, 0.0)]),

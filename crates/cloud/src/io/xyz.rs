@@ -66,7 +66,11 @@ fn parse_xyz<R: BufRead>(mut reader: R) -> Result<PointCloud, (Location, ReadErr
         }
         positions.push(DVec3::new(values[0], values[1], values[2]));
         if expected == 6 {
-            normals.push(Vec3::new(values[3] as f32, values[4] as f32, values[5] as f32));
+            normals.push(Vec3::new(
+                values[3] as f32,
+                values[4] as f32,
+                values[5] as f32,
+            ));
         }
     }
     if positions.is_empty() {
@@ -86,7 +90,10 @@ mod tests {
     #[test]
     fn reads_points_and_normals() {
         let cloud = parse_xyz("# header\n0 0 0 0 0 1\n1,2,3,0,1,0\n".as_bytes()).unwrap();
-        assert_eq!(cloud.positions, vec![DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)]);
+        assert_eq!(
+            cloud.positions,
+            vec![DVec3::ZERO, DVec3::new(1.0, 2.0, 3.0)]
+        );
         assert_eq!(cloud.normals, Some(vec![Vec3::Z, Vec3::Y]));
     }
 
@@ -94,7 +101,13 @@ mod tests {
     fn errors_name_the_line() {
         let (loc, kind) = parse_xyz("0 0 0\n1 1\n".as_bytes()).unwrap_err();
         assert_eq!(loc, Location::Line(2));
-        assert!(matches!(kind, ReadErrorKind::FieldCount { expected: 3, found: 2 }));
+        assert!(matches!(
+            kind,
+            ReadErrorKind::FieldCount {
+                expected: 3,
+                found: 2
+            }
+        ));
 
         let (loc, kind) = parse_xyz("0 0 0\n\n1 x 1\n".as_bytes()).unwrap_err();
         assert_eq!(loc, Location::Line(3));
