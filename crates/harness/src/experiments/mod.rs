@@ -1,0 +1,93 @@
+//! The experiment registry and the frame every experiment runs in.
+//!
+//! An experiment measures (writes raw CSV rows and `metadata.json` into its output folder) and
+//! renders (reads its CSVs back and writes plots, tables and `summary.md`). The two halves are
+//! separate so `pointsight tables` can redraw everything from the CSVs without re-running.
+//! Adding an experiment is one module and one line in [`EXPERIMENTS`].
+
+mod reference;
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+
+use crate::output::meta::RunMeta;
+
+/// Where and how an experiment runs.
+#[derive(Debug, Clone)]
+pub struct Context {
+    /// Fetched data (`bench-data/`).
+    pub data_dir: PathBuf,
+    /// Output folder of this experiment (`reports/NAME/` by default).
+    pub out_dir: PathBuf,
+    /// Quick mode: fewer datasets, views and repeats.
+    pub quick: bool,
+    /// Datasets to cover.
+    pub datasets: Vec<String>,
+}
+
+/// An experiment.
+pub trait Experiment: Sync {
+    /// Name on the command line and folder name under `reports/`.
+    fn name(&self) -> &'static str;
+    /// One line for listings and the report page.
+    fn summary(&self) -> &'static str;
+    /// Datasets covered when `--datasets` is not given.
+    fn default_datasets(&self, quick: bool) -> &'static [&'static str];
+    /// Measures; writes CSVs into `ctx.out_dir`; returns the parameters for the metadata.
+    fn measure(&self, ctx: &Context) -> Result<serde_json::Value>;
+    /// Reads the CSVs in `dir` and writes plots, tables and `summary.md`.
+    fn render(&self, dir: &Path) -> Result<()>;
+}
+
+/// Every experiment, in report order.
+pub static EXPERIMENTS: &[&dyn Experiment] = &[&reference::ReferenceExperiment];
+
+/// Looks an experiment up by name.
+pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
+    EXPERIMENTS
+        .iter()
+        .copied()
+        .find(|e| e.name() == name)
+        .with_context(|| {
+            format!(
+                "unknown experiment {name:?}; known experiments: {}",
+                EXPERIMENTS
+                    .iter()
+                    .map(|e| e.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        })
+}
+
+/// Runs `exp`: measure, write metadata, render.
+pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
+    let start = Instant::now();
+    let mut meta = RunMeta::now(
+        exp.name(),
+        ctx.quick,
+        &ctx.datasets,
+        serde_json::Value::Null,
+    );
+    std::fs::create_dir_all(&ctx.out_dir)
+        .with_context(|| format!("cannot create {}", ctx.out_dir.display()))?;
+    meta.parameters = exp.measure(ctx)?;
+    meta.seconds = start.elapsed().as_secs_f64();
+    meta.write(&ctx.out_dir)?;
+    exp.render(&ctx.out_dir)
+}
+
+/// Markdown table from a header and rows.
+pub fn markdown_table(header: &[&str], rows: &[Vec<String>]) -> String {
+    let mut s = format!(
+        "| {} |\n|{}|\n",
+        header.join(" | "),
+        header.iter().map(|_| "---").collect::<Vec<_>>().join("|")
+    );
+    for row in rows {
+        s.push_str(&format!("| {} |\n", row.join(" | ")));
+    }
+    s
+}

@@ -1,0 +1,218 @@
+//! `pointsight fetch`: the real meshes, from Debian's `libcgal-demo` package, checksummed.
+//!
+//! Steps, each skipped when its result is already there (the command is idempotent):
+//! 1. every mesh in [`MESH_FILES`] present under `bench-data/meshes/` with the right SHA-256:
+//!    nothing to do;
+//! 2. otherwise find `bench-data/.cache/libcgal-demo_*.deb`, or download it with
+//!    `apt-get download libcgal-demo` into that folder;
+//! 3. stream the package's file system out with `dpkg-deb --fsys-tarfile`, take
+//!    `usr/share/doc/libcgal-dev/data.tar.gz` from it and the meshes from that (`tar` and
+//!    `flate2` crates: no `tar` binary, nothing unpacked that is not needed);
+//! 4. check each mesh's SHA-256 and move it into place (write to a temporary file, rename).
+//!
+//! Where `apt-get` or `dpkg-deb` is missing the error says so and how to proceed by hand.
+
+use std::fs;
+use std::io::{self, Read};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use anyhow::{Context, Result, bail};
+use sha2::{Digest, Sha256};
+
+use crate::datasets::{MESH_FILES, MeshFile, mesh_path};
+
+const PACKAGE: &str = "libcgal-demo";
+const DATA_ARCHIVE: &str = "usr/share/doc/libcgal-dev/data.tar.gz";
+
+/// Lower-case hex SHA-256 of `bytes`.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+/// True when `path` exists and has the expected checksum.
+fn is_valid(path: &Path, mesh: &MeshFile) -> Result<bool> {
+    match fs::read(path) {
+        Ok(bytes) => Ok(sha256_hex(&bytes) == mesh.sha256),
+        Err(e) if e.kind() == io::ErrorKind::NotFound => Ok(false),
+        Err(e) => Err(e).with_context(|| format!("cannot read {}", path.display())),
+    }
+}
+
+/// What `fetch` did, for its report.
+#[derive(Debug, Default)]
+pub struct FetchReport {
+    /// Meshes that were already in place.
+    pub present: Vec<&'static str>,
+    /// Meshes written by this call.
+    pub written: Vec<&'static str>,
+}
+
+/// Makes sure every mesh is in `data_dir/meshes`, downloading the package if needed.
+pub fn fetch(data_dir: &Path) -> Result<FetchReport> {
+    let mut report = FetchReport::default();
+    let mut missing = Vec::new();
+    for mesh in MESH_FILES {
+        if is_valid(&mesh_path(data_dir, mesh), mesh)? {
+            report.present.push(mesh.file);
+        } else {
+            missing.push(*mesh);
+        }
+    }
+    if missing.is_empty() {
+        return Ok(report);
+    }
+    let cache = data_dir.join(".cache");
+    fs::create_dir_all(&cache).with_context(|| format!("cannot create {}", cache.display()))?;
+    let deb = match find_deb(&cache)? {
+        Some(deb) => deb,
+        None => download_deb(&cache)?,
+    };
+    let archive = data_archive_from_deb(&deb)?;
+    let meshes_dir = data_dir.join("meshes");
+    fs::create_dir_all(&meshes_dir)
+        .with_context(|| format!("cannot create {}", meshes_dir.display()))?;
+    let mut tar = tar::Archive::new(flate2::read::GzDecoder::new(&archive[..]));
+    for entry in tar
+        .entries()
+        .context("data.tar.gz is not a tar.gz archive")?
+    {
+        let mut entry = entry.context("corrupt entry in data.tar.gz")?;
+        let path = entry
+            .path()?
+            .to_string_lossy()
+            .trim_start_matches("./")
+            .to_owned();
+        let Some(mesh) = missing.iter().find(|m| m.archive_path == path) else {
+            continue;
+        };
+        let mut bytes = Vec::new();
+        entry.read_to_end(&mut bytes)?;
+        let sum = sha256_hex(&bytes);
+        if sum != mesh.sha256 {
+            bail!(
+                "{} in {} has SHA-256 {sum}, expected {}: a different libcgal-demo version? \
+                 pointsight's datasets are defined on 5.5.1 (Debian 12)",
+                mesh.archive_path,
+                deb.display(),
+                mesh.sha256
+            );
+        }
+        let target = mesh_path(data_dir, mesh);
+        let tmp = target.with_extension("off.part");
+        fs::write(&tmp, &bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
+        fs::rename(&tmp, &target).with_context(|| format!("cannot write {}", target.display()))?;
+        report.written.push(mesh.file);
+    }
+    let not_found: Vec<_> = missing
+        .iter()
+        .filter(|m| !report.written.contains(&m.file))
+        .map(|m| m.archive_path)
+        .collect();
+    if !not_found.is_empty() {
+        bail!("{} lacks {}", deb.display(), not_found.join(", "));
+    }
+    Ok(report)
+}
+
+fn find_deb(cache: &Path) -> Result<Option<PathBuf>> {
+    let mut debs: Vec<PathBuf> = fs::read_dir(cache)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with(PACKAGE) && n.ends_with(".deb"))
+        })
+        .collect();
+    debs.sort();
+    Ok(debs.pop())
+}
+
+fn download_deb(cache: &Path) -> Result<PathBuf> {
+    eprintln!(
+        "downloading {PACKAGE} with apt-get into {}",
+        cache.display()
+    );
+    let status = Command::new("apt-get")
+        .args(["download", PACKAGE])
+        .current_dir(cache)
+        .stdin(Stdio::null())
+        .status();
+    match status {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => bail!(
+            "apt-get is not available here. Download {PACKAGE} (5.5.1-2, Debian 12) by hand from a \
+             Debian mirror, put the .deb into {} and run `pointsight fetch` again",
+            cache.display()
+        ),
+        Err(e) => Err(e).context("cannot run apt-get"),
+        Ok(s) if !s.success() => bail!(
+            "`apt-get download {PACKAGE}` failed ({s}); run `apt-get update` first if the package \
+             lists are empty, or put the .deb into {} by hand",
+            cache.display()
+        ),
+        Ok(_) => find_deb(cache)?.with_context(|| {
+            format!(
+                "apt-get reported success but no {PACKAGE} .deb is in {}",
+                cache.display()
+            )
+        }),
+    }
+}
+
+fn data_archive_from_deb(deb: &Path) -> Result<Vec<u8>> {
+    let child = Command::new("dpkg-deb")
+        .arg("--fsys-tarfile")
+        .arg(deb)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn();
+    let mut child = match child {
+        Err(e) if e.kind() == io::ErrorKind::NotFound => bail!(
+            "dpkg-deb is not available here; extract {DATA_ARCHIVE} from {} by hand and put \
+             data/meshes/*.off into bench-data/meshes/",
+            deb.display()
+        ),
+        other => other.context("cannot run dpkg-deb")?,
+    };
+    let stdout = child.stdout.take().context("dpkg-deb has no stdout")?;
+    let mut found = None;
+    let mut outer = tar::Archive::new(stdout);
+    for entry in outer.entries()? {
+        let mut entry = entry?;
+        let path = entry
+            .path()?
+            .to_string_lossy()
+            .trim_start_matches("./")
+            .to_owned();
+        if path == DATA_ARCHIVE {
+            let mut bytes = Vec::new();
+            entry.read_to_end(&mut bytes)?;
+            found = Some(bytes);
+            break;
+        }
+    }
+    // Drain and reap the child whatever happened above.
+    drop(outer);
+    let status = child.wait()?;
+    match found {
+        Some(bytes) => Ok(bytes),
+        None if !status.success() => bail!("dpkg-deb failed on {} ({status})", deb.display()),
+        None => bail!("{} has no {DATA_ARCHIVE}", deb.display()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sha256_of_known_input() {
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+}

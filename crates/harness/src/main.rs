@@ -1,0 +1,17 @@
+//! `pointsight`: parses the command line and hands over to [`harness::run`]; errors become a
+//! message on standard error and exit code 1 here and only here.
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let cli = harness::cli::Cli::parse();
+    match harness::run(cli) {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {err:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

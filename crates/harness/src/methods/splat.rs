@@ -1,0 +1,84 @@
+//! `splat`: the point-only z-buffer baseline (`splat::visibility`).
+
+use anyhow::Result;
+use cloud::Camera;
+use splat::{SplatParams, splat_visibility};
+
+use super::{Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution};
+use crate::datasets::Dataset;
+
+/// The splat baseline.
+pub struct SplatMethod;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "radius_px",
+        default: "2",
+        help: "splat radius in pixels",
+    },
+    ParamSpec {
+        key: "depth_tolerance",
+        default: "0.01",
+        help: "relative depth tolerance",
+    },
+    ParamSpec {
+        key: "width",
+        default: "view's",
+        help: "buffer width in pixels",
+    },
+    ParamSpec {
+        key: "height",
+        default: "view's",
+        help: "buffer height in pixels",
+    },
+];
+
+struct Prep<'a> {
+    dataset: &'a Dataset,
+    params: SplatParams,
+    width: Option<u32>,
+    height: Option<u32>,
+}
+
+impl Prepared for Prep<'_> {
+    fn visible(&self, camera: &Camera) -> Result<Output> {
+        let camera = camera_with_resolution(camera, self.width, self.height)?;
+        let out = splat_visibility(&self.dataset.cloud.positions, &camera, &self.params)?;
+        Ok(Output {
+            visible: out.visible,
+            rays: 0,
+            pixels: Some(PixelChoice {
+                width: camera.width,
+                height: camera.height,
+                point: out.pixel_point,
+            }),
+        })
+    }
+}
+
+impl Method for SplatMethod {
+    fn name(&self) -> &'static str {
+        "splat"
+    }
+
+    fn summary(&self) -> &'static str {
+        "baseline: point splats into a z-buffer, visible within a depth tolerance of the nearest"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+        let d = SplatParams::default();
+        Ok(Box::new(Prep {
+            dataset,
+            params: SplatParams {
+                radius_px: params.get("radius_px", d.radius_px)?,
+                depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
+            },
+            width: params.get_opt("width")?,
+            height: params.get_opt("height")?,
+        }))
+    }
+}

@@ -1,0 +1,125 @@
+//! Run metadata: what ran, where, when, from which revision, with which parameters.
+
+use std::path::Path;
+use std::process::Command;
+
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+
+use super::write_atomic;
+
+/// Written as `metadata.json` beside every experiment's results.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct RunMeta {
+    /// Experiment name.
+    pub experiment: String,
+    /// Start of the run, UTC, RFC 3339.
+    pub date_utc: String,
+    /// `git rev-parse HEAD`, or "unknown".
+    pub git_revision: String,
+    /// True when the work tree had uncommitted changes.
+    pub git_dirty: bool,
+    /// `rustc -V` of the compiler that built the harness.
+    pub rustc: String,
+    /// CPU model name.
+    pub cpu: String,
+    /// Logical cores available to the run.
+    pub cores: usize,
+    /// Operating system and architecture.
+    pub os: String,
+    /// The command line.
+    pub command: String,
+    /// Quick mode.
+    pub quick: bool,
+    /// Datasets the run covered.
+    pub datasets: Vec<String>,
+    /// Experiment-specific parameters (sweeps, repeats, seeds).
+    pub parameters: serde_json::Value,
+    /// Wall-clock seconds of the whole run.
+    pub seconds: f64,
+}
+
+impl RunMeta {
+    /// Metadata of a run starting now.
+    pub fn now(
+        experiment: &str,
+        quick: bool,
+        datasets: &[String],
+        parameters: serde_json::Value,
+    ) -> Self {
+        let (git_revision, git_dirty) = git_state();
+        Self {
+            experiment: experiment.to_owned(),
+            date_utc: chrono::Utc::now().to_rfc3339_opts(chrono::SecondsFormat::Secs, true),
+            git_revision,
+            git_dirty,
+            rustc: env!("POINTSIGHT_RUSTC").to_owned(),
+            cpu: cpu_model(),
+            cores: std::thread::available_parallelism().map_or(1, |n| n.get()),
+            os: format!("{} {}", std::env::consts::OS, std::env::consts::ARCH),
+            command: std::env::args().collect::<Vec<_>>().join(" "),
+            quick,
+            datasets: datasets.to_vec(),
+            parameters,
+            seconds: 0.0,
+        }
+    }
+
+    /// Writes `metadata.json` into `dir`.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        write_atomic(
+            &dir.join("metadata.json"),
+            serde_json::to_string_pretty(self)?.as_bytes(),
+        )
+    }
+
+    /// Reads `dir/metadata.json`.
+    pub fn read(dir: &Path) -> Result<Self> {
+        Ok(serde_json::from_slice(&std::fs::read(
+            dir.join("metadata.json"),
+        )?)?)
+    }
+
+    /// One line for report pages.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} · git {}{} · {} · {} ({} cores) · {}{}",
+            self.date_utc,
+            &self.git_revision[..self.git_revision.len().min(10)],
+            if self.git_dirty { " (dirty)" } else { "" },
+            self.rustc,
+            self.cpu,
+            self.cores,
+            self.os,
+            if self.quick { " · quick mode" } else { "" }
+        )
+    }
+}
+
+fn git_state() -> (String, bool) {
+    let run = |args: &[&str]| {
+        Command::new("git")
+            .args(args)
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+    };
+    let revision = run(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+    let dirty =
+        run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    (revision, dirty)
+}
+
+/// The CPU model from `/proc/cpuinfo`, or the architecture where that is not available.
+pub fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_owned())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_owned())
+}

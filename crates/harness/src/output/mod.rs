@@ -1,0 +1,101 @@
+//! Everything the harness writes: atomic files, CSV, run metadata, plots, the report page.
+//!
+//! Every file is written to a temporary name beside its target and renamed into place, so an
+//! interrupted run leaves the previous version or the new one, never half a file.
+
+pub mod meta;
+pub mod plot;
+pub mod report;
+
+use std::fs;
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+/// Writes `bytes` to `path` atomically (temporary file in the same folder, then rename).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("cannot create a temporary file in {}", dir.display()))?;
+    tmp.write_all(bytes)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    tmp.persist(path)
+        .with_context(|| format!("cannot move the new {} into place", path.display()))?;
+    Ok(())
+}
+
+/// Writes `rows` as CSV with a header (from the row type's field names), atomically.
+pub fn write_csv<T: Serialize>(path: &Path, rows: &[T]) -> Result<()> {
+    let mut writer = csv::Writer::from_writer(Vec::new());
+    for row in rows {
+        writer.serialize(row)?;
+    }
+    let bytes = writer.into_inner().context("cannot finish the CSV")?;
+    write_atomic(path, &bytes)
+}
+
+/// Reads a CSV written by [`write_csv`].
+pub fn read_csv<T: DeserializeOwned>(path: &Path) -> Result<Vec<T>> {
+    let mut reader =
+        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    reader
+        .deserialize()
+        .collect::<Result<Vec<T>, _>>()
+        .with_context(|| format!("malformed {}", path.display()))
+}
+
+/// Writes an RGB8 image as PNG, atomically.
+pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    use image::ImageEncoder;
+    let mut bytes = Vec::new();
+    image::codecs::png::PngEncoder::new(&mut bytes)
+        .write_image(rgb, width, height, image::ExtendedColorType::Rgb8)
+        .with_context(|| format!("cannot encode {}", path.display()))?;
+    write_atomic(path, &bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use serde::Deserialize;
+
+    use super::*;
+
+    #[derive(Debug, Serialize, Deserialize, PartialEq)]
+    struct Row {
+        dataset: String,
+        f1: f64,
+    }
+
+    #[test]
+    fn csv_round_trip_and_atomic_overwrite() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("sub/results.csv");
+        let rows = vec![Row {
+            dataset: "bunny".into(),
+            f1: 0.5,
+        }];
+        write_csv(&path, &rows).unwrap();
+        write_csv(&path, &rows).unwrap();
+        assert_eq!(read_csv::<Row>(&path).unwrap(), rows);
+        let text = fs::read_to_string(&path).unwrap();
+        assert!(text.starts_with("dataset,f1\n"));
+        // No temporary file is left behind.
+        assert_eq!(fs::read_dir(path.parent().unwrap()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn png_is_valid() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.png");
+        write_png(&path, 2, 1, &[255, 0, 0, 0, 255, 0]).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.get_pixel(1, 0).0, [0, 255, 0]);
+    }
+}
