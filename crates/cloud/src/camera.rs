@@ -222,6 +222,22 @@ mod tests {
         assert!((hit - p).length() < 1e-12, "{hit} vs {p}");
     }
 
+    proptest::proptest! {
+        #[test]
+        fn projection_and_ray_are_inverse(
+            ex in -10.0f64..10.0, ey in -10.0f64..10.0, ez in 3.0f64..10.0,
+            px in -1.0f64..1.0, py in -1.0f64..1.0, pz in -1.0f64..1.0,
+            fov in 10.0f64..120.0,
+        ) {
+            let c = Camera::new(DVec3::new(ex, ey, ez), DVec3::ZERO, DVec3::Y, fov, 640, 480).unwrap();
+            let p = DVec3::new(px, py, pz);
+            let q = c.project(p).unwrap();
+            let back = c.eye + c.ray_direction(q.x, q.y) * q.depth;
+            proptest::prop_assert!((back - p).length() < 1e-9 * (1.0 + p.length() + c.eye.length()));
+            proptest::prop_assert!((q.depth - c.depth(p)).abs() < 1e-12 * q.depth.max(1.0));
+        }
+    }
+
     #[test]
     fn degenerate_cameras_are_errors() {
         let e = DVec3::new(0.0, 0.0, 5.0);

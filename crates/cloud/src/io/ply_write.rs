@@ -70,6 +70,23 @@ mod tests {
     use super::*;
     use crate::io::ply::read_ply;
 
+    proptest::proptest! {
+        #[test]
+        fn any_finite_positions_round_trip(coords in proptest::collection::vec(
+            (proptest::num::f64::NORMAL, proptest::num::f64::NORMAL, proptest::num::f64::NORMAL), 1..50)) {
+            let cloud = PointCloud {
+                positions: coords.iter().map(|&(x, y, z)| DVec3::new(x, y, z)).collect(),
+                ..PointCloud::default()
+            };
+            let mut bytes = Vec::new();
+            write_ply_to(&mut bytes, &cloud).unwrap();
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("p.ply");
+            std::fs::write(&path, bytes).unwrap();
+            proptest::prop_assert_eq!(read_ply(&path).unwrap().cloud.positions, cloud.positions);
+        }
+    }
+
     #[test]
     fn round_trip_through_ply_rs_bw() {
         let cloud = PointCloud {
