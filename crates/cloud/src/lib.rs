@@ -6,12 +6,14 @@
 //!   the file and the line or byte ([`ReadError`]);
 //! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
 //! - the pinhole [`Camera`] and deterministic viewpoint sets ([`views`]);
-//! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]).
+//! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
+//! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]).
 //!
 //! This crate knows nothing of any method, of experiments, plots or the command line.
 
 pub mod bbox;
 pub mod camera;
+pub mod double_buffer;
 pub mod error;
 pub mod io;
 pub mod mesh;

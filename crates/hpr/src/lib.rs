@@ -1,0 +1,289 @@
+//! `hpr`: the Hidden Point Removal operator of Katz, Tal and Basri ("Direct Visibility of
+//! Point Sets", SIGGRAPH 2007) as studied for real time in seed 000.
+//!
+//! Given points P and a viewpoint C, HPR (seed 000 §3, §6):
+//! 1. translates so that C is the origin and transforms every point p along its ray from C
+//!    ([`transform`]): *spherical flipping* (§3.1) p̂ = p + 2(R − ‖p‖) p/‖p‖, i.e. the
+//!    linear kernel of Katz and Tal ("On the visibility of point clouds", ICCV 2015) with
+//!    magnitude 2R − ‖p‖; or their *exponential kernel*, magnitude ‖p‖^γ with γ < 0, which is
+//!    scale invariant;
+//! 2. optionally perturbs the transformed points (seed 000 §4): uniform noise in [−k·R, k·R]
+//!    on each coordinate, seeded, k = 0.01 in the paper;
+//! 3. computes the convex hull of the transformed points plus C itself (§3.2: without C,
+//!    points on the back of the object may lie on the hull) with any [`hull::ConvexHull`];
+//! 4. maps back (§6 step 3): the transformed array keeps the input order and C is appended
+//!    last, so the visible points are the hull vertices other than C, by index.
+//!
+//! The radius R is absolute, or Katz's parameterisation R = max‖p − C‖ · 10^γ ([`Radius`]).
+//! R ≤ max‖p − C‖, a viewpoint on a point, an empty cloud and non-finite input are errors.
+//! Coincident input points flip to coincident points; the hull reports one index of each such
+//! group (the lowest, with `own`).
+//!
+//! Seed 000 §5's front/back buffer with an auxiliary thread is the reusable
+//! [`cloud::double_buffer::DoubleBuffer`] (the ray caster uses it too); [`background`] runs HPR
+//! in it.
+
+pub mod background;
+pub mod transform;
+
+use std::time::Instant;
+
+use cloud::glam::DVec3;
+use hull::{ConvexHull, HullError};
+
+pub use transform::{Kernel, Radius, Transformed};
+
+/// Why HPR could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HprError {
+    /// No points.
+    #[error("the point cloud is empty")]
+    EmptyCloud,
+    /// A non-finite coordinate (point index, or the viewpoint when `None`).
+    #[error("non-finite coordinate in {}", .0.map_or("the viewpoint".to_owned(), |i| format!("point {i}")))]
+    NonFinite(Option<usize>),
+    /// The viewpoint coincides with a point.
+    #[error("the viewpoint coincides with point {0}: its direction is undefined")]
+    EyeOnPoint(usize),
+    /// The flipping sphere does not contain every point.
+    #[error(
+        "radius {radius} does not exceed the farthest point's distance {max_distance}: spherical flipping needs R > max ‖p − C‖"
+    )]
+    RadiusTooSmall {
+        /// The radius asked for.
+        radius: f64,
+        /// The farthest point's distance from the viewpoint.
+        max_distance: f64,
+    },
+    /// A parameter is out of range.
+    #[error("invalid parameter {name}: {reason}")]
+    InvalidParameter {
+        /// Name.
+        name: &'static str,
+        /// Why.
+        reason: String,
+    },
+    /// The hull failed.
+    #[error("convex hull: {0}")]
+    Hull(#[from] HullError),
+}
+
+/// HPR's parameters.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HprParams {
+    /// The transform.
+    pub kernel: Kernel,
+    /// Perturbation k: uniform noise in [−k·scale, k·scale] per coordinate (0: none).
+    pub perturb: f64,
+    /// Seed of the perturbation.
+    pub seed: u64,
+}
+
+impl Default for HprParams {
+    fn default() -> Self {
+        Self {
+            kernel: Kernel::Linear(Radius::Gamma(3.0)),
+            perturb: 0.0,
+            seed: 0,
+        }
+    }
+}
+
+/// Time spent in each step, seconds.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Timings {
+    /// Transform (and perturbation).
+    pub transform: f64,
+    /// Convex hull.
+    pub hull: f64,
+    /// Mapping hull vertices back to input indices.
+    pub map: f64,
+}
+
+impl Timings {
+    /// Total.
+    pub fn total(&self) -> f64 {
+        self.transform + self.hull + self.map
+    }
+}
+
+/// The outcome of one HPR call.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Visibility {
+    /// Indices of the visible points, ascending.
+    pub visible: Vec<u32>,
+    /// The scale R of the transform (see [`Transformed::scale`]).
+    pub scale: f64,
+    /// Step timings.
+    pub timings: Timings,
+}
+
+/// Runs HPR for `points` seen from `eye` with hull implementation `hull`.
+pub fn visible(
+    points: &[DVec3],
+    eye: DVec3,
+    params: &HprParams,
+    hull: &dyn ConvexHull,
+) -> Result<Visibility, HprError> {
+    let start = Instant::now();
+    let transformed = transform::transform(points, eye, params.kernel)?;
+    let transformed = if params.perturb > 0.0 {
+        transform::perturb(transformed, params.perturb, params.seed)?
+    } else if params.perturb < 0.0 || !params.perturb.is_finite() {
+        return Err(HprError::InvalidParameter {
+            name: "perturb",
+            reason: format!("must be >= 0, got {}", params.perturb),
+        });
+    } else {
+        transformed
+    };
+    let t_transform = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let vertices = hull.vertices(&transformed.points)?;
+    let t_hull = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let eye_index = points.len() as u32;
+    let visible: Vec<u32> = vertices.into_iter().filter(|&v| v != eye_index).collect();
+    let t_map = start.elapsed().as_secs_f64();
+    Ok(Visibility {
+        visible,
+        scale: transformed.scale,
+        timings: Timings {
+            transform: t_transform,
+            hull: t_hull,
+            map: t_map,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use cloud::synth::{sphere_point_visible, sphere_scene};
+
+    use super::*;
+
+    fn own() -> Box<dyn ConvexHull> {
+        hull::by_name("own").unwrap()
+    }
+
+    /// Misclassified points of the unit sphere seen from `eye` at `gamma`, with the largest
+    /// |cos| between a misclassified point's normal and its direction to the eye.
+    fn sphere_errors(gamma: f64) -> (usize, usize, f64) {
+        let scene = sphere_scene(4_000);
+        let eye = DVec3::new(0.3, 0.2, 3.0);
+        let params = HprParams {
+            kernel: Kernel::Linear(Radius::Gamma(gamma)),
+            ..HprParams::default()
+        };
+        let v = visible(&scene.cloud.positions, eye, &params, own().as_ref()).unwrap();
+        let mut flags = vec![false; scene.cloud.len()];
+        for &i in &v.visible {
+            flags[i as usize] = true;
+        }
+        let (mut false_pos, mut false_neg, mut worst) = (0, 0, 0.0f64);
+        for (&p, &f) in scene.cloud.positions.iter().zip(&flags) {
+            let truth = sphere_point_visible(DVec3::ZERO, p, eye);
+            if truth != f {
+                if f {
+                    false_pos += 1
+                } else {
+                    false_neg += 1
+                }
+                worst = worst.max(p.normalize().dot((eye - p).normalize()).abs());
+            }
+        }
+        (false_pos, false_neg, worst)
+    }
+
+    #[test]
+    fn convex_object_errors_are_at_the_silhouette_until_r_outgrows_the_density() {
+        // Katz et al. 2007 §3: on a densely sampled convex object the visible set is the
+        // front-facing points up to a band at the silhouette. Seed 000 §6: for an R too large
+        // for the sampling density, occluded points "pass the threshold" and become visible.
+        for gamma in [1.0, 2.0, 3.0] {
+            let (false_pos, false_neg, worst) = sphere_errors(gamma);
+            assert!(
+                worst < 0.1,
+                "gamma {gamma}: an error away from the silhouette (|cos| {worst})"
+            );
+            assert!(
+                false_pos + false_neg < 4_000 * 3 / 100,
+                "gamma {gamma}: {false_pos} + {false_neg}"
+            );
+        }
+        let (fp2, _, _) = sphere_errors(2.0);
+        let (fp4, _, worst4) = sphere_errors(4.0);
+        assert!(
+            fp4 > 10 * fp2 && worst4 > 0.5,
+            "gamma 4 on 4,000 points: {fp4} false positives"
+        );
+    }
+
+    #[test]
+    fn hull_implementations_agree_on_a_small_cloud() {
+        let scene = sphere_scene(500);
+        let eye = DVec3::new(0.0, 0.0, 3.0);
+        let a = visible(
+            &scene.cloud.positions,
+            eye,
+            &HprParams::default(),
+            own().as_ref(),
+        )
+        .unwrap();
+        let b = visible(
+            &scene.cloud.positions,
+            eye,
+            &HprParams::default(),
+            hull::by_name("qhull").unwrap().as_ref(),
+        )
+        .unwrap();
+        assert_eq!(a.visible, b.visible);
+    }
+
+    #[test]
+    fn errors() {
+        let pts = [DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE];
+        let h = own();
+        assert_eq!(
+            visible(&[], DVec3::ZERO, &HprParams::default(), h.as_ref()),
+            Err(HprError::EmptyCloud)
+        );
+        assert_eq!(
+            visible(&pts, DVec3::Y, &HprParams::default(), h.as_ref()),
+            Err(HprError::EyeOnPoint(1))
+        );
+        assert_eq!(
+            visible(&pts, DVec3::NAN, &HprParams::default(), h.as_ref()),
+            Err(HprError::NonFinite(None))
+        );
+        let small = HprParams {
+            kernel: Kernel::Linear(Radius::Absolute(1.0)),
+            ..HprParams::default()
+        };
+        assert!(matches!(
+            visible(&pts, DVec3::new(0.0, 0.0, -1.0), &small, h.as_ref()),
+            Err(HprError::RadiusTooSmall { .. })
+        ));
+        let bad = HprParams {
+            perturb: -1.0,
+            ..HprParams::default()
+        };
+        assert!(matches!(
+            visible(&pts, DVec3::new(0.0, 0.0, -5.0), &bad, h.as_ref()),
+            Err(HprError::InvalidParameter {
+                name: "perturb",
+                ..
+            })
+        ));
+        // Two points and the eye: too few for a 3-d hull.
+        assert!(matches!(
+            visible(
+                &pts[..2],
+                DVec3::new(0.0, 0.0, -5.0),
+                &HprParams::default(),
+                h.as_ref()
+            ),
+            Err(HprError::Hull(HullError::TooFewPoints(3)))
+        ));
+    }
+}

@@ -1,0 +1,212 @@
+//! Insertion order: a biased randomised insertion order (BRIO) along a Hilbert curve.
+//!
+//! Amenta, Choi and Rote, "Incremental constructions con BRIO" (SoCG 2003): points are split
+//! into rounds of geometrically growing size (about n/2^k in round k from the end), inserted
+//! round after round, and each round is sorted along a space-filling curve. The rounds keep the
+//! randomised-incremental expected bounds; the curve order keeps each point-location walk short
+//! (it starts where the previous insertion ended).
+//!
+//! The rounds are drawn from a hash of each point's coordinates rather than from a random
+//! generator: the order is deterministic, and coincident points land in the same round with the
+//! same curve key, so ties are broken by index and the lowest index of a set of coincident
+//! points is the one inserted first (the one the hull reports).
+
+use rayon::prelude::*;
+
+use crate::predicates::P3;
+
+/// Number of BRIO rounds at most.
+const LEVELS: u32 = 12;
+
+/// Bits per axis of the Hilbert key (3 × 21 = 63 bits).
+const BITS: u32 = 21;
+
+/// An insertion order: the indices, and where each round starts.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Order {
+    /// The indices in insertion order.
+    pub indices: Vec<u32>,
+    /// Start offsets of the rounds in `indices` (ascending, the first is 0).
+    pub rounds: Vec<usize>,
+}
+
+impl Order {
+    /// The rounds as slices of indices.
+    pub fn round_slices(&self) -> impl Iterator<Item = &[u32]> {
+        self.rounds.iter().enumerate().map(|(k, &start)| {
+            let end = self
+                .rounds
+                .get(k + 1)
+                .copied()
+                .unwrap_or(self.indices.len());
+            &self.indices[start..end]
+        })
+    }
+}
+
+/// The indices of `points` (all of them except those in `skip`) in insertion order.
+pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
+    let (lo, hi) = bounds(points);
+    let scale: [f64; 3] = std::array::from_fn(|k| {
+        let extent = hi[k] - lo[k];
+        if extent > 0.0 {
+            ((1u64 << BITS) - 1) as f64 / extent
+        } else {
+            0.0
+        }
+    });
+    let mut keyed: Vec<(u64, u32)> = points
+        .par_iter()
+        .enumerate()
+        .filter(|(i, _)| !skip.contains(&(*i as u32)))
+        .map(|(i, p)| {
+            let q: [u32; 3] = std::array::from_fn(|k| ((p[k] - lo[k]) * scale[k]) as u32);
+            let level = (hash(p).trailing_zeros()).min(LEVELS - 1) as u64;
+            // Higher levels (smaller rounds) first: sort key (LEVELS - 1 - level, curve key).
+            let round = (LEVELS as u64 - 1 - level) << 60;
+            // The curve key keeps the top 60 bits of the 63-bit Hilbert index.
+            (round | morton_key(q), i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    let mut rounds = Vec::new();
+    for (k, w) in keyed.iter().enumerate() {
+        if k == 0 || w.0 >> 60 != keyed[k - 1].0 >> 60 {
+            rounds.push(k);
+        }
+    }
+    Order {
+        indices: keyed.into_iter().map(|(_, i)| i).collect(),
+        rounds,
+    }
+}
+
+fn bounds(points: &[P3]) -> (P3, P3) {
+    points.iter().fold(
+        ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]),
+        |(lo, hi), p| {
+            (
+                std::array::from_fn(|k| lo[k].min(p[k])),
+                std::array::from_fn(|k| hi[k].max(p[k])),
+            )
+        },
+    )
+}
+
+/// SplitMix64 of the coordinates' bit patterns (coincident points hash alike).
+fn hash(p: &P3) -> u64 {
+    let mut h = 0x9e37_79b9_7f4a_7c15u64;
+    for c in p {
+        let mut z = h ^ c.to_bits();
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        h = z ^ (z >> 31);
+    }
+    h
+}
+
+/// Index along the 3-d Morton (Z-order) curve: the bits of x, y, z interleaved (60 bits).
+pub fn morton_key(x: [u32; 3]) -> u64 {
+    // Spread the top 20 bits of each coordinate to every third bit.
+    fn spread(v: u32) -> u64 {
+        let mut v = u64::from(v >> 1) & 0xf_ffff;
+        v = (v | (v << 32)) & 0x000f_0000_0000_ffff;
+        v = (v | (v << 16)) & 0x000f_0000_ff00_00ff;
+        v = (v | (v << 8)) & 0x000f_00f0_0f00_f00f;
+        v = (v | (v << 4)) & 0x00c3_0c30_c30c_30c3;
+        v = (v | (v << 2)) & 0x0249_2492_4924_9249;
+        v
+    }
+    (spread(x[0]) << 2) | (spread(x[1]) << 1) | spread(x[2])
+}
+
+/// Index along the 3-d Hilbert curve of a point on the 2^BITS grid (Skilling, "Programming the
+/// Hilbert curve", AIP Conf. Proc. 707, 2004: axes to transpose, then bit interleaving).
+pub fn hilbert_key(mut x: [u32; 3]) -> u64 {
+    let m = 1u32 << (BITS - 1);
+    // Inverse undo of excess work.
+    let mut q = m;
+    while q > 1 {
+        let p = q - 1;
+        for i in 0..3 {
+            if x[i] & q != 0 {
+                x[0] ^= p;
+            } else {
+                let t = (x[0] ^ x[i]) & p;
+                x[0] ^= t;
+                x[i] ^= t;
+            }
+        }
+        q >>= 1;
+    }
+    // Gray encode.
+    for i in 1..3 {
+        x[i] ^= x[i - 1];
+    }
+    let mut t = 0;
+    let mut q = m;
+    while q > 1 {
+        if x[2] & q != 0 {
+            t ^= q - 1;
+        }
+        q >>= 1;
+    }
+    for v in &mut x {
+        *v ^= t;
+    }
+    // Interleave the transposed bits, most significant first.
+    let mut key = 0u64;
+    for b in (0..BITS).rev() {
+        for v in &x {
+            key = (key << 1) | u64::from((v >> b) & 1);
+        }
+    }
+    key
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hilbert_neighbours_are_adjacent_cells() {
+        // Consecutive keys on a small grid are face-adjacent cells: walk the 8^3 sub-cube.
+        let mut cells: Vec<(u64, [u32; 3])> = Vec::new();
+        let shift = BITS - 3;
+        for x in 0..8u32 {
+            for y in 0..8u32 {
+                for z in 0..8u32 {
+                    cells.push((hilbert_key([x << shift, y << shift, z << shift]), [x, y, z]));
+                }
+            }
+        }
+        cells.sort();
+        for w in cells.windows(2) {
+            let d: u32 = (0..3).map(|k| w[0].1[k].abs_diff(w[1].1[k])).sum();
+            assert_eq!(d, 1, "{:?} -> {:?}", w[0].1, w[1].1);
+        }
+    }
+
+    #[test]
+    fn order_is_a_permutation_and_duplicates_keep_index_order() {
+        let mut pts: Vec<P3> = (0..1000)
+            .map(|i| [i as f64 % 7.0, (i * 13 % 11) as f64, (i % 5) as f64])
+            .collect();
+        pts.push(pts[3]);
+        let order = insertion_order(&pts, &[0, 1]);
+        assert_eq!(order.round_slices().map(<[u32]>::len).sum::<usize>(), 999);
+        let order = order.indices;
+        let mut sorted = order.clone();
+        sorted.sort();
+        assert_eq!(sorted, (2..1001).collect::<Vec<u32>>());
+        // Coincident points: the lower index comes first.
+        let pos = |i: u32| order.iter().position(|&j| j == i).unwrap();
+        for i in 2..1001u32 {
+            for j in (i + 1)..1001u32 {
+                if pts[i as usize] == pts[j as usize] {
+                    assert!(pos(i) < pos(j));
+                }
+            }
+        }
+    }
+}
