@@ -52,20 +52,44 @@ pub fn transform(points: &[DVec3], eye: DVec3, kernel: Kernel) -> Result<Transfo
     if !eye.is_finite() {
         return Err(HprError::NonFinite(None));
     }
-    if let Some(i) = points.par_iter().position_first(|p| !p.is_finite()) {
-        return Err(HprError::NonFinite(Some(i)));
-    }
-    if let Some(i) = points.par_iter().position_first(|&p| p == eye) {
-        return Err(HprError::EyeOnPoint(i));
-    }
-    let (min_distance, max_distance) = points
+    // One pass for the checks and the distance range: (min, max, first bad index, its kind).
+    let (min_distance, max_distance, bad) = points
         .par_iter()
-        .map(|&p| {
-            let d = (p - eye).length();
-            (d, d)
-        })
-        .reduce(|| (f64::INFINITY, 0.0), |a, b| (a.0.min(b.0), a.1.max(b.1)));
-    let (magnitude, scale): (Box<dyn Fn(f64) -> f64 + Sync>, f64) = match kernel {
+        .enumerate()
+        .fold(
+            || (f64::INFINITY, 0.0f64, None::<(usize, bool)>),
+            |(lo, hi, bad), (i, &p)| {
+                let d = (p - eye).length();
+                let this = if !p.is_finite() {
+                    Some((i, true))
+                } else if p == eye {
+                    Some((i, false))
+                } else {
+                    None
+                };
+                let bad = match (bad, this) {
+                    (Some(b), Some(t)) => Some(if t.0 < b.0 { t } else { b }),
+                    (b, t) => b.or(t),
+                };
+                (lo.min(d), hi.max(d), bad)
+            },
+        )
+        .reduce(
+            || (f64::INFINITY, 0.0, None),
+            |a, b| {
+                let bad = match (a.2, b.2) {
+                    (Some(x), Some(y)) => Some(if x.0 < y.0 { x } else { y }),
+                    (x, y) => x.or(y),
+                };
+                (a.0.min(b.0), a.1.max(b.1), bad)
+            },
+        );
+    match bad {
+        Some((i, true)) => return Err(HprError::NonFinite(Some(i))),
+        Some((i, false)) => return Err(HprError::EyeOnPoint(i)),
+        None => {}
+    }
+    let mut out: Vec<[f64; 3]> = match kernel {
         Kernel::Linear(radius) => {
             let r = match radius {
                 Radius::Absolute(r) => r,
@@ -85,7 +109,7 @@ pub fn transform(points: &[DVec3], eye: DVec3, kernel: Kernel) -> Result<Transfo
                     max_distance,
                 });
             }
-            (Box::new(move |d| 2.0 * r - d), r)
+            flip_all(points, eye, |d| 2.0 * r - d)
         }
         Kernel::Exponential(g) => {
             if !(g < 0.0) || !g.is_finite() {
@@ -94,23 +118,32 @@ pub fn transform(points: &[DVec3], eye: DVec3, kernel: Kernel) -> Result<Transfo
                     reason: format!("the exponential kernel needs gamma < 0, got {g}"),
                 });
             }
-            (Box::new(move |d: f64| d.powf(g)), min_distance.powf(g))
+            flip_all(points, eye, |d| d.powf(g))
         }
     };
-    let mut out: Vec<[f64; 3]> = points
-        .par_iter()
-        .map(|&p| {
-            let v = p - eye;
-            let d = v.length();
-            (v * (magnitude(d) / d)).to_array()
-        })
-        .collect();
+    let scale = match kernel {
+        Kernel::Linear(Radius::Absolute(r)) => r,
+        Kernel::Linear(Radius::Gamma(g)) => max_distance * 10f64.powf(g),
+        Kernel::Exponential(g) => min_distance.powf(g),
+    };
     out.push([0.0; 3]);
     Ok(Transformed {
         points: out,
         scale,
         max_distance,
     })
+}
+
+/// Moves every point to magnitude `f(‖p − eye‖)` along its ray from the eye.
+fn flip_all(points: &[DVec3], eye: DVec3, f: impl Fn(f64) -> f64 + Sync) -> Vec<[f64; 3]> {
+    points
+        .par_iter()
+        .map(|&p| {
+            let v = p - eye;
+            let d = v.length();
+            (v * (f(d) / d)).to_array()
+        })
+        .collect()
 }
 
 /// Points per independently seeded block of the perturbation (the noise does not depend on

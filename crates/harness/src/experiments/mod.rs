@@ -5,6 +5,8 @@
 //! separate so `pointsight tables` can redraw everything from the CSVs without re-running.
 //! Adding an experiment is one module and one line in [`EXPERIMENTS`].
 
+mod background;
+mod hull;
 mod reference;
 
 use std::path::{Path, PathBuf};
@@ -42,7 +44,11 @@ pub trait Experiment: Sync {
 }
 
 /// Every experiment, in report order.
-pub static EXPERIMENTS: &[&dyn Experiment] = &[&reference::ReferenceExperiment];
+pub static EXPERIMENTS: &[&dyn Experiment] = &[
+    &reference::ReferenceExperiment,
+    &hull::HullExperiment,
+    &background::BackgroundExperiment,
+];
 
 /// Looks an experiment up by name.
 pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {

@@ -8,6 +8,7 @@
 //! per-dataset preparation are excluded (and reported separately where they matter).
 
 mod exact;
+pub mod hpr;
 pub mod params;
 mod reference;
 mod splat;
@@ -66,6 +67,7 @@ pub static METHODS: &[&dyn Method] = &[
     &reference::ReferenceMethod,
     &exact::ExactMethod,
     &splat::SplatMethod,
+    &hpr::HprMethod,
 ];
 
 /// Looks a method up by name.

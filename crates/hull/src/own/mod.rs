@@ -16,7 +16,8 @@
 //! random sampling in computational geometry II", DCG 1989; de Berg et al., *Computational
 //! Geometry*, ch. 11), with three changes that suit a hull whose output is a large share of
 //! its input:
-//! 1. *Insertion order*: BRIO rounds along a Hilbert curve ([`order`]).
+//! 1. *Insertion order*: BRIO rounds along a Morton curve ([`order`]); the points are copied
+//!    into that order so consecutive insertions touch neighbouring memory.
 //! 2. *Point location by walking* instead of a conflict graph: the facets, seen by central
 //!    projection from a point O strictly inside the initial tetrahedron, tile the sphere of
 //!    directions. A stochastic visibility walk (Devillers, Pion and Teillaud, "Walking in a
@@ -28,6 +29,11 @@
 //!    breadth-first search with the exact test); they are replaced by the cone from q to the
 //!    disk's boundary. Facets that q sees edge-on are kept, so the surface stays a consistent
 //!    triangulation of the exact hull, possibly with coplanar neighbours.
+//! 4. *Both cores*: each round of at least 16,384 points is first located in the hull of the
+//!    previous rounds in parallel (read-only walks, rayon). Points inside that hull are
+//!    inside the final one and are dropped there; the others are inserted in order, starting
+//!    from the facet they were found above (no walk when it still exists). The construction
+//!    is the same as the sequential one, point for point.
 //!
 //! A final pass keeps the vertices that are extreme: a vertex whose incident facets lie in
 //! fewer than three distinct planes sits inside a face or an edge of the exact hull (this only

@@ -1,10 +1,14 @@
-//! Insertion order: a biased randomised insertion order (BRIO) along a Hilbert curve.
+//! Insertion order: a biased randomised insertion order (BRIO) along a space-filling curve.
 //!
 //! Amenta, Choi and Rote, "Incremental constructions con BRIO" (SoCG 2003): points are split
 //! into rounds of geometrically growing size (about n/2^k in round k from the end), inserted
 //! round after round, and each round is sorted along a space-filling curve. The rounds keep the
 //! randomised-incremental expected bounds; the curve order keeps each point-location walk short
 //! (it starts where the previous insertion ended).
+//!
+//! NOTE: the curve is Morton's (Z-order), not Hilbert's as Amenta et al. use: on the dragon
+//! (871k points) a bit-loop Hilbert key cost 90 ms against a few for Morton, and saved only 10%
+//! of the walk steps.
 //!
 //! The rounds are drawn from a hash of each point's coordinates rather than from a random
 //! generator: the order is deterministic, and coincident points land in the same round with the
@@ -18,7 +22,7 @@ use crate::predicates::P3;
 /// Number of BRIO rounds at most.
 const LEVELS: u32 = 12;
 
-/// Bits per axis of the Hilbert key (3 × 21 = 63 bits).
+/// Bits per axis of the quantised coordinates (the Morton key uses the top 20).
 const BITS: u32 = 21;
 
 /// An insertion order: the indices, and where each round starts.
@@ -64,7 +68,6 @@ pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
             let level = (hash(p).trailing_zeros()).min(LEVELS - 1) as u64;
             // Higher levels (smaller rounds) first: sort key (LEVELS - 1 - level, curve key).
             let round = (LEVELS as u64 - 1 - level) << 60;
-            // The curve key keeps the top 60 bits of the 63-bit Hilbert index.
             (round | morton_key(q), i as u32)
         })
         .collect();
@@ -120,71 +123,19 @@ pub fn morton_key(x: [u32; 3]) -> u64 {
     (spread(x[0]) << 2) | (spread(x[1]) << 1) | spread(x[2])
 }
 
-/// Index along the 3-d Hilbert curve of a point on the 2^BITS grid (Skilling, "Programming the
-/// Hilbert curve", AIP Conf. Proc. 707, 2004: axes to transpose, then bit interleaving).
-pub fn hilbert_key(mut x: [u32; 3]) -> u64 {
-    let m = 1u32 << (BITS - 1);
-    // Inverse undo of excess work.
-    let mut q = m;
-    while q > 1 {
-        let p = q - 1;
-        for i in 0..3 {
-            if x[i] & q != 0 {
-                x[0] ^= p;
-            } else {
-                let t = (x[0] ^ x[i]) & p;
-                x[0] ^= t;
-                x[i] ^= t;
-            }
-        }
-        q >>= 1;
-    }
-    // Gray encode.
-    for i in 1..3 {
-        x[i] ^= x[i - 1];
-    }
-    let mut t = 0;
-    let mut q = m;
-    while q > 1 {
-        if x[2] & q != 0 {
-            t ^= q - 1;
-        }
-        q >>= 1;
-    }
-    for v in &mut x {
-        *v ^= t;
-    }
-    // Interleave the transposed bits, most significant first.
-    let mut key = 0u64;
-    for b in (0..BITS).rev() {
-        for v in &x {
-            key = (key << 1) | u64::from((v >> b) & 1);
-        }
-    }
-    key
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn hilbert_neighbours_are_adjacent_cells() {
-        // Consecutive keys on a small grid are face-adjacent cells: walk the 8^3 sub-cube.
-        let mut cells: Vec<(u64, [u32; 3])> = Vec::new();
-        let shift = BITS - 3;
-        for x in 0..8u32 {
-            for y in 0..8u32 {
-                for z in 0..8u32 {
-                    cells.push((hilbert_key([x << shift, y << shift, z << shift]), [x, y, z]));
-                }
-            }
-        }
-        cells.sort();
-        for w in cells.windows(2) {
-            let d: u32 = (0..3).map(|k| w[0].1[k].abs_diff(w[1].1[k])).sum();
-            assert_eq!(d, 1, "{:?} -> {:?}", w[0].1, w[1].1);
-        }
+    fn morton_key_interleaves_the_top_twenty_bits() {
+        let top = |b: u32| b << 1;
+        assert_eq!(morton_key([top(1), 0, 0]), 0b100);
+        assert_eq!(morton_key([0, top(1), 0]), 0b010);
+        assert_eq!(morton_key([0, 0, top(1)]), 0b001);
+        assert_eq!(morton_key([top(2), top(3), 0]), 0b110_010);
+        let all = (1u32 << 21) - 1;
+        assert_eq!(morton_key([all, all, all]), (1u64 << 60) - 1);
     }
 
     #[test]

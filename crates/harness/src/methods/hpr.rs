@@ -1,0 +1,121 @@
+//! `hpr`: Hidden Point Removal (`hpr` crate) with any hull implementation.
+
+use anyhow::{Result, bail};
+use cloud::Camera;
+use hpr::{HprParams, Kernel, Radius};
+use hull::ConvexHull;
+
+use super::{Method, Output, ParamSpec, Params, Prepared};
+use crate::datasets::Dataset;
+
+/// HPR.
+pub struct HprMethod;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "gamma",
+        default: "3 (linear), -0.05 (exp)",
+        help: "linear: R = max|p - C| * 10^gamma; exp: the exponent (< 0)",
+    },
+    ParamSpec {
+        key: "radius",
+        default: "-",
+        help: "absolute flipping radius R (linear kernel; overrides gamma)",
+    },
+    ParamSpec {
+        key: "kernel",
+        default: "linear",
+        help: "linear (spherical flipping) or exp (Katz & Tal 2015)",
+    },
+    ParamSpec {
+        key: "perturb",
+        default: "0",
+        help: "uniform noise of +-perturb * R on each flipped coordinate (seed 000: 0.01)",
+    },
+    ParamSpec {
+        key: "hull",
+        default: "own",
+        help: "hull implementation: own, qhull, qhull-qj, parry, quickhull, chull",
+    },
+    ParamSpec {
+        key: "seed",
+        default: "0",
+        help: "seed of the perturbation",
+    },
+];
+
+/// Default exponent of the exponential kernel.
+pub const DEFAULT_EXP_GAMMA: f64 = -0.05;
+
+/// Reads HPR's parameters from `params`.
+pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
+    let kernel_name: String = params.get("kernel", "linear".to_owned())?;
+    let gamma: Option<f64> = params.get_opt("gamma")?;
+    let radius: Option<f64> = params.get_opt("radius")?;
+    let kernel = match kernel_name.as_str() {
+        "linear" => match (radius, gamma) {
+            (Some(r), _) => Kernel::Linear(Radius::Absolute(r)),
+            (None, g) => Kernel::Linear(Radius::Gamma(g.unwrap_or(3.0))),
+        },
+        "exp" => {
+            if radius.is_some() {
+                bail!("--set radius applies to the linear kernel only");
+            }
+            Kernel::Exponential(gamma.unwrap_or(DEFAULT_EXP_GAMMA))
+        }
+        other => bail!("--set kernel={other}: expected linear or exp"),
+    };
+    let hull: String = params.get("hull", "own".to_owned())?;
+    Ok((
+        HprParams {
+            kernel,
+            perturb: params.get("perturb", 0.0)?,
+            seed: params.get("seed", 0)?,
+        },
+        hull,
+    ))
+}
+
+struct Prep<'a> {
+    dataset: &'a Dataset,
+    params: HprParams,
+    hull: Box<dyn ConvexHull>,
+}
+
+impl Prepared for Prep<'_> {
+    fn visible(&self, camera: &Camera) -> Result<Output> {
+        let v = hpr::visible(
+            &self.dataset.cloud.positions,
+            camera.eye,
+            &self.params,
+            self.hull.as_ref(),
+        )?;
+        Ok(Output {
+            visible: v.visible,
+            ..Output::default()
+        })
+    }
+}
+
+impl Method for HprMethod {
+    fn name(&self) -> &'static str {
+        "hpr"
+    }
+
+    fn summary(&self) -> &'static str {
+        "Hidden Point Removal (Katz et al. 2007): spherical flipping + convex hull (seed 000)"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+        let (params, hull) = hpr_params(params)?;
+        Ok(Box::new(Prep {
+            dataset,
+            params,
+            hull: hull::by_name(&hull)?,
+        }))
+    }
+}
