@@ -21,6 +21,7 @@ pub mod normals;
 pub mod points;
 pub mod rng;
 pub mod sample;
+pub mod spacing;
 pub mod synth;
 pub mod views;
 

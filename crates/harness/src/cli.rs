@@ -67,6 +67,9 @@ pub enum Command {
         /// Output file for the indices.
         #[arg(long)]
         out: PathBuf,
+        /// Also score the visible set against the reference (printed before the last line).
+        #[arg(long)]
+        score: bool,
     },
     /// Run an experiment: results.csv, plots and tables into its output folder.
     Run {

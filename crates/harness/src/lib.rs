@@ -90,6 +90,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             method,
             set,
             out,
+            score: with_score,
         } => {
             let params = Params::parse(&set)?;
             let method = methods::method(&method)?;
@@ -106,6 +107,23 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             }
             output::write_atomic(&out, text.as_bytes())?;
             println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
+            if with_score {
+                let truth = truth::Reference::new(&ds.mesh)?
+                    .visibility(
+                        &ds.cloud.positions,
+                        &camera,
+                        &truth::ReferenceParams::default(),
+                    )?
+                    .visible;
+                let s = score::Score::of(&output.visible, &truth);
+                println!(
+                    "reference_visible={} precision={:.4} recall={:.4} f1={:.4}",
+                    truth.iter().filter(|&&t| t).count(),
+                    s.precision(),
+                    s.recall(),
+                    s.f1()
+                );
+            }
             println!(
                 "method={} points={} visible={} seconds={seconds:.6}",
                 method.name(),

@@ -23,6 +23,7 @@
 //! [`cloud::double_buffer::DoubleBuffer`] (the ray caster uses it too); [`background`] runs HPR
 //! in it.
 
+pub mod auto;
 pub mod background;
 pub mod transform;
 

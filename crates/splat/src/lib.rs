@@ -10,4 +10,4 @@ pub mod error;
 pub mod visibility;
 
 pub use error::{Error, Result};
-pub use visibility::{SplatParams, SplatVisibility, splat_visibility};
+pub use visibility::{SplatParams, SplatScratch, SplatVisibility, Splatter, splat_visibility};

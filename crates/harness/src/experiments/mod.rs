@@ -8,6 +8,7 @@
 mod background;
 mod hull;
 mod reference;
+mod visibility;
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -48,6 +49,7 @@ pub static EXPERIMENTS: &[&dyn Experiment] = &[
     &reference::ReferenceExperiment,
     &hull::HullExperiment,
     &background::BackgroundExperiment,
+    &visibility::VisibilityExperiment,
 ];
 
 /// Looks an experiment up by name.

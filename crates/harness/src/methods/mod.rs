@@ -10,6 +10,7 @@
 mod exact;
 pub mod hpr;
 pub mod params;
+pub mod raycast;
 mod reference;
 mod splat;
 
@@ -68,6 +69,7 @@ pub static METHODS: &[&dyn Method] = &[
     &exact::ExactMethod,
     &splat::SplatMethod,
     &hpr::HprMethod,
+    &raycast::RaycastMethod,
 ];
 
 /// Looks a method up by name.

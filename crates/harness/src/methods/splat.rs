@@ -1,8 +1,10 @@
 //! `splat`: the point-only z-buffer baseline (`splat::visibility`).
 
-use anyhow::Result;
+use std::sync::Mutex;
+
+use anyhow::{Result, anyhow};
 use cloud::Camera;
-use splat::{SplatParams, splat_visibility};
+use splat::{SplatParams, SplatScratch, Splatter};
 
 use super::{Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution};
 use crate::datasets::Dataset;
@@ -33,17 +35,24 @@ const PARAMS: &[ParamSpec] = &[
     },
 ];
 
-struct Prep<'a> {
-    dataset: &'a Dataset,
+struct Prep {
+    splatter: Splatter,
+    scratch: Mutex<SplatScratch>,
     params: SplatParams,
     width: Option<u32>,
     height: Option<u32>,
 }
 
-impl Prepared for Prep<'_> {
+impl Prepared for Prep {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         let camera = camera_with_resolution(camera, self.width, self.height)?;
-        let out = splat_visibility(&self.dataset.cloud.positions, &camera, &self.params)?;
+        let mut scratch = self
+            .scratch
+            .lock()
+            .map_err(|_| anyhow!("splat scratch poisoned"))?;
+        let out = self
+            .splatter
+            .visibility(&camera, &self.params, &mut scratch, true)?;
         Ok(Output {
             visible: out.visible,
             rays: 0,
@@ -72,7 +81,8 @@ impl Method for SplatMethod {
     fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let d = SplatParams::default();
         Ok(Box::new(Prep {
-            dataset,
+            splatter: Splatter::new(&dataset.cloud.positions)?,
+            scratch: Mutex::new(SplatScratch::default()),
             params: SplatParams {
                 radius_px: params.get("radius_px", d.radius_px)?,
                 depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,

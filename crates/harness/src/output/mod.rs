@@ -5,6 +5,7 @@
 
 pub mod meta;
 pub mod plot;
+pub mod render;
 pub mod report;
 
 use std::fs;

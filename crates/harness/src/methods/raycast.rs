@@ -1,0 +1,120 @@
+//! `raycast`: point filtering by ray casting (`raycast` crate, seed 001), one ray per pixel.
+
+use std::sync::Mutex;
+
+use anyhow::{Result, anyhow, bail};
+use cloud::Camera;
+use raycast::{CastParams, RayCaster, RayList, Traversal};
+
+use super::{Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution};
+use crate::datasets::Dataset;
+
+/// The ray caster.
+pub struct RaycastMethod;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "radius",
+        default: "-",
+        help: "point radius in world units (overrides radius_factor)",
+    },
+    ParamSpec {
+        key: "radius_factor",
+        default: "1.5",
+        help: "point radius in density spacings 1/sqrt(points per area) (raycast::auto)",
+    },
+    ParamSpec {
+        key: "width",
+        default: "view's",
+        help: "rays across (one per pixel)",
+    },
+    ParamSpec {
+        key: "height",
+        default: "view's",
+        help: "rays down",
+    },
+    ParamSpec {
+        key: "traversal",
+        default: "exact",
+        help: "exact (nearest hit) or seed (S1..S9, first hit ends)",
+    },
+];
+
+struct Prep {
+    caster: RayCaster,
+    radius: f64,
+    traversal: Traversal,
+    width: Option<u32>,
+    height: Option<u32>,
+    rays: Mutex<Option<RayList>>,
+}
+
+impl Prepared for Prep {
+    fn visible(&self, camera: &Camera) -> Result<Output> {
+        let camera = camera_with_resolution(camera, self.width, self.height)?;
+        let mut rays = self.rays.lock().map_err(|_| anyhow!("ray list poisoned"))?;
+        // The ray list is built once per image size and field of view, then re-aimed.
+        if rays.as_ref().is_none_or(|r| r.check(&camera).is_err()) {
+            *rays = Some(RayList::new(&camera));
+        }
+        let rays = rays.as_ref().ok_or_else(|| anyhow!("no ray list"))?;
+        let frame = self.caster.cast(
+            rays,
+            &camera,
+            &CastParams {
+                radius: self.radius,
+                traversal: self.traversal,
+            },
+        )?;
+        Ok(Output {
+            visible: frame.visible,
+            rays: frame.rays,
+            pixels: Some(PixelChoice {
+                width: camera.width,
+                height: camera.height,
+                point: frame.pixel_point,
+            }),
+        })
+    }
+}
+
+/// The point radius the parameters ask for on `dataset`.
+pub fn radius(dataset: &Dataset, params: &Params) -> Result<f64> {
+    let factor: f64 = params.get("radius_factor", raycast::auto::RADIUS_FACTOR)?;
+    match params.get_opt::<f64>("radius")? {
+        Some(r) => Ok(r),
+        None => {
+            Ok(factor * cloud::spacing::density_spacing(&dataset.cloud.positions, 8, 20_000, 1)?)
+        }
+    }
+}
+
+impl Method for RaycastMethod {
+    fn name(&self) -> &'static str {
+        "raycast"
+    }
+
+    fn summary(&self) -> &'static str {
+        "ray-cast point filtering (Jensen 2012): one ray per pixel through a point k-d tree (seed 001)"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+        let traversal = match params.get("traversal", "exact".to_owned())?.as_str() {
+            "exact" => Traversal::Exact,
+            "seed" => Traversal::Seed,
+            other => bail!("--set traversal={other}: expected exact or seed"),
+        };
+        Ok(Box::new(Prep {
+            caster: RayCaster::new(&dataset.cloud.positions)?,
+            radius: radius(dataset, params)?,
+            traversal,
+            width: params.get_opt("width")?,
+            height: params.get_opt("height")?,
+            rays: Mutex::new(None),
+        }))
+    }
+}

@@ -1,0 +1,281 @@
+//! Casting one ray through the k-d tree: seed 001's steps S1–S9, iteratively.
+//!
+//! The seed's summary, for a node whose splitting plane is x_a = s:
+//! - S1: test whether the ray is on the splitting plane; store.
+//! - S2: if not, traverse the child closest to the origin; if it is, traverse the child that
+//!   holds points on the plane (the "equal-axis child", recorded at build time).
+//! - S3: if that child returned a point, return it.
+//! - S4–S5: test the node's own point (the Boolean form of [`crate::hit`]); on a hit return it.
+//! - S6: test whether the ray meets the node's splitting plane within the node's range.
+//! - S7–S8: if so, traverse the remaining child and return its point.
+//! - S9: return empty.
+//!
+//! Interpretation notes (NOTE): the printed S6 reads "If S1 is false, return empty", which
+//! contradicts the prose above it ("If intersect occurs, traverse the child closest to the
+//! origin, then traverse the other child"); we follow the prose: the far child is skipped only
+//! when the ray lies in the plane (S1 true). "The ray is on the splitting plane" is read as the
+//! ray lying in it (origin on the plane, direction parallel to it); an origin on the plane with
+//! a direction leaving it takes the side the direction points to. The seed leaves the
+//! "intersection testing" of S6 "to be written up later": we test the ray against the plane
+//! within the node's bounds, enlarged by the point radius.
+//!
+//! Two traversals share this skeleton ([`Traversal`]):
+//! - [`Traversal::Seed`]: as printed: nearest child first and the *first hit ends the search*.
+//!   Points are spheres of radius R, so a point in the near child can be hit after a point in
+//!   the far child would have been, and a sphere straddling a plane can be missed; this mode
+//!   returns *a* hit, not always the nearest.
+//! - [`Traversal::Exact`] (default): the same near-first order, with each subtree entered only
+//!   if the ray meets its bounds enlarged by R before the best hit so far; the first hit ends
+//!   the search once nothing nearer can follow. It returns the hit with the smallest entry
+//!   parameter (ties: lowest index), exactly what the brute force of [`crate::brute`] returns.
+
+use crate::hit::{entry, hits};
+use crate::kdtree::{KdTree, NONE, Node};
+
+/// Which traversal to run.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Traversal {
+    /// Nearest hit, exact (pruned by subtree bounds).
+    #[default]
+    Exact,
+    /// Seed 001's S1–S9 with first hit ends.
+    Seed,
+}
+
+/// A ray with its precomputed reciprocal direction.
+#[derive(Debug, Clone, Copy)]
+pub struct Ray {
+    /// Origin.
+    pub o: [f64; 3],
+    /// Direction (need not be unit).
+    pub d: [f64; 3],
+    inv: [f64; 3],
+}
+
+impl Ray {
+    /// A ray from `o` along `d`.
+    #[inline(always)]
+    pub fn new(o: [f64; 3], d: [f64; 3]) -> Self {
+        Self {
+            o,
+            d,
+            inv: [1.0 / d[0], 1.0 / d[1], 1.0 / d[2]],
+        }
+    }
+}
+
+/// Reusable traversal scratch (one per thread).
+#[derive(Debug, Default)]
+pub struct Scratch {
+    stack: Vec<u32>,
+    frames: Vec<Frame>,
+}
+
+/// Entry parameter of the ray into the node's bounds enlarged by `pad`, or `None` on a miss.
+#[inline(always)]
+fn box_entry(ray: &Ray, n: &Node, pad: f64) -> Option<f64> {
+    let mut t0 = 0.0f64;
+    let mut t1 = f64::INFINITY;
+    for k in 0..3 {
+        let lo = n.lo[k] as f64 - pad;
+        let hi = n.hi[k] as f64 + pad;
+        if ray.d[k] == 0.0 {
+            if ray.o[k] < lo || ray.o[k] > hi {
+                return None;
+            }
+        } else {
+            let a = (lo - ray.o[k]) * ray.inv[k];
+            let b = (hi - ray.o[k]) * ray.inv[k];
+            let (near, far) = if a < b { (a, b) } else { (b, a) };
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+    }
+    (t0 <= t1).then_some(t0)
+}
+
+/// The exact traversal: the hit with the smallest entry parameter, ties by lowest index.
+pub fn cast_exact(
+    tree: &KdTree,
+    ray: &Ray,
+    radius: f64,
+    scratch: &mut Scratch,
+) -> Option<(f64, u32)> {
+    let nodes = &tree.nodes;
+    if nodes.is_empty() {
+        return None;
+    }
+    let r2 = radius * radius;
+    // Bounds are enlarged by the radius plus a relative margin, so that rounding in the slab
+    // test never makes a subtree look farther than a sphere inside it.
+    let pad =
+        radius * (1.0 + 1e-9) + 1e-12 * (1.0 + ray.o.iter().fold(0.0f64, |m, c| m.max(c.abs())));
+    let mut best_t = f64::INFINITY;
+    let mut best = NONE;
+    let stack = &mut scratch.stack;
+    stack.clear();
+    stack.push(0);
+    while let Some(at) = stack.pop() {
+        let n = &nodes[at as usize];
+        match box_entry(ray, n, pad) {
+            Some(t) if t <= best_t => {}
+            _ => continue,
+        }
+        if let Some(t) = entry(&ray.o, &ray.d, &n.p, r2)
+            && (t < best_t || (t == best_t && n.index < best))
+        {
+            best_t = t;
+            best = n.index;
+        }
+        let left = n.left(at);
+        let right = n.right;
+        let a = n.axis();
+        // Near child last on the stack, so it is popped first.
+        let (near, far) = if ray.o[a] < n.split() || (ray.o[a] == n.split() && ray.d[a] < 0.0) {
+            (left, right)
+        } else {
+            (right, left)
+        };
+        if far != NONE {
+            stack.push(far);
+        }
+        if near != NONE {
+            stack.push(near);
+        }
+    }
+    (best != NONE).then_some((best_t, best))
+}
+
+#[derive(Debug, Clone, Copy)]
+struct Frame {
+    node: u32,
+    /// 0: start (S1–S2); 1: near child done (S3–S7); 2: far child done (S8).
+    stage: u8,
+    on_plane: bool,
+}
+
+/// Seed 001's S1–S9 with an explicit stack: the first hit ends the search.
+pub fn cast_seed(tree: &KdTree, ray: &Ray, radius: f64, scratch: &mut Scratch) -> Option<u32> {
+    let nodes = &tree.nodes;
+    if nodes.is_empty() {
+        return None;
+    }
+    let r2 = radius * radius;
+    let frames = &mut scratch.frames;
+    frames.clear();
+    frames.push(Frame {
+        node: 0,
+        stage: 0,
+        on_plane: false,
+    });
+    // The answer of the call that just returned.
+    let mut found: Option<u32> = None;
+    while let Some(top) = frames.last_mut() {
+        let at = top.node;
+        let n = &nodes[at as usize];
+        let a = n.axis();
+        let s = n.split();
+        match top.stage {
+            0 => {
+                // S1: does the ray lie in the splitting plane?
+                let on_plane = ray.o[a] == s && ray.d[a] == 0.0;
+                top.on_plane = on_plane;
+                top.stage = 1;
+                // S2: the child closest to the origin, or the child with points on the plane.
+                let child = if !on_plane {
+                    if ray.o[a] < s || (ray.o[a] == s && ray.d[a] < 0.0) {
+                        n.left(at)
+                    } else {
+                        n.right
+                    }
+                } else if n.equal_in_back() {
+                    n.left(at)
+                } else if n.equal_in_front() {
+                    n.right
+                } else {
+                    NONE
+                };
+                found = None;
+                if child != NONE {
+                    frames.push(Frame {
+                        node: child,
+                        stage: 0,
+                        on_plane: false,
+                    });
+                }
+            }
+            1 => {
+                // S3: the near child's point.
+                if found.is_some() {
+                    frames.pop();
+                    continue;
+                }
+                // S4–S5: this node's point.
+                if hits(&ray.o, &ray.d, &n.p, r2) {
+                    found = Some(n.index);
+                    frames.pop();
+                    continue;
+                }
+                // S6: a ray in the plane has nothing more to see; otherwise, does it meet the
+                // plane within the node's (radius-enlarged) range, ahead of the origin?
+                let far = if ray.o[a] < s || (ray.o[a] == s && ray.d[a] < 0.0) {
+                    n.right
+                } else {
+                    n.left(at)
+                };
+                if top.on_plane || far == NONE || !crosses_plane_in_range(ray, n, radius) {
+                    // S9.
+                    found = None;
+                    frames.pop();
+                    continue;
+                }
+                // S7: the remaining child.
+                top.stage = 2;
+                found = None;
+                frames.push(Frame {
+                    node: far,
+                    stage: 0,
+                    on_plane: false,
+                });
+            }
+            _ => {
+                // S8: whatever the far child returned.
+                frames.pop();
+            }
+        }
+    }
+    found
+}
+
+/// S6's test: the ray meets the node's splitting plane at a parameter ≥ 0, at a point inside
+/// the node's bounds enlarged by `radius` on the other two axes.
+#[inline(always)]
+fn crosses_plane_in_range(ray: &Ray, n: &Node, radius: f64) -> bool {
+    let a = n.axis();
+    if ray.d[a] == 0.0 {
+        return false;
+    }
+    let t = (n.split() - ray.o[a]) * ray.inv[a];
+    if t < 0.0 {
+        return false;
+    }
+    (0..3).filter(|&k| k != a).all(|k| {
+        let x = ray.o[k] + t * ray.d[k];
+        x >= n.lo[k] as f64 - radius && x <= n.hi[k] as f64 + radius
+    })
+}
+
+/// Casts with the chosen traversal; returns the index of the point hit.
+#[inline]
+pub fn cast(
+    tree: &KdTree,
+    ray: &Ray,
+    radius: f64,
+    traversal: Traversal,
+    scratch: &mut Scratch,
+) -> Option<u32> {
+    match traversal {
+        Traversal::Exact => cast_exact(tree, ray, radius, scratch).map(|(_, i)| i),
+        Traversal::Seed => cast_seed(tree, ray, radius, scratch),
+    }
+}
