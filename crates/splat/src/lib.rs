@@ -1,12 +1,15 @@
 //! `splat`: point splatting on the CPU.
 //!
 //! - [`visibility`]: the point-only z-buffer baseline for visibility (project, splat, keep the
-//!   points within a depth tolerance of the nearest splat at their pixel).
+//!   points within a depth tolerance of the nearest splat at their pixel);
+//! - [`render`]: a shaded splat renderer (discs, depth buffer, Lambert), the images of the
+//!   level-of-detail methods and their reference.
 //!
 //! This crate knows points and cameras; it knows nothing of meshes, ground truth, scoring or
 //! files.
 
 pub mod error;
+pub mod render;
 pub mod visibility;
 
 pub use error::{Error, Result};

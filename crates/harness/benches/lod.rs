@@ -1,0 +1,99 @@
+//! Criterion benchmarks of the level-of-detail methods on dragon-871414 when fetched (else a
+//! synthetic stand-in of the same size): the QSplat and SPT builds and their per-view
+//! selections, and the SRN selection.
+//!
+//! Targets (issue: level of detail, 2 cores): QSplat build ≥ 2 M points/s (`qsplat-build`,
+//! throughput in points); the SPT cut ≥ 500 M list entries/s (`spt-cut`, throughput in entries
+//! of the scanned prefix); SRN selection likewise (`srn-select`, throughput in points).
+
+use std::hint::black_box;
+use std::path::PathBuf;
+
+use cloud::{Camera, PointCloud};
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+
+fn data_dir() -> PathBuf {
+    std::env::var_os("POINTSIGHT_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../bench-data")))
+}
+
+fn dragon() -> (String, PointCloud, Vec<Camera>) {
+    let ds = harness::datasets::load("dragon-871414", &data_dir()).or_else(|e| {
+        eprintln!("dragon-871414 unavailable ({e:#}); using torus samples of the same size");
+        let scene = cloud::synth::torus_scene(871_414, 1).expect("torus");
+        let bbox = scene.mesh.bbox().expect("bbox");
+        let views = cloud::views::fibonacci_views(&bbox, &cloud::views::ViewSpec::default())
+            .expect("views");
+        anyhow::Ok(harness::datasets::Dataset {
+            info: harness::datasets::info("torus-22321")?,
+            cloud: scene.cloud,
+            mesh: scene.mesh,
+            views,
+        })
+    });
+    let ds = ds.expect("dataset");
+    (
+        format!("{} ({} points)", ds.name(), ds.cloud.len()),
+        ds.cloud,
+        ds.views,
+    )
+}
+
+fn benches(c: &mut Criterion) {
+    let (name, cloud, views) = dragon();
+    let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1).expect("spacing");
+
+    let mut g = c.benchmark_group("qsplat-build");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(cloud.len() as u64));
+    g.bench_function(&name, |b| {
+        b.iter(|| qsplat::build_tree(black_box(&cloud), spacing).expect("build"))
+    });
+    g.finish();
+
+    let tree = qsplat::build_tree(&cloud, spacing).expect("build");
+    let mut g = c.benchmark_group("qsplat-traverse");
+    g.sample_size(20);
+    for px in [1.0, 4.0] {
+        let params = qsplat::TraverseParams {
+            threshold_px: px,
+            ..Default::default()
+        };
+        g.bench_function(format!("{name} view 0 1280x720 {px} px"), |b| {
+            b.iter(|| qsplat::traverse(&tree, &views[0], black_box(&params)))
+        });
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("spt-build");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(cloud.len() as u64));
+    g.bench_function(&name, |b| {
+        b.iter(|| spt::build(black_box(&cloud), 2.0 * spacing).expect("build"))
+    });
+    g.finish();
+
+    let tree = spt::build(&cloud, 2.0 * spacing).expect("build");
+    let mut g = c.benchmark_group("spt-cut");
+    g.sample_size(50);
+    let mut out = Vec::new();
+    for px in [1.0, 4.0] {
+        let eye = views[0].eye;
+        let eps = spt::epsilon_for_pixels(&views[0], px);
+        let stats = tree.cut_into(eye, eps, &mut out).expect("cut");
+        g.throughput(Throughput::Elements(stats.entries as u64));
+        g.bench_function(
+            format!(
+                "{name} view 0 {px} px ({} of {} entries scanned)",
+                stats.entries,
+                tree.len()
+            ),
+            |b| b.iter(|| tree.cut_into(eye, black_box(eps), &mut out).expect("cut")),
+        );
+    }
+    g.finish();
+}
+
+criterion_group!(lod_benches, benches);
+criterion_main!(lod_benches);

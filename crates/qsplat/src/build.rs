@@ -1,0 +1,314 @@
+//! Building QSplat's bounding-sphere hierarchy (Rusinkiewicz and Levoy 2000, §3.1; seed 002
+//! §5.2.1), before quantisation.
+//!
+//! Leaves are the input points, each a sphere of the leaf radius. A set of points is split at
+//! the midpoint of its bounding box's longest axis, and each half with more than one point is
+//! split again the same way, giving two to four children (the original's "up to 4 children").
+//! If every point of a set lies on one side of the midpoint (coincident points), the set is
+//! split in halves by position in the list. A parent's sphere encloses its children's spheres
+//! (centre: the middle of their bounding box; radius: the largest distance to a child's far
+//! side); its normal is the normalised sum of its children's normals weighted by their leaf
+//! counts; its normal-cone half-angle the largest, over children, of the angle between the
+//! child's normal and the parent's plus the child's own half-angle; its colour the leaf-count
+//! weighted mean. Large subtrees are built in parallel.
+
+use cloud::glam::{DVec3, Vec3};
+
+/// A node of the (unquantised) hierarchy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Sphere centre.
+    pub center: DVec3,
+    /// Sphere radius.
+    pub radius: f64,
+    /// Unit normal.
+    pub normal: DVec3,
+    /// Normal-cone half-angle, radians.
+    pub cone: f64,
+    /// Mean colour, RGB in [0, 255].
+    pub color: Vec3,
+    /// Leaves below (1 for a leaf).
+    pub leaves: u32,
+    /// Children (arena indices), the first `n_children` used.
+    pub kids: [u32; 4],
+    /// Number of children (0 for a leaf).
+    pub n_children: u8,
+    /// The input point, for a leaf.
+    pub point: Option<u32>,
+}
+
+impl Node {
+    /// Children (arena indices); empty for a leaf.
+    pub fn children(&self) -> &[u32] {
+        &self.kids[..self.n_children as usize]
+    }
+}
+
+/// The hierarchy: an arena whose last node is the root. Every subtree is contiguous and ends
+/// with its root, so the subtree of child k of a node spans from just after child k − 1 (or
+/// the node's own first index) to child k.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hierarchy {
+    /// Nodes; children come before their parent.
+    pub nodes: Vec<Node>,
+}
+
+impl Hierarchy {
+    /// The root's index.
+    pub fn root(&self) -> usize {
+        self.nodes.len() - 1
+    }
+}
+
+/// The inputs of a build.
+#[derive(Debug, Clone, Copy)]
+pub struct Input<'a> {
+    /// Positions.
+    pub positions: &'a [DVec3],
+    /// Unit normals.
+    pub normals: &'a [Vec3],
+    /// Colours, if any.
+    pub colors: Option<&'a [[u8; 3]]>,
+    /// Leaf sphere radius.
+    pub leaf_radius: f64,
+}
+
+const PARALLEL: usize = 16_384;
+
+/// Builds the hierarchy over all points.
+pub fn build(input: &Input<'_>) -> Hierarchy {
+    let mut items: Vec<Item> = input
+        .positions
+        .iter()
+        .zip(input.normals)
+        .enumerate()
+        .map(|(i, (p, n))| Item {
+            p: *p,
+            n: *n,
+            i: i as u32,
+        })
+        .collect();
+    let nodes = build_sub(input, &mut items);
+    Hierarchy { nodes }
+}
+
+fn leaf(input: &Input<'_>, item: &Item) -> Node {
+    let i = item.i;
+    let c = input.colors.map_or(Vec3::splat(200.0), |c| {
+        let c = c[i as usize];
+        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)
+    });
+    Node {
+        center: item.p,
+        radius: input.leaf_radius,
+        normal: item.n.as_dvec3().normalize_or(DVec3::Z),
+        cone: 0.0,
+        color: c,
+        leaves: 1,
+        kids: [0; 4],
+        n_children: 0,
+        point: Some(i),
+    }
+}
+
+/// A point being sorted into the tree: its position and normal (carried along, so that the
+/// partitions and the leaves read memory in order) and its index.
+#[derive(Debug, Clone, Copy)]
+struct Item {
+    p: DVec3,
+    n: Vec3,
+    i: u32,
+}
+
+/// Splits `items` at the midpoint of their bounding box's longest axis (in place); returns the
+/// size of the first part (never 0 nor the whole, for two or more items).
+fn split(items: &mut [Item]) -> usize {
+    let fold = |(lo, hi): (DVec3, DVec3), it: &Item| (lo.min(it.p), hi.max(it.p));
+    let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let (lo, hi) = if items.len() >= 4 * PARALLEL {
+        use rayon::prelude::*;
+        items
+            .par_iter()
+            .fold(|| empty, fold)
+            .reduce(|| empty, |a, b| (a.0.min(b.0), a.1.max(b.1)))
+    } else {
+        items.iter().fold(empty, fold)
+    };
+    let ext = hi - lo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let mid = 0.5 * (lo[axis] + hi[axis]);
+    let mut k = 0;
+    for j in 0..items.len() {
+        if items[j].p[axis] < mid {
+            items.swap(j, k);
+            k += 1;
+        }
+    }
+    if k == 0 || k == items.len() {
+        items.len() / 2
+    } else {
+        k
+    }
+}
+
+/// Splits `items` into two to four groups (the two halves, each halved again when it has two
+/// or more points).
+fn groups(items: &mut [Item]) -> Vec<&mut [Item]> {
+    let k = split(items);
+    let (a, b) = items.split_at_mut(k);
+    let mut groups: Vec<&mut [Item]> = Vec::with_capacity(4);
+    for half in [a, b] {
+        if half.len() >= 2 {
+            let k2 = split(half);
+            let (c, d) = half.split_at_mut(k2);
+            groups.push(c);
+            groups.push(d);
+        } else {
+            groups.push(half);
+        }
+    }
+    groups
+}
+
+/// Builds the subtree of `items` in parallel; the returned arena ends with the subtree's root.
+fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
+    if items.len() < PARALLEL {
+        let mut nodes = Vec::with_capacity(2 * items.len());
+        build_into(input, items, &mut nodes);
+        return nodes;
+    }
+    use rayon::prelude::*;
+    let subtrees: Vec<Vec<Node>> = groups(items)
+        .into_par_iter()
+        .map(|g| build_sub(input, g))
+        .collect();
+    let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
+    let mut children = Vec::with_capacity(subtrees.len());
+    for sub in subtrees {
+        let offset = nodes.len() as u32;
+        let n = sub.len() as u32;
+        nodes.extend(sub.into_iter().map(|mut node| {
+            for c in &mut node.kids[..node.n_children as usize] {
+                *c += offset;
+            }
+            node
+        }));
+        children.push(offset + n - 1);
+    }
+    let parent = parent_of(&nodes, &children);
+    nodes.push(parent);
+    nodes
+}
+
+/// Appends the subtree of `items` to `nodes` (children first); returns its root's index.
+fn build_into(input: &Input<'_>, items: &mut [Item], nodes: &mut Vec<Node>) -> u32 {
+    if items.len() == 1 {
+        nodes.push(leaf(input, &items[0]));
+    } else {
+        let mut children = [0u32; 4];
+        let mut n = 0;
+        for g in groups(items) {
+            children[n] = build_into(input, g, nodes);
+            n += 1;
+        }
+        let parent = parent_of(nodes, &children[..n]);
+        nodes.push(parent);
+    }
+    (nodes.len() - 1) as u32
+}
+
+/// The parent of `children` (arena indices into `nodes`).
+fn parent_of(nodes: &[Node], children: &[u32]) -> Node {
+    let kids = || children.iter().map(|&c| &nodes[c as usize]);
+    let (lo, hi) = kids().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), k| {
+        (
+            lo.min(k.center - DVec3::splat(k.radius)),
+            hi.max(k.center + DVec3::splat(k.radius)),
+        )
+    });
+    let center = 0.5 * (lo + hi);
+    // A hair of slack so that rounding never leaves a child poking out of its parent.
+    let radius = kids()
+        .map(|k| (k.center - center).length() + k.radius)
+        .fold(0.0, f64::max)
+        * (1.0 + 1e-9);
+    let leaves: u32 = kids().map(|k| k.leaves).sum();
+    let sum: DVec3 = kids().map(|k| k.normal * k.leaves as f64).sum();
+    let normal = sum.normalize_or(nodes[children[0] as usize].normal);
+    let cone = kids()
+        .map(|k| normal.dot(k.normal).clamp(-1.0, 1.0).acos() + k.cone)
+        .fold(0.0, f64::max)
+        .min(std::f64::consts::PI);
+    let color = kids().map(|k| k.color * k.leaves as f32).sum::<Vec3>() / leaves as f32;
+    let mut ids = [0u32; 4];
+    ids[..children.len()].copy_from_slice(children);
+    Node {
+        center,
+        radius,
+        normal,
+        cone,
+        color,
+        leaves,
+        kids: ids,
+        n_children: children.len() as u8,
+        point: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn two_to_four_children_and_every_point_once() {
+        let pts = cloud::synth::fibonacci_sphere(1_000);
+        let normals: Vec<Vec3> = pts.iter().map(|p| p.as_vec3()).collect();
+        let h = build(&Input {
+            positions: &pts,
+            normals: &normals,
+            colors: None,
+            leaf_radius: 0.01,
+        });
+        let mut seen = vec![0; pts.len()];
+        for n in &h.nodes {
+            match n.point {
+                Some(p) => {
+                    seen[p as usize] += 1;
+                    assert!(n.children().is_empty());
+                }
+                None => assert!(
+                    (2..=4).contains(&n.children().len()),
+                    "{}",
+                    n.children().len()
+                ),
+            }
+            for &c in n.children() {
+                let k = &h.nodes[c as usize];
+                assert!((k.center - n.center).length() + k.radius <= n.radius);
+                let needed = n.normal.dot(k.normal).clamp(-1.0, 1.0).acos() + k.cone;
+                assert!(needed <= n.cone + 1e-9 || n.cone >= std::f64::consts::PI);
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+        assert_eq!(h.nodes[h.root()].leaves, 1_000);
+    }
+
+    #[test]
+    fn coincident_points_still_split() {
+        let pts = vec![DVec3::ONE; 9];
+        let normals = vec![Vec3::Z; 9];
+        let h = build(&Input {
+            positions: &pts,
+            normals: &normals,
+            colors: None,
+            leaf_radius: 0.5,
+        });
+        assert_eq!(h.nodes.iter().filter(|n| n.point.is_some()).count(), 9);
+    }
+}

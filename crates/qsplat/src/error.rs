@@ -1,0 +1,44 @@
+//! Typed errors of the `qsplat` crate.
+
+/// Why a QSplat tree could not be built, read or traversed.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Invalid input caught by the `cloud` crate.
+    #[error(transparent)]
+    Cloud(#[from] cloud::Error),
+    /// No points.
+    #[error("the point cloud is empty")]
+    EmptyCloud,
+    /// The cloud has no normals, which QSplat needs.
+    #[error("QSplat needs a normal per point")]
+    MissingNormals,
+    /// A parameter is out of range.
+    #[error("invalid parameter {name}: {reason}")]
+    InvalidParameter {
+        /// Name.
+        name: &'static str,
+        /// Why.
+        reason: String,
+    },
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not a QSplat tree or is damaged.
+    #[error("{path}: corrupt QSplat file at byte {offset}: {reason}")]
+    Corrupt {
+        /// The file.
+        path: String,
+        /// Byte offset of the problem.
+        offset: u64,
+        /// What is wrong.
+        reason: String,
+    },
+}
+
+/// Result alias of the `qsplat` crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

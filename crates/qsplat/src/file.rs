@@ -1,0 +1,247 @@
+//! The compact file: a small header, then QSplat's node stream.
+//!
+//! Layout (little-endian): magic `PSQSPLAT`; version (u32, 1); flags (u32, bit 0: colours);
+//! point count (u64); word count (u64); root centre (3 × f64) and radius (f64); root word
+//! (u32); then the words (u32 each: offset words and node words, breadth first); then, with
+//! colours, one u16 per word and one for the root (RGB565; 0 for offset words). The original's
+//! node stream is the same 4 bytes a node (6 with colour) plus 4 per sibling group with
+//! grandchildren.
+//!
+//! Reading checks everything before trusting it: the magic and version, that the counts fit
+//! the file's length (nothing is allocated from a count the file cannot back), every word's
+//! sphere and normal codes and tree bits, and the structure itself: walking the tree from the
+//! root must visit every word exactly once and every offset must point at the group that
+//! follows. Any failure is [`Error::Corrupt`] with the byte offset.
+
+use std::fs;
+use std::path::Path;
+
+use cloud::glam::DVec3;
+
+use crate::error::{Error, Result};
+use crate::quant;
+use crate::tree::{QTree, Word};
+
+const MAGIC: &[u8; 8] = b"PSQSPLAT";
+const VERSION: u32 = 1;
+const HEADER: usize = 8 + 4 + 4 + 8 + 8 + 32 + 4;
+
+/// Serialises `tree`.
+pub fn to_bytes(tree: &QTree) -> Vec<u8> {
+    let mut b = Vec::with_capacity(HEADER + tree.payload_bytes() + 8);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&VERSION.to_le_bytes());
+    b.extend_from_slice(&u32::from(tree.colors.is_some()).to_le_bytes());
+    b.extend_from_slice(&tree.n_points.to_le_bytes());
+    b.extend_from_slice(&(tree.words.len() as u64).to_le_bytes());
+    for v in tree.root_center.to_array() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&tree.root_radius.to_le_bytes());
+    b.extend_from_slice(&tree.root_word.to_le_bytes());
+    for w in &tree.words {
+        b.extend_from_slice(&w.to_le_bytes());
+    }
+    if let Some(colors) = &tree.colors {
+        b.extend_from_slice(&tree.root_color.to_le_bytes());
+        for c in colors {
+            b.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    b
+}
+
+/// Writes `tree` to `path`.
+pub fn write(tree: &QTree, path: &Path) -> Result<()> {
+    fs::write(path, to_bytes(tree)).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+/// Reads a tree from `path`.
+pub fn read(path: &Path) -> Result<QTree> {
+    let bytes = fs::read(path).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    from_bytes(&bytes, &path.display().to_string())
+}
+
+/// Parses a tree; `name` labels errors.
+pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
+    let corrupt = |offset: usize, reason: String| Error::Corrupt {
+        path: name.to_owned(),
+        offset: offset as u64,
+        reason,
+    };
+    let u32_at = |o: usize| -> Result<u32> {
+        b.get(o..o + 4)
+            .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
+            .ok_or_else(|| corrupt(o, "truncated".into()))
+    };
+    let u64_at = |o: usize| -> Result<u64> {
+        b.get(o..o + 8)
+            .and_then(|s| s.try_into().ok())
+            .map(u64::from_le_bytes)
+            .ok_or_else(|| corrupt(o, "truncated".into()))
+    };
+    let f64_at = |o: usize| -> Result<f64> { u64_at(o).map(f64::from_bits) };
+    if b.len() < 8 || &b[..8] != MAGIC {
+        return Err(corrupt(
+            0,
+            "not a pointsight QSplat file (bad magic)".into(),
+        ));
+    }
+    let version = u32_at(8)?;
+    if version != VERSION {
+        return Err(corrupt(8, format!("unsupported version {version}")));
+    }
+    let flags = u32_at(12)?;
+    if flags > 1 {
+        return Err(corrupt(12, format!("unknown flags {flags:#x}")));
+    }
+    let colored = flags == 1;
+    let n_points = u64_at(16)?;
+    let n_words = u64_at(24)?;
+    let per_word: u64 = if colored { 6 } else { 4 };
+    let expected = (HEADER as u64)
+        .checked_add(
+            n_words
+                .checked_mul(per_word)
+                .ok_or_else(|| corrupt(24, "word count overflows".into()))?,
+        )
+        .and_then(|v| v.checked_add(if colored { 2 } else { 0 }))
+        .ok_or_else(|| corrupt(24, "word count overflows".into()))?;
+    if expected != b.len() as u64 {
+        return Err(corrupt(
+            24,
+            format!(
+                "{n_words} words need {expected} bytes, the file has {}",
+                b.len()
+            ),
+        ));
+    }
+    let root_center = DVec3::new(f64_at(32)?, f64_at(40)?, f64_at(48)?);
+    let root_radius = f64_at(56)?;
+    if !root_center.is_finite() || !(root_radius > 0.0) || !root_radius.is_finite() {
+        return Err(corrupt(32, "root sphere is not finite and positive".into()));
+    }
+    let root_word = u32_at(64)?;
+    let n = n_words as usize;
+    let words: Vec<u32> = (0..n)
+        .map(|k| u32_at(HEADER + 4 * k))
+        .collect::<Result<_>>()?;
+    let (root_color, colors) = if colored {
+        let base = HEADER + 4 * n;
+        let c = |k: usize| -> u16 { u16::from_le_bytes([b[base + 2 * k], b[base + 2 * k + 1]]) };
+        (c(0), Some((0..n).map(|k| c(k + 1)).collect()))
+    } else {
+        (0, None)
+    };
+    let tree = QTree {
+        n_points,
+        root_center,
+        root_radius,
+        root_word,
+        words,
+        colors,
+        root_color,
+    };
+    validate(&tree, name)?;
+    Ok(tree)
+}
+
+/// Walks the whole tree: every word visited once, codes in range, offsets consistent.
+fn validate(tree: &QTree, name: &str) -> Result<()> {
+    let fail = |k: usize, reason: String| Error::Corrupt {
+        path: name.to_owned(),
+        offset: (HEADER + 4 * k) as u64,
+        reason,
+    };
+    let root = Word::unpack(tree.root_word).ok_or_else(|| Error::Corrupt {
+        path: name.to_owned(),
+        offset: 64,
+        reason: "bad root tree bits".into(),
+    })?;
+    let n = tree.words.len();
+    let mut visited = vec![false; n];
+    let mut leaves: u64 = u64::from(root.children == 0);
+    // Breadth first over groups: (group position, node count, has offset word).
+    let mut queue = std::collections::VecDeque::new();
+    if root.children > 0 {
+        queue.push_back((0usize, root.children as usize, root.grandchildren));
+    }
+    let mut expected_next = 0usize;
+    while let Some((pos, count, has_offset)) = queue.pop_front() {
+        if pos != expected_next {
+            return Err(fail(
+                pos.min(n.saturating_sub(1)),
+                format!("group at word {pos} out of order (expected {expected_next})"),
+            ));
+        }
+        let end = pos + usize::from(has_offset) + count;
+        if end > n {
+            return Err(fail(
+                pos.min(n.saturating_sub(1)),
+                "group runs past the end".into(),
+            ));
+        }
+        let mut grand_at = if has_offset {
+            tree.words[pos] as usize
+        } else {
+            0
+        };
+        let mut first_child_group = None;
+        for k in pos..end {
+            if visited[k] {
+                return Err(fail(k, "word reached twice".into()));
+            }
+            visited[k] = true;
+            if has_offset && k == pos {
+                continue;
+            }
+            let w = Word::unpack(tree.words[k])
+                .ok_or_else(|| fail(k, "grandchildren without children".into()))?;
+            if w.sphere as usize >= quant::SPHERE_TABLE_LEN {
+                return Err(fail(k, format!("sphere index {} out of range", w.sphere)));
+            }
+            if u32::from(w.normal) >= quant::NORMAL_CODES {
+                return Err(fail(k, format!("normal code {} out of range", w.normal)));
+            }
+            if w.children > 0 {
+                if !has_offset {
+                    return Err(fail(
+                        k,
+                        "a node has children but its group has no offset".into(),
+                    ));
+                }
+                first_child_group.get_or_insert(grand_at);
+                queue.push_back((grand_at, w.children as usize, w.grandchildren));
+                grand_at += usize::from(w.grandchildren) + w.children as usize;
+            } else {
+                leaves += 1;
+            }
+        }
+        if has_offset && first_child_group.is_none() {
+            return Err(fail(pos, "offset word in a group without children".into()));
+        }
+        expected_next = end;
+    }
+    if expected_next != n || visited.iter().any(|v| !v) {
+        return Err(fail(
+            expected_next.min(n.saturating_sub(1)),
+            "words not reached by the tree".into(),
+        ));
+    }
+    if leaves != tree.n_points {
+        return Err(fail(
+            0,
+            format!(
+                "{leaves} leaves but the header says {} points",
+                tree.n_points
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,280 @@
+//! The quantised tree, laid out breadth first as in the original.
+//!
+//! A node is one 32-bit word: sphere index (13 bits, relative to the decoded parent), normal
+//! code (14), cone code (2), tree bits (3: child count 0 or 2–4, and whether the node has
+//! grandchildren); with colours, 16 bits more per node (kept in a parallel array). The children
+//! of a node form a *sibling group*; groups are stored breadth first, and a group whose nodes
+//! have children starts with one 32-bit word: the position of the group holding the first of
+//! its nodes' children. The children groups of a group's nodes follow each other in order, so
+//! one offset per group locates them all. The root's sphere is stored in full (f64).
+//!
+//! Encoding is top-down, each sphere relative to its parent's *decoded* sphere and rounded
+//! outwards ([`crate::quant::encode_sphere`]), so that every decoded sphere encloses every
+//! point below it.
+
+use cloud::glam::DVec3;
+
+use crate::build::Hierarchy;
+use crate::quant;
+
+/// Word layout.
+const SPHERE_SHIFT: u32 = 19;
+const NORMAL_SHIFT: u32 = 5;
+const CONE_SHIFT: u32 = 3;
+const GRAND_BIT: u32 = 1 << 2;
+
+/// A quantised QSplat tree.
+#[derive(Debug, Clone, PartialEq)]
+pub struct QTree {
+    /// Number of input points (leaves).
+    pub n_points: u64,
+    /// Root sphere centre.
+    pub root_center: DVec3,
+    /// Root sphere radius.
+    pub root_radius: f64,
+    /// The root's word (its sphere bits are zero: the sphere is stored in full).
+    pub root_word: u32,
+    /// Sibling groups, breadth first: an offset word (when the group's nodes have children)
+    /// then one word per node.
+    pub words: Vec<u32>,
+    /// One colour per word (0 for offset words), when the tree has colours; the root's first.
+    pub colors: Option<Vec<u16>>,
+    /// The root's colour.
+    pub root_color: u16,
+}
+
+/// The fields of a node word.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Word {
+    /// Sphere table index.
+    pub sphere: u16,
+    /// Normal code.
+    pub normal: u16,
+    /// Cone code.
+    pub cone: u8,
+    /// Children (0, 2, 3 or 4).
+    pub children: u8,
+    /// Whether some child has children.
+    pub grandchildren: bool,
+}
+
+impl Word {
+    /// Packs the fields.
+    pub fn pack(&self) -> u32 {
+        let count = match self.children {
+            0 => 0,
+            c => u32::from(c) - 1,
+        };
+        (u32::from(self.sphere) << SPHERE_SHIFT)
+            | (u32::from(self.normal) << NORMAL_SHIFT)
+            | (u32::from(self.cone) << CONE_SHIFT)
+            | if self.grandchildren { GRAND_BIT } else { 0 }
+            | count
+    }
+
+    /// Unpacks a word; `None` for impossible tree bits (grandchildren without children).
+    pub fn unpack(w: u32) -> Option<Self> {
+        let count = (w & 3) as u8;
+        let grandchildren = w & GRAND_BIT != 0;
+        let children = if count == 0 { 0 } else { count + 1 };
+        if children == 0 && grandchildren {
+            return None;
+        }
+        Some(Self {
+            sphere: (w >> SPHERE_SHIFT) as u16,
+            normal: ((w >> NORMAL_SHIFT) & 0x3fff) as u16,
+            cone: ((w >> CONE_SHIFT) & 3) as u8,
+            children,
+            grandchildren,
+        })
+    }
+}
+
+fn word_of(h: &Hierarchy, id: usize, sphere: u16) -> Word {
+    let n = &h.nodes[id];
+    let normal = quant::encode_normal(n.normal);
+    // Widen the cone by how far quantisation moved the normal.
+    let moved = quant::decode_normal(normal)
+        .dot(n.normal)
+        .clamp(-1.0, 1.0)
+        .acos();
+    Word {
+        sphere,
+        normal,
+        cone: quant::encode_cone(n.cone + moved),
+        children: n.children().len() as u8,
+        grandchildren: n
+            .children()
+            .iter()
+            .any(|&c| !h.nodes[c as usize].children().is_empty()),
+    }
+}
+
+fn color_of(h: &Hierarchy, id: usize) -> u16 {
+    let c = h.nodes[id].color;
+    quant::encode_rgb565([c.x.round() as u8, c.y.round() as u8, c.z.round() as u8])
+}
+
+/// Subtrees this large are encoded in parallel.
+const PARALLEL: usize = 16_384;
+
+/// Encodes the children of node `id` (decoded sphere `parent`) and their subtrees; `decoded`
+/// and `words` cover the node's subtree without the node itself, nodes `start..id`.
+fn encode_children(
+    h: &Hierarchy,
+    start: usize,
+    id: usize,
+    decoded: &mut [(DVec3, f64)],
+    words: &mut [u32],
+    parent: (DVec3, f64),
+) {
+    let (pc, pr) = parent;
+    let mut tasks = Vec::with_capacity(4);
+    let (mut dec, mut wor, mut s) = (decoded, words, start);
+    for &c in h.nodes[id].children() {
+        let c = c as usize;
+        let (d_head, d_tail) = std::mem::take(&mut dec).split_at_mut(c + 1 - s);
+        let (w_head, w_tail) = std::mem::take(&mut wor).split_at_mut(c + 1 - s);
+        let node = &h.nodes[c];
+        // The child is inside the (outward-rounded) parent: an entry always exists; the
+        // parent's own cube (size 13) is the fallback.
+        let sphere = quant::encode_sphere(node.center, node.radius, pc, pr)
+            .unwrap_or_else(|| quant::sphere_table().1[(quant::N_GRID - 1) as usize]);
+        let own = quant::decode_sphere(sphere, pc, pr).unwrap_or((pc, pr));
+        let last = c - s;
+        d_head[last] = own;
+        w_head[last] = word_of(h, c, sphere).pack();
+        tasks.push((s, c, &mut d_head[..last], &mut w_head[..last], own));
+        (dec, wor, s) = (d_tail, w_tail, c + 1);
+    }
+    if id - start >= PARALLEL {
+        use rayon::prelude::*;
+        tasks
+            .into_par_iter()
+            .for_each(|(s, c, d, w, own)| encode_children(h, s, c, d, w, own));
+    } else {
+        for (s, c, d, w, own) in tasks {
+            encode_children(h, s, c, d, w, own);
+        }
+    }
+}
+
+impl QTree {
+    /// Quantises `h`; `colors` keeps RGB565 colours.
+    pub fn encode(h: &Hierarchy, colors: bool) -> Self {
+        Self::encode_with_spheres(h, colors).0
+    }
+
+    /// Quantises `h` and also returns every hierarchy node's decoded sphere (for checks).
+    pub fn encode_with_spheres(h: &Hierarchy, colors: bool) -> (Self, Vec<(DVec3, f64)>) {
+        let root = h.root();
+        let n = h.nodes.len();
+        // Top-down over the contiguous subtrees, in parallel: every node's sphere relative to
+        // its parent's decoded sphere, its decoded sphere and its word.
+        let mut decoded: Vec<(DVec3, f64)> = vec![(DVec3::ZERO, 0.0); n];
+        let mut node_words = vec![0u32; n];
+        let root_sphere = (h.nodes[root].center, h.nodes[root].radius);
+        decoded[root] = root_sphere;
+        node_words[root] = word_of(h, root, 0).pack();
+        encode_children(
+            h,
+            0,
+            root,
+            &mut decoded[..root],
+            &mut node_words[..root],
+            root_sphere,
+        );
+
+        // Breadth-first list of sibling groups, by parent id.
+        let mut groups: Vec<usize> = Vec::new();
+        if !h.nodes[root].children().is_empty() {
+            groups.push(root);
+        }
+        let mut k = 0;
+        while k < groups.len() {
+            for &c in h.nodes[groups[k]].children() {
+                if !h.nodes[c as usize].children().is_empty() {
+                    groups.push(c as usize);
+                }
+            }
+            k += 1;
+        }
+        // Positions: a group with children needs an offset word.
+        let has_grand = |p: usize| {
+            h.nodes[p]
+                .children()
+                .iter()
+                .any(|&c| !h.nodes[c as usize].children().is_empty())
+        };
+        let mut pos = Vec::with_capacity(groups.len());
+        let mut group_of_parent = vec![u32::MAX; n];
+        let mut total = 0usize;
+        for (g, &p) in groups.iter().enumerate() {
+            pos.push(total);
+            group_of_parent[p] = g as u32;
+            total += usize::from(has_grand(p)) + h.nodes[p].children().len();
+        }
+        let mut words = vec![0u32; total];
+        let mut cols = colors.then(|| vec![0u16; total]);
+        for (g, &p) in groups.iter().enumerate() {
+            let kids = h.nodes[p].children();
+            let mut at = pos[g];
+            if has_grand(p) {
+                let first = kids
+                    .iter()
+                    .find(|&&c| !h.nodes[c as usize].children().is_empty());
+                words[at] = first.map_or(0, |&f| pos[group_of_parent[f as usize] as usize] as u32);
+                at += 1;
+            }
+            for &id in kids {
+                words[at] = node_words[id as usize];
+                if let Some(c) = cols.as_mut() {
+                    c[at] = color_of(h, id as usize);
+                }
+                at += 1;
+            }
+        }
+        let tree = Self {
+            n_points: u64::from(h.nodes[root].leaves),
+            root_center: root_sphere.0,
+            root_radius: root_sphere.1,
+            root_word: node_words[root],
+            words,
+            colors: cols,
+            root_color: if colors { color_of(h, root) } else { 0 },
+        };
+        (tree, decoded)
+    }
+
+    /// Size in bytes of the node data as the original counts it (4 bytes a node or offset,
+    /// plus 2 bytes a node for colour), without the file header.
+    pub fn payload_bytes(&self) -> usize {
+        let nodes = 1 + self.words.len();
+        4 * nodes + if self.colors.is_some() { 2 * nodes } else { 0 }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn word_packing_round_trip() {
+        for children in [0u8, 2, 3, 4] {
+            for grandchildren in [false, true] {
+                if children == 0 && grandchildren {
+                    continue;
+                }
+                let w = Word {
+                    sphere: 7_620,
+                    normal: 16_223,
+                    cone: 3,
+                    children,
+                    grandchildren,
+                };
+                assert_eq!(Word::unpack(w.pack()), Some(w));
+            }
+        }
+        assert_eq!(Word::unpack(GRAND_BIT), None);
+    }
+}

@@ -1,0 +1,384 @@
+//! The point hierarchy of a sequential point tree and its error metrics (seed 002 §5.3.1–5.3.2;
+//! Dachsbacher, Vogelgsang and Stamminger, "Sequential Point Trees", SIGGRAPH 2003, §3).
+//!
+//! An octree over the points (seed 002 §5.3.1): a cell is split into its eight octants until one
+//! point is left; chains of cells with a single occupied octant are collapsed, so every inner
+//! node has two to eight children; coincident points are split by position in the list. Each
+//! node approximates its subtree by a disc:
+//! - centre c: the mean of its points; normal n: the normalised mean of its points' normals;
+//!   diameter d: that of the sphere around c enclosing its children's spheres (leaves: the
+//!   leaf diameter given);
+//! - perpendicular error (eq. 5.1, 5.2): e_p = max_i((c_i − c)·n + d_i) − min_i((c_i − c)·n −
+//!   d_i) with d_i = r_i·sqrt(1 − (n_i·n)²), r_i the child's radius: the thickness of the slab
+//!   parallel to the disc that holds the children's discs;
+//! - tangential error: the children's discs projected onto the node's plane, measured between
+//!   pairs of parallel lines in [`E_T_DIRECTIONS`] directions; e_t = d minus the narrowest such
+//!   interval, clamped at 0 (seed 002 §5.3.2: "e_t is the parent disc's diameter minus the
+//!   smallest interval between lines");
+//! - geometric error (eq. 5.5): e_g = sqrt(e_p² + e_t²); leaves have e_g = 0.
+//!
+//! NOTE (as the original): errors are made monotone, e_g(parent) ≥ e_g(child), so that a node's
+//! interval [r_min, r_max] lies below its parent's. NOTE (addition, for the exact equivalence
+//! of the sequential and recursive cuts, see [`crate::list`]): each node also keeps the
+//! axis-aligned box of its leaves' discs (leaf: point ± leaf radius; inner node: the union of
+//! its children's boxes, computed with min/max and therefore exactly nested in f32).
+
+use cloud::glam::{DVec3, Vec3};
+
+/// Directions of the tangential-error lines (spread over half a turn).
+pub const E_T_DIRECTIONS: usize = 16;
+
+/// A node of the hierarchy (f32, as stored for rendering).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Node {
+    /// Disc and bounding-sphere centre.
+    pub center: Vec3,
+    /// Unit normal.
+    pub normal: Vec3,
+    /// Diameter of the disc (= of the bounding sphere).
+    pub diameter: f32,
+    /// Perpendicular error.
+    pub e_p: f32,
+    /// Tangential error.
+    pub e_t: f32,
+    /// Geometric error, made monotone up the tree.
+    pub e_g: f32,
+    /// Mean colour in [0, 1].
+    pub color: Vec3,
+    /// Children (arena indices).
+    pub children: Vec<u32>,
+    /// Leaves below.
+    pub leaves: u32,
+    /// Lower corner of the box of the leaf discs below.
+    pub lo: Vec3,
+    /// Upper corner of that box.
+    pub hi: Vec3,
+}
+
+impl Node {
+    /// Bounding-sphere radius.
+    pub fn radius(&self) -> f32 {
+        0.5 * self.diameter
+    }
+}
+
+/// The hierarchy: an arena whose last node is the root, positions relative to `origin`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Hierarchy {
+    /// The world position of the local origin (node centres are relative to it, in f32).
+    pub origin: DVec3,
+    /// Nodes; children before parents.
+    pub nodes: Vec<Node>,
+}
+
+impl Hierarchy {
+    /// The root's index.
+    pub fn root(&self) -> usize {
+        self.nodes.len() - 1
+    }
+}
+
+/// What the build needs.
+#[derive(Debug, Clone, Copy)]
+pub struct Input<'a> {
+    /// Positions.
+    pub positions: &'a [DVec3],
+    /// Unit normals.
+    pub normals: &'a [Vec3],
+    /// Colours in [0, 255], if any.
+    pub colors: Option<&'a [[u8; 3]]>,
+    /// Leaf disc diameter.
+    pub leaf_diameter: f64,
+}
+
+const PARALLEL: usize = 16_384;
+
+/// Builds the hierarchy.
+pub fn build(input: &Input<'_>) -> Hierarchy {
+    let bbox = cloud::Aabb::from_points(input.positions).unwrap_or(cloud::Aabb {
+        min: DVec3::ZERO,
+        max: DVec3::ZERO,
+    });
+    let origin = bbox.center();
+    let half = 0.5 * bbox.extent().max_element().max(1e-300);
+    let mut items: Vec<u32> = (0..input.positions.len() as u32).collect();
+    let nodes = build_cell(
+        input,
+        origin,
+        &mut items,
+        bbox.center(),
+        half * (1.0 + 1e-9),
+        0,
+    );
+    Hierarchy { origin, nodes }
+}
+
+/// Builds the subtree of the points `items`, all inside the cube (centre, half side).
+fn build_cell(
+    input: &Input<'_>,
+    origin: DVec3,
+    items: &mut [u32],
+    center: DVec3,
+    half: f64,
+    depth: u32,
+) -> Vec<Node> {
+    if items.len() == 1 {
+        return vec![leaf(input, origin, items[0])];
+    }
+    // Partition into octants; collapse single-octant chains; split coincident points by list.
+    let mut groups: Vec<(usize, usize, DVec3)> = Vec::new();
+    let (mut c, mut h) = (center, half);
+    for _ in 0..64 {
+        let octant = |i: &u32| {
+            let p = input.positions[*i as usize];
+            usize::from(p.x >= c.x)
+                | (usize::from(p.y >= c.y) << 1)
+                | (usize::from(p.z >= c.z) << 2)
+        };
+        items.sort_unstable_by_key(octant);
+        groups.clear();
+        let mut start = 0;
+        while start < items.len() {
+            let o = octant(&items[start]);
+            let mut end = start;
+            while end < items.len() && octant(&items[end]) == o {
+                end += 1;
+            }
+            let oc = c + DVec3::new(
+                if o & 1 != 0 { 0.5 * h } else { -0.5 * h },
+                if o & 2 != 0 { 0.5 * h } else { -0.5 * h },
+                if o & 4 != 0 { 0.5 * h } else { -0.5 * h },
+            );
+            groups.push((start, end, oc));
+            start = end;
+        }
+        if groups.len() > 1 {
+            break;
+        }
+        c = groups[0].2;
+        h *= 0.5;
+    }
+    if groups.len() == 1 {
+        // Coincident points: halves by list position.
+        let m = items.len() / 2;
+        groups = vec![(0, m, c), (m, items.len(), c)];
+        h *= 2.0;
+    }
+    let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(groups.len());
+    let mut rest: &mut [u32] = items;
+    let mut consumed = 0;
+    for &(s, e, oc) in &groups {
+        let (head, tail) = rest.split_at_mut(e - consumed);
+        debug_assert_eq!(s, consumed);
+        slices.push((head, oc));
+        rest = tail;
+        consumed = e;
+    }
+    let total: usize = slices.iter().map(|s| s.0.len()).sum();
+    let subtrees: Vec<Vec<Node>> = if total >= PARALLEL {
+        use rayon::prelude::*;
+        slices
+            .into_par_iter()
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, depth + 1))
+            .collect()
+    } else {
+        slices
+            .into_iter()
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, depth + 1))
+            .collect()
+    };
+    let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
+    let mut children = Vec::with_capacity(subtrees.len());
+    for sub in subtrees {
+        let offset = nodes.len() as u32;
+        let n = sub.len() as u32;
+        nodes.extend(sub.into_iter().map(|mut node| {
+            for k in &mut node.children {
+                *k += offset;
+            }
+            node
+        }));
+        children.push(offset + n - 1);
+    }
+    let parent = parent_of(&nodes, children);
+    nodes.push(parent);
+    nodes
+}
+
+fn leaf(input: &Input<'_>, origin: DVec3, i: u32) -> Node {
+    let color = input.colors.map_or(Vec3::splat(0.75), |c| {
+        let c = c[i as usize];
+        Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0
+    });
+    let center = (input.positions[i as usize] - origin).as_vec3();
+    let half = 0.5 * input.leaf_diameter as f32;
+    Node {
+        center,
+        normal: input.normals[i as usize].normalize_or(Vec3::Z),
+        diameter: input.leaf_diameter as f32,
+        e_p: 0.0,
+        e_t: 0.0,
+        e_g: 0.0,
+        color,
+        children: Vec::new(),
+        leaves: 1,
+        lo: center - half,
+        hi: center + half,
+    }
+}
+
+fn parent_of(nodes: &[Node], children: Vec<u32>) -> Node {
+    let kids: Vec<&Node> = children.iter().map(|&k| &nodes[k as usize]).collect();
+    let leaves: u32 = kids.iter().map(|k| k.leaves).sum();
+    let w = |k: &Node| k.leaves as f32 / leaves as f32;
+    let center: Vec3 = kids.iter().map(|k| k.center * w(k)).sum();
+    let normal = kids
+        .iter()
+        .map(|k| k.normal * w(k))
+        .sum::<Vec3>()
+        .normalize_or(kids[0].normal);
+    let color: Vec3 = kids.iter().map(|k| k.color * w(k)).sum();
+    // The sphere around c enclosing the children's spheres.
+    let diameter = 2.0
+        * kids
+            .iter()
+            .map(|k| (k.center - center).length() + k.radius())
+            .fold(0.0f32, f32::max);
+    let lo = kids.iter().fold(Vec3::INFINITY, |a, k| a.min(k.lo));
+    let hi = kids.iter().fold(Vec3::NEG_INFINITY, |a, k| a.max(k.hi));
+    let e_p = perpendicular_error(center, normal, &kids);
+    let e_t = tangential_error(center, normal, diameter, &kids);
+    let e_g = (e_p * e_p + e_t * e_t)
+        .sqrt()
+        .max(kids.iter().map(|k| k.e_g).fold(0.0, f32::max));
+    Node {
+        center,
+        normal,
+        diameter,
+        e_p,
+        e_t,
+        e_g,
+        color,
+        children,
+        leaves,
+        lo,
+        hi,
+    }
+}
+
+/// Eq. 5.1–5.2: the thickness of the slab parallel to the disc (c, n) holding the children's
+/// discs.
+pub fn perpendicular_error(c: Vec3, n: Vec3, kids: &[&Node]) -> f32 {
+    let (mut hi, mut lo) = (f32::NEG_INFINITY, f32::INFINITY);
+    for k in kids {
+        let d_i = k.radius() * (1.0 - k.normal.dot(n).powi(2)).max(0.0).sqrt();
+        let h = (k.center - c).dot(n);
+        hi = hi.max(h + d_i);
+        lo = lo.min(h - d_i);
+    }
+    hi - lo
+}
+
+/// The tangential error: the disc's diameter minus the narrowest interval, over
+/// [`E_T_DIRECTIONS`] directions in the disc's plane, holding the children's discs projected
+/// onto the plane; at least 0.
+pub fn tangential_error(c: Vec3, n: Vec3, diameter: f32, kids: &[&Node]) -> f32 {
+    let a = n.any_orthonormal_vector();
+    let b = n.cross(a);
+    let mut narrowest = f32::INFINITY;
+    for k in 0..E_T_DIRECTIONS {
+        let angle = std::f32::consts::PI * k as f32 / E_T_DIRECTIONS as f32;
+        let u = a * angle.cos() + b * angle.sin();
+        let (mut hi, mut lo) = (f32::NEG_INFINITY, f32::INFINITY);
+        for kid in kids {
+            // Support of a disc (radius r, normal m) in the in-plane direction u.
+            let h = kid.radius() * (1.0 - kid.normal.dot(u).powi(2)).max(0.0).sqrt();
+            let x = (kid.center - c).dot(u);
+            hi = hi.max(x + h);
+            lo = lo.min(x - h);
+        }
+        narrowest = narrowest.min(hi - lo);
+    }
+    (diameter - narrowest).max(0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn disc(center: Vec3, normal: Vec3, diameter: f32) -> Node {
+        let h = Vec3::splat(0.5 * diameter);
+        Node {
+            center,
+            normal,
+            diameter,
+            e_p: 0.0,
+            e_t: 0.0,
+            e_g: 0.0,
+            color: Vec3::ONE,
+            children: vec![],
+            leaves: 1,
+            lo: center - h,
+            hi: center + h,
+        }
+    }
+
+    #[test]
+    fn flat_children_have_no_perpendicular_error() {
+        let kids = [
+            disc(Vec3::new(-1.0, 0.0, 0.0), Vec3::Z, 0.2),
+            disc(Vec3::new(1.0, 0.0, 0.0), Vec3::Z, 0.2),
+        ];
+        let refs: Vec<&Node> = kids.iter().collect();
+        assert_eq!(perpendicular_error(Vec3::ZERO, Vec3::Z, &refs), 0.0);
+        // Tilted children: each contributes r·sin(tilt) on both sides.
+        let t = Vec3::new(0.6, 0.0, 0.8);
+        let kids = [
+            disc(Vec3::ZERO, t, 1.0),
+            disc(Vec3::new(0.0, 1.0, 0.5), Vec3::Z, 0.0),
+        ];
+        let refs: Vec<&Node> = kids.iter().collect();
+        let e = perpendicular_error(Vec3::ZERO, Vec3::Z, &refs);
+        assert!((e - (0.5 + 0.5 * 0.6)).abs() < 1e-6, "{e}");
+    }
+
+    #[test]
+    fn a_long_row_wastes_the_disc_across_it() {
+        // Children along x: the narrowest interval is across the row (about the children's
+        // diameter), so a parent disc of diameter 2.2 wastes 2.0 of it.
+        let kids: Vec<Node> = (0..5)
+            .map(|i| disc(Vec3::new(-1.0 + 0.5 * i as f32, 0.0, 0.0), Vec3::Z, 0.2))
+            .collect();
+        let refs: Vec<&Node> = kids.iter().collect();
+        let e = tangential_error(Vec3::ZERO, Vec3::Z, 2.2, &refs);
+        assert!((e - 2.0).abs() < 0.05, "{e}");
+    }
+
+    #[test]
+    fn hierarchy_is_sound() {
+        let pts = cloud::synth::fibonacci_sphere(3_000);
+        let normals: Vec<Vec3> = pts.iter().map(|p| p.as_vec3()).collect();
+        let h = build(&Input {
+            positions: &pts,
+            normals: &normals,
+            colors: None,
+            leaf_diameter: 0.05,
+        });
+        assert_eq!(h.nodes[h.root()].leaves, 3_000);
+        for n in &h.nodes {
+            assert!(n.children.is_empty() || (2..=8).contains(&n.children.len()));
+            for &k in &n.children {
+                let kid = &h.nodes[k as usize];
+                assert!(kid.e_g <= n.e_g, "monotone errors");
+                assert!(
+                    (kid.center - n.center).length() + kid.radius() <= n.radius() * (1.0 + 1e-6),
+                    "nested spheres"
+                );
+                assert!(
+                    kid.lo.cmpge(n.lo).all() && kid.hi.cmple(n.hi).all(),
+                    "nested boxes"
+                );
+            }
+        }
+    }
+}

@@ -1,0 +1,274 @@
+//! The sequential list (seed 002 §5.3.4; Dachsbacher et al. 2003, §4): the hierarchy flattened
+//! into one array that a view cuts with a sequential scan instead of a recursive traversal.
+//!
+//! For a threshold ε the recursive test "refine N while ẽ_g = e_g / r < ε fails", i.e. while
+//! r < r_min = e_g / ε, becomes per node the interval test r_min(N) ≤ r < r_max(N) with r_max
+//! the parent's r_min: a node is drawn when its parent is refined and it is not. Because r_max
+//! is the parent's e_g / ε, sorting the list by the parent's e_g in descending order is sorting
+//! by r_max in descending order for every ε; a view scans only the prefix whose r_max exceeds
+//! the object's nearest distance (a binary search), everything after it is too coarse to be
+//! refined from anywhere on the object.
+//!
+//! NOTE (deviation, so that the sequential cut selects *exactly* the recursive one, which the
+//! seed only claims): r is the distance from the eye to the node's box (the leaf discs' bounding
+//! box, quantised outwards to a 16-bit grid over the object), not to its centre. With the
+//! centre the child's r can be smaller than its parent's, and the original accepts the few
+//! overlaps and holes this gives; with nested boxes every ingredient of the test is monotone
+//! down the tree *in floating point* (nested integer boxes, monotone rounding of `lo − x`,
+//! `x − hi`, squares, sums and the product by ε²; e_g monotone by construction), so "parent
+//! refined" implies "every ancestor refined", which is what makes the two cuts identical. The
+//! test is evaluated squared, d² · ε² < e_g², in grid units, by one function, [`refined`],
+//! shared with the recursive traversal.
+//!
+//! Layout for the scan: groups of siblings (one header per parent: its box, its e_g², the
+//! range of its children) followed by 16-byte entries (box as 6 × u16, e_g² as f32); the splat
+//! attributes live in separate arrays in the same order and are only read for selected entries.
+//! The root is the single entry of a first group whose "parent" is always refined.
+
+use cloud::glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::hierarchy::Hierarchy;
+
+/// The largest grid coordinate of the quantised boxes.
+pub const GRID: f64 = 65_535.0;
+
+/// A box on the 16-bit grid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(C)]
+pub struct QBox {
+    /// Lower corner (rounded down).
+    pub lo: [u16; 3],
+    /// Upper corner (rounded up).
+    pub hi: [u16; 3],
+}
+
+/// Squared distance from `eye` (grid coordinates) to the box; 0 inside.
+#[inline(always)]
+pub fn dist2(b: &QBox, eye: Vec3) -> f32 {
+    let axis = |lo: u16, hi: u16, x: f32| {
+        let d = (lo as f32 - x).max(x - hi as f32).max(0.0);
+        d * d
+    };
+    axis(b.lo[0], b.hi[0], eye.x) + axis(b.lo[1], b.hi[1], eye.y) + axis(b.lo[2], b.hi[2], eye.z)
+}
+
+/// The SPT test: is a node with box `b` and squared error `e2` refined (its image-space error
+/// e_g / r at least ε) for the eye at `eye` and squared threshold `eps2`? Leaves (e_g = 0) never
+/// are.
+#[inline(always)]
+pub fn refined(b: &QBox, e2: f32, eye: Vec3, eps2: f32) -> bool {
+    dist2(b, eye) * eps2 < e2
+}
+
+/// Per-node quantised boxes and squared errors on the grid, shared by both traversals.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quantized {
+    /// World position of the grid's origin.
+    pub origin: DVec3,
+    /// World size of one grid step.
+    pub cell: f64,
+    /// The boxes, by hierarchy node.
+    pub boxes: Vec<QBox>,
+    /// e_g² in grid units, by hierarchy node.
+    pub e2: Vec<f32>,
+}
+
+impl Quantized {
+    /// Quantises the hierarchy's boxes and errors.
+    pub fn new(h: &Hierarchy) -> Self {
+        let root = &h.nodes[h.root()];
+        let lo = h.origin + root.lo.as_dvec3();
+        let extent = (root.hi - root.lo).as_dvec3().max_element();
+        let cell = (extent / GRID).max(f64::MIN_POSITIVE);
+        let q = |x: f64, up: bool| {
+            let g = (x / cell).clamp(0.0, GRID);
+            (if up { g.ceil() } else { g.floor() }) as u16
+        };
+        let boxes = h
+            .nodes
+            .iter()
+            .map(|n| {
+                let a = h.origin + n.lo.as_dvec3() - lo;
+                let b = h.origin + n.hi.as_dvec3() - lo;
+                QBox {
+                    lo: [q(a.x, false), q(a.y, false), q(a.z, false)],
+                    hi: [q(b.x, true), q(b.y, true), q(b.z, true)],
+                }
+            })
+            .collect();
+        let e2 = h
+            .nodes
+            .iter()
+            .map(|n| (f64::from(n.e_g) / cell).powi(2) as f32)
+            .collect();
+        Self {
+            origin: lo,
+            cell,
+            boxes,
+            e2,
+        }
+    }
+
+    /// The eye in grid coordinates.
+    pub fn eye(&self, eye: DVec3) -> Vec3 {
+        ((eye - self.origin) / self.cell).as_vec3()
+    }
+}
+
+/// One entry of the list: a node's box and squared error (16 bytes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
+pub struct Entry {
+    /// The node's box.
+    pub b: QBox,
+    /// e_g² in grid units.
+    pub e2: f32,
+}
+
+/// The header of a group of siblings: their parent's box and error, their range.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
+pub struct Group {
+    /// The parent's box.
+    pub b: QBox,
+    /// The parent's e_g² (its r_min · ε, squared, is the children's r_max · ε).
+    pub e2: f32,
+    /// First entry.
+    pub start: u32,
+    /// One past the last entry.
+    pub end: u32,
+}
+
+/// What one cut did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct CutStats {
+    /// Groups in the scanned prefix.
+    pub groups: usize,
+    /// List entries in the scanned prefix.
+    pub entries: usize,
+    /// Entries whose own test ran (their parent was refined).
+    pub tested: usize,
+    /// Entries selected.
+    pub selected: usize,
+}
+
+/// The sequential list.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SequentialList {
+    /// Group headers, sorted by the parent's e_g descending.
+    pub groups: Vec<Group>,
+    /// Entries, group after group.
+    pub entries: Vec<Entry>,
+    /// The hierarchy node of each entry.
+    pub node: Vec<u32>,
+}
+
+const CHUNK_GROUPS: usize = 16_384;
+
+impl SequentialList {
+    /// Flattens the hierarchy.
+    pub fn new(h: &Hierarchy, q: &Quantized) -> Self {
+        let root = h.root();
+        // (parent e2, parent id) per group; the root's pseudo-parent sorts first.
+        let mut parents: Vec<(f32, usize)> = h
+            .nodes
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| !n.children.is_empty())
+            .map(|(i, _)| (q.e2[i], i))
+            .collect();
+        parents.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut groups = Vec::with_capacity(parents.len() + 1);
+        let mut entries = Vec::with_capacity(h.nodes.len());
+        let mut node = Vec::with_capacity(h.nodes.len());
+        let mut push = |b: QBox, e2: f32, kids: &mut dyn Iterator<Item = usize>| {
+            let start = entries.len() as u32;
+            for k in kids {
+                entries.push(Entry {
+                    b: q.boxes[k],
+                    e2: q.e2[k],
+                });
+                node.push(k as u32);
+            }
+            groups.push(Group {
+                b,
+                e2,
+                start,
+                end: entries.len() as u32,
+            });
+        };
+        push(q.boxes[root], f32::INFINITY, &mut std::iter::once(root));
+        for (e2, p) in parents {
+            push(
+                q.boxes[p],
+                e2,
+                &mut h.nodes[p].children.iter().map(|&k| k as usize),
+            );
+        }
+        Self {
+            groups,
+            entries,
+            node,
+        }
+    }
+
+    /// The number of groups a cut must scan: those whose parent could be refined somewhere on
+    /// the object, i.e. e_g² > d²(eye, root box) · ε².
+    pub fn prefix(&self, root: &QBox, eye: Vec3, eps2: f32) -> usize {
+        let bound = dist2(root, eye) * eps2;
+        // The first group (the root's) is always scanned.
+        1 + self.groups[1..].partition_point(|g| g.e2 > bound)
+    }
+
+    /// Appends the entries of the cut (ascending) to `out`; scans in parallel for long
+    /// prefixes.
+    pub fn cut_into(&self, root: &QBox, eye: Vec3, eps2: f32, out: &mut Vec<u32>) -> CutStats {
+        let n = self.prefix(root, eye, eps2);
+        let groups = &self.groups[..n];
+        let entries = groups.last().map_or(0, |g| g.end as usize);
+        let mut stats = CutStats {
+            groups: n,
+            entries,
+            ..CutStats::default()
+        };
+        if n <= CHUNK_GROUPS {
+            stats.tested = self.scan(groups, eye, eps2, out);
+        } else {
+            let parts: Vec<(Vec<u32>, usize)> = groups
+                .par_chunks(CHUNK_GROUPS)
+                .map(|chunk| {
+                    let mut part = Vec::new();
+                    let tested = self.scan(chunk, eye, eps2, &mut part);
+                    (part, tested)
+                })
+                .collect();
+            out.reserve(parts.iter().map(|p| p.0.len()).sum());
+            for (part, tested) in parts {
+                out.extend_from_slice(&part);
+                stats.tested += tested;
+            }
+        }
+        stats.selected = out.len();
+        stats
+    }
+
+    /// The sequential scan of some groups; returns the number of entries tested.
+    fn scan(&self, groups: &[Group], eye: Vec3, eps2: f32, out: &mut Vec<u32>) -> usize {
+        let mut tested = 0;
+        for g in groups {
+            if !refined(&g.b, g.e2, eye, eps2) {
+                continue;
+            }
+            let (s, e) = (g.start as usize, g.end as usize);
+            tested += e - s;
+            out.reserve(e - s);
+            for (i, entry) in self.entries[s..e].iter().enumerate() {
+                if !refined(&entry.b, entry.e2, eye, eps2) {
+                    out.push((s + i) as u32);
+                }
+            }
+        }
+        tested
+    }
+}
