@@ -149,14 +149,14 @@ pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<S
         }
         // Children: the group at `children_at`, after its offset word if it has one.
         let group = it.children_at;
-        let mut at = group + usize::from(it.word.grandchildren);
+        let first = group + usize::from(it.word.grandchildren);
         let mut grand_at = if it.word.grandchildren {
             tree.words[group] as usize
         } else {
             0
         };
         let mut kids = Vec::with_capacity(4);
-        for _ in 0..it.word.children {
+        for at in first..first + usize::from(it.word.children) {
             let Some(w) = Word::unpack(tree.words[at]) else {
                 break;
             };
@@ -176,7 +176,6 @@ pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<S
             if w.children > 0 {
                 grand_at += usize::from(w.grandchildren) + w.children as usize;
             }
-            at += 1;
         }
         // Depth first, children in order.
         stack.extend(kids.into_iter().rev());

@@ -108,7 +108,6 @@ pub fn build(input: &Input<'_>) -> Hierarchy {
         &mut items,
         bbox.center(),
         half * (1.0 + 1e-9),
-        0,
     );
     Hierarchy { origin, nodes }
 }
@@ -120,7 +119,6 @@ fn build_cell(
     items: &mut [u32],
     center: DVec3,
     half: f64,
-    depth: u32,
 ) -> Vec<Node> {
     if items.len() == 1 {
         return vec![leaf(input, origin, items[0])];
@@ -179,12 +177,12 @@ fn build_cell(
         use rayon::prelude::*;
         slices
             .into_par_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, depth + 1))
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h))
             .collect()
     } else {
         slices
             .into_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, depth + 1))
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h))
             .collect()
     };
     let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
