@@ -40,8 +40,16 @@ pub const DRAGON_MESH: MeshFile = MeshFile {
     sha256: "f633bdfaac7a0f99e0fab668c34862f0c26f341cfdb4665bab282d79b788db02",
 };
 
+/// The Armadillo as CGAL ships it (26,002 vertices, 52,000 triangles): the real mesh standing
+/// in for seed 003's gargoyle.
+pub const ARMADILLO_MESH: MeshFile = MeshFile {
+    file: "armadillo.off",
+    archive_path: "data/meshes/armadillo.off",
+    sha256: "6f7f3ca1abc506569466b72f2f59d49493a284e7376d7a7e23c08115ec8cec4e",
+};
+
 /// Every mesh `pointsight fetch` provides.
-pub const MESH_FILES: &[MeshFile] = &[BUNNY_MESH, DRAGON_MESH];
+pub const MESH_FILES: &[MeshFile] = &[BUNNY_MESH, DRAGON_MESH, ARMADILLO_MESH];
 
 /// Where a dataset's points come from.
 #[derive(Debug, Clone, Copy)]
@@ -101,6 +109,10 @@ fn torus() -> Result<Scene> {
     Ok(torus_scene(22_321, 22_321)?)
 }
 
+fn vase() -> Result<Scene> {
+    Ok(cloud::synth::vase_scene(7_171, 7_171)?)
+}
+
 /// Every dataset, in listing order.
 pub const REGISTRY: &[DatasetInfo] = &[
     DatasetInfo {
@@ -146,6 +158,22 @@ pub const REGISTRY: &[DatasetInfo] = &[
         n_points: 22_321,
         description: "synthetic: area-weighted samples of a torus with texture coordinates",
         source: Source::Synthetic(torus),
+    },
+    DatasetInfo {
+        name: "vase-7171",
+        n_points: 7_171,
+        description: "synthetic: area-weighted samples of a vase-like surface of revolution with texture coordinates, seed 003's vase size",
+        source: Source::Synthetic(vase),
+    },
+    DatasetInfo {
+        name: "armadillo-200004",
+        n_points: 200_004,
+        description: "area-weighted samples of CGAL's armadillo.off (seed 200004), seed 003's gargoyle size",
+        source: Source::MeshSamples {
+            mesh: ARMADILLO_MESH,
+            n: 200_004,
+            seed: 200_004,
+        },
     },
 ];
 

@@ -83,7 +83,8 @@ impl Texture {
 }
 
 /// A high-contrast flower pattern: a `tiles × tiles` grid of five-petal flowers (saturated
-/// petals with dark outlines, a yellow heart) on a dark green ground, `size × size` pixels.
+/// petals with dark outlines and veins, a yellow heart) on a plain dark green ground,
+/// `size × size` pixels; the flowers cover about 60 % of the area.
 pub fn flower(size: usize, tiles: usize) -> Texture {
     let size = size.max(1);
     let tiles = tiles.max(1);
@@ -111,8 +112,6 @@ pub fn flower(size: usize, tiles: usize) -> Texture {
                 }
             } else if r < petal {
                 [30, 10, 20]
-            } else if ((cx * 9.0).sin() * (cy * 9.0).sin()).abs() < 0.05 {
-                [70, 130, 50]
             } else {
                 [25, 70, 30]
             };

@@ -19,7 +19,6 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::time::Instant;
 
 use anyhow::Result;
 use cloud::Camera;
@@ -29,7 +28,7 @@ use serde::{Deserialize, Serialize};
 use splat::{SplatParams, SplatScratch, Splatter};
 use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
-use super::{Context, Experiment, markdown_table};
+use super::{Context, Experiment, markdown_table, timed};
 use crate::datasets;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
@@ -129,22 +128,6 @@ fn is_auto(params: &str) -> bool {
 }
 
 /// Runs `f` once, and twice more if it took under a tenth of a second; returns the median time.
-fn timed<T>(mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
-    let mut times = Vec::with_capacity(3);
-    let start = Instant::now();
-    let mut out = f()?;
-    times.push(start.elapsed().as_secs_f64());
-    if times[0] < 0.1 {
-        for _ in 0..2 {
-            let start = Instant::now();
-            out = f()?;
-            times.push(start.elapsed().as_secs_f64());
-        }
-    }
-    times.sort_by(f64::total_cmp);
-    Ok((out, times[times.len() / 2]))
-}
-
 struct Run {
     method: &'static str,
     params: String,
