@@ -93,6 +93,35 @@ fn benches(c: &mut Criterion) {
         );
     }
     g.finish();
+
+    // SRN: marble texture through the spherical parameterisation, as the lod experiment does.
+    let texture = srn::texture::marble(512, 2006);
+    let map = srn::masking_map(&texture, &srn::MaskingParams::default()).expect("masking");
+    c.bench_function("srn-masking-map 512x512", |b| {
+        b.iter(|| srn::masking_map(black_box(&texture), &srn::MaskingParams::default()))
+    });
+    let center = cloud::Aabb::from_points(&cloud.positions)
+        .expect("bbox")
+        .center();
+    let uvs = srn::param::spherical_uvs(&cloud.positions, center);
+    let srn = srn::Srn::new(&uvs, &map, 2006).expect("srn");
+    let mut g = c.benchmark_group("srn-select");
+    g.sample_size(50);
+    g.throughput(Throughput::Elements(cloud.len() as u64));
+    let mut kept = Vec::new();
+    for scale in [1.0f32, 4.0] {
+        let params = srn::SrnParams {
+            scale,
+            ..Default::default()
+        };
+        g.bench_function(format!("{name} scale {scale}"), |b| {
+            b.iter(|| {
+                srn.select_into(black_box(&params), &mut kept)
+                    .expect("select")
+            })
+        });
+    }
+    g.finish();
 }
 
 criterion_group!(lod_benches, benches);

@@ -90,6 +90,10 @@ pub enum Command {
         /// Quick mode for every experiment.
         #[arg(long)]
         quick: bool,
+        /// Comma-separated datasets for every experiment instead of their own lists (for
+        /// example the synthetic ones, which need no download).
+        #[arg(long, value_delimiter = ',')]
+        datasets: Option<Vec<String>>,
         /// Reports folder.
         #[arg(long, default_value = "reports")]
         reports: PathBuf,

@@ -163,18 +163,28 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 output::report::assemble(Path::new("reports"))?;
             }
         }
-        Command::Bench { quick, reports } => {
+        Command::Bench {
+            quick,
+            datasets: chosen,
+            reports,
+        } => {
             let start = std::time::Instant::now();
+            for name in chosen.iter().flatten() {
+                datasets::info(name)?;
+            }
             for exp in experiments::EXPERIMENTS {
                 let ctx = experiments::Context {
                     data_dir: data_dir.clone(),
                     out_dir: reports.join(exp.name()),
                     quick,
-                    datasets: exp
-                        .default_datasets(quick)
-                        .iter()
-                        .map(|s| s.to_string())
-                        .collect(),
+                    datasets: match &chosen {
+                        Some(list) => list.clone(),
+                        None => exp
+                            .default_datasets(quick)
+                            .iter()
+                            .map(|s| s.to_string())
+                            .collect(),
+                    },
                 };
                 eprintln!("== {} ({})", exp.name(), exp.summary());
                 let t = std::time::Instant::now();

@@ -326,10 +326,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                 .iter()
                 .map(|&i| {
                     let i = i as usize;
-                    p.point_splat(
-                        i,
-                        p.ref_radius * f64::from(p.srn.radius_factor(i, &params)),
-                    )
+                    p.point_splat(i, p.ref_radius * f64::from(p.srn.radius_factor(i, &params)))
                 })
                 .collect(),
             seconds,
@@ -503,10 +500,7 @@ fn measure_dataset(
     let ds = datasets::load(name, &ctx.data_dir)?;
     let p = prepare(name, ds.cloud.clone(), builds)?;
     let full = p.full_splats();
-    let bar = progress::bar(
-        (N_VIEWS * DISTANCES.len()) as u64,
-        format!("lod {name}"),
-    );
+    let bar = progress::bar((N_VIEWS * DISTANCES.len()) as u64, format!("lod {name}"));
     let mut strip: Vec<Panel> = Vec::new();
     for view in 0..N_VIEWS {
         for (d, &factor) in DISTANCES.iter().enumerate() {
@@ -517,11 +511,8 @@ fn measure_dataset(
             let crop = covered_box(&reference, 8);
             if keep_strip {
                 strip.push(
-                    panel(
-                        format!("reference: {} points", full.len()),
-                        &reference,
-                    )
-                    .crop(crop.0, crop.1, crop.2, crop.3),
+                    panel(format!("reference: {} points", full.len()), &reference)
+                        .crop(crop.0, crop.1, crop.2, crop.3),
                 );
             }
             let mut by_method: BTreeMap<&str, Vec<(usize, Panel)>> = BTreeMap::new();
@@ -649,6 +640,17 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
     let mut rows = Vec::new();
     let bar = progress::bar(SRN_MODELS.len() as u64, "lod srn table");
     for m in SRN_MODELS {
+        let info = datasets::info(m.dataset)?;
+        if let Some(mesh) = info.mesh_file()
+            && !datasets::mesh_path(&ctx.data_dir, &mesh).exists()
+        {
+            eprintln!(
+                "lod: {} is not fetched; the SRN table leaves out the {} row (run `pointsight fetch`)",
+                m.dataset, m.model
+            );
+            bar.inc(1);
+            continue;
+        }
         let ds = datasets::load(m.dataset, &ctx.data_dir)?;
         let texture = (m.texture)();
         let mut cloud = ds.cloud.clone();
@@ -659,7 +661,10 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
         let kept = srn.select(&params)?;
         let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1)?;
         let radius = REF_RADIUS * spacing;
-        let normals = cloud.normals.clone().context("the dataset has no normals")?;
+        let normals = cloud
+            .normals
+            .clone()
+            .context("the dataset has no normals")?;
         let colors = cloud.colors.clone().context("colours were just set")?;
         let splat = |i: usize, r: f64| Splat {
             center: cloud.positions[i],
@@ -700,10 +705,13 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
                 if (p - cam.eye).dot(normals[i].as_dvec3()) > 0.0 {
                     continue;
                 }
-                if let Some((x, y)) = cam.project(p).and_then(|q| q.pixel(cam.width, cam.height))
-                {
+                if let Some((x, y)) = cam.project(p).and_then(|q| q.pixel(cam.width, cam.height)) {
                     let k = 3 * (y * cam.width + x) as usize;
-                    let c = if kept_flag[i] { [20, 20, 20] } else { [215, 215, 215] };
+                    let c = if kept_flag[i] {
+                        [20, 20, 20]
+                    } else {
+                        [215, 215, 215]
+                    };
                     if kept_flag[i] || rgb[k] == 255 {
                         rgb[k..k + 3].copy_from_slice(&c);
                     }
@@ -891,7 +899,11 @@ fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow])
                     let mut s = Series::new(
                         format!("{m}, distance ×{d}"),
                         pts,
-                        if di == 0 { Mark::LinePoints } else { Mark::Points },
+                        if di == 0 {
+                            Mark::LinePoints
+                        } else {
+                            Mark::Points
+                        },
                     );
                     s.color = Some(mi);
                     out.push(s);
@@ -955,7 +967,15 @@ fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow])
     }
     summary.push_str("## Builds\n\n");
     summary.push_str(&markdown_table(
-        &["dataset", "method", "points", "seconds", "nodes", "bytes per point", "M points/s"],
+        &[
+            "dataset",
+            "method",
+            "points",
+            "seconds",
+            "nodes",
+            "bytes per point",
+            "M points/s",
+        ],
         &builds
             .iter()
             .map(|b| {
@@ -1076,7 +1096,9 @@ mod tests {
 
     #[test]
     fn identical_images_score_perfectly() {
-        let a = image(32, 32, |x, y| (x > 4 && y > 4).then_some([x as u8 * 7, 90, 30]));
+        let a = image(32, 32, |x, y| {
+            (x > 4 && y > 4).then_some([x as u8 * 7, 90, 30])
+        });
         assert_eq!(psnr(&a, &a), 100.0);
         assert!((ssim(&a, &a) - 1.0).abs() < 1e-12);
         assert_eq!(hole_fraction(&a, &a), 0.0);

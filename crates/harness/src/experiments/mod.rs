@@ -73,6 +73,10 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
 }
 
 /// Runs `exp`: measure, write metadata, render.
+///
+/// Everything is written into a staging folder beside the output folder
+/// (`.NAME.partial`), which replaces the output folder only when the experiment has finished:
+/// an interrupted run leaves the previous results as they were.
 pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
     let start = Instant::now();
     let mut meta = RunMeta::now(
@@ -81,12 +85,41 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
         &ctx.datasets,
         serde_json::Value::Null,
     );
-    std::fs::create_dir_all(&ctx.out_dir)
-        .with_context(|| format!("cannot create {}", ctx.out_dir.display()))?;
-    meta.parameters = exp.measure(ctx)?;
+    let out = &ctx.out_dir;
+    let file_name = out
+        .file_name()
+        .with_context(|| format!("{} has no folder name", out.display()))?
+        .to_string_lossy()
+        .into_owned();
+    let staging = out.with_file_name(format!(".{file_name}.partial"));
+    let previous = out.with_file_name(format!(".{file_name}.previous"));
+    for stale in [&staging, &previous] {
+        if stale.exists() {
+            std::fs::remove_dir_all(stale)
+                .with_context(|| format!("cannot remove {}", stale.display()))?;
+        }
+    }
+    std::fs::create_dir_all(&staging)
+        .with_context(|| format!("cannot create {}", staging.display()))?;
+    let staged = Context {
+        out_dir: staging.clone(),
+        ..ctx.clone()
+    };
+    meta.parameters = exp.measure(&staged)?;
     meta.seconds = start.elapsed().as_secs_f64();
-    meta.write(&ctx.out_dir)?;
-    exp.render(&ctx.out_dir)
+    meta.write(&staging)?;
+    exp.render(&staging)?;
+    if out.exists() {
+        std::fs::rename(out, &previous)
+            .with_context(|| format!("cannot move {} aside", out.display()))?;
+    }
+    std::fs::rename(&staging, out)
+        .with_context(|| format!("cannot move {} into place", out.display()))?;
+    if previous.exists() {
+        std::fs::remove_dir_all(&previous)
+            .with_context(|| format!("cannot remove {}", previous.display()))?;
+    }
+    Ok(())
 }
 
 /// Markdown table from a header and rows.
@@ -119,4 +152,3 @@ pub(crate) fn timed<T>(mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
     times.sort_by(f64::total_cmp);
     Ok((out, times[times.len() / 2]))
 }
-

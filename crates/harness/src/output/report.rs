@@ -58,6 +58,47 @@ pub fn assemble(reports_dir: &Path) -> Result<()> {
          `pointsight tables` regenerates every table and plot from those CSVs without \
          re-running anything. Each section names the run it comes from.\n\n",
     );
+    // The machine and revision of the most recent run, for the reader who reads nothing else.
+    let latest = EXPERIMENTS
+        .iter()
+        .filter_map(|e| RunMeta::read(&reports_dir.join(e.name())).ok())
+        .max_by(|a, b| a.date_utc.cmp(&b.date_utc));
+    if let Some(m) = latest {
+        let total: f64 = EXPERIMENTS
+            .iter()
+            .filter_map(|e| RunMeta::read(&reports_dir.join(e.name())).ok())
+            .map(|m| m.seconds)
+            .sum();
+        page.push_str(&format!(
+            "## Run
+
+             | | |
+|---|---|
+             | date (UTC) | {} |
+| git revision | `{}`{} |
+| rustc | {} |
+| CPU | {} |
+             | cores | {} |
+| OS | {} |
+| mode | {} |
+| total measured time | {:.0} s |
+
+",
+            m.date_utc,
+            m.git_revision,
+            if m.git_dirty {
+                " (uncommitted changes)"
+            } else {
+                ""
+            },
+            m.rustc,
+            m.cpu,
+            m.cores,
+            m.os,
+            if m.quick { "quick" } else { "full" },
+            total
+        ));
+    }
     let mut contents = String::from("## Contents\n\n");
     let mut sections = String::new();
     for exp in EXPERIMENTS {
