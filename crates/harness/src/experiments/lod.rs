@@ -622,18 +622,6 @@ fn texture_rgb(t: &Texture) -> Vec<u8> {
     t.pixels().iter().flatten().copied().collect()
 }
 
-fn median_ms(mut f: impl FnMut()) -> f64 {
-    let mut times: Vec<f64> = (0..5)
-        .map(|_| {
-            let start = Instant::now();
-            f();
-            start.elapsed().as_secs_f64() * 1e3
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[2]
-}
-
 fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
     let dir = ctx.out_dir.join("srn");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -686,14 +674,9 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
             .collect();
         let cam = *ds.view(0)?;
         let rp = render_params();
-        let img_before = render(&before, &cam, &rp);
-        let img_after = render(&after, &cam, &rp);
-        let ms_before = median_ms(|| {
-            std::hint::black_box(render(&before, &cam, &rp));
-        });
-        let ms_after = median_ms(|| {
-            std::hint::black_box(render(&after, &cam, &rp));
-        });
+        let (img_before, s_before) = timed(|| Ok(render(&before, &cam, &rp)))?;
+        let (img_after, s_after) = timed(|| Ok(render(&after, &cam, &rp)))?;
+        let (ms_before, ms_after) = (1e3 * s_before, 1e3 * s_after);
         // The kept points as dots, the discarded ones faint.
         let dots = |sel: &[u32]| {
             let mut rgb = vec![255u8; 3 * (cam.width * cam.height) as usize];
@@ -987,6 +970,12 @@ fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow])
                     b.nodes.to_string(),
                     if b.bytes_per_point > 0.0 {
                         format!("{:.2}", b.bytes_per_point)
+                    } else {
+                        "-".into()
+                    },
+                    // QSplat without colour: 4 bytes a node (offset words included).
+                    if b.method == "qsplat" {
+                        format!("{:.2}", 4.0 * b.nodes as f64 / b.n_points as f64)
                     } else {
                         "-".into()
                     },

@@ -70,20 +70,9 @@ pub fn assemble(reports_dir: &Path) -> Result<()> {
             .map(|m| m.seconds)
             .sum();
         page.push_str(&format!(
-            "## Run
-
-             | | |
-|---|---|
-             | date (UTC) | {} |
-| git revision | `{}`{} |
-| rustc | {} |
-| CPU | {} |
-             | cores | {} |
-| OS | {} |
-| mode | {} |
-| total measured time | {:.0} s |
-
-",
+            "## Run\n\n| | |\n|---|---|\n| date (UTC) | {} |\n| git revision | `{}`{} |\n\
+             | rustc | {} |\n| CPU | {} |\n| cores | {} |\n| OS | {} |\n| mode | {} |\n\
+             | total measured time | {:.0} s |\n\n",
             m.date_utc,
             m.git_revision,
             if m.git_dirty {
