@@ -178,7 +178,7 @@ fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
 }
 
 fn prepare(name: &str, mut cloud: PointCloud, builds: &mut Vec<BuildRow>) -> Result<Prepared> {
-    let texture = marble(TEXTURE_SIZE, SEED);
+    let texture = marble_texture();
     let uvs = colorize(&mut cloud, &texture);
     let n = cloud.len();
     let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1)?;
@@ -497,8 +497,8 @@ fn measure_dataset(
     rows: &mut Vec<Row>,
     builds: &mut Vec<BuildRow>,
 ) -> Result<()> {
-    let ds = datasets::load(name, &ctx.data_dir)?;
-    let p = prepare(name, ds.cloud.clone(), builds)?;
+    let mut ds = datasets::load(name, &ctx.data_dir)?;
+    let p = prepare(name, std::mem::take(&mut ds.cloud), builds)?;
     let full = p.full_splats();
     let bar = progress::bar((N_VIEWS * DISTANCES.len()) as u64, format!("lod {name}"));
     let mut strip: Vec<Panel> = Vec::new();
@@ -639,9 +639,10 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
             bar.inc(1);
             continue;
         }
-        let ds = datasets::load(m.dataset, &ctx.data_dir)?;
+        let mut ds = datasets::load(m.dataset, &ctx.data_dir)?;
+        let cam = *ds.view(0)?;
         let texture = (m.texture)();
-        let mut cloud = ds.cloud.clone();
+        let mut cloud = std::mem::take(&mut ds.cloud);
         let uvs = colorize(&mut cloud, &texture);
         let map = masking_map(&texture, &MaskingParams::default())?;
         let srn = Srn::new(&uvs, &map, SEED)?;
@@ -672,7 +673,6 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
                 splat(i, radius * f64::from(srn.radius_factor(i, &params)))
             })
             .collect();
-        let cam = *ds.view(0)?;
         let rp = render_params();
         let (img_before, s_before) = timed(|| Ok(render(&before, &cam, &rp)))?;
         let (img_after, s_after) = timed(|| Ok(render(&after, &cam, &rp)))?;
