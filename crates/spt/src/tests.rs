@@ -83,6 +83,27 @@ fn sequential_cut_equals_recursive_on_views() {
     }
 }
 
+#[test]
+fn parallel_scan_of_long_prefixes_equals_recursive() {
+    // Long enough prefixes that the scan splits into several parallel chunks.
+    let cloud = bumpy(60_000, 2);
+    let spt = build(&cloud, 0.01).unwrap();
+    let center = DVec3::splat(2.0);
+    for dir in cloud::synth::fibonacci_sphere(3) {
+        for eps in [0.0, 1e-3, 3e-3] {
+            let eye = center + dir * 1.5;
+            let (seq, stats) = spt.cut(eye, eps).unwrap();
+            if eps == 0.0 {
+                assert!(stats.groups > 16_384, "{stats:?}");
+            }
+            let mut rec = spt.cut_recursive(eye, eps).unwrap();
+            rec.sort_unstable();
+            assert_eq!(nodes_of(&spt, &seq), rec, "eps {eps}");
+            assert!(seq.windows(2).all(|w| w[0] < w[1]));
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
     #[test]
