@@ -19,38 +19,7 @@ pub fn median_spacing(points: &[DVec3], sample: usize, seed: u64) -> Result<f64>
             reason: "need at least two points for a spacing".into(),
         });
     }
-    let entries: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
-        Error::InvalidParameter {
-            name: "points",
-            reason: format!("cannot build a k-d tree: {e:?}"),
-        }
-    })?;
-    let mut rng = seeded(seed, "median-spacing");
-    let picks: Vec<usize> = if points.len() <= sample {
-        (0..points.len()).collect()
-    } else {
-        (0..sample)
-            .map(|_| rng.random_range(0..points.len()))
-            .collect()
-    };
-    let two = NonZero::new(2).ok_or(Error::InvalidParameter {
-        name: "k",
-        reason: "zero".into(),
-    })?;
-    let mut d: Vec<f64> = picks
-        .iter()
-        .map(|&i| {
-            let nn = tree
-                .query(&entries[i])
-                .nearest_n::<SquaredEuclidean<f64>>(two)
-                .execute();
-            // The query point itself is the nearest (distance 0); the second is its neighbour.
-            nn.get(1).map_or(0.0, |n| n.distance.sqrt())
-        })
-        .collect();
-    d.sort_by(f64::total_cmp);
-    Ok(d[d.len() / 2])
+    kth_neighbour_median(points, 1, sample, seed, "median-spacing")
 }
 
 /// The spacing implied by the local density, 1/sqrt(ρ) for ρ points per unit area: the median,
@@ -66,6 +35,19 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
             reason: format!("need 0 < k < {} points, got {k}", points.len()),
         });
     }
+    let r_k = kth_neighbour_median(points, k, sample, seed, "density-spacing")?;
+    Ok(r_k * (std::f64::consts::PI / k as f64).sqrt())
+}
+
+/// Median distance to the k-th nearest neighbour (the point itself not counted) over up to
+/// `sample` points drawn from the stream (`seed`, `purpose`); callers check `0 < k < len`.
+fn kth_neighbour_median(
+    points: &[DVec3],
+    k: usize,
+    sample: usize,
+    seed: u64,
+    purpose: &str,
+) -> Result<f64> {
     let entries: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
     let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
         Error::InvalidParameter {
@@ -73,7 +55,7 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
             reason: format!("cannot build a k-d tree: {e:?}"),
         }
     })?;
-    let mut rng = seeded(seed, "density-spacing");
+    let mut rng = seeded(seed, purpose);
     let picks: Vec<usize> = if points.len() <= sample {
         (0..points.len()).collect()
     } else {
@@ -88,6 +70,8 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
     let mut d: Vec<f64> = picks
         .iter()
         .map(|&i| {
+            // The query point itself is the nearest (distance 0); the last is the k-th
+            // neighbour. Coincident points count as distance 0.
             let nn = tree
                 .query(&entries[i])
                 .nearest_n::<SquaredEuclidean<f64>>(n)
@@ -96,7 +80,7 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
         })
         .collect();
     d.sort_by(f64::total_cmp);
-    Ok(d[d.len() / 2] * (std::f64::consts::PI / k as f64).sqrt())
+    Ok(d[d.len() / 2])
 }
 
 #[cfg(test)]

@@ -156,6 +156,11 @@ struct Prepared {
     random: Vec<f32>,
 }
 
+/// An 8-bit colour as a renderer albedo in [0, 1]³.
+fn albedo(c: [u8; 3]) -> Vec3 {
+    Vec3::new(f32::from(c[0]), f32::from(c[1]), f32::from(c[2])) / 255.0
+}
+
 fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
     let uvs = match &cloud.uvs {
         Some(uvs) => uvs.clone(),
@@ -221,7 +226,7 @@ fn prepare(name: &str, mut cloud: PointCloud, builds: &mut Vec<BuildRow>) -> Res
         .as_ref()
         .context("colours were just set")?
         .iter()
-        .map(|c| Vec3::new(f32::from(c[0]), f32::from(c[1]), f32::from(c[2])) / 255.0)
+        .map(|&c| albedo(c))
         .collect();
     let normals = cloud
         .normals
@@ -281,11 +286,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                     center: s.center,
                     radius: s.radius as f32,
                     normal: s.normal.as_vec3(),
-                    albedo: Vec3::new(
-                        f32::from(s.color[0]),
-                        f32::from(s.color[1]),
-                        f32::from(s.color[2]),
-                    ) / 255.0,
+                    albedo: albedo(s.color),
                 })
                 .collect(),
             seconds,
@@ -659,11 +660,7 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
             center: cloud.positions[i],
             radius: r as f32,
             normal: normals[i],
-            albedo: Vec3::new(
-                f32::from(colors[i][0]),
-                f32::from(colors[i][1]),
-                f32::from(colors[i][2]),
-            ) / 255.0,
+            albedo: albedo(colors[i]),
         };
         let before: Vec<Splat> = (0..cloud.len()).map(|i| splat(i, radius)).collect();
         let after: Vec<Splat> = kept
