@@ -162,6 +162,16 @@ pub enum Error {
     /// The camera cannot be built from these parameters.
     #[error("degenerate camera: {0}")]
     DegenerateCamera(String),
+    /// A method does not support the camera's projection model.
+    #[error("{method} does not support {model} cameras (it supports: {supported})")]
+    UnsupportedCamera {
+        /// The method.
+        method: String,
+        /// The camera's model.
+        model: &'static str,
+        /// The models it supports.
+        supported: String,
+    },
     /// A parameter is out of its valid range.
     #[error("invalid parameter {name}: {reason}")]
     InvalidParameter {

@@ -5,7 +5,8 @@
 //! - readers for PLY, OFF and XYZ and a binary PLY writer ([`io`]), with typed errors that name
 //!   the file and the line or byte ([`ReadError`]);
 //! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
-//! - the pinhole [`Camera`] and deterministic viewpoint sets ([`views`]);
+//! - the [`Camera`] (pinhole, orthographic, spherical; its JSON form) and deterministic
+//!   viewpoint sets ([`views`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]).
 //!
@@ -26,7 +27,7 @@ pub mod synth;
 pub mod views;
 
 pub use bbox::Aabb;
-pub use camera::{Camera, Projection};
+pub use camera::{Camera, Model, Projection};
 pub use error::{Error, Location, ReadError, ReadErrorKind, Result};
 pub use glam;
 pub use mesh::TriMesh;

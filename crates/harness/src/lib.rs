@@ -246,7 +246,7 @@ pub fn views_csv(views: &[cloud::Camera]) -> String {
             c.up.x,
             c.up.y,
             c.up.z,
-            c.fov_y_deg,
+            c.fov_y_deg().unwrap_or(f64::NAN),
             c.width,
             c.height
         ));

@@ -11,7 +11,9 @@
 //!   when it is a leaf or its projected diameter 2r·f/depth is at most the threshold in pixels;
 //!   otherwise its children are visited.
 //!
-//! Every decision uses the decoded (quantised) values, as the original renderer does.
+//! Every decision uses the decoded (quantised) values, as the original renderer does. The
+//! traversal is for pinhole cameras (any intrinsics; `cloud::camera`): callers check the model
+//! (`Camera::require`); the frustum of another model would be wrong here.
 
 use cloud::Camera;
 use cloud::glam::DVec3;
@@ -55,20 +57,25 @@ pub struct Splat {
     pub level: u16,
 }
 
-/// Planes of the view frustum (inward normals): left, right, bottom, top, near.
+/// Planes of the view frustum (inward normals): left, right, top, bottom, near; through the
+/// eye and the image's edges, so any pinhole intrinsics (off-centre principal point, fx ≠ fy)
+/// are honoured.
 fn frustum(camera: &Camera) -> [(DVec3, f64); 5] {
-    let (f, r, u) = (camera.forward(), camera.right(), camera.true_up());
-    let hx = 0.5 * camera.width as f64 / camera.focal_px();
-    let hy = 0.5 * camera.height as f64 / camera.focal_px();
-    let plane = |n: DVec3| {
-        let n = n.normalize();
+    let (w, h) = (camera.width as f64, camera.height as f64);
+    let dir = |x: f64, y: f64| camera.ray(x, y).1;
+    let (c00, c10, c11, c01) = (dir(0.0, 0.0), dir(w, 0.0), dir(w, h), dir(0.0, h));
+    let centre = dir(0.5 * w, 0.5 * h);
+    let plane = |a: DVec3, b: DVec3| {
+        let n = a.cross(b).normalize();
+        let n = if n.dot(centre) < 0.0 { -n } else { n };
         (n, n.dot(camera.eye))
     };
+    let f = camera.forward();
     [
-        plane(r + f * hx),
-        plane(-r + f * hx),
-        plane(u + f * hy),
-        plane(-u + f * hy),
+        plane(c00, c01),
+        plane(c10, c11),
+        plane(c00, c10),
+        plane(c01, c11),
         (f, f.dot(camera.eye)),
     ]
 }
@@ -100,7 +107,6 @@ pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<S
         inside: false,
         depth: 0,
     }];
-    let f = camera.focal_px();
     while let Some(it) = stack.pop() {
         let mut inside = it.inside;
         if params.frustum_cull && !inside {
@@ -131,7 +137,7 @@ pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<S
             }
         }
         let depth = v.dot(camera.forward()).max(1e-12);
-        let projected = 2.0 * it.radius * f / depth;
+        let projected = 2.0 * it.radius / camera.pixel_size_at(depth);
         if it.word.children == 0 || projected <= params.threshold_px {
             let color = if tree.colors.is_some() {
                 quant::decode_rgb565(it.color)

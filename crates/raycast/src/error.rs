@@ -18,12 +18,12 @@ pub enum Error {
         reason: String,
     },
     /// The camera does not match the ray list.
-    #[error("the ray list is for {list:?} (width, height, fov) but the camera is {camera:?}")]
+    #[error("the ray list is for {list} but the camera is {camera}")]
     CameraMismatch {
-        /// The list's image.
-        list: (u32, u32, f64),
+        /// The list's image and model.
+        list: String,
         /// The camera's.
-        camera: (u32, u32, f64),
+        camera: String,
     },
 }
 

@@ -99,7 +99,6 @@ impl RayCaster {
             });
         }
         let (w, h) = (rays.width, rays.height);
-        let o = camera.eye.to_array();
         let mut pixel_point = vec![NONE; rays.len()];
         // Rows of tiles in parallel; within a band, tile by tile.
         pixel_point
@@ -112,7 +111,8 @@ impl RayCaster {
                     for dy in 0..rows {
                         for x in x0..(x0 + TILE).min(w) {
                             let k = ((y0 + dy) * w + x) as usize;
-                            let ray = Ray::new(o, rays.aim(camera, k));
+                            let (o, d) = rays.aim(camera, k);
+                            let ray = Ray::new(o, d);
                             out[(dy * w + x) as usize] = traverse::cast(
                                 &self.tree,
                                 &ray,

@@ -1,81 +1,123 @@
-//! The ray list of seed 001: one ray per pixel, built once for an image size and field of view,
+//! The ray list of seed 001: one ray per pixel, built once for an image size and camera model,
 //! re-aimed when the camera moves.
 //!
 //! "By associating a ray with a pixel as a permanent structure, we can have a list of rays that
-//! will be used over and over again." Each pixel keeps its direction in camera space, through
-//! the pixel centre (x + 0.5, y + 0.5), so every ray lies in the view frustum; re-aiming for a
-//! camera is a change of basis to the camera's right, up and forward vectors, done on the fly
-//! while casting (nothing is rewritten per frame).
+//! will be used over and over again." Each pixel keeps its ray in camera axes (right, down,
+//! forward), through the pixel centre (x + 0.5, y + 0.5); re-aiming for a camera is a change of
+//! basis to the camera's axes, done on the fly while casting (nothing is rewritten per frame).
+//! The seed casts from a pinhole; the list also holds the rays of the other camera models
+//! (`cloud::camera`): parallel rays from the near plane (orthographic) and the unit directions
+//! of an equirectangular image (spherical).
 
-use cloud::Camera;
+use cloud::glam::DVec3;
+use cloud::{Camera, Model};
 
 use crate::error::{Error, Result};
 
-/// One ray per pixel, in camera space.
+/// Per-pixel rays in camera axes.
+#[derive(Debug, Clone, PartialEq)]
+enum Layout {
+    /// Pinhole: (right, down) components of the direction whose forward component is 1.
+    Central(Vec<[f64; 2]>),
+    /// Orthographic: (right, down) offsets of the origin from the eye; direction forward.
+    Parallel(Vec<[f64; 2]>),
+    /// Spherical: unit directions (right, down, forward).
+    Sphere(Vec<[f64; 3]>),
+}
+
+/// One ray per pixel, in camera axes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RayList {
     /// Image width.
     pub width: u32,
     /// Image height.
     pub height: u32,
-    /// Vertical field of view, degrees.
-    pub fov_y_deg: f64,
-    /// Per pixel (row-major): (right, up) components of the direction whose forward component
-    /// is 1.
-    pub dirs: Vec<[f64; 2]>,
+    model: Model,
+    layout: Layout,
 }
 
 impl RayList {
-    /// The rays of `camera`'s image (its size and field of view).
+    /// The rays of `camera`'s image (its size and model).
     pub fn new(camera: &Camera) -> Self {
         let (w, h) = (camera.width, camera.height);
-        let inv_f = 1.0 / camera.focal_px();
-        let mut dirs = Vec::with_capacity(w as usize * h as usize);
-        for y in 0..h {
-            for x in 0..w {
-                dirs.push([
-                    (x as f64 + 0.5 - 0.5 * w as f64) * inv_f,
-                    (0.5 * h as f64 - y as f64 - 0.5) * inv_f,
-                ]);
+        let n = w as usize * h as usize;
+        let (right, down, forward) = (camera.right(), camera.down(), camera.forward());
+        let pixels = (0..h).flat_map(|y| (0..w).map(move |x| (x as f64 + 0.5, y as f64 + 0.5)));
+        let layout = match camera.model() {
+            Model::Pinhole { .. } => {
+                let mut v = Vec::with_capacity(n);
+                v.extend(pixels.map(|(x, y)| {
+                    let (_, d) = camera.ray(x, y);
+                    [d.dot(right), d.dot(down)]
+                }));
+                Layout::Central(v)
             }
-        }
+            Model::Orthographic { .. } => {
+                let mut v = Vec::with_capacity(n);
+                v.extend(pixels.map(|(x, y)| {
+                    let (o, _) = camera.ray(x, y);
+                    [(o - camera.eye).dot(right), (o - camera.eye).dot(down)]
+                }));
+                Layout::Parallel(v)
+            }
+            Model::Spherical => {
+                let mut v = Vec::with_capacity(n);
+                v.extend(pixels.map(|(x, y)| {
+                    let (_, d) = camera.ray(x, y);
+                    [d.dot(right), d.dot(down), d.dot(forward)]
+                }));
+                Layout::Sphere(v)
+            }
+        };
         Self {
             width: w,
             height: h,
-            fov_y_deg: camera.fov_y_deg,
-            dirs,
+            model: *camera.model(),
+            layout,
         }
     }
 
     /// Number of rays.
     pub fn len(&self) -> usize {
-        self.dirs.len()
+        self.width as usize * self.height as usize
     }
 
     /// True when there are no rays.
     pub fn is_empty(&self) -> bool {
-        self.dirs.is_empty()
+        self.len() == 0
     }
 
-    /// Checks that `camera` has this list's image size and field of view.
+    /// Checks that `camera` has this list's image size and model.
     pub fn check(&self, camera: &Camera) -> Result<()> {
-        if camera.width != self.width
-            || camera.height != self.height
-            || camera.fov_y_deg != self.fov_y_deg
+        if camera.width != self.width || camera.height != self.height || *camera.model() != self.model
         {
             return Err(Error::CameraMismatch {
-                list: (self.width, self.height, self.fov_y_deg),
-                camera: (camera.width, camera.height, camera.fov_y_deg),
+                list: format!("{}x{} {:?}", self.width, self.height, self.model),
+                camera: format!("{}x{} {:?}", camera.width, camera.height, camera.model()),
             });
         }
         Ok(())
     }
 
-    /// The world-space direction of pixel `k` for `camera`.
+    /// The world-space ray (origin, direction) of pixel `k` for `camera`.
     #[inline(always)]
-    pub fn aim(&self, camera: &Camera, k: usize) -> [f64; 3] {
-        let [u, v] = self.dirs[k];
-        (camera.forward() + camera.right() * u + camera.true_up() * v).to_array()
+    pub fn aim(&self, camera: &Camera, k: usize) -> ([f64; 3], [f64; 3]) {
+        let (r, d, f) = (camera.right(), camera.down(), camera.forward());
+        let (o, dir): (DVec3, DVec3) = match &self.layout {
+            Layout::Central(v) => {
+                let [u, w] = v[k];
+                (camera.eye, f + r * u + d * w)
+            }
+            Layout::Parallel(v) => {
+                let [u, w] = v[k];
+                (camera.eye + r * u + d * w, f)
+            }
+            Layout::Sphere(v) => {
+                let [a, b, c] = v[k];
+                (camera.eye, r * a + d * b + f * c)
+            }
+        };
+        (o.to_array(), dir.to_array())
     }
 }
 
@@ -87,26 +129,40 @@ mod tests {
 
     #[test]
     fn rays_pass_through_their_pixel_centres() {
-        let cam = Camera::new(
-            DVec3::new(1.0, 2.0, 5.0),
-            DVec3::ZERO,
-            DVec3::Y,
-            50.0,
-            64,
-            48,
-        )
-        .unwrap();
-        let rays = RayList::new(&cam);
-        assert_eq!(rays.len(), 64 * 48);
-        for (k, (x, y)) in [
-            (0usize, (0, 0)),
-            (64 * 47 + 63, (63, 47)),
-            (64 * 20 + 31, (31, 20)),
+        for model in [
+            Model::pinhole_fov(50.0, 64, 48).unwrap(),
+            Model::Orthographic {
+                view_width: 2.0,
+                view_height: 1.5,
+            },
+            Model::Spherical,
         ] {
-            let d = DVec3::from_array(rays.aim(&cam, k));
-            let p = cam.project(cam.eye + d * 3.0).unwrap();
-            assert!((p.x - (x as f64 + 0.5)).abs() < 1e-9 && (p.y - (y as f64 + 0.5)).abs() < 1e-9);
+            let cam = Camera::look_at(
+                DVec3::new(1.0, 2.0, 5.0),
+                DVec3::ZERO,
+                DVec3::Y,
+                model,
+                64,
+                48,
+            )
+            .unwrap();
+            let rays = RayList::new(&cam);
+            assert_eq!(rays.len(), 64 * 48);
+            for (k, (x, y)) in [
+                (0usize, (0, 0)),
+                (64 * 47 + 63, (63, 47)),
+                (64 * 20 + 31, (31, 20)),
+            ] {
+                let (o, d) = rays.aim(&cam, k);
+                let p = cam
+                    .project(DVec3::from_array(o) + DVec3::from_array(d) * 3.0)
+                    .unwrap();
+                assert!(
+                    (p.x - (x as f64 + 0.5)).abs() < 1e-9 && (p.y - (y as f64 + 0.5)).abs() < 1e-9,
+                    "{model:?} {p:?}"
+                );
+            }
+            assert!(rays.check(&cam.with_resolution(32, 48).unwrap()).is_err());
         }
-        assert!(rays.check(&cam.with_resolution(32, 48).unwrap()).is_err());
     }
 }

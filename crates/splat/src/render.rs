@@ -77,12 +77,14 @@ pub fn render(splats: &[Splat], camera: &Camera, params: &RenderParams) -> Image
         .par_iter()
         .filter_map(|s| {
             let p = camera.project(s.center)?;
-            let r = (s.radius as f64 * camera.focal_px() / p.depth).max(0.5) as f32;
+            let r = (s.radius as f64 / camera.pixel_size_at(p.depth)).max(0.5) as f32;
             let (x, y) = (p.x as f32, p.y as f32);
             if x + r < 0.0 || y + r < 0.0 || x - r > w as f32 || y - r > h as f32 {
                 return None;
             }
-            let to_eye = (camera.eye - s.center).normalize_or_zero().as_vec3();
+            let to_eye = (camera.ray_origin_for(s.center) - s.center)
+                .normalize_or_zero()
+                .as_vec3();
             let shade = ambient + (1.0 - ambient) * s.normal.dot(to_eye).abs();
             let c = (s.albedo * shade).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
             Some(Screen {

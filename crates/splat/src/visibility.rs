@@ -26,10 +26,15 @@
 //! radius, so filtering the nearest-point image equals splatting every point); a last parallel
 //! pass tests every point against the buffer at its pixel. All of it on the pixel rectangle the
 //! points cover, with buffers reused from view to view ([`SplatScratch`]).
+//!
+//! Every camera model of `cloud::camera` is supported: the projection is the model's (pinhole,
+//! orthographic, equirectangular) and the disc is in pixels. NOTE: on a spherical image the
+//! min filter does not wrap around the left and right edges (splats at the seam are cut), and
+//! a disc of pixels covers a wider angle near the poles.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use cloud::Camera;
+use cloud::{Camera, Model};
 use cloud::glam::{DVec3, Vec3A};
 use rayon::prelude::*;
 
@@ -145,29 +150,56 @@ impl Splatter {
     }
 
     /// The projection every splat uses: (pixel x, pixel y, depth) of stored point `k`, or
-    /// `None` behind the eye or outside the image.
+    /// `None` behind the eye or outside the image; the camera's model (`cloud::camera`) in f32.
     #[inline(always)]
     fn projector(
         &self,
         camera: &Camera,
     ) -> impl Fn(Vec3A) -> Option<(u16, u16, f32)> + Sync + use<> {
         let eye = Vec3A::from((camera.eye - self.origin).as_vec3());
-        let (fwd, right, up) = (
+        let (fwd, right, down) = (
             Vec3A::from(camera.forward().as_vec3()),
             Vec3A::from(camera.right().as_vec3()),
-            Vec3A::from(camera.true_up().as_vec3()),
+            Vec3A::from(camera.down().as_vec3()),
         );
-        let (f, w, h) = (
-            camera.focal_px() as f32,
-            camera.width as f32,
-            camera.height as f32,
-        );
+        let (w, h) = (camera.width as f32, camera.height as f32);
+        // (scale x, scale y, offset x, offset y) of the two planar models.
+        #[derive(Clone, Copy)]
+        enum P {
+            Pinhole(f32, f32, f32, f32),
+            Ortho(f32, f32),
+            Sphere,
+        }
+        let model = match *camera.model() {
+            Model::Pinhole { fx, fy, cx, cy } => P::Pinhole(fx as f32, fy as f32, cx as f32, cy as f32),
+            Model::Orthographic {
+                view_width,
+                view_height,
+            } => P::Ortho(w / view_width as f32, h / view_height as f32),
+            Model::Spherical => P::Sphere,
+        };
         move |p: Vec3A| {
             let v = p - eye;
-            let z = v.dot(fwd);
-            let k = f / z;
-            let x = 0.5 * w + v.dot(right) * k;
-            let y = 0.5 * h - v.dot(up) * k;
+            let (x, y, z) = match model {
+                P::Pinhole(fx, fy, cx, cy) => {
+                    let z = v.dot(fwd);
+                    let k = 1.0 / z;
+                    (cx + fx * v.dot(right) * k, cy + fy * v.dot(down) * k, z)
+                }
+                P::Ortho(sx, sy) => (
+                    0.5 * w + v.dot(right) * sx,
+                    0.5 * h + v.dot(down) * sy,
+                    v.dot(fwd),
+                ),
+                P::Sphere => {
+                    use std::f32::consts::PI;
+                    let z = v.length();
+                    let phi = v.dot(right).atan2(v.dot(fwd));
+                    let theta = (-v.dot(down) / z).clamp(-1.0, 1.0).acos();
+                    let x = w * (0.5 + phi / (2.0 * PI));
+                    (if x >= w { x - w } else { x }, h * theta / PI, z)
+                }
+            };
             (z > 0.0 && x >= 0.0 && y >= 0.0 && x < w && y < h).then_some((x as u16, y as u16, z))
         }
     }
@@ -512,30 +544,58 @@ mod tests {
     #[test]
     fn the_f32_projection_matches_the_camera_to_a_thousandth_of_a_pixel() {
         // Coordinates far from the origin, like the dragon's.
+        let center = DVec3::new(0.0, 30.0, -980.0);
         let pts: Vec<DVec3> = cloud::synth::fibonacci_sphere(2_000)
             .iter()
-            .map(|p| *p * 50.0 + DVec3::new(0.0, 30.0, -980.0))
+            .map(|p| *p * 50.0 + center)
             .collect();
-        let camera = Camera::new(
-            DVec3::new(40.0, 60.0, -800.0),
-            DVec3::new(0.0, 30.0, -980.0),
-            DVec3::Y,
-            40.0,
-            1920,
-            1080,
-        )
-        .unwrap();
         let s = Splatter::new(&pts).unwrap();
-        let origin = s.origin;
-        let eye = Vec3A::from((camera.eye - origin).as_vec3());
-        for (k, &p) in s.pos.iter().enumerate() {
-            let exact = camera.project(pts[s.perm[k] as usize]).unwrap();
-            let v = p - eye;
-            let z = v.dot(Vec3A::from(camera.forward().as_vec3()));
-            let x = 0.5 * 1920.0
-                + v.dot(Vec3A::from(camera.right().as_vec3())) * (camera.focal_px() as f32 / z);
-            assert!((x as f64 - exact.x).abs() < 1e-3, "{x} vs {}", exact.x);
-            assert!((z as f64 - exact.depth).abs() < 1e-4 * exact.depth);
+        for model in [
+            Model::pinhole_fov(40.0, 1920, 1080).unwrap(),
+            Model::Pinhole {
+                fx: 1500.0,
+                fy: 1400.0,
+                cx: 900.0,
+                cy: 560.0,
+            },
+            Model::Orthographic {
+                view_width: 150.0,
+                view_height: 90.0,
+            },
+            Model::Spherical,
+        ] {
+            let camera = Camera::look_at(
+                DVec3::new(40.0, 60.0, -800.0),
+                center,
+                DVec3::Y,
+                model,
+                1920,
+                1080,
+            )
+            .unwrap();
+            let project = s.projector(&camera);
+            let mut compared = 0;
+            for (k, &p) in s.pos.iter().enumerate() {
+                let exact = camera.project(pts[s.perm[k] as usize]).unwrap();
+                let Some((x, y, z)) = project(p) else {
+                    continue;
+                };
+                // The pixel agrees unless the exact position is within 1e-3 of a pixel edge.
+                let near_edge = |a: f64| (a - a.round()).abs() < 1e-3;
+                assert!(
+                    x as f64 == exact.x.floor() || near_edge(exact.x),
+                    "{model:?}: {x} vs {}",
+                    exact.x
+                );
+                assert!(
+                    y as f64 == exact.y.floor() || near_edge(exact.y),
+                    "{model:?}: {y} vs {}",
+                    exact.y
+                );
+                assert!((z as f64 - exact.depth).abs() < 1e-4 * exact.depth);
+                compared += 1;
+            }
+            assert!(compared > 500, "{model:?}: {compared}");
         }
     }
 

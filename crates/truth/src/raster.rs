@@ -5,16 +5,20 @@
 //! (i, j) has its centre at (i + 0.5, j + 0.5). Coverage is the inclusive edge-function test at
 //! pixel centres; both faces of every triangle are drawn (no back-face culling: the meshes are
 //! not assumed closed or consistently oriented). Depth is interpolated perspective-correctly
-//! (1/z is affine in screen space). Triangles are clipped against a near plane at
-//! `near = 1e-6 · depth range` in front of the eye (Sutherland–Hodgman), so any camera works,
-//! including one inside the object.
+//! for pinhole cameras (1/z is affine in screen space) and linearly for orthographic ones (z
+//! is affine there). Triangles are clipped against a near plane at `near = 1e-6 · depth range`
+//! in front of the eye (Sutherland–Hodgman), so any camera works, including one inside the
+//! object. Spherical cameras are refused: triangles are not straight in an equirectangular
+//! image (the reference tests each point's ray exactly there).
 //!
 //! Parallelism: triangles are binned into 64 × 64 tiles, tiles are rasterised independently
 //! with rayon.
 
 use cloud::glam::{DVec2, DVec3};
-use cloud::{Camera, TriMesh};
+use cloud::{Camera, Model, TriMesh};
 use rayon::prelude::*;
+
+use crate::error::Result;
 
 /// "No triangle" in [`DepthBuffer::triangle`].
 pub const NO_TRIANGLE: u32 = u32::MAX;
@@ -47,7 +51,8 @@ impl DepthBuffer {
     }
 }
 
-/// A triangle in screen space: pixel coordinates and 1/depth at the corners.
+/// A triangle in screen space: pixel coordinates and, at the corners, the quantity that is
+/// affine in screen space (1/depth for pinhole, depth for orthographic).
 #[derive(Debug, Clone, Copy)]
 struct ScreenTri {
     p: [DVec2; 3],
@@ -55,8 +60,10 @@ struct ScreenTri {
     id: u32,
 }
 
-/// Rasterises `mesh` as seen by `camera` at the camera's resolution.
-pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> DepthBuffer {
+/// Rasterises `mesh` as seen by `camera` (pinhole or orthographic) at the camera's resolution.
+pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> Result<DepthBuffer> {
+    camera.require("the mesh rasteriser", &["pinhole", "orthographic"])?;
+    let perspective = matches!(camera.model(), Model::Pinhole { .. });
     let (width, height) = (camera.width as usize, camera.height as usize);
     let tris = screen_triangles(mesh, camera);
 
@@ -85,7 +92,7 @@ pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> DepthBuffer {
             let mut depth = vec![f64::INFINITY; tw * th];
             let mut ids = vec![NO_TRIANGLE; tw * th];
             for &k in list {
-                draw(&tris[k as usize], ox, oy, tw, th, &mut depth, &mut ids);
+                draw(&tris[k as usize], perspective, ox, oy, tw, th, &mut depth, &mut ids);
             }
             (tile, depth, ids)
         })
@@ -106,7 +113,7 @@ pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> DepthBuffer {
             buffer.triangle[start..start + tw].copy_from_slice(t);
         }
     }
-    buffer
+    Ok(buffer)
 }
 
 /// Projects (and near-clips) every triangle.
@@ -114,16 +121,28 @@ fn screen_triangles(mesh: &TriMesh, camera: &Camera) -> Vec<ScreenTri> {
     let depths: Vec<f64> = mesh.vertices.iter().map(|&v| camera.depth(v)).collect();
     let far = depths.iter().copied().fold(0.0f64, f64::max);
     let near = (1e-6 * far).max(f64::MIN_POSITIVE);
+    let (right, down) = (camera.right(), camera.down());
+    let (w, h) = (camera.width as f64, camera.height as f64);
     let to_screen = |v: DVec3, z: f64| -> (DVec2, f64) {
         let rel = v - camera.eye;
-        let f = camera.focal_px() / z;
-        (
-            DVec2::new(
-                0.5 * camera.width as f64 + rel.dot(camera.right()) * f,
-                0.5 * camera.height as f64 - rel.dot(camera.true_up()) * f,
+        match *camera.model() {
+            Model::Pinhole { fx, fy, cx, cy } => (
+                DVec2::new(cx + fx * rel.dot(right) / z, cy + fy * rel.dot(down) / z),
+                1.0 / z,
             ),
-            1.0 / z,
-        )
+            Model::Orthographic {
+                view_width,
+                view_height,
+            } => (
+                DVec2::new(
+                    0.5 * w + rel.dot(right) * w / view_width,
+                    0.5 * h + rel.dot(down) * h / view_height,
+                ),
+                z,
+            ),
+            // Refused by `rasterize`.
+            Model::Spherical => (DVec2::NAN, f64::NAN),
+        }
     };
     let mut out = Vec::with_capacity(mesh.triangles.len());
     for (id, tri) in mesh.triangles.iter().enumerate() {
@@ -187,8 +206,10 @@ fn edge(a: DVec2, b: DVec2, p: DVec2) -> f64 {
 }
 
 /// Draws one triangle into a tile's buffers.
+#[allow(clippy::too_many_arguments)]
 fn draw(
     t: &ScreenTri,
+    perspective: bool,
     ox: usize,
     oy: usize,
     tw: usize,
@@ -226,8 +247,8 @@ fn draw(
             if w0 < 0.0 || w1 < 0.0 || w2 < 0.0 {
                 continue;
             }
-            let inv_z = (w0 * iz[0] + w1 * iz[1] + w2 * iz[2]) * inv_area;
-            let z = 1.0 / inv_z;
+            let affine = (w0 * iz[0] + w1 * iz[1] + w2 * iz[2]) * inv_area;
+            let z = if perspective { 1.0 / affine } else { affine };
             let k = (y - oy) * tw + (x - ox);
             if z < depth[k] {
                 depth[k] = z;
@@ -261,12 +282,12 @@ mod tests {
     #[test]
     fn a_facing_quad_has_exact_depth_and_no_gaps() {
         let cam = camera(130, 70);
-        let buf = rasterize(&quad(0.0, 0.5), &cam);
+        let buf = rasterize(&quad(0.0, 0.5), &cam).unwrap();
         let mut covered = 0;
         for y in 0..cam.height {
             for x in 0..cam.width {
                 let k = buf.index(x, y);
-                let dir = cam.ray_direction(x as f64 + 0.5, y as f64 + 0.5);
+                let (_, dir) = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
                 let hit = cam.eye + dir * 4.0;
                 let inside = hit.x.abs() <= 0.5 && hit.y.abs() <= 0.5;
                 // Pixels whose centre ray hits the quad are covered, the others are not
@@ -291,7 +312,7 @@ mod tests {
         mesh.triangles
             .extend(near.triangles.iter().map(|t| t.map(|v| v + base)));
         let cam = camera(300, 200);
-        let buf = rasterize(&mesh, &cam);
+        let buf = rasterize(&mesh, &cam).unwrap();
         let centre = buf.index(150, 100);
         assert!((buf.depth[centre] - 3.0).abs() < 1e-12);
         assert!(buf.triangle[centre] >= 2);
@@ -312,7 +333,7 @@ mod tests {
         )
         .unwrap();
         let cam = camera(200, 200);
-        let buf = rasterize(&mesh, &cam);
+        let buf = rasterize(&mesh, &cam).unwrap();
         let n = mesh.face_normal(0);
         let a = mesh.vertices[0];
         let mut checked = 0;
@@ -322,7 +343,7 @@ mod tests {
                 if buf.triangle[k] == NO_TRIANGLE {
                     continue;
                 }
-                let d = cam.ray_direction(x as f64 + 0.5, y as f64 + 0.5);
+                let (_, d) = cam.ray(x as f64 + 0.5, y as f64 + 0.5);
                 let t = n.dot(a - cam.eye) / n.dot(d);
                 assert!(
                     (buf.depth[k] - t).abs() < 1e-9 * t,
@@ -349,7 +370,7 @@ mod tests {
         )
         .unwrap();
         let cam = camera(100, 100);
-        let buf = rasterize(&mesh, &cam);
+        let buf = rasterize(&mesh, &cam).unwrap();
         assert!(buf.covered() > 1000);
         assert!(buf.depth.iter().all(|&d| d > 0.0));
     }

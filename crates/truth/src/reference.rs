@@ -20,7 +20,13 @@
 //! nine pixels shows no triangle or one of its candidate triangles is within
 //! [`ReferenceParams::grazing_cos`] of edge-on (|n̂·d̂| < 0.2, about 12°); ambiguous points are
 //! resolved by the exact segment test ([`crate::exact`]) with the same tolerance. The share of
-//! points resolved that way is reported ([`ReferenceView::n_exact`]). Points that project
+//! points resolved that way is reported ([`ReferenceView::n_exact`]).
+//!
+//! Camera models (`cloud::camera`): pinhole and orthographic cameras rasterise as above (an
+//! orthographic point's ray starts at its foot on the near plane, parallel to the axis);
+//! spherical cameras have no z-buffer (an equirectangular image bends triangles): every point
+//! gets the exact segment test from the eye with the same tolerance (`buffer` is then empty).
+//! Points that project
 //! outside the image or behind the eye are not visible.
 //!
 //! Validation: `tests/reference_bunny.rs` compares the pure z-buffer decision (no exact
@@ -72,7 +78,7 @@ impl ReferenceParams {
 pub struct ReferenceView {
     /// One flag per point.
     pub visible: Vec<bool>,
-    /// The supersampled depth buffer.
+    /// The supersampled depth buffer (empty for spherical cameras).
     pub buffer: DepthBuffer,
     /// The camera the buffer was rendered with (the view at the supersampled resolution).
     pub camera: Camera,
@@ -126,11 +132,36 @@ impl Reference {
         cloud::points::check_finite(points)?;
         let s = params.factor(camera.width, camera.height);
         let big = camera.with_resolution(camera.width * s, camera.height * s)?;
-        let buffer = rasterize(&self.mesh, &big);
-        let decisions: Vec<Decision> = points
-            .par_iter()
-            .map(|&p| self.decide(&buffer, &big, p, params))
-            .collect();
+        let (buffer, decisions) = if camera.has_frustum() {
+            let buffer = rasterize(&self.mesh, &big)?;
+            let decisions: Vec<Decision> = points
+                .par_iter()
+                .map(|&p| self.decide(&buffer, &big, p, params))
+                .collect();
+            (buffer, decisions)
+        } else {
+            // NOTE: no z-buffer for the equirectangular image (triangles are curved there):
+            // every point gets the exact segment test, with the same tolerance.
+            let decisions = points
+                .par_iter()
+                .map(|&p| {
+                    let depth = big.depth(p);
+                    if !(depth > 0.0) {
+                        return Decision::ZBuffer(false);
+                    }
+                    let slack = params.tolerance_px * big.pixel_size_at(depth);
+                    let margin = (slack / depth).max(crate::exact::SEGMENT_MARGIN);
+                    Decision::Exact(self.exact.is_visible_with_margin(big.eye, p, margin))
+                })
+                .collect();
+            let empty = DepthBuffer {
+                width: 0,
+                height: 0,
+                depth: Vec::new(),
+                triangle: Vec::new(),
+            };
+            (empty, decisions)
+        };
         let n_exact = decisions
             .iter()
             .filter(|d| **d == Decision::Exact(true) || **d == Decision::Exact(false))
@@ -159,7 +190,8 @@ impl Reference {
         let Some((x, y)) = proj.pixel(buffer.width, buffer.height) else {
             return Decision::ZBuffer(false);
         };
-        let dir = p - cam.eye;
+        let origin = cam.ray_origin_for(p);
+        let dir = p - origin;
         let dir_len = dir.length();
         // The triangles the buffer shows around p's pixel are the candidates for the first
         // surface along p's own ray.
@@ -185,11 +217,11 @@ impl Reference {
         let slack = params.tolerance_px * cam.pixel_size_at(proj.depth);
         if ambiguous && params.exact_fallback {
             let margin = (slack / proj.depth).max(crate::exact::SEGMENT_MARGIN);
-            return Decision::Exact(self.exact.is_visible_with_margin(cam.eye, p, margin));
+            return Decision::Exact(self.exact.is_visible_with_margin(origin, p, margin));
         }
         let first_hit = |triangles: &mut dyn Iterator<Item = u32>| {
             triangles
-                .filter_map(|t| segment_parameter(cam.eye, dir, self.mesh.corners(t as usize)))
+                .filter_map(|t| segment_parameter(origin, dir, self.mesh.corners(t as usize)))
                 .fold(f64::INFINITY, f64::min)
         };
         // `surface` is in units of the eye-to-p segment; compare in depth units.

@@ -74,11 +74,11 @@ fn orbit_camera(ds: &Dataset, t: f64) -> Result<Camera> {
     let angle = 0.5 * radius / distance * t;
     let rot = DMat3::from_axis_angle(DVec3::Y, angle);
     let eye = start.target + rot * (start.eye - start.target);
-    Ok(Camera::new(
+    Ok(Camera::look_at(
         eye,
         start.target,
         start.up,
-        start.fov_y_deg,
+        *start.model(),
         start.width,
         start.height,
     )?)

@@ -358,15 +358,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
 
 /// The view's camera with the eye moved to `factor` times its distance from the target.
 fn at_distance(cam: &Camera, factor: f64) -> Result<Camera> {
-    let eye = cam.target + (cam.eye - cam.target) * factor;
-    Ok(Camera::new(
-        eye,
-        cam.target,
-        cam.up,
-        cam.fov_y_deg,
-        cam.width,
-        cam.height,
-    )?)
+    Ok(cam.moved_to(cam.target + (cam.eye - cam.target) * factor)?)
 }
 
 /// PSNR over the pixels covered in either image, capped at 100 dB.

@@ -301,9 +301,11 @@ impl Experiment for VisibilityExperiment {
                         f1: s.f1(),
                     });
                     if let Some((c, pixel_point)) = &run.pixels {
-                        let mesh = mesh_pixels
-                            .entry((c.width, c.height))
-                            .or_insert_with(|| truth::rasterize(&ds.mesh, c).triangle);
+                        if !mesh_pixels.contains_key(&(c.width, c.height)) {
+                            let t = truth::rasterize(&ds.mesh, c)?.triangle;
+                            mesh_pixels.insert((c.width, c.height), t);
+                        }
+                        let mesh = &mesh_pixels[&(c.width, c.height)];
                         let covered = pixel_point.iter().filter(|&&p| p != raycast::NONE).count();
                         let true_pixels = pixel_point
                             .iter()
