@@ -91,6 +91,9 @@ pub enum ReadErrorKind {
         /// Its corner count.
         corners: usize,
     },
+    /// A camera that cannot be built (views files, COLMAP).
+    #[error("bad camera: {0}")]
+    Camera(String),
     /// A feature of the format this reader does not support.
     #[error("unsupported: {0}")]
     Unsupported(String),

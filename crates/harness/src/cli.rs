@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
 
 /// pointsight: a benchmark harness for point-cloud visibility and level-of-detail methods.
 #[derive(Debug, Parser)]
@@ -40,7 +40,9 @@ pub enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// A dataset's views as CSV: view,eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_y_deg,width,height.
+    /// A dataset's views: CSV (view,eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,
+    /// fov_y_deg,width,height; look-at pinhole views) or JSON lines (one camera per line, any
+    /// model: the views file that `visible --views` reads).
     Views {
         /// Dataset name.
         #[arg(long)]
@@ -48,26 +50,41 @@ pub enum Command {
         /// Output file (standard output when absent).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Output format.
+        #[arg(long, value_enum, default_value_t = ViewsFormat::Csv)]
+        format: ViewsFormat,
     },
-    /// Run one method on one view; write the visible indices, ascending, one per line. The last
-    /// line on stdout is `method=M points=N visible=K seconds=T` (T: the method's compute time).
+    /// Run one method on one view or many.
+    ///
+    /// One view (`--view K`, the dataset's views): write the visible indices, ascending, one per
+    /// line, to the file `--out`; the last line on stdout is `method=M points=N visible=K
+    /// seconds=T` (T: the method's compute time).
+    ///
+    /// Many views (`--views FILE`, or `--view all` or a list `K1,K2,...`): `--out` is a folder
+    /// that gets `view-K.txt` per view; one line `view=K method=M points=N visible=V
+    /// seconds=T` per view, then `views=V points=N seconds=T views_per_second=R` (T: wall time
+    /// of all views; per-dataset preparation is done once and excluded).
     Visible {
         /// Dataset name.
         #[arg(long)]
         dataset: String,
-        /// View index.
+        /// View index, `all`, or a comma-separated list of indices.
+        #[arg(long, default_value = "0")]
+        view: String,
+        /// A views file (JSON lines, or a COLMAP text model: its folder or images.txt) instead
+        /// of the dataset's own views.
         #[arg(long)]
-        view: usize,
+        views: Option<PathBuf>,
         /// Method name (see `pointsight methods`).
         #[arg(long)]
         method: String,
         /// Method parameter, KEY=VALUE (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
-        /// Output file for the indices.
+        /// Output file for the indices (one view) or folder (many views).
         #[arg(long)]
         out: PathBuf,
-        /// Also score the visible set against the reference (printed before the last line).
+        /// Also score the visible set against the reference (printed before each contract line).
         #[arg(long)]
         score: bool,
     },
@@ -84,6 +101,10 @@ pub enum Command {
         /// Output folder (default reports/EXPERIMENT).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// A views file (JSON lines or a COLMAP text model) replacing every dataset's own
+        /// views.
+        #[arg(long)]
+        views: Option<PathBuf>,
     },
     /// Run every experiment with its default datasets into reports/, then write the report.
     Bench {
@@ -110,4 +131,13 @@ pub enum Command {
         #[arg(long, default_value = "reports")]
         reports: PathBuf,
     },
+}
+
+/// Output format of `views`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ViewsFormat {
+    /// The look-at CSV (pinhole views only).
+    Csv,
+    /// JSON lines, one camera per line, any model.
+    Jsonl,
 }

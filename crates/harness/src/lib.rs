@@ -5,7 +5,8 @@
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
-//! - [`cli`] and [`run`]: the `pointsight` command.
+//! - [`visible`]: one method on one view or many; [`cli`] and [`run`]: the `pointsight`
+//!   command.
 //!
 //! Only this crate does command-line parsing, plotting and report I/O; the method crates
 //! return values and typed errors.
@@ -18,6 +19,7 @@ pub mod methods;
 pub mod output;
 pub mod progress;
 pub mod score;
+pub mod visible;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -26,7 +28,6 @@ use std::process::ExitCode;
 use anyhow::{Context, Result, bail};
 
 use crate::cli::{Cli, Command};
-use crate::methods::Params;
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
@@ -76,9 +77,16 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 out.display()
             );
         }
-        Command::Views { dataset, out } => {
+        Command::Views {
+            dataset,
+            out,
+            format,
+        } => {
             let ds = datasets::load(&dataset, &data_dir)?;
-            let text = views_csv(&ds.views);
+            let text = match format {
+                cli::ViewsFormat::Csv => views_csv(&ds.views)?,
+                cli::ViewsFormat::Jsonl => cloud::io::views::write_views(&ds.views),
+            };
             match out {
                 Some(path) => output::write_atomic(&path, text.as_bytes())?,
                 None => std::io::stdout().write_all(text.as_bytes())?,
@@ -87,55 +95,29 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Visible {
             dataset,
             view,
+            views,
             method,
             set,
             out,
-            score: with_score,
-        } => {
-            let params = Params::parse(&set)?;
-            let method = methods::method(&method)?;
-            let ds = datasets::load(&dataset, &data_dir)?;
-            let camera = *ds.view(view)?;
-            let start = std::time::Instant::now();
-            let prepared = methods::prepare(method, &ds, &params)?;
-            let prepare_seconds = start.elapsed().as_secs_f64();
-            let (output, seconds) = methods::timed(prepared.as_ref(), &camera)?;
-            let mut text = String::with_capacity(output.visible.len() * 8);
-            for i in &output.visible {
-                text.push_str(&i.to_string());
-                text.push('\n');
-            }
-            output::write_atomic(&out, text.as_bytes())?;
-            println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
-            if with_score {
-                let truth = truth::Reference::new(&ds.mesh)?
-                    .visibility(
-                        &ds.cloud.positions,
-                        &camera,
-                        &truth::ReferenceParams::default(),
-                    )?
-                    .visible;
-                let s = score::Score::of(&output.visible, &truth);
-                println!(
-                    "reference_visible={} precision={:.4} recall={:.4} f1={:.4}",
-                    truth.iter().filter(|&&t| t).count(),
-                    s.precision(),
-                    s.recall(),
-                    s.f1()
-                );
-            }
-            println!(
-                "method={} points={} visible={} seconds={seconds:.6}",
-                method.name(),
-                ds.cloud.len(),
-                output.visible.len()
-            );
-        }
+            score,
+        } => visible::run(
+            &visible::Request {
+                dataset,
+                view,
+                views,
+                method,
+                set,
+                out,
+                score,
+            },
+            &data_dir,
+        )?,
         Command::Run {
             experiment,
             datasets,
             quick,
             out,
+            views,
         } => {
             let exp = experiments::experiment(&experiment)?;
             let datasets: Vec<String> = match datasets {
@@ -156,6 +138,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 out_dir: out_dir.clone(),
                 quick,
                 datasets,
+                views,
             };
             experiments::run(exp, &ctx)?;
             println!("{}: results in {}", exp.name(), out_dir.display());
@@ -185,6 +168,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                             .map(|s| s.to_string())
                             .collect(),
                     },
+                    views: None,
                 };
                 eprintln!("== {} ({})", exp.name(), exp.summary());
                 let t = std::time::Instant::now();
@@ -229,8 +213,15 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// The views CSV of the output contract.
-pub fn views_csv(views: &[cloud::Camera]) -> String {
+/// The views CSV of the output contract (look-at pinhole views; other models need the JSON
+/// lines format).
+pub fn views_csv(views: &[cloud::Camera]) -> Result<String> {
+    if let Some(c) = views.iter().find(|c| c.fov_y_deg().is_none()) {
+        bail!(
+            "the views CSV holds pinhole views only; this dataset has {} views: use --format jsonl",
+            c.model().name()
+        );
+    }
     let mut s = String::from(
         "view,eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_y_deg,width,height\n",
     );
@@ -246,10 +237,10 @@ pub fn views_csv(views: &[cloud::Camera]) -> String {
             c.up.x,
             c.up.y,
             c.up.z,
-            c.fov_y_deg().unwrap_or(f64::NAN),
+            c.fov_y_deg().unwrap_or_default(),
             c.width,
             c.height
         ));
     }
-    s
+    Ok(s)
 }

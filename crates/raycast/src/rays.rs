@@ -89,7 +89,9 @@ impl RayList {
 
     /// Checks that `camera` has this list's image size and model.
     pub fn check(&self, camera: &Camera) -> Result<()> {
-        if camera.width != self.width || camera.height != self.height || *camera.model() != self.model
+        if camera.width != self.width
+            || camera.height != self.height
+            || *camera.model() != self.model
         {
             return Err(Error::CameraMismatch {
                 list: format!("{}x{} {:?}", self.width, self.height, self.model),

@@ -135,11 +135,11 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
         };
         let frame = caster.cast(&rays, &cam, &params).unwrap();
         for k in 0..rays.len() {
-            let expected =
-                {
-                    let (o, d) = rays.aim(&cam, k);
-                    cast_brute(points, o, d, 0.08)
-                }.map_or(NONE, |h| h.1);
+            let expected = {
+                let (o, d) = rays.aim(&cam, k);
+                cast_brute(points, o, d, 0.08)
+            }
+            .map_or(NONE, |h| h.1);
             assert_eq!(frame.pixel_point[k], expected, "pixel {k}");
         }
         assert_eq!(frame.visible, visible_set(&frame.pixel_point, points.len()));

@@ -34,8 +34,8 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use cloud::{Camera, Model};
 use cloud::glam::{DVec3, Vec3A};
+use cloud::{Camera, Model};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -171,7 +171,9 @@ impl Splatter {
             Sphere,
         }
         let model = match *camera.model() {
-            Model::Pinhole { fx, fy, cx, cy } => P::Pinhole(fx as f32, fy as f32, cx as f32, cy as f32),
+            Model::Pinhole { fx, fy, cx, cy } => {
+                P::Pinhole(fx as f32, fy as f32, cx as f32, cy as f32)
+            }
             Model::Orthographic {
                 view_width,
                 view_height,

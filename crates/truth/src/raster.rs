@@ -92,7 +92,16 @@ pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> Result<DepthBuffer> {
             let mut depth = vec![f64::INFINITY; tw * th];
             let mut ids = vec![NO_TRIANGLE; tw * th];
             for &k in list {
-                draw(&tris[k as usize], perspective, ox, oy, tw, th, &mut depth, &mut ids);
+                draw(
+                    &tris[k as usize],
+                    perspective,
+                    ox,
+                    oy,
+                    tw,
+                    th,
+                    &mut depth,
+                    &mut ids,
+                );
             }
             (tile, depth, ids)
         })

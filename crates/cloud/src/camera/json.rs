@@ -151,9 +151,8 @@ impl TryFrom<&CameraJson> for Camera {
                         }
                         Model::Pinhole { fx, fy, cx, cy }
                     }
-                    (None, None, None, None) => from_fov.ok_or_else(|| {
-                        bad("a pinhole camera needs fx, fy, cx, cy or fov_y_deg")
-                    })?,
+                    (None, None, None, None) => from_fov
+                        .ok_or_else(|| bad("a pinhole camera needs fx, fy, cx, cy or fov_y_deg"))?,
                     _ => return Err(bad("give all four of fx, fy, cx, cy, or none")),
                 }
             }
@@ -170,7 +169,11 @@ impl TryFrom<&CameraJson> for Camera {
                         view_width,
                         view_height,
                     },
-                    _ => return Err(bad("an orthographic camera needs view_width and view_height")),
+                    _ => {
+                        return Err(bad(
+                            "an orthographic camera needs view_width and view_height",
+                        ));
+                    }
                 }
             }
             "spherical" => {
@@ -208,7 +211,8 @@ impl TryFrom<&CameraJson> for Camera {
                 if j.up.is_some() {
                     return Err(bad("up needs eye and target"));
                 }
-                from_matrix.ok_or_else(|| bad("a camera needs camera_to_world, or eye and target"))?
+                from_matrix
+                    .ok_or_else(|| bad("a camera needs camera_to_world, or eye and target"))?
             }
             _ => return Err(bad("give eye and target together")),
         };
@@ -335,7 +339,10 @@ mod tests {
     #[test]
     fn contradictions_and_typos_are_errors() {
         for (text, needle) in [
-            (r#"{"model":"fisheye","width":1,"height":1}"#, "unknown camera model"),
+            (
+                r#"{"model":"fisheye","width":1,"height":1}"#,
+                "unknown camera model",
+            ),
             (
                 r#"{"model":"pinhole","width":1,"height":1,"eye":[0,0,1],"target":[0,0,0],"fov":60}"#,
                 "unknown field",
@@ -357,7 +364,10 @@ mod tests {
                    "camera_to_world":[[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}"#,
                 "disagrees",
             ),
-            (r#"{"model":"spherical","width":4,"height":2}"#, "camera_to_world"),
+            (
+                r#"{"model":"spherical","width":4,"height":2}"#,
+                "camera_to_world",
+            ),
             (
                 r#"{"model":"orthographic","width":4,"height":2,"eye":[0,0,1],"target":[0,0,0]}"#,
                 "view_width",

@@ -212,7 +212,9 @@ impl Camera {
             ));
         }
         let true_up = right.cross(forward);
-        Self::build(eye, target, up, model, width, height, right, -true_up, forward)
+        Self::build(
+            eye, target, up, model, width, height, right, -true_up, forward,
+        )
     }
 
     /// A camera from its camera-to-world rotation (columns: right, down, forward in world
@@ -359,19 +361,6 @@ impl Camera {
             self.down,
             self.forward,
         )
-    }
-
-    /// The same orientation, model and image with the eye moved to `eye` (the target moves
-    /// with it).
-    pub fn moved_to(&self, eye: DVec3) -> Result<Self> {
-        if !eye.is_finite() {
-            return Err(Error::DegenerateCamera("non-finite eye".into()));
-        }
-        Ok(Self {
-            eye,
-            target: self.target + (eye - self.eye),
-            ..*self
-        })
     }
 
     /// The projection model.

@@ -93,7 +93,10 @@ fn target_projects_to_the_image_centre() {
             Model::Pinhole { cx, cy, .. } => (cx, cy),
             _ => (320.0, 240.0),
         };
-        assert!((p.x - ex).abs() < 1e-9 && (p.y - ey).abs() < 1e-9, "{model:?} {p:?}");
+        assert!(
+            (p.x - ex).abs() < 1e-9 && (p.y - ey).abs() < 1e-9,
+            "{model:?} {p:?}"
+        );
         assert!((p.depth - 7.0).abs() < 1e-12);
     }
 }
@@ -156,8 +159,14 @@ fn orthographic_rays_are_parallel_and_start_on_the_near_plane() {
     let (o1, d1) = c.ray(0.5, 0.5);
     let (o2, d2) = c.ray(399.5, 199.5);
     assert_eq!(d1, d2);
-    assert!((o1 - DVec3::new(-1.995, 0.995, 10.0)).length() < 1e-12, "{o1}");
-    assert!((o2 - DVec3::new(1.995, -0.995, 10.0)).length() < 1e-12, "{o2}");
+    assert!(
+        (o1 - DVec3::new(-1.995, 0.995, 10.0)).length() < 1e-12,
+        "{o1}"
+    );
+    assert!(
+        (o2 - DVec3::new(1.995, -0.995, 10.0)).length() < 1e-12,
+        "{o2}"
+    );
     // Depth does not change the pixel.
     let a = c.project(DVec3::new(0.5, 0.25, 3.0)).unwrap();
     let b = c.project(DVec3::new(0.5, 0.25, -30.0)).unwrap();
@@ -187,21 +196,22 @@ fn pose_constructors_agree_with_look_at() {
         480,
     )
     .unwrap();
-    let pose = Camera::from_camera_to_world(look.camera_to_world(), *look.model(), 640, 480).unwrap();
+    let pose =
+        Camera::from_camera_to_world(look.camera_to_world(), *look.model(), 640, 480).unwrap();
     // World-to-camera as COLMAP writes it: R = rotationᵀ, t = −R·eye.
     let r = look.rotation().transpose();
     let q = DQuat::from_mat3(&r);
     let t = -(r * look.eye);
-    let colmap = Camera::from_world_to_camera(
-        [q.w, q.x, q.y, q.z],
-        t.to_array(),
-        *look.model(),
-        640,
-        480,
-    )
-    .unwrap();
+    let colmap =
+        Camera::from_world_to_camera([q.w, q.x, q.y, q.z], t.to_array(), *look.model(), 640, 480)
+            .unwrap();
     for c in [&pose, &colmap] {
-        assert!((c.eye - look.eye).length() < 1e-12, "{} vs {}", c.eye, look.eye);
+        assert!(
+            (c.eye - look.eye).length() < 1e-12,
+            "{} vs {}",
+            c.eye,
+            look.eye
+        );
         for p in [
             DVec3::ZERO,
             DVec3::new(1.0, 0.3, 0.2),
@@ -332,13 +342,7 @@ fn degenerate_cameras_are_errors() {
         let err = r.unwrap_err().to_string();
         assert!(err.contains("rotation"), "{err}");
     }
-    let r = Camera::from_world_to_camera(
-        [2.0, 0.0, 0.0, 0.0],
-        [0.0; 3],
-        Model::Spherical,
-        10,
-        10,
-    );
+    let r = Camera::from_world_to_camera([2.0, 0.0, 0.0, 0.0], [0.0; 3], Model::Spherical, 10, 10);
     assert!(r.unwrap_err().to_string().contains("unit quaternion"));
 }
 

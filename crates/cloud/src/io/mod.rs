@@ -4,16 +4,19 @@
 //!   one element at a time so that a bad header count never drives an allocation ([`ply`]);
 //! - OFF, the format of the CGAL data set ([`off`]);
 //! - XYZ, whitespace-separated `x y z [nx ny nz]` lines ([`xyz`]);
-//! - a binary little-endian PLY writer ([`ply_write`]).
+//! - a binary little-endian PLY writer ([`ply_write`]);
+//! - views files: JSON lines of cameras ([`views`]) and COLMAP text models ([`colmap`]).
 //!
 //! Every reader returns a [`ReadError`](crate::ReadError) that names the file and the line
 //! (text) or byte offset (binary) of the problem: empty files, truncated data (a header count
 //! larger than the data), non-numeric fields, NaN or infinite coordinates, faces that index
 //! missing vertices.
 
+pub mod colmap;
 pub mod off;
 pub mod ply;
 pub mod ply_write;
+pub mod views;
 pub mod xyz;
 
 use std::io::{self, BufRead, Read};

@@ -26,7 +26,7 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
-use crate::datasets::{self, Dataset};
+use crate::datasets::Dataset;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -109,7 +109,7 @@ impl Experiment for BackgroundExperiment {
         };
         let mut frames = Vec::new();
         for name in &ctx.datasets {
-            let ds = datasets::load(name, &ctx.data_dir)?;
+            let ds = ctx.dataset(name)?;
             let points = Arc::new(ds.cloud.positions.clone());
             let mut shown: Vec<(String, usize, f64, f64, Vec<u32>)> = Vec::new();
 

@@ -27,7 +27,6 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
-use crate::datasets;
 use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -144,7 +143,7 @@ impl Experiment for HullExperiment {
         };
         let mut rows = Vec::new();
         for name in &ctx.datasets {
-            let ds = datasets::load(name, &ctx.data_dir)?;
+            let ds = ctx.dataset(name)?;
             let reference = Reference::new(&ds.mesh)?;
             let hulls: Vec<(&str, Box<dyn hull::ConvexHull>)> = HULLS
                 .iter()

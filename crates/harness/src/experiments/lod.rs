@@ -358,7 +358,14 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
 
 /// The view's camera with the eye moved to `factor` times its distance from the target.
 fn at_distance(cam: &Camera, factor: f64) -> Result<Camera> {
-    Ok(cam.moved_to(cam.target + (cam.eye - cam.target) * factor)?)
+    Ok(Camera::look_at(
+        cam.target + (cam.eye - cam.target) * factor,
+        cam.target,
+        cam.up,
+        *cam.model(),
+        cam.width,
+        cam.height,
+    )?)
 }
 
 /// PSNR over the pixels covered in either image, capped at 100 dB.
@@ -490,7 +497,13 @@ fn measure_dataset(
     rows: &mut Vec<Row>,
     builds: &mut Vec<BuildRow>,
 ) -> Result<()> {
-    let mut ds = datasets::load(name, &ctx.data_dir)?;
+    let mut ds = ctx.dataset(name)?;
+    for v in &ds.views {
+        v.require(
+            "the lod experiment (QSplat's frustum, the splat renderer)",
+            &["pinhole"],
+        )?;
+    }
     let p = prepare(name, std::mem::take(&mut ds.cloud), builds)?;
     let full = p.full_splats();
     let bar = progress::bar((N_VIEWS * DISTANCES.len()) as u64, format!("lod {name}"));

@@ -29,6 +29,19 @@ pub struct Context {
     pub quick: bool,
     /// Datasets to cover.
     pub datasets: Vec<String>,
+    /// A views file replacing every dataset's own views (`run --views`).
+    pub views: Option<PathBuf>,
+}
+
+impl Context {
+    /// Loads dataset `name`, with the views of `--views` when given.
+    pub fn dataset(&self, name: &str) -> Result<crate::datasets::Dataset> {
+        let mut ds = crate::datasets::load(name, &self.data_dir)?;
+        if let Some(path) = &self.views {
+            ds.views = cloud::io::views::read_views(path)?;
+        }
+        Ok(ds)
+    }
 }
 
 /// An experiment.

@@ -14,7 +14,6 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
-use crate::datasets;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -65,7 +64,7 @@ impl Experiment for ReferenceExperiment {
         let n_views = if ctx.quick { 4 } else { 16 };
         let mut rows = Vec::new();
         for name in &ctx.datasets {
-            let ds = datasets::load(name, &ctx.data_dir)?;
+            let ds = ctx.dataset(name)?;
             let reference = Reference::new(&ds.mesh)?;
             let bar = progress::bar(n_views as u64, format!("reference {name}"));
             for (view, cam) in ds.views.iter().take(n_views).enumerate() {

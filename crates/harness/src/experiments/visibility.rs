@@ -165,7 +165,7 @@ impl Experiment for VisibilityExperiment {
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
         for name in &ctx.datasets {
-            let ds = datasets::load(name, &ctx.data_dir)?;
+            let ds = ctx.dataset(name)?;
             let points = &ds.cloud.positions;
             let reference = Reference::new(&ds.mesh)?;
             let scale = hpr::auto::CloudScale::of(points)?;
@@ -300,7 +300,9 @@ impl Experiment for VisibilityExperiment {
                         recall: s.recall(),
                         f1: s.f1(),
                     });
-                    if let Some((c, pixel_point)) = &run.pixels {
+                    if let Some((c, pixel_point)) =
+                        run.pixels.as_ref().filter(|(c, _)| c.has_frustum())
+                    {
                         if !mesh_pixels.contains_key(&(c.width, c.height)) {
                             let t = truth::rasterize(&ds.mesh, c)?.triangle;
                             mesh_pixels.insert((c.width, c.height), t);

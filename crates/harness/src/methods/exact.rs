@@ -2,6 +2,7 @@
 
 use anyhow::Result;
 use cloud::Camera;
+use rayon::prelude::*;
 use truth::ExactVisibility;
 
 use super::{Method, Output, ParamSpec, Params, Prepared, indices_of};
@@ -17,9 +18,13 @@ struct Prep<'a> {
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
-        let flags = self
-            .exact
-            .visibility(camera.eye, &self.dataset.cloud.positions)?;
+        // Each point's own ray: from the eye, or from its foot on an orthographic near plane.
+        let points = &self.dataset.cloud.positions;
+        cloud::points::check_finite(points)?;
+        let flags: Vec<bool> = points
+            .par_iter()
+            .map(|&p| self.exact.is_visible(camera.ray_origin_for(p), p))
+            .collect();
         Ok(Output {
             visible: indices_of(&flags),
             rays: flags.len() as u64,
@@ -39,6 +44,10 @@ impl Method for ExactMethod {
 
     fn params(&self) -> &'static [ParamSpec] {
         &[]
+    }
+
+    fn parallel_views(&self) -> bool {
+        true
     }
 
     fn prepare<'a>(

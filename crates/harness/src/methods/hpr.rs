@@ -84,6 +84,15 @@ struct Prep<'a> {
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
+        // Pinhole and spherical cameras have a centre of projection: HPR needs only that.
+        if matches!(camera.model(), cloud::Model::Orthographic { .. }) {
+            bail!(
+                "hpr does not support {} cameras: HPR flips the cloud about a viewpoint and an \
+                 orthographic camera has none (its centre of projection is at infinity); use a \
+                 distant pinhole camera, or raycast, splat or reference",
+                camera.model().name()
+            );
+        }
         let v = hpr::visible(
             &self.dataset.cloud.positions,
             camera.eye,
@@ -108,6 +117,10 @@ impl Method for HprMethod {
 
     fn params(&self) -> &'static [ParamSpec] {
         PARAMS
+    }
+
+    fn parallel_views(&self) -> bool {
+        true
     }
 
     fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {

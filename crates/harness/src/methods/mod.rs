@@ -61,6 +61,11 @@ pub trait Method: Sync {
     fn params(&self) -> &'static [ParamSpec];
     /// Reads `params` and builds the per-dataset state.
     fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>>;
+    /// True when several views are faster answered in parallel (one view per thread) than
+    /// one after another (methods whose single view already uses every core say false).
+    fn parallel_views(&self) -> bool {
+        false
+    }
 }
 
 /// Every method, in listing order.

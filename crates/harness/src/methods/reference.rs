@@ -65,6 +65,10 @@ impl Method for ReferenceMethod {
         PARAMS
     }
 
+    fn parallel_views(&self) -> bool {
+        true
+    }
+
     fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let d = ReferenceParams::default();
         let params = ReferenceParams {
