@@ -33,6 +33,12 @@ pub struct PointCloud {
     pub uvs: Option<Vec<Vec2>>,
     /// Surface provenance of sampled points, if the cloud was sampled from a mesh.
     pub samples: Option<Vec<SurfaceSample>>,
+    /// Return intensity (LAS, E57, PCD), if known.
+    pub intensity: Option<Vec<u16>>,
+    /// LAS classification code, if known.
+    pub classification: Option<Vec<u8>>,
+    /// Index of the scan (scanner position) each point came from, for merged scans.
+    pub scan: Option<Vec<u16>>,
 }
 
 impl PointCloud {
@@ -64,6 +70,13 @@ impl PointCloud {
         check_len("colors", n, self.colors.as_ref().map(Vec::len))?;
         check_len("uvs", n, self.uvs.as_ref().map(Vec::len))?;
         check_len("samples", n, self.samples.as_ref().map(Vec::len))?;
+        check_len("intensity", n, self.intensity.as_ref().map(Vec::len))?;
+        check_len(
+            "classification",
+            n,
+            self.classification.as_ref().map(Vec::len),
+        )?;
+        check_len("scan", n, self.scan.as_ref().map(Vec::len))?;
         Ok(())
     }
 
@@ -88,6 +101,9 @@ impl PointCloud {
             colors: pick(&self.colors, indices),
             uvs: pick(&self.uvs, indices),
             samples: pick(&self.samples, indices),
+            intensity: pick(&self.intensity, indices),
+            classification: pick(&self.classification, indices),
+            scan: pick(&self.scan, indices),
         }
     }
 }

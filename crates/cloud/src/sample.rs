@@ -64,6 +64,7 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Result<PointCloud>
         colors: None,
         uvs,
         samples: Some(samples),
+        ..PointCloud::default()
     })
 }
 

@@ -87,6 +87,11 @@ pub enum Command {
         /// Also score the visible set against the reference (printed before each contract line).
         #[arg(long)]
         score: bool,
+        /// Many views: answer them in parallel (`yes`), one after another (`no`), or as the
+        /// method prefers (`auto`: in parallel for hpr, reference and exact, whose single view
+        /// leaves cores idle).
+        #[arg(long, value_enum, default_value_t = ParallelViews::Auto)]
+        parallel_views: ParallelViews,
     },
     /// Run an experiment: results.csv, plots and tables into its output folder.
     Run {
@@ -140,4 +145,15 @@ pub enum ViewsFormat {
     Csv,
     /// JSON lines, one camera per line, any model.
     Jsonl,
+}
+
+/// How `visible` runs many views.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ParallelViews {
+    /// As the method prefers.
+    Auto,
+    /// One view per thread.
+    Yes,
+    /// One view after another.
+    No,
 }

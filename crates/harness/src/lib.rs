@@ -100,6 +100,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             set,
             out,
             score,
+            parallel_views,
         } => visible::run(
             &visible::Request {
                 dataset,
@@ -109,6 +110,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 set,
                 out,
                 score,
+                parallel_views,
             },
             &data_dir,
         )?,

@@ -12,6 +12,7 @@ use anyhow::{Context, Result, bail};
 use cloud::Camera;
 use rayon::prelude::*;
 
+use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
 use crate::methods::{self, Output, Params};
 use crate::output;
@@ -34,6 +35,8 @@ pub struct Request {
     pub out: PathBuf,
     /// Score against the reference.
     pub score: bool,
+    /// How to run many views.
+    pub parallel_views: ParallelViews,
 }
 
 /// The view indices `spec` names among `n` views.
@@ -134,10 +137,14 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let start = Instant::now();
     let prepared = methods::prepare(method, &ds, &params)?;
     let prepare_seconds = start.elapsed().as_secs_f64();
+    let parallel = match req.parallel_views {
+        ParallelViews::Auto => method.parallel_views(),
+        ParallelViews::Yes => true,
+        ParallelViews::No => false,
+    };
     println!(
-        "prepare_seconds={prepare_seconds:.6} views={} parallel_views={}",
+        "prepare_seconds={prepare_seconds:.6} views={} parallel_views={parallel}",
         cameras.len(),
-        method.parallel_views()
     );
     let start = Instant::now();
     let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
@@ -145,7 +152,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             methods::timed(prepared.as_ref(), &camera).with_context(|| format!("view {k}"))?;
         Ok((k, output, seconds))
     };
-    let results: Vec<(usize, Output, f64)> = if method.parallel_views() {
+    let results: Vec<(usize, Output, f64)> = if parallel {
         cameras.par_iter().map(run_one).collect::<Result<_>>()?
     } else {
         cameras.iter().map(run_one).collect::<Result<_>>()?

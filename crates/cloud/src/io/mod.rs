@@ -2,8 +2,11 @@
 //!
 //! - PLY, ASCII and binary of either endianness, read through the maintained `ply-rs-bw` crate,
 //!   one element at a time so that a bad header count never drives an allocation ([`ply`]);
-//! - OFF, the format of the CGAL data set ([`off`]);
+//! - OFF, the format of the CGAL data set ([`off`]); OBJ, vertices and faces ([`obj`]);
 //! - XYZ, whitespace-separated `x y z [nx ny nz]` lines ([`xyz`]);
+//! - with the cargo feature `formats` (on for the harness, off for the method crates): LAS and
+//!   LAZ (`las`, reader and writer), E57 (`e57`, every scan with its pose) and PCD (`pcd`,
+//!   ascii, binary and binary_compressed);
 //! - a binary little-endian PLY writer ([`ply_write`]);
 //! - views files: JSON lines of cameras ([`views`]) and COLMAP text models ([`colmap`]).
 //!
@@ -13,7 +16,14 @@
 //! missing vertices.
 
 pub mod colmap;
+#[cfg(feature = "formats")]
+pub mod e57;
+#[cfg(feature = "formats")]
+pub mod las;
+pub mod obj;
 pub mod off;
+#[cfg(feature = "formats")]
+pub mod pcd;
 pub mod ply;
 pub mod ply_write;
 pub mod views;
@@ -22,9 +32,38 @@ pub mod xyz;
 use std::io::{self, BufRead, Read};
 use std::path::Path;
 
+use glam::{DQuat, DVec3};
+
+use crate::camera::{Camera, Model};
 use crate::error::{Location, ReadError, ReadErrorKind};
 use crate::mesh::TriMesh;
 use crate::points::PointCloud;
+
+/// A scanner's pose: where a scan was taken from (E57). Its frame's x axis is the azimuth
+/// origin and its z axis the vertical, as E57 defines spherical coordinates.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Scanner {
+    /// Scanner position, world coordinates.
+    pub position: DVec3,
+    /// Rotation from the scanner's frame to the world frame.
+    pub rotation: DQuat,
+}
+
+impl Scanner {
+    /// A spherical (equirectangular) camera at the scanner, looking along its x axis with its z
+    /// axis up.
+    pub fn camera(&self, width: u32, height: u32) -> crate::Result<Camera> {
+        let forward = self.rotation * DVec3::X;
+        Camera::look_at(
+            self.position,
+            self.position + forward,
+            self.rotation * DVec3::Z,
+            Model::Spherical,
+            width,
+            height,
+        )
+    }
+}
 
 /// What a file holds: points, and the triangles over them when the format has faces.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -33,6 +72,8 @@ pub struct Loaded {
     pub cloud: PointCloud,
     /// Triangles over the vertices (polygons are split into fans); empty for point formats.
     pub triangles: Vec<[u32; 3]>,
+    /// Scanner poses the file records (E57), in scan order.
+    pub scanners: Vec<Scanner>,
 }
 
 impl Loaded {
@@ -46,26 +87,133 @@ impl Loaded {
     }
 }
 
-/// Reads a file, choosing the format by its extension (`ply`, `off`, `xyz`/`txt`).
+/// A file format, chosen from the extension or named (`--format`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Format {
+    /// `.ply`
+    Ply,
+    /// `.off`
+    Off,
+    /// `.obj`
+    Obj,
+    /// `.xyz`, `.txt`
+    Xyz,
+    /// `.las`, `.laz`
+    Las,
+    /// `.e57`
+    E57,
+    /// `.pcd`
+    Pcd,
+}
+
+impl Format {
+    /// Every format, for messages.
+    pub const NAMES: &'static str = "ply, off, obj, xyz, las, laz, e57, pcd";
+
+    /// The format a name or extension stands for.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name.to_ascii_lowercase().as_str() {
+            "ply" => Format::Ply,
+            "off" => Format::Off,
+            "obj" => Format::Obj,
+            "xyz" | "txt" => Format::Xyz,
+            "las" | "laz" => Format::Las,
+            "e57" => Format::E57,
+            "pcd" => Format::Pcd,
+            _ => return None,
+        })
+    }
+
+    /// The format of `path` by its extension.
+    pub fn of_path(path: &Path) -> Option<Self> {
+        Self::from_name(path.extension()?.to_str()?)
+    }
+}
+
+/// How to read a file.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReadOptions {
+    /// The format (by the extension when `None`).
+    pub format: Option<Format>,
+    /// LAS/LAZ: keep only these classification codes.
+    pub classes: Option<Vec<u8>>,
+    /// E57: read only this scan (0-based); all scans merged when `None`.
+    pub scan: Option<usize>,
+}
+
+/// Reads a file, choosing the format by its extension (`ply`, `off`, `obj`, `xyz`/`txt`, and
+/// with the `formats` feature `las`/`laz`, `e57`, `pcd`).
 pub fn read(path: &Path) -> Result<Loaded, ReadError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("ply") => ply::read_ply(path),
-        Some("off") => off::read_off(path),
-        Some("xyz") | Some("txt") => xyz::read_xyz(path).map(|cloud| Loaded {
+    read_with(path, &ReadOptions::default())
+}
+
+/// Reads a file with options.
+pub fn read_with(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadError> {
+    let format = match options.format.or_else(|| Format::of_path(path)) {
+        Some(f) => f,
+        None => {
+            return Err(ReadError::new(
+                path,
+                Location::File,
+                ReadErrorKind::Unsupported(format!(
+                    "unknown extension {:?}: expected one of {} (or name the format)",
+                    path.extension()
+                        .and_then(|e| e.to_str())
+                        .unwrap_or_default(),
+                    Format::NAMES
+                )),
+            ));
+        }
+    };
+    match format {
+        Format::Ply => ply::read_ply(path),
+        Format::Off => off::read_off(path),
+        Format::Obj => obj::read_obj(path),
+        Format::Xyz => xyz::read_xyz(path).map(|cloud| Loaded {
             cloud,
-            triangles: Vec::new(),
+            ..Loaded::default()
         }),
-        _ => Err(ReadError::new(
+        #[cfg(feature = "formats")]
+        Format::Las => las::read_las(
+            path,
+            &las::LasOptions {
+                classes: options.classes.clone(),
+            },
+        ),
+        #[cfg(feature = "formats")]
+        Format::Pcd => pcd::read_pcd(path),
+        #[cfg(feature = "formats")]
+        Format::E57 => {
+            let scans = e57::read_e57(path)?;
+            match options.scan {
+                None => Ok(scans.merge()),
+                Some(k) => {
+                    let n = scans.0.len();
+                    let scan = scans.0.into_iter().nth(k).ok_or_else(|| {
+                        ReadError::new(
+                            path,
+                            Location::File,
+                            ReadErrorKind::Unsupported(format!(
+                                "scan {k} does not exist: the file has scans 0..{}",
+                                n.saturating_sub(1)
+                            )),
+                        )
+                    })?;
+                    Ok(Loaded {
+                        cloud: scan.cloud,
+                        scanners: vec![scan.scanner],
+                        ..Loaded::default()
+                    })
+                }
+            }
+        }
+        #[cfg(not(feature = "formats"))]
+        Format::Las | Format::Pcd | Format::E57 => Err(ReadError::new(
             path,
             Location::File,
-            ReadErrorKind::Unsupported(format!(
-                "unknown extension {:?}: expected .ply, .off or .xyz",
-                ext.unwrap_or_default()
-            )),
+            ReadErrorKind::Unsupported(
+                "LAS/LAZ, E57 and PCD need the `formats` feature of the cloud crate".into(),
+            ),
         )),
     }
 }
@@ -127,9 +275,9 @@ mod tests {
 
     #[test]
     fn unknown_extension_is_an_error() {
-        let err = read(Path::new("cloud.las")).unwrap_err();
+        let err = read(Path::new("cloud.vtk")).unwrap_err();
         assert!(matches!(err.kind, ReadErrorKind::Unsupported(_)), "{err}");
-        assert!(err.to_string().contains("cloud.las"), "{err}");
+        assert!(err.to_string().contains("cloud.vtk"), "{err}");
     }
 
     #[test]

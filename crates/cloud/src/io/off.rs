@@ -214,6 +214,7 @@ fn parse_off<R: BufRead>(reader: R) -> Result<Loaded, (Location, ReadErrorKind)>
             ..PointCloud::default()
         },
         triangles,
+        ..Loaded::default()
     })
 }
 

@@ -255,7 +255,7 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
                     normals: with_normals.then_some(normals),
                     colors: with_colors.then_some(colors),
                     uvs: with_uvs.then_some(uvs),
-                    samples: None,
+                    ..PointCloud::default()
                 };
             }
             "face" => {
@@ -316,7 +316,11 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     if cloud.positions.is_empty() {
         return Err((Location::File, ReadErrorKind::Empty));
     }
-    Ok(Loaded { cloud, triangles })
+    Ok(Loaded {
+        cloud,
+        triangles,
+        ..Loaded::default()
+    })
 }
 
 #[cfg(test)]

@@ -97,7 +97,7 @@ mod tests {
             normals: Some(vec![Vec3::X, Vec3::Z]),
             colors: Some(vec![[1, 2, 3], [250, 251, 252]]),
             uvs: Some(vec![Vec2::new(0.25, 0.5), Vec2::new(1.0, 0.0)]),
-            samples: None,
+            ..PointCloud::default()
         };
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("c.ply");
