@@ -21,7 +21,7 @@ fn reference_matches_the_exact_test_on_every_bunny_view() {
     }
     let ds = harness::datasets::load("bunny-69451", &data_dir())
         .expect("bunny-69451 loads after `pointsight fetch`");
-    let reference = Reference::new(&ds.mesh).unwrap();
+    let reference = Reference::new(ds.mesh.as_ref().unwrap()).unwrap();
     for (k, cam) in ds.views.iter().enumerate() {
         let exact = reference
             .exact()

@@ -7,6 +7,7 @@
 //! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
 //! - the [`Camera`] (pinhole, orthographic, spherical; its JSON form) and deterministic
 //!   viewpoint sets ([`views`]);
+//! - lossless recentring of georeferenced clouds ([`recentre`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]).
 //!
@@ -20,6 +21,7 @@ pub mod io;
 pub mod mesh;
 pub mod normals;
 pub mod points;
+pub mod recentre;
 pub mod rng;
 pub mod sample;
 pub mod spacing;

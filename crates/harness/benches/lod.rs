@@ -26,10 +26,14 @@ fn dragon() -> (String, PointCloud, Vec<Camera>) {
         let views = cloud::views::fibonacci_views(&bbox, &cloud::views::ViewSpec::default())
             .expect("views");
         anyhow::Ok(harness::datasets::Dataset {
-            info: harness::datasets::info("torus-22321")?,
+            name: "torus-871414".into(),
+            description: "torus samples standing in for the dragon".into(),
             cloud: scene.cloud,
-            mesh: scene.mesh,
+            mesh: Some(scene.mesh),
             views,
+            files: Vec::new(),
+            origin: cloud::glam::DVec3::ZERO,
+            surface_tolerance: None,
         })
     });
     let ds = ds.expect("dataset");

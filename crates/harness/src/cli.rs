@@ -9,6 +9,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 #[derive(Debug, Parser)]
 #[command(name = "pointsight", version, about, long_about = None)]
 pub struct Cli {
+    /// A dataset manifest (TOML) naming datasets made of your files; default:
+    /// `pointsight.toml` in the working directory when it exists.
+    #[arg(long, global = true, env = "POINTSIGHT_MANIFEST")]
+    pub manifest: Option<PathBuf>,
     /// Folder of fetched data.
     #[arg(
         long,
@@ -31,7 +35,8 @@ pub enum Command {
     Datasets,
     /// The visibility methods and their --set parameters.
     Methods,
-    /// Write a dataset's points as binary little-endian PLY (x y z, double).
+    /// Write a dataset's points: binary little-endian PLY (x y z, double), or LAS/LAZ when the
+    /// output ends in .las or .laz (coordinates quantised; the scale is printed).
     Export {
         /// Dataset name.
         #[arg(long)]
@@ -65,9 +70,42 @@ pub enum Command {
     /// seconds=T` per view, then `views=V points=N seconds=T views_per_second=R` (T: wall time
     /// of all views; per-dataset preparation is done once and excluded).
     Visible {
-        /// Dataset name.
+        /// Dataset name (built-in or from the manifest).
+        #[arg(long, required_unless_present = "cloud", conflicts_with = "cloud")]
+        dataset: Option<String>,
+        /// A point file instead of a dataset (ply, off, obj, xyz, las, laz, e57, pcd).
         #[arg(long)]
-        dataset: String,
+        cloud: Option<PathBuf>,
+        /// A mesh file for the ground truth (`--score`), with `--cloud`.
+        #[arg(long, requires = "cloud")]
+        mesh: Option<PathBuf>,
+        /// The cloud file's format when its extension does not say.
+        #[arg(long)]
+        format: Option<String>,
+        /// LAS/LAZ: keep only these classification codes (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        classes: Option<Vec<u8>>,
+        /// E57: read only this scan (0-based; all scans merged by default).
+        #[arg(long)]
+        scan: Option<usize>,
+        /// Eye, world coordinates: X,Y,Z.
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        eye: Option<[f64; 3]>,
+        /// Target (default: the centre of the cloud's bounding box).
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        target: Option<[f64; 3]>,
+        /// Up vector (default +z, or +y when looking along z).
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        up: Option<[f64; 3]>,
+        /// Vertical field of view in degrees (default: fits the cloud).
+        #[arg(long = "fov-y")]
+        fov_y: Option<f64>,
+        /// Image width (default 1280).
+        #[arg(long)]
+        width: Option<u32>,
+        /// Image height (default 720).
+        #[arg(long)]
+        height: Option<u32>,
         /// View index, `all`, or a comma-separated list of indices.
         #[arg(long, default_value = "0")]
         view: String,
@@ -156,4 +194,23 @@ pub enum ParallelViews {
     Yes,
     /// One view after another.
     No,
+}
+
+/// Parses `X,Y,Z`.
+pub fn parse_vec3(text: &str) -> Result<[f64; 3], String> {
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("expected X,Y,Z, got {text:?}"));
+    }
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        *o = p
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{p:?} is not a number"))?;
+        if !o.is_finite() {
+            return Err(format!("{p:?} is not finite"));
+        }
+    }
+    Ok(out)
 }

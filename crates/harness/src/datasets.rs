@@ -1,6 +1,8 @@
 //! The dataset registry: one table, names that say what they are.
 //!
-//! Adding a dataset is one entry in [`REGISTRY`]. Real datasets come from meshes that
+//! Adding a built-in dataset is one entry in [`REGISTRY`]; a user's files become datasets
+//! through a manifest ([`crate::manifest`]) or `visible --cloud` ([`load_files`]), recentred
+//! without loss (`cloud::recentre`) and recorded with their SHA-256. Real datasets come from meshes that
 //! `pointsight fetch` puts in `bench-data/meshes/` (Debian's `libcgal-demo`, checksummed);
 //! synthetic ones are generated in code and need nothing. Every dataset has the points methods
 //! see, the mesh the ground truth renders, and its viewpoint set (`cloud::views`, 16 views,
@@ -8,12 +10,15 @@
 //! datasets keep the source mesh's coordinates: no recentring, no scaling.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use anyhow::{Context, Result, bail};
-use cloud::glam::Vec3;
+use cloud::glam::{DVec3, Vec3};
 use cloud::synth::{Scene, sphere_plane_scene, sphere_scene, torus_scene};
 use cloud::views::{ViewSpec, fibonacci_views};
 use cloud::{Camera, PointCloud, TriMesh};
+
+use crate::manifest::{Entry, Manifest};
 
 /// A mesh file of the fetched data set.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -177,37 +182,93 @@ pub const REGISTRY: &[DatasetInfo] = &[
     },
 ];
 
-/// Looks a dataset up by name.
+/// The manifest of this process (`--manifest`, or `pointsight.toml`), set once at start.
+static MANIFEST: OnceLock<Option<Manifest>> = OnceLock::new();
+
+/// Uses `manifest` for every later lookup (call once, before loading anything).
+pub fn use_manifest(manifest: Option<Manifest>) {
+    // A second call keeps the first manifest: the process has one.
+    let _ = MANIFEST.set(manifest);
+}
+
+fn manifest() -> Option<&'static Manifest> {
+    MANIFEST.get().and_then(Option::as_ref)
+}
+
+/// The names of every dataset: built-in, then the manifest's.
+pub fn names() -> Vec<String> {
+    let mut out: Vec<String> = REGISTRY.iter().map(|d| d.name.to_owned()).collect();
+    if let Some(m) = manifest() {
+        out.extend(m.datasets.keys().cloned());
+    }
+    out
+}
+
+/// Looks a built-in dataset up by name.
 pub fn info(name: &str) -> Result<&'static DatasetInfo> {
     REGISTRY.iter().find(|d| d.name == name).with_context(|| {
         format!(
             "unknown dataset {name:?}; known datasets: {}",
-            REGISTRY
-                .iter()
-                .map(|d| d.name)
-                .collect::<Vec<_>>()
-                .join(", ")
+            names().join(", ")
         )
     })
 }
 
-/// A dataset in memory: points, mesh and views.
+/// Fails unless `name` is a built-in or manifest dataset.
+pub fn check(name: &str) -> Result<()> {
+    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
+        return Ok(());
+    }
+    info(name).map(|_| ())
+}
+
+/// A user file a dataset was made from: its path and SHA-256 (for the run metadata).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct SourceFile {
+    /// The path as given.
+    pub path: PathBuf,
+    /// SHA-256 of its bytes, hex.
+    pub sha256: String,
+}
+
+/// A dataset in memory: points, the mesh the ground truth needs (when there is one), views.
 #[derive(Debug, Clone)]
 pub struct Dataset {
-    /// Its registry entry.
-    pub info: &'static DatasetInfo,
-    /// The points methods see.
+    /// Name used on the command line.
+    pub name: String,
+    /// One line for listings.
+    pub description: String,
+    /// The points methods see (recentred: world = `origin` + position).
     pub cloud: PointCloud,
-    /// The surface the ground truth renders.
-    pub mesh: TriMesh,
-    /// Its viewpoint set.
+    /// The surface the ground truth renders, in the same frame; `None` for a bare scan.
+    pub mesh: Option<TriMesh>,
+    /// Its viewpoint set, in the same frame.
     pub views: Vec<Camera>,
+    /// User files it was read from.
+    pub files: Vec<SourceFile>,
+    /// The lossless offset subtracted from user files' coordinates (`cloud::recentre`); zero
+    /// for built-in datasets, which keep their source coordinates.
+    pub origin: DVec3,
+    /// Points farther than this from the mesh are off-surface (scored apart); `None`: one
+    /// density spacing.
+    pub surface_tolerance: Option<f64>,
 }
 
 impl Dataset {
     /// The dataset's name.
-    pub fn name(&self) -> &'static str {
-        self.info.name
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// The mesh, or an error saying that `what` needs one.
+    pub fn mesh(&self, what: &str) -> Result<&TriMesh> {
+        self.mesh.as_ref().with_context(|| {
+            format!(
+                "{what} needs a mesh (the ground truth renders it); dataset {} has none: add \
+                 `mesh = ...` to its manifest entry or `--mesh FILE`",
+                self.name
+            )
+        })
     }
 
     /// View `k`, or an error naming the valid range.
@@ -216,9 +277,26 @@ impl Dataset {
             format!(
                 "view {k} does not exist: dataset {} has views 0..{}",
                 self.name(),
-                self.views.len() - 1
+                self.views.len().saturating_sub(1)
             )
         })
+    }
+
+    /// Which points lie farther than the surface tolerance from the mesh (`None` without a
+    /// mesh); the tolerance used.
+    pub fn off_surface(&self) -> Result<Option<(Vec<bool>, f64)>> {
+        let Some(mesh) = &self.mesh else {
+            return Ok(None);
+        };
+        let tolerance = match self.surface_tolerance {
+            Some(t) => t,
+            None => cloud::spacing::density_spacing(&self.cloud.positions, 8, 20_000, 1)?,
+        };
+        let d = truth::ExactVisibility::new(mesh)?.distances(&self.cloud.positions)?;
+        Ok(Some((
+            d.iter().map(|&d| d > tolerance).collect(),
+            tolerance,
+        )))
     }
 }
 
@@ -236,14 +314,197 @@ fn load_mesh(data_dir: &Path, mesh: &MeshFile) -> Result<TriMesh> {
             data_dir.display()
         );
     }
-    let loaded = cloud::io::read(&path)?;
+    read_mesh(&path)
+}
+
+/// Reads a mesh file (any format with faces) and checks it.
+pub fn read_mesh(path: &Path) -> Result<TriMesh> {
+    let loaded = cloud::io::read(path)?;
+    if loaded.triangles.is_empty() {
+        bail!(
+            "{} has no faces: a mesh file is needed here",
+            path.display()
+        );
+    }
     let mesh = loaded.mesh();
-    mesh.validate()?;
+    mesh.validate()
+        .with_context(|| format!("{} is not a usable mesh", path.display()))?;
     Ok(mesh)
 }
 
-/// Loads a dataset by name; real datasets need `data_dir` to hold the fetched meshes.
+fn sha256_of(path: &Path) -> Result<SourceFile> {
+    Ok(SourceFile {
+        path: path.to_owned(),
+        sha256: crate::fetch::sha256_file(path)?,
+    })
+}
+
+/// Where a dataset made of files gets its views.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ViewsFrom {
+    /// The Fibonacci set of this spec around the mesh (or the cloud).
+    Spec(ViewSpec),
+    /// A views file or COLMAP model (world coordinates).
+    File(PathBuf),
+    /// The scanners of an E57 file (spherical cameras, 2048 × 1024).
+    Scanners,
+}
+
+/// A dataset made of user files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileDataset {
+    /// Its name.
+    pub name: String,
+    /// One line for listings.
+    pub description: String,
+    /// The point file, or `None` to sample the mesh.
+    pub cloud: Option<PathBuf>,
+    /// Sampling of the mesh (n, seed) when there is no cloud.
+    pub sample: Option<(usize, u64)>,
+    /// The mesh file.
+    pub mesh: Option<PathBuf>,
+    /// How to read the cloud.
+    pub read: cloud::io::ReadOptions,
+    /// Its views.
+    pub views: ViewsFrom,
+    /// Off-surface tolerance.
+    pub surface_tolerance: Option<f64>,
+}
+
+/// Loads a dataset made of user files, recentred without loss.
+pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
+    let mut files = Vec::new();
+    let mesh = match &spec.mesh {
+        Some(p) => {
+            files.push(sha256_of(p)?);
+            Some(read_mesh(p)?)
+        }
+        None => None,
+    };
+    let (mut cloud, scanners) = match (&spec.cloud, spec.sample) {
+        (Some(p), _) => {
+            files.push(sha256_of(p)?);
+            let loaded = cloud::io::read_with(p, &spec.read)?;
+            (loaded.cloud, loaded.scanners)
+        }
+        (None, Some((n, seed))) => {
+            let mesh = mesh.as_ref().context("sampling needs a mesh")?;
+            (cloud::sample::sample_surface(mesh, n, seed)?, Vec::new())
+        }
+        (None, None) => bail!("dataset {} has neither a cloud nor a sample", spec.name),
+    };
+    if cloud.is_empty() {
+        bail!("dataset {}: the cloud has no points", spec.name);
+    }
+    cloud.validate()?;
+    // Recentre: one lossless offset for the cloud and the mesh together.
+    let mut origin = cloud::recentre::exact_offset(&cloud.positions);
+    if let Some(m) = &mesh
+        && !cloud::recentre::is_exact_for(&m.vertices, origin)
+    {
+        origin = DVec3::ZERO;
+    }
+    cloud::recentre::shift(&mut cloud.positions, origin);
+    let mesh = mesh.map(|mut m| {
+        cloud::recentre::shift(&mut m.vertices, origin);
+        m
+    });
+    let views = match &spec.views {
+        ViewsFrom::Spec(vs) => {
+            let bbox = match &mesh {
+                Some(m) => m.bbox(),
+                None => cloud.bbox(),
+            }
+            .context("no points for a bounding box")?;
+            fibonacci_views(&bbox, vs)?
+        }
+        ViewsFrom::File(p) => {
+            files.push(sha256_of(p).or_else(|_| -> Result<SourceFile> {
+                // A COLMAP folder: hash its images.txt.
+                sha256_of(&p.join("images.txt"))
+            })?);
+            cloud::io::views::read_views(p)?
+                .iter()
+                .map(|c| c.translated(origin))
+                .collect()
+        }
+        ViewsFrom::Scanners => {
+            if scanners.is_empty() {
+                bail!(
+                    "dataset {}: views = \"scanners\" needs an E57 file with scan poses",
+                    spec.name
+                );
+            }
+            scanners
+                .iter()
+                .map(|s| Ok(s.camera(2048, 1024)?.translated(origin)))
+                .collect::<Result<_>>()?
+        }
+    };
+    Ok(Dataset {
+        name: spec.name.clone(),
+        description: spec.description.clone(),
+        cloud,
+        mesh,
+        views,
+        files,
+        origin,
+        surface_tolerance: spec.surface_tolerance,
+    })
+}
+
+/// The file dataset a manifest entry describes.
+pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDataset> {
+    let format = match &e.format {
+        Some(f) => Some(cloud::io::Format::from_name(f).with_context(|| {
+            format!(
+                "dataset {name}: unknown format {f:?}; known: {}",
+                cloud::io::Format::NAMES
+            )
+        })?),
+        None => None,
+    };
+    let views = match (&e.views, &e.view_spec) {
+        (Some(v), _) if v.as_os_str() == "scanners" => ViewsFrom::Scanners,
+        (Some(v), _) => ViewsFrom::File(m.resolve(v)),
+        (None, Some(vs)) => ViewsFrom::Spec(ViewSpec {
+            n_views: vs.count,
+            distance_factor: vs.distance,
+            width: vs.width,
+            height: vs.height,
+            ..ViewSpec::default()
+        }),
+        (None, None) => ViewsFrom::Spec(ViewSpec::default()),
+    };
+    Ok(FileDataset {
+        name: name.to_owned(),
+        description: if e.description.is_empty() {
+            format!("from {}", m.path.display())
+        } else {
+            e.description.clone()
+        },
+        cloud: e.cloud.as_ref().map(|p| m.resolve(p)),
+        sample: e.sample.map(|s| (s.n, s.seed)),
+        mesh: e.mesh.as_ref().map(|p| m.resolve(p)),
+        read: cloud::io::ReadOptions {
+            format,
+            classes: e.classes.clone(),
+            scan: e.scan,
+        },
+        views,
+        surface_tolerance: e.surface_tolerance,
+    })
+}
+
+/// Loads a dataset by name: the manifest's, else a built-in one (real datasets need
+/// `data_dir` to hold the fetched meshes).
 pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
+    if let Some(m) = manifest()
+        && let Some(e) = m.datasets.get(name)
+    {
+        return load_files(&manifest_dataset(m, name, e)?)
+            .with_context(|| format!("dataset {name} of {}", m.path.display()));
+    }
     let info = info(name)?;
     let (cloud, mesh) = match info.source {
         Source::MeshVertices(file) => {
@@ -281,10 +542,14 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
     let bbox = mesh.bbox().context("the dataset's mesh has no vertices")?;
     let views = fibonacci_views(&bbox, &ViewSpec::default())?;
     Ok(Dataset {
-        info,
+        name: info.name.to_owned(),
+        description: info.description.to_owned(),
         cloud,
-        mesh,
+        mesh: Some(mesh),
         views,
+        files: Vec::new(),
+        origin: DVec3::ZERO,
+        surface_tolerance: None,
     })
 }
 

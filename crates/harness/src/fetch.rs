@@ -34,6 +34,28 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 }
 
 /// True when `path` exists and has the expected checksum.
+/// SHA-256 of a file, hex, read in chunks (user files can be gigabytes).
+pub fn sha256_file(path: &Path) -> Result<String> {
+    let mut file =
+        fs::File::open(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut hasher = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = file
+            .read(&mut buf)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
 fn is_valid(path: &Path, mesh: &MeshFile) -> Result<bool> {
     match fs::read(path) {
         Ok(bytes) => Ok(sha256_hex(&bytes) == mesh.sha256),

@@ -15,6 +15,7 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
+pub mod manifest;
 pub mod methods;
 pub mod output;
 pub mod progress;
@@ -32,6 +33,7 @@ use crate::cli::{Cli, Command};
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     let data_dir = cli.data_dir;
+    datasets::use_manifest(manifest::Manifest::discover(cli.manifest.as_deref())?);
     match cli.command {
         Command::Fetch => {
             let report = fetch::fetch(&data_dir)?;
@@ -55,6 +57,24 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                     d.name, d.n_points, ready, d.description
                 );
             }
+            if let Some(m) = manifest::Manifest::discover(cli.manifest.as_deref())? {
+                for (name, e) in &m.datasets {
+                    let ready = [&e.cloud, &e.mesh]
+                        .into_iter()
+                        .flatten()
+                        .all(|p| m.resolve(p).exists());
+                    println!(
+                        "{name:<20} {:>8}  {:<11}  {}",
+                        e.sample.map_or("-".to_owned(), |s| s.n.to_string()),
+                        if ready { "ready" } else { "missing-file" },
+                        if e.description.is_empty() {
+                            format!("from {}", m.path.display())
+                        } else {
+                            e.description.clone()
+                        }
+                    );
+                }
+            }
         }
         Command::Methods => {
             for m in methods::METHODS {
@@ -66,16 +86,46 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
         Command::Export { dataset, out } => {
             let ds = datasets::load(&dataset, &data_dir)?;
-            let positions_only = cloud::PointCloud {
-                positions: ds.cloud.positions,
-                ..Default::default()
-            };
-            cloud::io::ply_write::write_ply(&out, &positions_only)?;
-            println!(
-                "dataset={dataset} points={} file={}",
-                positions_only.len(),
-                out.display()
-            );
+            // In world coordinates (the recentring undone: exact, see cloud::recentre).
+            let mut positions = ds.cloud.positions;
+            cloud::recentre::shift(&mut positions, -ds.origin);
+            let is_las = cloud::io::Format::of_path(&out) == Some(cloud::io::Format::Las);
+            let n = positions.len();
+            if is_las {
+                let with_attributes = cloud::PointCloud {
+                    positions,
+                    colors: ds.cloud.colors,
+                    intensity: ds.cloud.intensity,
+                    classification: ds.cloud.classification,
+                    ..Default::default()
+                };
+                // Written beside the target, then renamed: no half-written file on error.
+                let tmp = out.with_extension(format!(
+                    "partial.{}",
+                    out.extension().and_then(|e| e.to_str()).unwrap_or("las")
+                ));
+                let scale = cloud::io::las::write_las(&tmp, &with_attributes);
+                let scale = match scale {
+                    Ok(s) => s,
+                    Err(e) => {
+                        let _ = std::fs::remove_file(&tmp);
+                        return Err(e.into());
+                    }
+                };
+                std::fs::rename(&tmp, &out)
+                    .with_context(|| format!("cannot move {} into place", out.display()))?;
+                println!(
+                    "dataset={dataset} points={n} file={} scale={scale:e}",
+                    out.display()
+                );
+            } else {
+                let positions_only = cloud::PointCloud {
+                    positions,
+                    ..Default::default()
+                };
+                cloud::io::ply_write::write_ply(&out, &positions_only)?;
+                println!("dataset={dataset} points={n} file={}", out.display());
+            }
         }
         Command::Views {
             dataset,
@@ -94,6 +144,17 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
         Command::Visible {
             dataset,
+            cloud,
+            mesh,
+            format,
+            classes,
+            scan,
+            eye,
+            target,
+            up,
+            fov_y,
+            width,
+            height,
             view,
             views,
             method,
@@ -104,6 +165,27 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         } => visible::run(
             &visible::Request {
                 dataset,
+                cloud,
+                mesh,
+                read: cloud::io::ReadOptions {
+                    format: format
+                        .map(|f| {
+                            cloud::io::Format::from_name(&f).with_context(|| {
+                                format!("unknown format {f:?}; known: {}", cloud::io::Format::NAMES)
+                            })
+                        })
+                        .transpose()?,
+                    classes,
+                    scan,
+                },
+                camera: visible::CameraFlags {
+                    eye,
+                    target,
+                    up,
+                    fov_y_deg: fov_y,
+                    width,
+                    height,
+                },
                 view,
                 views,
                 method,
@@ -131,7 +213,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                     .collect(),
             };
             for name in &datasets {
-                datasets::info(name)?;
+                datasets::check(name)?;
             }
             let default_out = out.is_none();
             let out_dir = out.unwrap_or_else(|| PathBuf::from("reports").join(exp.name()));
@@ -141,6 +223,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 quick,
                 datasets,
                 views,
+                files: Default::default(),
             };
             experiments::run(exp, &ctx)?;
             println!("{}: results in {}", exp.name(), out_dir.display());
@@ -155,7 +238,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         } => {
             let start = std::time::Instant::now();
             for name in chosen.iter().flatten() {
-                datasets::info(name)?;
+                datasets::check(name)?;
             }
             for exp in experiments::EXPERIMENTS {
                 let ctx = experiments::Context {
@@ -171,6 +254,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                             .collect(),
                     },
                     views: None,
+                    files: Default::default(),
                 };
                 eprintln!("== {} ({})", exp.name(), exp.summary());
                 let t = std::time::Instant::now();

@@ -26,6 +26,27 @@ impl Score {
         }
     }
 
+    /// Scores `predicted` against `truth`, leaving out the points flagged in `off_surface`
+    /// (a real scan's points too far from the mesh for the mesh to say whether they are seen):
+    /// they count as neither true nor false.
+    pub fn of_on_surface(predicted: &[u32], truth: &[bool], off_surface: Option<&[bool]>) -> Self {
+        let Some(off) = off_surface else {
+            return Self::of(predicted, truth);
+        };
+        let on = |i: usize| !off[i];
+        let true_positives = predicted
+            .iter()
+            .filter(|&&i| on(i as usize) && truth[i as usize])
+            .count();
+        let predicted_on = predicted.iter().filter(|&&i| on(i as usize)).count();
+        let n_true = (0..truth.len()).filter(|&i| on(i) && truth[i]).count();
+        Self {
+            true_positives,
+            false_positives: predicted_on - true_positives,
+            false_negatives: n_true - true_positives,
+        }
+    }
+
     /// Scores two index sets against each other (both ascending, no repeats).
     pub fn of_sets(predicted: &[u32], truth: &[u32]) -> Self {
         let (mut i, mut j, mut tp) = (0, 0, 0);
@@ -105,6 +126,22 @@ mod tests {
         assert!((s.f1() - 2.0 / 3.0).abs() < 1e-12);
         assert!((s.jaccard() - 0.5).abs() < 1e-12);
         assert_eq!(Score::of_sets(&[0, 2, 4], &[0, 1, 4]), s);
+    }
+
+    #[test]
+    fn off_surface_points_count_as_neither() {
+        let truth = [true, true, false, false, true];
+        let off = [false, true, false, true, false];
+        // Point 1 (truly visible, missed) and 3 (hidden, predicted) are off the surface.
+        let s = Score::of_on_surface(&[0, 3, 4], &truth, Some(&off));
+        assert_eq!(
+            (s.true_positives, s.false_positives, s.false_negatives),
+            (2, 0, 0)
+        );
+        assert_eq!(
+            Score::of_on_surface(&[0, 3], &truth, None),
+            Score::of(&[0, 3], &truth)
+        );
     }
 
     #[test]

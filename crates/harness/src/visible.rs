@@ -10,6 +10,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
+use cloud::glam::DVec3;
 use rayon::prelude::*;
 
 use crate::cli::ParallelViews;
@@ -18,11 +19,71 @@ use crate::methods::{self, Output, Params};
 use crate::output;
 use crate::score::Score;
 
+/// A camera given on the command line (world coordinates); what is absent gets a default that
+/// fits the cloud.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct CameraFlags {
+    /// Eye.
+    pub eye: Option<[f64; 3]>,
+    /// Target (default: the centre of the cloud's bounding box).
+    pub target: Option<[f64; 3]>,
+    /// Up (default +z, or +y when the view is along z).
+    pub up: Option<[f64; 3]>,
+    /// Vertical field of view, degrees (default: the cloud's bounding sphere, 5 % margin).
+    pub fov_y_deg: Option<f64>,
+    /// Image width (default 1280).
+    pub width: Option<u32>,
+    /// Image height (default 720).
+    pub height: Option<u32>,
+}
+
+impl CameraFlags {
+    /// The camera these flags describe around `cloud` (world coordinates).
+    pub fn camera(&self, cloud: &[DVec3]) -> Result<Camera> {
+        let eye = DVec3::from_array(self.eye.context("--eye X,Y,Z is needed with --cloud")?);
+        let bbox = cloud::Aabb::from_points(cloud).context("the cloud is empty")?;
+        let target = self.target.map_or(bbox.center(), DVec3::from_array);
+        let up = self.up.map_or_else(
+            || cloud::camera::json::default_up(target - eye),
+            DVec3::from_array,
+        );
+        let fov = match self.fov_y_deg {
+            Some(f) => f,
+            None => {
+                // The bounding sphere seen from the eye, 5 % margin; 90° from inside it.
+                let r = 0.5 * bbox.diagonal();
+                let d = (bbox.center() - eye).length();
+                if d > 1.0001 * r {
+                    ((2.0 * (r / d).asin()).to_degrees() * 1.05).min(170.0)
+                } else {
+                    90.0
+                }
+            }
+        };
+        Ok(Camera::new(
+            eye,
+            target,
+            up,
+            fov,
+            self.width.unwrap_or(1280),
+            self.height.unwrap_or(720),
+        )?)
+    }
+}
+
 /// What `visible` was asked.
 #[derive(Debug, Clone)]
 pub struct Request {
-    /// Dataset name.
-    pub dataset: String,
+    /// Dataset name (ignored with `cloud`).
+    pub dataset: Option<String>,
+    /// A point file instead of a dataset.
+    pub cloud: Option<PathBuf>,
+    /// A mesh file for the ground truth (with `cloud`).
+    pub mesh: Option<PathBuf>,
+    /// How to read the cloud file.
+    pub read: cloud::io::ReadOptions,
+    /// A camera from flags.
+    pub camera: CameraFlags,
     /// `K`, `all` or `K1,K2,...`.
     pub view: String,
     /// A views file replacing the dataset's views.
@@ -73,12 +134,19 @@ fn indices_text(visible: &[u32]) -> String {
     text
 }
 
+/// The score line: the reference's count, precision, recall, F1 (off-surface points left out
+/// and counted).
 fn score_line(
     reference: &truth::Reference,
     ds: &Dataset,
     camera: &Camera,
     output: &Output,
+    off_surface: Option<(&[bool], f64)>,
 ) -> Result<String> {
+    let (off_surface, tolerance) = match off_surface {
+        Some((f, t)) => (Some(f), t),
+        None => (None, f64::NAN),
+    };
     let truth = reference
         .visibility(
             &ds.cloud.positions,
@@ -86,10 +154,19 @@ fn score_line(
             &truth::ReferenceParams::default(),
         )?
         .visible;
-    let s = Score::of(&output.visible, &truth);
+    let s = Score::of_on_surface(&output.visible, &truth, off_surface);
+    let off = off_surface.map_or(0, |f| f.iter().filter(|&&o| o).count());
+    let off_visible = off_surface.map_or(0, |f| {
+        output.visible.iter().filter(|&&i| f[i as usize]).count()
+    });
     Ok(format!(
-        "reference_visible={} precision={:.4} recall={:.4} f1={:.4}",
-        truth.iter().filter(|&&t| t).count(),
+        "reference_visible={} off_surface={off} off_surface_visible={off_visible} \
+         surface_tolerance={tolerance:.6} precision={:.4} recall={:.4} f1={:.4}",
+        truth
+            .iter()
+            .enumerate()
+            .filter(|&(i, &t)| t && off_surface.is_none_or(|f| !f[i]))
+            .count(),
         s.precision(),
         s.recall(),
         s.f1()
@@ -100,16 +177,48 @@ fn score_line(
 pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let params = Params::parse(&req.set)?;
     let method = methods::method(&req.method)?;
-    let mut ds = datasets::load(&req.dataset, data_dir)?;
+    let mut ds = match (&req.cloud, &req.dataset) {
+        (Some(path), _) => datasets::load_files(&datasets::FileDataset {
+            name: path
+                .file_stem()
+                .map_or("cloud".into(), |s| s.to_string_lossy().into_owned()),
+            description: format!("{}", path.display()),
+            cloud: Some(path.clone()),
+            sample: None,
+            mesh: req.mesh.clone(),
+            read: req.read.clone(),
+            views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
+            surface_tolerance: None,
+        })?,
+        (None, Some(name)) => {
+            if req.mesh.is_some() {
+                bail!("--mesh goes with --cloud; a dataset has its own mesh");
+            }
+            datasets::load(name, data_dir)?
+        }
+        (None, None) => bail!("give --dataset NAME or --cloud FILE"),
+    };
     let many = req.views.is_some() || req.view.parse::<usize>().is_err();
     if let Some(path) = &req.views {
-        ds.views = cloud::io::views::read_views(path)?;
+        ds.views = cloud::io::views::read_views(path)?
+            .iter()
+            .map(|c| c.translated(ds.origin))
+            .collect();
+    } else if req.camera.eye.is_some() {
+        let world: Vec<DVec3> = ds.cloud.positions.iter().map(|p| *p + ds.origin).collect();
+        ds.views = vec![req.camera.camera(&world)?.translated(ds.origin)];
+    } else if req.cloud.is_some() {
+        bail!(
+            "with --cloud, give a camera: --eye X,Y,Z (and optionally --target, --up, --fov-y, --width, --height) or --views FILE"
+        );
     }
     let reference = if req.score {
-        Some(truth::Reference::new(&ds.mesh)?)
+        Some(truth::Reference::new(ds.mesh("--score")?)?)
     } else {
         None
     };
+    let off = if req.score { ds.off_surface()? } else { None };
+    let off_flags = off.as_ref().map(|(f, t)| (&f[..], *t));
     if !many {
         // The single-view contract: a file, `prepare_seconds`, then the contract line.
         let k: usize = req.view.parse()?;
@@ -121,7 +230,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
         println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
         if let Some(r) = &reference {
-            println!("{}", score_line(r, &ds, &camera, &output)?);
+            println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
         }
         println!(
             "method={} points={} visible={} seconds={seconds:.6}",
@@ -166,7 +275,10 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             indices_text(&output.visible).as_bytes(),
         )?;
         if let Some(r) = &reference {
-            println!("view={k} {}", score_line(r, &ds, &ds.views[*k], output)?);
+            println!(
+                "view={k} {}",
+                score_line(r, &ds, &ds.views[*k], output, off_flags)?
+            );
         }
         println!(
             "view={k} method={} points={} visible={} seconds={seconds:.6}",

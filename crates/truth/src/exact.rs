@@ -5,11 +5,13 @@
 //! neighbours, which meet the segment at t = 1 up to rounding, from hiding it). The segment
 //! test runs over `parry3d-f64`'s triangle-mesh BVH (`TriMesh::cast_local_ray`, non-solid) in
 //! double precision; points are processed in parallel. It is the slow, obviously-correct check
-//! that the z-buffer [`crate::reference`] is validated against.
+//! that the z-buffer [`crate::reference`] is validated against. The same BVH gives each point's
+//! distance to the surface ([`ExactVisibility::distances`]): a real scan registered to a mesh
+//! does not lie on it, and points farther than a tolerance are scored apart.
 
 use cloud::TriMesh;
 use cloud::glam::DVec3;
-use parry3d_f64::query::{Ray, RayCast};
+use parry3d_f64::query::{PointQuery, Ray, RayCast};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
@@ -53,6 +55,17 @@ impl ExactVisibility {
         self.mesh
             .cast_local_ray(&ray, 1.0 - margin, false)
             .is_none()
+    }
+
+    /// Distance from `p` to the surface (the nearest point of any triangle).
+    pub fn distance(&self, p: DVec3) -> f64 {
+        (self.mesh.project_local_point(p, false).point - p).length()
+    }
+
+    /// Distance of every point to the surface, in parallel.
+    pub fn distances(&self, points: &[DVec3]) -> Result<Vec<f64>> {
+        cloud::points::check_finite(points)?;
+        Ok(points.par_iter().map(|&p| self.distance(p)).collect())
     }
 
     /// Visibility of every point from `eye`.
@@ -105,6 +118,26 @@ mod tests {
                 .count();
             assert!(agree as f64 / 6_000.0 > 0.995, "{agree} for {eye}");
         }
+    }
+
+    #[test]
+    fn distances_to_the_surface() {
+        let scene = sphere_scene(500);
+        let exact = ExactVisibility::new(&scene.mesh).unwrap();
+        // Points on the sphere lie within the icosphere's sag of its faces; 2 and 0.5 from the
+        // centre are 1 and 0.5 from the surface.
+        let d = exact
+            .distances(&[
+                scene.cloud.positions[7],
+                DVec3::new(0.0, 0.0, 2.0),
+                DVec3::new(0.5, 0.0, 0.0),
+            ])
+            .unwrap();
+        assert!(d[0] < 1e-3, "{d:?}");
+        assert!(
+            (d[1] - 1.0).abs() < 1e-3 && (d[2] - 0.5).abs() < 1e-3,
+            "{d:?}"
+        );
     }
 
     #[test]

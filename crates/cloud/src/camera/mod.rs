@@ -363,6 +363,16 @@ impl Camera {
         )
     }
 
+    /// The same camera with the world moved by −`offset` (eye and target shifted; orientation,
+    /// model and image unchanged): the camera in a recentred frame.
+    pub fn translated(&self, offset: DVec3) -> Self {
+        Self {
+            eye: self.eye - offset,
+            target: self.target - offset,
+            ..*self
+        }
+    }
+
     /// The projection model.
     pub fn model(&self) -> &Model {
         &self.model

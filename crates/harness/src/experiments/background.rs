@@ -68,7 +68,11 @@ pub struct Frame {
 /// The camera `t` seconds into the orbit.
 fn orbit_camera(ds: &Dataset, t: f64) -> Result<Camera> {
     let start = ds.view(0)?;
-    let radius = 0.5 * ds.mesh.bbox().context("empty mesh")?.diagonal();
+    let bbox = match &ds.mesh {
+        Some(m) => m.bbox(),
+        None => ds.cloud.bbox(),
+    };
+    let radius = 0.5 * bbox.context("empty dataset")?.diagonal();
     let distance = (start.eye - start.target).length();
     // Linear speed radius / 2 per second along a circle of radius `distance`.
     let angle = 0.5 * radius / distance * t;
@@ -163,14 +167,16 @@ impl Experiment for BackgroundExperiment {
                 frame += 1;
             }
 
-            // Score offline, against the reference for the camera at the time each frame shows.
-            let reference = Reference::new(&ds.mesh)?;
+            // Score offline, against the reference for the camera at the time each frame shows
+            // (a dataset without a mesh is not scored: F1 stays NaN).
+            let reference = ds.mesh.as_ref().map(Reference::new).transpose()?;
             let to_score: Vec<usize> = (0..shown.len())
+                .filter(|_| reference.is_some())
                 .filter(|&k| shown[k].0 == "synchronous" || shown[k].1.is_multiple_of(SCORE_EVERY))
                 .collect();
             let bar = progress::bar(to_score.len() as u64, format!("background {name} scoring"));
             let mut f1 = vec![f64::NAN; shown.len()];
-            for k in to_score {
+            for (k, reference) in to_score.into_iter().zip(reference.iter().cycle()) {
                 let cam = orbit_camera(&ds, shown[k].2)?;
                 let truth = reference
                     .visibility(&ds.cloud.positions, &cam, &ReferenceParams::default())?

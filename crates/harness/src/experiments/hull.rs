@@ -144,7 +144,7 @@ impl Experiment for HullExperiment {
         let mut rows = Vec::new();
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
-            let reference = Reference::new(&ds.mesh)?;
+            let reference = Reference::new(ds.mesh("the hull experiment's F1 column")?)?;
             let hulls: Vec<(&str, Box<dyn hull::ConvexHull>)> = HULLS
                 .iter()
                 .map(|&h| Ok((h, hull::by_name(h)?)))

@@ -31,6 +31,8 @@ pub struct Context {
     pub datasets: Vec<String>,
     /// A views file replacing every dataset's own views (`run --views`).
     pub views: Option<PathBuf>,
+    /// User files the loaded datasets came from, for the run metadata.
+    pub files: std::sync::Arc<std::sync::Mutex<Vec<crate::datasets::SourceFile>>>,
 }
 
 impl Context {
@@ -38,7 +40,17 @@ impl Context {
     pub fn dataset(&self, name: &str) -> Result<crate::datasets::Dataset> {
         let mut ds = crate::datasets::load(name, &self.data_dir)?;
         if let Some(path) = &self.views {
-            ds.views = cloud::io::views::read_views(path)?;
+            ds.views = cloud::io::views::read_views(path)?
+                .iter()
+                .map(|c| c.translated(ds.origin))
+                .collect();
+        }
+        if let Ok(mut files) = self.files.lock() {
+            for f in &ds.files {
+                if !files.contains(f) {
+                    files.push(f.clone());
+                }
+            }
         }
         Ok(ds)
     }
@@ -119,6 +131,7 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
         ..ctx.clone()
     };
     meta.parameters = exp.measure(&staged)?;
+    meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
     meta.seconds = start.elapsed().as_secs_f64();
     meta.write(&staging)?;
     exp.render(&staging)?;

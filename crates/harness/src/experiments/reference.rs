@@ -65,7 +65,11 @@ impl Experiment for ReferenceExperiment {
         let mut rows = Vec::new();
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
-            let reference = Reference::new(&ds.mesh)?;
+            let Some(mesh) = &ds.mesh else {
+                eprintln!("reference: dataset {name} has no mesh; nothing to validate, skipped");
+                continue;
+            };
+            let reference = Reference::new(mesh)?;
             let bar = progress::bar(n_views as u64, format!("reference {name}"));
             for (view, cam) in ds.views.iter().take(n_views).enumerate() {
                 let start = Instant::now();

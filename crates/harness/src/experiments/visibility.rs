@@ -81,6 +81,26 @@ pub struct Row {
     pub recall: f64,
     /// F1.
     pub f1: f64,
+    /// Off-surface points (farther from the mesh than the dataset's tolerance) the method
+    /// called visible; they are left out of precision and recall.
+    #[serde(default)]
+    pub off_surface_visible: usize,
+}
+
+/// One row of `agreement.csv`: for datasets without a mesh, how far two methods' visible sets
+/// agree (their automatic settings, same view).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct AgreementRow {
+    /// Dataset.
+    pub dataset: String,
+    /// View.
+    pub view: usize,
+    /// First method family.
+    pub a: String,
+    /// Second method family.
+    pub b: String,
+    /// |A ∩ B| / |A ∪ B|.
+    pub jaccard: f64,
 }
 
 /// One row of `pixels.csv`.
@@ -164,10 +184,25 @@ impl Experiment for VisibilityExperiment {
         let n_views = if ctx.quick { 2 } else { 8 };
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
+        let mut agreement = Vec::new();
+        let mut off_surface_meta = serde_json::Map::new();
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
+            let n_views = n_views.min(ds.views.len());
             let points = &ds.cloud.positions;
-            let reference = Reference::new(&ds.mesh)?;
+            // No mesh, no ground truth: rows keep speed and counts, F1 is NaN, and the methods'
+            // agreement is recorded instead.
+            let reference = ds.mesh.as_ref().map(Reference::new).transpose()?;
+            let off = ds.off_surface()?;
+            if let Some((flags, tolerance)) = &off {
+                off_surface_meta.insert(
+                    name.clone(),
+                    serde_json::json!({
+                        "tolerance": tolerance,
+                        "off_surface_points": flags.iter().filter(|&&f| f).count(),
+                    }),
+                );
+            }
             let scale = hpr::auto::CloudScale::of(points)?;
             let caster = RayCaster::new(points)?;
             let splatter = Splatter::new(points)?;
@@ -178,9 +213,13 @@ impl Experiment for VisibilityExperiment {
             let mut kept_for_render: Vec<(usize, Run)> = Vec::new();
             for view in 0..n_views {
                 let cam = *ds.view(view)?;
-                let truth = reference
-                    .visibility(points, &cam, &ReferenceParams::default())?
-                    .visible;
+                let truth = match &reference {
+                    Some(r) => Some(
+                        r.visibility(points, &cam, &ReferenceParams::default())?
+                            .visible,
+                    ),
+                    None => None,
+                };
                 let mut runs: Vec<Run> = Vec::new();
                 let max_distance = points
                     .iter()
@@ -285,8 +324,17 @@ impl Experiment for VisibilityExperiment {
 
                 // Score; image-space figures for the per-pixel methods.
                 let mut mesh_pixels: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
+                if truth.is_none() {
+                    agreement.extend(agreement_rows(name, view, &runs));
+                }
+                let off_flags = off.as_ref().map(|(f, _)| &f[..]);
                 for run in runs {
-                    let s = Score::of(&run.visible, &truth);
+                    let s = truth
+                        .as_ref()
+                        .map(|t| Score::of_on_surface(&run.visible, t, off_flags));
+                    let off_surface_visible = off_flags.map_or(0, |f| {
+                        run.visible.iter().filter(|&&i| f[i as usize]).count()
+                    });
                     rows.push(Row {
                         dataset: name.clone(),
                         n_points: points.len(),
@@ -296,15 +344,18 @@ impl Experiment for VisibilityExperiment {
                         seconds: run.seconds,
                         rays: run.rays,
                         n_visible: run.visible.len(),
-                        precision: s.precision(),
-                        recall: s.recall(),
-                        f1: s.f1(),
+                        precision: s.map_or(f64::NAN, |s| s.precision()),
+                        recall: s.map_or(f64::NAN, |s| s.recall()),
+                        f1: s.map_or(f64::NAN, |s| s.f1()),
+                        off_surface_visible,
                     });
-                    if let Some((c, pixel_point)) =
-                        run.pixels.as_ref().filter(|(c, _)| c.has_frustum())
-                    {
+                    if let (Some((c, pixel_point)), Some(truth), Some(mesh)) = (
+                        run.pixels.as_ref().filter(|(c, _)| c.has_frustum()),
+                        &truth,
+                        &ds.mesh,
+                    ) {
                         if !mesh_pixels.contains_key(&(c.width, c.height)) {
-                            let t = truth::rasterize(&ds.mesh, c)?.triangle;
+                            let t = truth::rasterize(mesh, c)?.triangle;
                             mesh_pixels.insert((c.width, c.height), t);
                         }
                         let mesh = &mesh_pixels[&(c.width, c.height)];
@@ -341,12 +392,13 @@ impl Experiment for VisibilityExperiment {
                 bar.inc(1);
             }
             bar.finish_and_clear();
-            if !kept_for_render.is_empty() {
-                render_bunny(&ctx.out_dir, &ds, &reference, &rows, kept_for_render)?;
+            if let Some(reference) = reference.as_ref().filter(|_| !kept_for_render.is_empty()) {
+                render_bunny(&ctx.out_dir, &ds, reference, &rows, kept_for_render)?;
             }
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
+        write_csv(&ctx.out_dir.join("agreement.csv"), &agreement)?;
         Ok(serde_json::json!({
             "views": n_views,
             "hpr_linear_gammas": GAMMAS,
@@ -360,14 +412,52 @@ impl Experiment for VisibilityExperiment {
             "splat_radii_px": SPLAT_RADII,
             "splat_tolerances": SPLAT_TOLERANCES,
             "timing": "median of 3 runs, 1 run when a run takes over 0.1 s",
+            "off_surface": off_surface_meta,
         }))
     }
 
     fn render(&self, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let pixels: Vec<PixelRow> = read_csv(&dir.join("pixels.csv"))?;
-        render(dir, &rows, &pixels)
+        // Runs before agreement.csv existed have none.
+        let agreement: Vec<AgreementRow> = if dir.join("agreement.csv").exists() {
+            read_csv(&dir.join("agreement.csv"))?
+        } else {
+            Vec::new()
+        };
+        render(dir, &rows, &pixels, &agreement)
     }
+}
+
+/// The settings compared on datasets without a mesh: each family's automatic rule (the ray
+/// cast at 1280 × 720) and the splat baseline's default.
+fn agreement_setting(method: &str, params: &str) -> bool {
+    match method {
+        "hpr" => params.contains("gamma=auto"),
+        "raycast" => params.contains("radius=auto") && params.contains("width=1280"),
+        "splat" => params == "radius_px=2;depth_tolerance=0.01",
+        _ => false,
+    }
+}
+
+fn agreement_rows(dataset: &str, view: usize, runs: &[Run]) -> Vec<AgreementRow> {
+    let chosen: Vec<&Run> = runs
+        .iter()
+        .filter(|r| agreement_setting(r.method, &r.params))
+        .collect();
+    let mut out = Vec::new();
+    for (i, a) in chosen.iter().enumerate() {
+        for b in &chosen[i + 1..] {
+            out.push(AgreementRow {
+                dataset: dataset.to_owned(),
+                view,
+                a: family(a.method, &a.params).to_owned(),
+                b: family(b.method, &b.params).to_owned(),
+                jaccard: Score::of_sets(&a.visible, &b.visible).jaccard(),
+            });
+        }
+    }
+    out
 }
 
 /// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
@@ -476,13 +566,82 @@ fn param(params: &str, key: &str) -> Option<f64> {
         .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')?.parse().ok())
 }
 
-fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow]) -> Result<()> {
-    let datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
+fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementRow]) -> Result<()> {
+    let all_datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
         if !acc.contains(&r.dataset) {
             acc.push(r.dataset.clone());
         }
         acc
     });
+    // Datasets without a ground truth (no mesh) have NaN F1: they get the agreement table.
+    let (datasets, unscored): (Vec<String>, Vec<String>) = all_datasets
+        .into_iter()
+        .partition(|d| rows.iter().any(|r| r.dataset == *d && !r.f1.is_nan()));
+    let mut no_mesh = String::new();
+    for d in &unscored {
+        let mut by: BTreeMap<(&str, &str), Vec<f64>> = BTreeMap::new();
+        for a in agreement.iter().filter(|a| a.dataset == *d) {
+            by.entry((&a.a, &a.b)).or_default().push(a.jaccard);
+        }
+        let mut speed: BTreeMap<&str, Vec<(f64, usize)>> = BTreeMap::new();
+        for r in rows
+            .iter()
+            .filter(|r| r.dataset == *d && agreement_setting(&r.method, &r.params))
+        {
+            speed
+                .entry(family(&r.method, &r.params))
+                .or_default()
+                .push((r.seconds, r.n_visible));
+        }
+        no_mesh.push_str(&format!(
+            "#### {d}: no mesh, no ground truth\n\nThis dataset has no mesh, so there is nothing \
+             to score against: its F1 columns are empty (NaN in results.csv). What can be \
+             measured is reported: each method's time and visible count at its automatic \
+             setting, and how far the methods agree (Jaccard index of their visible sets, mean \
+             over views).\n\n{}\n{}\n",
+            markdown_table(
+                &["method", "seconds", "visible points"],
+                &speed
+                    .iter()
+                    .map(|(m, v)| {
+                        vec![
+                            (*m).to_owned(),
+                            format!("{:.4}", mean(v.iter().map(|x| x.0))),
+                            format!("{:.0}", mean(v.iter().map(|x| x.1 as f64))),
+                        ]
+                    })
+                    .collect::<Vec<_>>()
+            ),
+            markdown_table(
+                &["method A", "method B", "Jaccard (mean over views)"],
+                &by.iter()
+                    .map(|((a, b), j)| {
+                        vec![
+                            (*a).to_owned(),
+                            (*b).to_owned(),
+                            format!("{:.4}", mean(j.iter().copied())),
+                        ]
+                    })
+                    .collect::<Vec<_>>()
+            )
+        ));
+    }
+    let mut off_surface = String::new();
+    for d in &datasets {
+        let flagged: usize = rows
+            .iter()
+            .filter(|r| r.dataset == *d)
+            .map(|r| r.off_surface_visible)
+            .max()
+            .unwrap_or(0);
+        if flagged > 0 {
+            off_surface.push_str(&format!(
+                "- {d}: up to {flagged} points called visible lie farther from the mesh than the \
+                 surface tolerance (see metadata.json); they are left out of precision and \
+                 recall.\n"
+            ));
+        }
+    }
     let families = ["hpr-linear", "hpr-exp", "raycast", "splat"];
     let mut pictures = String::new();
 
@@ -767,7 +926,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow]) -> Result<()> {
          ### Image space (per-pixel methods)\n\nA ray cast shows at most one point per pixel: \
          `pixel precision` is the share of covered pixels whose point is truly visible, `mesh \
          coverage` the share of the mesh's pixels that got a point.\n\n{}\n{pictures}\
-         Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv).\n",
+         {off_surface}{no_mesh}Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv){}.\n",
         markdown_table(
             &[
                 "dataset",
@@ -807,6 +966,11 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow]) -> Result<()> {
             ],
             &pixel_table
         ),
+        if agreement.is_empty() {
+            ""
+        } else {
+            ", [agreement.csv](agreement.csv)"
+        },
     );
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
 }

@@ -57,7 +57,7 @@ impl Method for ExactMethod {
     ) -> Result<Box<dyn Prepared + 'a>> {
         Ok(Box::new(Prep {
             dataset,
-            exact: ExactVisibility::new(&dataset.mesh)?,
+            exact: ExactVisibility::new(dataset.mesh("the exact method")?)?,
         }))
     }
 }

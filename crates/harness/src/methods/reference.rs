@@ -79,7 +79,7 @@ impl Method for ReferenceMethod {
         };
         Ok(Box::new(Prep {
             dataset,
-            reference: Reference::new(&dataset.mesh)?,
+            reference: Reference::new(dataset.mesh("the reference")?)?,
             params,
         }))
     }

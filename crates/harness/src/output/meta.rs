@@ -35,6 +35,9 @@ pub struct RunMeta {
     pub datasets: Vec<String>,
     /// Experiment-specific parameters (sweeps, repeats, seeds).
     pub parameters: serde_json::Value,
+    /// The user files datasets were read from (manifests), with their SHA-256.
+    #[serde(default)]
+    pub user_files: Vec<crate::datasets::SourceFile>,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
 }
@@ -61,6 +64,7 @@ impl RunMeta {
             quick,
             datasets: datasets.to_vec(),
             parameters,
+            user_files: Vec::new(),
             seconds: 0.0,
         }
     }

@@ -1,0 +1,233 @@
+//! Dataset manifests: a TOML file that names datasets made of the user's files.
+//!
+//! `--manifest FILE`, or `pointsight.toml` in the working directory when present. Paths are
+//! relative to the manifest's folder. Each `[datasets.NAME]` table:
+//!
+//! ```toml
+//! [datasets.office-scan]
+//! cloud = "scans/office.laz"        # a point file (ply, off, obj, xyz, las, laz, e57, pcd) ...
+//! mesh = "meshes/office.obj"        # ... optional: the surface the ground truth renders
+//! description = "office, 2 scans"
+//! format = "laz"                    # optional: the format, when the extension does not say
+//! classes = [2, 6]                  # optional, LAS/LAZ: keep these classifications
+//! scan = 0                          # optional, E57: one scan (all merged by default)
+//! views = "views.jsonl"             # optional: a views file, a COLMAP model, or "scanners"
+//! surface_tolerance = 0.002         # optional: off-surface distance (default: 1 spacing)
+//!
+//! [datasets.my-bunny-50000]
+//! mesh = "bunny.obj"
+//! sample = { n = 50000, seed = 7 }  # points sampled from the mesh instead of a cloud file
+//! view_spec = { count = 8, distance = 2.0, width = 1280, height = 720 }
+//! ```
+//!
+//! Without `views` or `view_spec` a dataset gets the Fibonacci views of the built-in datasets
+//! around its mesh (or its cloud). Names must not shadow built-in datasets.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+/// A manifest: datasets by name.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Manifest {
+    /// The datasets.
+    #[serde(default)]
+    pub datasets: BTreeMap<String, Entry>,
+    /// The manifest's folder (paths are relative to it).
+    #[serde(skip)]
+    pub base: PathBuf,
+    /// The manifest file.
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+/// Sampling a mesh.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Sample {
+    /// Number of points.
+    pub n: usize,
+    /// Seed.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+/// A Fibonacci view set.
+#[derive(Debug, Clone, Copy, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ViewSpecEntry {
+    /// Number of views.
+    pub count: usize,
+    /// Eye distance in box diagonals.
+    #[serde(default = "default_distance")]
+    pub distance: f64,
+    /// Image width.
+    #[serde(default = "default_width")]
+    pub width: u32,
+    /// Image height.
+    #[serde(default = "default_height")]
+    pub height: u32,
+}
+
+fn default_distance() -> f64 {
+    1.5
+}
+fn default_width() -> u32 {
+    1280
+}
+fn default_height() -> u32 {
+    720
+}
+
+/// One dataset of a manifest.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Entry {
+    /// The point file.
+    pub cloud: Option<PathBuf>,
+    /// The mesh file.
+    pub mesh: Option<PathBuf>,
+    /// Sample the mesh instead of reading a cloud.
+    pub sample: Option<Sample>,
+    /// One line for `pointsight datasets`.
+    #[serde(default)]
+    pub description: String,
+    /// Format of the cloud file.
+    pub format: Option<String>,
+    /// LAS/LAZ classifications to keep.
+    pub classes: Option<Vec<u8>>,
+    /// E57 scan to read.
+    pub scan: Option<usize>,
+    /// Views file, COLMAP model, or `scanners`.
+    pub views: Option<PathBuf>,
+    /// Fibonacci views.
+    pub view_spec: Option<ViewSpecEntry>,
+    /// Off-surface distance tolerance, world units.
+    pub surface_tolerance: Option<f64>,
+}
+
+impl Manifest {
+    /// Reads a manifest file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the manifest {}", path.display()))?;
+        let mut m: Manifest = toml::from_str(&text)
+            .with_context(|| format!("{}: malformed manifest", path.display()))?;
+        m.base = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_owned();
+        m.path = path.to_owned();
+        for (name, e) in &m.datasets {
+            if crate::datasets::REGISTRY.iter().any(|d| d.name == name) {
+                bail!(
+                    "{}: dataset {name} shadows a built-in dataset; choose another name",
+                    path.display()
+                );
+            }
+            match (&e.cloud, &e.sample, &e.mesh) {
+                (Some(_), None, _) | (None, Some(_), Some(_)) => {}
+                (Some(_), Some(_), _) => {
+                    bail!(
+                        "{}: dataset {name}: give cloud or sample, not both",
+                        path.display()
+                    )
+                }
+                (None, Some(_), None) => {
+                    bail!("{}: dataset {name}: sample needs a mesh", path.display())
+                }
+                (None, None, _) => bail!(
+                    "{}: dataset {name} needs a cloud file, or a mesh and sample = {{ n = ... }}",
+                    path.display()
+                ),
+            }
+            if e.views.is_some() && e.view_spec.is_some() {
+                bail!(
+                    "{}: dataset {name}: give views or view_spec, not both",
+                    path.display()
+                );
+            }
+        }
+        Ok(m)
+    }
+
+    /// The manifest to use: `explicit`, else `pointsight.toml` in the working directory when it
+    /// exists, else none.
+    pub fn discover(explicit: Option<&Path>) -> Result<Option<Self>> {
+        match explicit {
+            Some(p) => Ok(Some(Self::read(p)?)),
+            None => {
+                let default = Path::new("pointsight.toml");
+                if default.exists() {
+                    Ok(Some(Self::read(default)?))
+                } else {
+                    Ok(None)
+                }
+            }
+        }
+    }
+
+    /// A path of the manifest resolved against its folder.
+    pub fn resolve(&self, p: &Path) -> PathBuf {
+        if p.is_absolute() {
+            p.to_owned()
+        } else {
+            self.base.join(p)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(text: &str) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.toml");
+        std::fs::write(&p, text).unwrap();
+        (dir, p)
+    }
+
+    #[test]
+    fn reads_entries_and_resolves_paths() {
+        let (dir, p) = write(
+            "[datasets.scan]\ncloud = \"a/scan.ply\"\nmesh = \"m.off\"\n\
+             [datasets.s]\nmesh = \"m.off\"\nsample = { n = 100, seed = 3 }\n\
+             view_spec = { count = 4 }\n",
+        );
+        let m = Manifest::read(&p).unwrap();
+        assert_eq!(m.datasets.len(), 2);
+        assert_eq!(
+            m.resolve(m.datasets["scan"].cloud.as_ref().unwrap()),
+            dir.path().join("a/scan.ply")
+        );
+        assert_eq!(m.datasets["s"].sample, Some(Sample { n: 100, seed: 3 }));
+        assert_eq!(m.datasets["s"].view_spec.unwrap().width, 1280);
+    }
+
+    #[test]
+    fn mistakes_are_named() {
+        for (text, needle) in [
+            ("[datasets.x]\nclud = \"a.ply\"\n", "unknown field"),
+            ("[datasets.x]\nmesh = \"a.off\"\n", "needs a cloud"),
+            ("[datasets.x]\nsample = { n = 3 }\n", "sample needs a mesh"),
+            (
+                "[datasets.bunny]\ncloud = \"a.ply\"\n",
+                "shadows a built-in",
+            ),
+            (
+                "[datasets.x]\ncloud = \"a.ply\"\nviews = \"v\"\nview_spec = { count = 2 }\n",
+                "not both",
+            ),
+            ("datasets = 3\n", "malformed"),
+        ] {
+            let (_d, p) = write(text);
+            let err = format!("{:#}", Manifest::read(&p).unwrap_err());
+            assert!(err.contains(needle), "{text}: {err}");
+        }
+    }
+}
