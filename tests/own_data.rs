@@ -287,3 +287,77 @@ fn a_georeferenced_cloud_gives_the_same_visible_sets_as_near_the_origin() {
         );
     }
 }
+
+#[test]
+fn the_readme_examples_run_on_the_example_files() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("visible.txt");
+    let stdout = ok(
+        &root,
+        &[
+            "visible",
+            "--cloud",
+            "examples/own-data/scan.ply",
+            "--mesh",
+            "examples/own-data/scene.off",
+            "--score",
+            "--eye",
+            "3,-4,2.5",
+            "--method",
+            "hpr",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    // The figures the README quotes.
+    assert!(
+        stdout.contains("reference_visible=2974 off_surface=56 off_surface_visible=40"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("method=hpr points=6000 visible=4348"),
+        "{stdout}"
+    );
+    let listing = ok(
+        &root,
+        &[
+            "--manifest",
+            "examples/own-data/pointsight.toml",
+            "datasets",
+        ],
+    );
+    assert!(listing.contains("room-scan") && listing.contains("room-scan-bare"));
+    let scanner = dir.path().join("scanner");
+    let stdout = ok(
+        &root,
+        &[
+            "visible",
+            "--cloud",
+            "examples/own-data/scan.ply",
+            "--mesh",
+            "examples/own-data/scene.off",
+            "--score",
+            "--views",
+            "examples/own-data/scanner.jsonl",
+            "--view",
+            "all",
+            "--method",
+            "raycast",
+            "--out",
+            scanner.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        stdout
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("views=1 points=6000"),
+        "{stdout}"
+    );
+    assert!(
+        field(stdout.lines().nth(1).unwrap(), "f1") > 0.8,
+        "{stdout}"
+    );
+}

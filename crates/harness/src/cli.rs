@@ -131,6 +131,21 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = ParallelViews::Auto)]
         parallel_views: ParallelViews,
     },
+    /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
+    /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).
+    Inspect {
+        /// The file.
+        file: PathBuf,
+        /// Its format when the extension does not say.
+        #[arg(long)]
+        format: Option<String>,
+        /// LAS/LAZ: keep only these classification codes (comma-separated).
+        #[arg(long, value_delimiter = ',')]
+        classes: Option<Vec<u8>>,
+        /// E57: read only this scan.
+        #[arg(long)]
+        scan: Option<usize>,
+    },
     /// Run an experiment: results.csv, plots and tables into its output folder.
     Run {
         /// Experiment name.

@@ -127,6 +127,66 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 println!("dataset={dataset} points={n} file={}", out.display());
             }
         }
+        Command::Inspect {
+            file,
+            format,
+            classes,
+            scan,
+        } => {
+            let options = cloud::io::ReadOptions {
+                format: format
+                    .map(|f| {
+                        cloud::io::Format::from_name(&f).with_context(|| {
+                            format!("unknown format {f:?}; known: {}", cloud::io::Format::NAMES)
+                        })
+                    })
+                    .transpose()?,
+                classes,
+                scan,
+            };
+            let start = std::time::Instant::now();
+            let loaded = cloud::io::read_with(&file, &options)?;
+            let seconds = start.elapsed().as_secs_f64();
+            let c = &loaded.cloud;
+            let mut attributes = Vec::new();
+            for (name, present) in [
+                ("normals", c.normals.is_some()),
+                ("colors", c.colors.is_some()),
+                ("uvs", c.uvs.is_some()),
+                ("intensity", c.intensity.is_some()),
+                ("classification", c.classification.is_some()),
+                ("scan", c.scan.is_some()),
+            ] {
+                if present {
+                    attributes.push(name);
+                }
+            }
+            if let Some(b) = c.bbox() {
+                println!(
+                    "bbox_min={},{},{} bbox_max={},{},{}",
+                    b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+                );
+            }
+            for (k, s) in loaded.scanners.iter().enumerate() {
+                println!(
+                    "scanner={k} position={},{},{}",
+                    s.position.x, s.position.y, s.position.z
+                );
+            }
+            println!(
+                "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
+                 points_per_second={:.0}",
+                file.display(),
+                c.len(),
+                loaded.triangles.len(),
+                if attributes.is_empty() {
+                    "-".to_owned()
+                } else {
+                    attributes.join(",")
+                },
+                c.len() as f64 / seconds.max(1e-12)
+            );
+        }
         Command::Views {
             dataset,
             out,
