@@ -361,3 +361,45 @@ fn the_readme_examples_run_on_the_example_files() {
         "{stdout}"
     );
 }
+
+#[test]
+fn an_e57_file_with_two_scans_is_one_dataset_per_scan_or_merged() {
+    let dir = tempfile::tempdir().unwrap();
+    let e57 = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats/tiny.e57");
+    std::fs::copy(&e57, dir.path().join("site.e57")).unwrap();
+    std::fs::write(
+        dir.path().join("pointsight.toml"),
+        "[datasets.site]\ncloud = \"site.e57\"\n\n[datasets.site-all]\ncloud = \"site.e57\"\nmerge_scans = true\n",
+    )
+    .unwrap();
+    let listing = ok(dir.path(), &["datasets"]);
+    for name in ["site-scan-0", "site-scan-1", "site-all"] {
+        assert!(
+            listing.lines().any(|l| l.starts_with(name)),
+            "{name}: {listing}"
+        );
+    }
+    // Each scan's dataset is viewed from its own scanner (a spherical camera).
+    let views = ok(
+        dir.path(),
+        &["views", "--dataset", "site-scan-1", "--format", "jsonl"],
+    );
+    assert!(
+        views.contains("\"model\":\"spherical\"") && views.lines().count() == 1,
+        "{views}"
+    );
+    let out = dir.path().join("v.txt");
+    let base = [
+        "visible", "--cloud", "site.e57", "--eye", "0,0,5", "--method", "hpr", "--out",
+    ];
+    let mut args = base.to_vec();
+    args.push(out.to_str().unwrap());
+    let refused = pointsight(dir.path(), &args);
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("holds 2 scans"));
+    let mut one = args.clone();
+    one.extend(["--scan", "1"]);
+    assert!(ok(dir.path(), &one).contains("points=5 "));
+    let mut all = args.clone();
+    all.push("--merge-scans");
+    assert!(ok(dir.path(), &all).contains("points=10 "));
+}

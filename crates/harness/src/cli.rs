@@ -85,9 +85,15 @@ pub enum Command {
         /// LAS/LAZ: keep only these classification codes (comma-separated).
         #[arg(long, value_delimiter = ',')]
         classes: Option<Vec<u8>>,
-        /// E57: read only this scan (0-based; all scans merged by default).
-        #[arg(long)]
+        /// E57: read only this scan (0-based).
+        #[arg(long, conflicts_with = "merge_scans")]
         scan: Option<usize>,
+        /// E57: merge every scan into one cloud (each point keeps its scan).
+        #[arg(long)]
+        merge_scans: bool,
+        /// Off-surface tolerance for `--score` (world units; default: one density spacing).
+        #[arg(long)]
+        surface_tolerance: Option<f64>,
         /// Eye, world coordinates: X,Y,Z.
         #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
         eye: Option<[f64; 3]>,

@@ -209,6 +209,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             format,
             classes,
             scan,
+            merge_scans,
+            surface_tolerance,
             eye,
             target,
             up,
@@ -238,6 +240,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                     classes,
                     scan,
                 },
+                merge_scans,
+                surface_tolerance,
                 camera: visible::CameraFlags {
                     eye,
                     target,

@@ -107,6 +107,10 @@ pub struct Entry {
     pub view_spec: Option<ViewSpecEntry>,
     /// Off-surface distance tolerance, world units.
     pub surface_tolerance: Option<f64>,
+    /// E57 with several scans: one dataset of all scans merged (default: one dataset per
+    /// scan, named `NAME-scan-K`, viewed from its scanner).
+    #[serde(default)]
+    pub merge_scans: bool,
 }
 
 impl Manifest {
@@ -152,6 +156,33 @@ impl Manifest {
                 );
             }
         }
+        // An E57 file with several scans is one dataset per scan unless merged.
+        let mut expanded = BTreeMap::new();
+        for (name, e) in std::mem::take(&mut m.datasets) {
+            let is_e57 = e.cloud.as_ref().is_some_and(|c| {
+                e.format.as_deref().map_or_else(
+                    || cloud::io::Format::of_path(c) == Some(cloud::io::Format::E57),
+                    |f| f.eq_ignore_ascii_case("e57"),
+                )
+            });
+            let scans = match (&e.cloud, is_e57 && e.scan.is_none() && !e.merge_scans) {
+                (Some(c), true) => cloud::io::e57::scan_count(&m.resolve(c))?,
+                _ => 1,
+            };
+            if scans > 1 {
+                for k in 0..scans {
+                    let mut one = e.clone();
+                    one.scan = Some(k);
+                    if one.views.is_none() && one.view_spec.is_none() {
+                        one.views = Some(PathBuf::from("scanners"));
+                    }
+                    expanded.insert(format!("{name}-scan-{k}"), one);
+                }
+            } else {
+                expanded.insert(name, e);
+            }
+        }
+        m.datasets = expanded;
         Ok(m)
     }
 

@@ -82,6 +82,10 @@ pub struct Request {
     pub mesh: Option<PathBuf>,
     /// How to read the cloud file.
     pub read: cloud::io::ReadOptions,
+    /// E57: merge several scans (else one must be chosen).
+    pub merge_scans: bool,
+    /// Off-surface tolerance for scoring.
+    pub surface_tolerance: Option<f64>,
     /// A camera from flags.
     pub camera: CameraFlags,
     /// `K`, `all` or `K1,K2,...`.
@@ -178,18 +182,33 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let params = Params::parse(&req.set)?;
     let method = methods::method(&req.method)?;
     let mut ds = match (&req.cloud, &req.dataset) {
-        (Some(path), _) => datasets::load_files(&datasets::FileDataset {
-            name: path
-                .file_stem()
-                .map_or("cloud".into(), |s| s.to_string_lossy().into_owned()),
-            description: format!("{}", path.display()),
-            cloud: Some(path.clone()),
-            sample: None,
-            mesh: req.mesh.clone(),
-            read: req.read.clone(),
-            views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
-            surface_tolerance: None,
-        })?,
+        (Some(path), _) => {
+            let is_e57 = req.read.format.or_else(|| cloud::io::Format::of_path(path))
+                == Some(cloud::io::Format::E57);
+            if is_e57 && req.read.scan.is_none() && !req.merge_scans {
+                let n = cloud::io::e57::scan_count(path)?;
+                if n > 1 {
+                    bail!(
+                        "{} holds {n} scans: choose one with --scan K (0..{}) or merge them \
+                         with --merge-scans",
+                        path.display(),
+                        n - 1
+                    );
+                }
+            }
+            datasets::load_files(&datasets::FileDataset {
+                name: path
+                    .file_stem()
+                    .map_or("cloud".into(), |s| s.to_string_lossy().into_owned()),
+                description: format!("{}", path.display()),
+                cloud: Some(path.clone()),
+                sample: None,
+                mesh: req.mesh.clone(),
+                read: req.read.clone(),
+                views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
+                surface_tolerance: req.surface_tolerance,
+            })?
+        }
         (None, Some(name)) => {
             if req.mesh.is_some() {
                 bail!("--mesh goes with --cloud; a dataset has its own mesh");

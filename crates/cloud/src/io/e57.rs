@@ -65,6 +65,18 @@ impl E57Scans {
     }
 }
 
+/// The number of scans of an E57 file (its header and XML only).
+pub fn scan_count(path: &Path) -> Result<usize, ReadError> {
+    let reader = E57Reader::from_file(path).map_err(|e| {
+        ReadError::new(
+            path,
+            Location::File,
+            ReadErrorKind::BadHeader(e.to_string()),
+        )
+    })?;
+    Ok(reader.pointclouds().len())
+}
+
 /// Reads every scan of an E57 file.
 pub fn read_e57(path: &Path) -> Result<E57Scans, ReadError> {
     let err = |kind| ReadError::new(path, Location::File, kind);

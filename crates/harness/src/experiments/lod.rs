@@ -228,10 +228,16 @@ fn prepare(name: &str, mut cloud: PointCloud, builds: &mut Vec<BuildRow>) -> Res
         .iter()
         .map(|&c| albedo(c))
         .collect();
-    let normals = cloud
-        .normals
-        .clone()
-        .context("the LOD methods need normals; the dataset has none")?;
+    // A scan without normals gets k-nearest-neighbour estimates (16 neighbours, oriented away
+    // from the centroid), as a user's scan file often has none.
+    let normals = match cloud.normals.clone() {
+        Some(n) => n,
+        None => cloud::normals::estimate_normals(
+            &cloud.positions,
+            16.min(cloud.len()),
+            cloud::normals::Orientation::AwayFromCentroid,
+        )?,
+    };
     Ok(Prepared {
         cloud,
         colors,
