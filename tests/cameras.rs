@@ -18,7 +18,7 @@ fn load(name: &str) -> Dataset {
 /// F1 of `method` (with `set`) from `camera` against the flags `truth`.
 fn f1(ds: &Dataset, method: &str, set: &[&str], camera: &Camera, truth: &[bool]) -> f64 {
     let m = methods::method(method).unwrap();
-    let p = methods::prepare(m, ds, &Params::parse(set).unwrap()).unwrap();
+    let p = methods::prepare(m, ds.input(), &Params::parse(set).unwrap()).unwrap();
     let out = p.visible(camera).unwrap();
     Score::of(&out.visible, truth).f1()
 }
@@ -93,7 +93,7 @@ fn an_orthographic_view_of_the_sphere() {
     // HPR needs a centre of projection.
     let hpr = methods::prepare(
         methods::method("hpr").unwrap(),
-        &ds,
+        ds.input(),
         &Params::parse::<&str>(&[]).unwrap(),
     )
     .unwrap();

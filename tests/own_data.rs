@@ -118,7 +118,7 @@ fn a_scan_and_its_mesh_from_files_scored_with_off_surface_points_apart() {
         last.starts_with("method=hpr points=4500 visible="),
         "{last}"
     );
-    let score = lines[lines.len() - 2];
+    let score = lines.iter().find(|l| l.contains("precision=")).unwrap();
     // Off-surface: the points farther from the surface than the tolerance (one density
     // spacing), counted analytically here (the mesh's icosphere sags by < 1e-4).
     let off = field(score, "off_surface") as usize;

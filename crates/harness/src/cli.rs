@@ -131,6 +131,9 @@ pub enum Command {
         /// Also score the visible set against the reference (printed before each contract line).
         #[arg(long)]
         score: bool,
+        /// Runs per view; `seconds` is their median and a line before it gives the spread.
+        #[arg(long, default_value_t = 1)]
+        repeat: usize,
         /// Many views: answer them in parallel (`yes`), one after another (`no`), or as the
         /// method prefers (`auto`: in parallel for hpr, reference and exact, whose single view
         /// leaves cores idle).

@@ -260,6 +260,14 @@ impl Dataset {
         &self.name
     }
 
+    /// What the methods prepare on.
+    pub fn input(&self) -> registry::Input<'_> {
+        registry::Input {
+            cloud: &self.cloud,
+            mesh: self.mesh.as_ref(),
+        }
+    }
+
     /// The mesh, or an error saying that `what` needs one.
     pub fn mesh(&self, what: &str) -> Result<&TriMesh> {
         self.mesh.as_ref().with_context(|| {

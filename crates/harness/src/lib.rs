@@ -16,11 +16,13 @@ pub mod datasets;
 pub mod experiments;
 pub mod fetch;
 pub mod manifest;
-pub mod methods;
 pub mod output;
 pub mod progress;
 pub mod score;
 pub mod visible;
+
+/// The method registry (its own crate, shared with the Python package).
+pub use registry as methods;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -224,6 +226,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             out,
             score,
             parallel_views,
+            repeat,
         } => visible::run(
             &visible::Request {
                 dataset,
@@ -257,6 +260,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 out,
                 score,
                 parallel_views,
+                repeat,
             },
             &data_dir,
         )?,

@@ -102,6 +102,16 @@ pub struct Request {
     pub score: bool,
     /// How to run many views.
     pub parallel_views: ParallelViews,
+    /// Runs per view (the reported seconds are their median).
+    pub repeat: usize,
+}
+
+/// `samples=K median=T min=T q1=T q3=T max=T`: the spread of the repeated runs.
+pub fn timing_line(t: &registry::timing::Timing) -> String {
+    format!(
+        "samples={} median={:.6} min={:.6} q1={:.6} q3={:.6} max={:.6}",
+        t.samples, t.median, t.min, t.q1, t.q3, t.max
+    )
 }
 
 /// The view indices `spec` names among `n` views.
@@ -243,14 +253,16 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         let k: usize = req.view.parse()?;
         let camera = *ds.view(k)?;
         let start = Instant::now();
-        let prepared = methods::prepare(method, &ds, &params)?;
+        let prepared = methods::prepare(method, ds.input(), &params)?;
         let prepare_seconds = start.elapsed().as_secs_f64();
-        let (output, seconds) = methods::timed(prepared.as_ref(), &camera)?;
+        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)?;
+        let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
         println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
         if let Some(r) = &reference {
             println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
         }
+        println!("{}", timing_line(&timing));
         println!(
             "method={} points={} visible={} seconds={seconds:.6}",
             method.name(),
@@ -263,7 +275,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let chosen = parse_views(&req.view, ds.views.len())?;
     let cameras: Vec<(usize, Camera)> = chosen.iter().map(|&k| (k, ds.views[k])).collect();
     let start = Instant::now();
-    let prepared = methods::prepare(method, &ds, &params)?;
+    let prepared = methods::prepare(method, ds.input(), &params)?;
     let prepare_seconds = start.elapsed().as_secs_f64();
     let parallel = match req.parallel_views {
         ParallelViews::Auto => method.parallel_views(),
@@ -276,9 +288,9 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     );
     let start = Instant::now();
     let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
-        let (output, seconds) =
-            methods::timed(prepared.as_ref(), &camera).with_context(|| format!("view {k}"))?;
-        Ok((k, output, seconds))
+        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)
+            .with_context(|| format!("view {k}"))?;
+        Ok((k, output, timing.median))
     };
     let results: Vec<(usize, Output, f64)> = if parallel {
         cameras.par_iter().map(run_one).collect::<Result<_>>()?

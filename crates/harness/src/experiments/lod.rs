@@ -17,7 +17,7 @@
 //!   [`RANDOM_FRACTIONS`], splats grown by 1/sqrt(f).
 //!
 //! `results.csv` columns: dataset, view, distance, method, params, points_rendered, seconds
-//! (the selection alone: traversal, cut or test; median of three when under 0.1 s), psnr, ssim,
+//! (the selection alone: traversal, cut or test; median of [`super::REPEATS`] runs), psnr, ssim,
 //! hole_fraction. PSNR is over the RGB pixels covered in either image (background excluded, so
 //! the object's screen size does not inflate it; capped at 100 dB for identical images); SSIM
 //! is on luma in 8 × 8 windows at a stride of 4 (C1 = (0.01·255)², C2 = (0.03·255)²) averaged
@@ -282,7 +282,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
             threshold_px: px,
             ..Default::default()
         };
-        let (s, seconds) = timed(|| Ok(qsplat::traverse(&p.qsplat, cam, &params)))?;
+        let (s, t) = timed(|| Ok(qsplat::traverse(&p.qsplat, cam, &params)))?;
         out.push(Selection {
             method: "qsplat",
             params: format!("threshold_px={px}"),
@@ -295,13 +295,13 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                     albedo: albedo(s.color),
                 })
                 .collect(),
-            seconds,
+            seconds: t.median,
         });
     }
     let mut entries = Vec::new();
     for &px in SPT_PX {
         let eps = spt::epsilon_for_pixels(cam, px);
-        let (_, seconds) = timed(|| Ok(p.spt.cut_into(cam.eye, eps, &mut entries)?))?;
+        let (_, t) = timed(|| Ok(p.spt.cut_into(cam.eye, eps, &mut entries)?))?;
         out.push(Selection {
             method: "spt",
             params: format!("epsilon_px={px}"),
@@ -316,7 +316,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                     albedo: s.color,
                 })
                 .collect(),
-            seconds,
+            seconds: t.median,
         });
     }
     let mut kept = Vec::new();
@@ -325,7 +325,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
             scale,
             ..SrnParams::default()
         };
-        let (_, seconds) = timed(|| Ok(p.srn.select_into(&params, &mut kept)?))?;
+        let (_, t) = timed(|| Ok(p.srn.select_into(&params, &mut kept)?))?;
         out.push(Selection {
             method: "srn",
             params: format!("scale={scale}"),
@@ -336,11 +336,11 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                     p.point_splat(i, p.ref_radius * f64::from(p.srn.radius_factor(i, &params)))
                 })
                 .collect(),
-            seconds,
+            seconds: t.median,
         });
     }
     for &f in RANDOM_FRACTIONS {
-        let (idx, seconds) = timed(|| {
+        let (idx, t) = timed(|| {
             Ok(p.random
                 .iter()
                 .enumerate()
@@ -356,7 +356,7 @@ fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
                 .iter()
                 .map(|&i| p.point_splat(i as usize, radius))
                 .collect(),
-            seconds,
+            seconds: t.median,
         });
     }
     Ok(out)
@@ -682,9 +682,9 @@ fn measure_srn_table(ctx: &Context) -> Result<Vec<SrnRow>> {
             })
             .collect();
         let rp = render_params();
-        let (img_before, s_before) = timed(|| Ok(render(&before, &cam, &rp)))?;
-        let (img_after, s_after) = timed(|| Ok(render(&after, &cam, &rp)))?;
-        let (ms_before, ms_after) = (1e3 * s_before, 1e3 * s_after);
+        let (img_before, t_before) = timed(|| Ok(render(&before, &cam, &rp)))?;
+        let (img_after, t_after) = timed(|| Ok(render(&after, &cam, &rp)))?;
+        let (ms_before, ms_after) = (1e3 * t_before.median, 1e3 * t_after.median);
         // The kept points as dots, the discarded ones faint.
         let dots = |sel: &[u32]| {
             let mut rgb = vec![255u8; 3 * (cam.width * cam.height) as usize];
@@ -1008,7 +1008,7 @@ fn srn_table(rows: &[SrnRow]) -> String {
          procedural flower texture (the torus textured on one half, as in its Figure 8) and \
          200,004 samples of CGAL's Armadillo with a marble texture in place of the gargoyle. \
          The paper measured frames per second on a 2006 GPU with texture splatting; we give our \
-         software splat renderer's time for one 1280 × 720 frame (median of 5), so compare \
+         software splat renderer's time for one 1280 × 720 frame (median of 3), so compare \
          the ratios, not the absolute numbers.\n\n",
     );
     s.push_str(&markdown_table(

@@ -161,20 +161,11 @@ pub fn markdown_table(header: &[&str], rows: &[Vec<String>]) -> String {
     s
 }
 
-/// Runs `f` and returns its output and time in seconds: the median of three runs, or one run
-/// when the first takes more than a tenth of a second.
-pub(crate) fn timed<T>(mut f: impl FnMut() -> Result<T>) -> Result<(T, f64)> {
-    let mut times = Vec::with_capacity(3);
-    let start = Instant::now();
-    let mut out = f()?;
-    times.push(start.elapsed().as_secs_f64());
-    if times[0] < 0.1 {
-        for _ in 0..2 {
-            let start = Instant::now();
-            out = f()?;
-            times.push(start.elapsed().as_secs_f64());
-        }
-    }
-    times.sort_by(f64::total_cmp);
-    Ok((out, times[times.len() / 2]))
+/// Runs per timed call in the experiments: enough for a median and a spread.
+pub const REPEATS: usize = 3;
+
+/// Runs `f` [`REPEATS`] times with the one timing helper (`registry::timing`): its output and
+/// the timing (median and spread).
+pub(crate) fn timed<T>(f: impl FnMut() -> Result<T>) -> Result<(T, registry::timing::Timing)> {
+    registry::timing::measure(REPEATS, f)
 }

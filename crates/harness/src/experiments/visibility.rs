@@ -11,8 +11,8 @@
 //!   `raycast::auto`, from the cloud alone.
 //!
 //! `results.csv`: one row per (dataset, view, method, setting) with precision, recall and F1
-//! against `reference`; `seconds` is the median of three runs (one run when it takes more than
-//! a tenth of a second). `pixels.csv`: for the per-pixel methods (ray cast, splat), the share of
+//! against `reference`; `seconds` is the median of [`super::REPEATS`] runs (`registry::timing`),
+//! `seconds_min`/`seconds_max` their spread. `pixels.csv`: for the per-pixel methods (ray cast, splat), the share of
 //! covered pixels whose point is truly visible and the share of the mesh's pixels (the mesh
 //! rasterised at the method's resolution) that got a point. Renders of bunny-69451, view 0,
 //! every family at its best setting beside the reference: `renders.png`.
@@ -69,7 +69,7 @@ pub struct Row {
     pub method: String,
     /// Setting, `k=v` pairs joined by `;`.
     pub params: String,
-    /// Median seconds of the method alone.
+    /// Median seconds of the method alone (`REPEATS` runs).
     pub seconds: f64,
     /// Rays cast (0 for methods that cast none).
     pub rays: u64,
@@ -85,6 +85,15 @@ pub struct Row {
     /// called visible; they are left out of precision and recall.
     #[serde(default)]
     pub off_surface_visible: usize,
+    /// Fastest of the timed runs.
+    #[serde(default)]
+    pub seconds_min: f64,
+    /// Slowest of the timed runs.
+    #[serde(default)]
+    pub seconds_max: f64,
+    /// Number of timed runs.
+    #[serde(default)]
+    pub samples: usize,
 }
 
 /// One row of `agreement.csv`: for datasets without a mesh, how far two methods' visible sets
@@ -152,7 +161,7 @@ struct Run {
     method: &'static str,
     params: String,
     visible: Vec<u32>,
-    seconds: f64,
+    timing: registry::timing::Timing,
     rays: u64,
     pixels: Option<(Camera, Vec<u32>)>,
 }
@@ -232,13 +241,13 @@ impl Experiment for VisibilityExperiment {
                         perturb,
                         seed: 2007,
                     };
-                    let (v, seconds) =
+                    let (v, timing) =
                         timed(|| Ok(hpr::visible(points, cam.eye, &params, own.as_ref())?))?;
                     Ok(Run {
                         method: "hpr",
                         params: label,
                         visible: v.visible,
-                        seconds,
+                        timing,
                         rays: 0,
                         pixels: None,
                     })
@@ -284,7 +293,7 @@ impl Experiment for VisibilityExperiment {
                             radius: factor * scale.spacing,
                             traversal: Traversal::Exact,
                         };
-                        let (frame, seconds) = timed(|| Ok(caster.cast(rays, &c, &params)?))?;
+                        let (frame, timing) = timed(|| Ok(caster.cast(rays, &c, &params)?))?;
                         let label = if auto {
                             format!("radius=auto;radius_factor_value={factor};width={w};height={h}")
                         } else {
@@ -294,7 +303,7 @@ impl Experiment for VisibilityExperiment {
                             method: "raycast",
                             params: label,
                             visible: frame.visible,
-                            seconds,
+                            timing,
                             rays: frame.rays,
                             pixels: Some((c, frame.pixel_point)),
                         });
@@ -306,7 +315,7 @@ impl Experiment for VisibilityExperiment {
                             radius_px,
                             depth_tolerance,
                         };
-                        let (out, seconds) = timed(|| {
+                        let (out, timing) = timed(|| {
                             Ok(splatter.visibility(&cam, &params, &mut splat_scratch, true)?)
                         })?;
                         runs.push(Run {
@@ -315,7 +324,7 @@ impl Experiment for VisibilityExperiment {
                                 "radius_px={radius_px};depth_tolerance={depth_tolerance}"
                             ),
                             visible: out.visible,
-                            seconds,
+                            timing,
                             rays: 0,
                             pixels: Some((cam, out.pixel_point)),
                         });
@@ -341,7 +350,10 @@ impl Experiment for VisibilityExperiment {
                         view,
                         method: run.method.into(),
                         params: run.params.clone(),
-                        seconds: run.seconds,
+                        seconds: run.timing.median,
+                        seconds_min: run.timing.min,
+                        seconds_max: run.timing.max,
+                        samples: run.timing.samples,
                         rays: run.rays,
                         n_visible: run.visible.len(),
                         precision: s.map_or(f64::NAN, |s| s.precision()),
@@ -411,7 +423,7 @@ impl Experiment for VisibilityExperiment {
             "raycast_auto_rule": format!("radius = {} x density spacing (k = 8)", raycast::auto::RADIUS_FACTOR),
             "splat_radii_px": SPLAT_RADII,
             "splat_tolerances": SPLAT_TOLERANCES,
-            "timing": "median of 3 runs, 1 run when a run takes over 0.1 s",
+            "timing": format!("median of {} runs (seconds_min, seconds_max: their spread)", super::REPEATS),
             "off_surface": off_surface_meta,
         }))
     }
@@ -917,7 +929,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
-         alone, median of up to 3 runs.\n\n{renders}### Best setting per method\n\n{}\n\
+         alone, median of 3 runs (their spread in results.csv).\n\n{renders}### Best setting per method\n\n{}\n\
          ### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the best fixed setting's F1 \

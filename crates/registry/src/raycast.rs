@@ -2,12 +2,13 @@
 
 use std::sync::Mutex;
 
-use anyhow::{Result, anyhow, bail};
+use crate::error::{Error, Result};
 use cloud::Camera;
 use raycast::{CastParams, RayCaster, RayList, Traversal};
 
-use super::{Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution};
-use crate::datasets::Dataset;
+use crate::{
+    Input, Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution,
+};
 
 /// The ray caster.
 pub struct RaycastMethod;
@@ -52,12 +53,17 @@ struct Prep {
 impl Prepared for Prep {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         let camera = camera_with_resolution(camera, self.width, self.height)?;
-        let mut rays = self.rays.lock().map_err(|_| anyhow!("ray list poisoned"))?;
+        let mut rays = self
+            .rays
+            .lock()
+            .map_err(|_| Error::Unsupported("ray list poisoned".into()))?;
         // The ray list is built once per image size and field of view, then re-aimed.
         if rays.as_ref().is_none_or(|r| r.check(&camera).is_err()) {
             *rays = Some(RayList::new(&camera));
         }
-        let rays = rays.as_ref().ok_or_else(|| anyhow!("no ray list"))?;
+        let rays = rays
+            .as_ref()
+            .ok_or_else(|| Error::Unsupported("no ray list".into()))?;
         let frame = self.caster.cast(
             rays,
             &camera,
@@ -78,14 +84,12 @@ impl Prepared for Prep {
     }
 }
 
-/// The point radius the parameters ask for on `dataset`.
-pub fn radius(dataset: &Dataset, params: &Params) -> Result<f64> {
+/// The point radius the parameters ask for on `points`.
+pub fn radius(points: &[cloud::glam::DVec3], params: &Params) -> Result<f64> {
     let factor: f64 = params.get("radius_factor", raycast::auto::RADIUS_FACTOR)?;
     match params.get_opt::<f64>("radius")? {
         Some(r) => Ok(r),
-        None => {
-            Ok(factor * cloud::spacing::density_spacing(&dataset.cloud.positions, 8, 20_000, 1)?)
-        }
+        None => Ok(factor * cloud::spacing::density_spacing(points, 8, 20_000, 1)?),
     }
 }
 
@@ -102,15 +106,19 @@ impl Method for RaycastMethod {
         PARAMS
     }
 
-    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let traversal = match params.get("traversal", "exact".to_owned())?.as_str() {
             "exact" => Traversal::Exact,
             "seed" => Traversal::Seed,
-            other => bail!("--set traversal={other}: expected exact or seed"),
+            other => {
+                return Err(Error::Unsupported(format!(
+                    "--set traversal={other}: expected exact or seed"
+                )));
+            }
         };
         Ok(Box::new(Prep {
-            caster: RayCaster::new(&dataset.cloud.positions)?,
-            radius: radius(dataset, params)?,
+            caster: RayCaster::new(&input.cloud.positions)?,
+            radius: radius(&input.cloud.positions, params)?,
             traversal,
             width: params.get_opt("width")?,
             height: params.get_opt("height")?,

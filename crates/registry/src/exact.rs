@@ -1,25 +1,24 @@
 //! `exact`: the segment–triangle test from the eye to every point (`truth::exact`).
 
-use anyhow::Result;
+use crate::error::Result;
 use cloud::Camera;
 use rayon::prelude::*;
 use truth::ExactVisibility;
 
-use super::{Method, Output, ParamSpec, Params, Prepared, indices_of};
-use crate::datasets::Dataset;
+use crate::{Input, Method, Output, ParamSpec, Params, Prepared, indices_of};
 
 /// The exact check.
 pub struct ExactMethod;
 
 struct Prep<'a> {
-    dataset: &'a Dataset,
+    points: &'a [cloud::glam::DVec3],
     exact: ExactVisibility,
 }
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         // Each point's own ray: from the eye, or from its foot on an orthographic near plane.
-        let points = &self.dataset.cloud.positions;
+        let points = self.points;
         cloud::points::check_finite(points)?;
         let flags: Vec<bool> = points
             .par_iter()
@@ -50,14 +49,10 @@ impl Method for ExactMethod {
         true
     }
 
-    fn prepare<'a>(
-        &self,
-        dataset: &'a Dataset,
-        _params: &Params,
-    ) -> Result<Box<dyn Prepared + 'a>> {
+    fn prepare<'a>(&self, input: Input<'a>, _params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         Ok(Box::new(Prep {
-            dataset,
-            exact: ExactVisibility::new(dataset.mesh("the exact method")?)?,
+            points: &input.cloud.positions,
+            exact: ExactVisibility::new(input.mesh("the exact method")?)?,
         }))
     }
 }

@@ -2,12 +2,13 @@
 
 use std::sync::Mutex;
 
-use anyhow::{Result, anyhow};
+use crate::error::{Error, Result};
 use cloud::Camera;
 use splat::{SplatParams, SplatScratch, Splatter};
 
-use super::{Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution};
-use crate::datasets::Dataset;
+use crate::{
+    Input, Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution,
+};
 
 /// The splat baseline.
 pub struct SplatMethod;
@@ -49,7 +50,7 @@ impl Prepared for Prep {
         let mut scratch = self
             .scratch
             .lock()
-            .map_err(|_| anyhow!("splat scratch poisoned"))?;
+            .map_err(|_| Error::Unsupported("splat scratch poisoned".into()))?;
         let out = self
             .splatter
             .visibility(&camera, &self.params, &mut scratch, true)?;
@@ -78,10 +79,10 @@ impl Method for SplatMethod {
         PARAMS
     }
 
-    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let d = SplatParams::default();
         Ok(Box::new(Prep {
-            splatter: Splatter::new(&dataset.cloud.positions)?,
+            splatter: Splatter::new(&input.cloud.positions)?,
             scratch: Mutex::new(SplatScratch::default()),
             params: SplatParams {
                 radius_px: params.get("radius_px", d.radius_px)?,

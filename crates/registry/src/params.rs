@@ -6,7 +6,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::fmt;
 use std::str::FromStr;
 
-use anyhow::{Context, Result, bail};
+use crate::error::{Error, Result};
 
 /// A parameter a method accepts, for `--help`-style listings and validation.
 #[derive(Debug, Clone, Copy)]
@@ -43,13 +43,13 @@ impl Params {
             let pair = pair.as_ref();
             let (k, v) = pair
                 .split_once('=')
-                .with_context(|| format!("--set expects KEY=VALUE, got {pair:?}"))?;
+                .ok_or_else(|| Error::BadPair(format!("expects KEY=VALUE, got {pair:?}")))?;
             let (k, v) = (k.trim(), v.trim());
             if k.is_empty() {
-                bail!("--set {pair:?}: empty key");
+                return Err(Error::BadPair(format!("{pair:?}: empty key")));
             }
             if values.insert(k.to_owned(), v.to_owned()).is_some() {
-                bail!("--set {k} given twice");
+                return Err(Error::BadPair(format!("{k} given twice")));
             }
         }
         Ok(Self {
@@ -77,9 +77,11 @@ impl Params {
         self.read.borrow_mut().insert(key.to_owned());
         match self.values.get(key) {
             None => Ok(default),
-            Some(v) => v
-                .parse()
-                .map_err(|e| anyhow::anyhow!("--set {key}={v}: {e}")),
+            Some(v) => v.parse::<T>().map_err(|e| Error::BadValue {
+                key: key.to_owned(),
+                value: v.clone(),
+                reason: e.to_string(),
+            }),
         }
     }
 
@@ -92,8 +94,11 @@ impl Params {
         self.values
             .get(key)
             .map(|v| {
-                v.parse()
-                    .map_err(|e| anyhow::anyhow!("--set {key}={v}: {e}"))
+                v.parse::<T>().map_err(|e| Error::BadValue {
+                    key: key.to_owned(),
+                    value: v.clone(),
+                    reason: e.to_string(),
+                })
             })
             .transpose()
     }
@@ -108,12 +113,12 @@ impl Params {
             .map(String::as_str)
             .collect();
         if !unknown.is_empty() {
-            bail!(
-                "unknown parameter{} {} for method {method}; it accepts: {}",
-                if unknown.len() > 1 { "s" } else { "" },
-                unknown.join(", "),
-                specs.iter().map(|s| s.key).collect::<Vec<_>>().join(", ")
-            );
+            return Err(Error::UnknownParams {
+                plural: if unknown.len() > 1 { "s" } else { "" },
+                keys: unknown.join(", "),
+                method: method.to_owned(),
+                accepted: specs.iter().map(|s| s.key).collect::<Vec<_>>().join(", "),
+            });
         }
         Ok(())
     }

@@ -1,12 +1,11 @@
 //! `hpr`: Hidden Point Removal (`hpr` crate) with any hull implementation.
 
-use anyhow::{Result, bail};
+use crate::error::{Error, Result};
 use cloud::Camera;
 use hpr::{HprParams, Kernel, Radius};
 use hull::ConvexHull;
 
-use super::{Method, Output, ParamSpec, Params, Prepared};
-use crate::datasets::Dataset;
+use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
 
 /// HPR.
 pub struct HprMethod;
@@ -59,11 +58,17 @@ pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
         },
         "exp" => {
             if radius.is_some() {
-                bail!("--set radius applies to the linear kernel only");
+                return Err(Error::Unsupported(format!(
+                    "--set radius applies to the linear kernel only"
+                )));
             }
             Kernel::Exponential(gamma.unwrap_or(DEFAULT_EXP_GAMMA))
         }
-        other => bail!("--set kernel={other}: expected linear or exp"),
+        other => {
+            return Err(Error::Unsupported(format!(
+                "--set kernel={other}: expected linear or exp"
+            )));
+        }
     };
     let hull: String = params.get("hull", "own".to_owned())?;
     Ok((
@@ -77,7 +82,7 @@ pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
 }
 
 struct Prep<'a> {
-    dataset: &'a Dataset,
+    points: &'a [cloud::glam::DVec3],
     params: HprParams,
     hull: Box<dyn ConvexHull>,
 }
@@ -86,19 +91,14 @@ impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         // Pinhole and spherical cameras have a centre of projection: HPR needs only that.
         if matches!(camera.model(), cloud::Model::Orthographic { .. }) {
-            bail!(
+            return Err(Error::Unsupported(format!(
                 "hpr does not support {} cameras: HPR flips the cloud about a viewpoint and an \
                  orthographic camera has none (its centre of projection is at infinity); use a \
                  distant pinhole camera, or raycast, splat or reference",
                 camera.model().name()
-            );
+            )));
         }
-        let v = hpr::visible(
-            &self.dataset.cloud.positions,
-            camera.eye,
-            &self.params,
-            self.hull.as_ref(),
-        )?;
+        let v = hpr::visible(self.points, camera.eye, &self.params, self.hull.as_ref())?;
         Ok(Output {
             visible: v.visible,
             ..Output::default()
@@ -123,10 +123,10 @@ impl Method for HprMethod {
         true
     }
 
-    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let (params, hull) = hpr_params(params)?;
         Ok(Box::new(Prep {
-            dataset,
+            points: &input.cloud.positions,
             params,
             hull: hull::by_name(&hull)?,
         }))

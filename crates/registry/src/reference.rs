@@ -1,12 +1,11 @@
 //! `reference`: the mesh z-buffer ground truth (`truth::reference`) as a method, so it can be
 //! exported and timed like the others.
 
-use anyhow::Result;
+use crate::error::Result;
 use cloud::Camera;
 use truth::{Reference, ReferenceParams};
 
-use super::{Method, Output, ParamSpec, Params, Prepared, indices_of};
-use crate::datasets::Dataset;
+use crate::{Input, Method, Output, ParamSpec, Params, Prepared, indices_of};
 
 /// The reference.
 pub struct ReferenceMethod;
@@ -35,16 +34,16 @@ const PARAMS: &[ParamSpec] = &[
 ];
 
 struct Prep<'a> {
-    dataset: &'a Dataset,
+    points: &'a [cloud::glam::DVec3],
     reference: Reference,
     params: ReferenceParams,
 }
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
-        let view =
-            self.reference
-                .visibility(&self.dataset.cloud.positions, camera, &self.params)?;
+        let view = self
+            .reference
+            .visibility(self.points, camera, &self.params)?;
         Ok(Output {
             visible: indices_of(&view.visible),
             ..Output::default()
@@ -69,7 +68,7 @@ impl Method for ReferenceMethod {
         true
     }
 
-    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let d = ReferenceParams::default();
         let params = ReferenceParams {
             tolerance_px: params.get("tolerance_px", d.tolerance_px)?,
@@ -78,8 +77,8 @@ impl Method for ReferenceMethod {
             exact_fallback: params.get("exact_fallback", d.exact_fallback)?,
         };
         Ok(Box::new(Prep {
-            dataset,
-            reference: Reference::new(dataset.mesh("the reference")?)?,
+            points: &input.cloud.positions,
+            reference: Reference::new(input.mesh("the reference")?)?,
             params,
         }))
     }

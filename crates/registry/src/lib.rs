@@ -1,26 +1,49 @@
-//! The method registry: the one place a visibility method plugs into the harness.
+//! `registry`: the one place a visibility method plugs in, for the harness (`pointsight`) and
+//! the Python package alike, so both speak one parameter vocabulary.
 //!
-//! A method is a [`Method`] (name, parameters, and `prepare`, which builds whatever it keeps
-//! per dataset: a BVH, a k-d tree) returning a [`Prepared`] that answers one view at a time.
-//! Adding a method is one adapter module and one line in [`METHODS`]. Methods return indices;
-//! the harness, not the method, scores them against the reference (ann-benchmarks' rule).
-//! `seconds` in every report is the time of [`Prepared::visible`] alone: loading and
-//! per-dataset preparation are excluded (and reported separately where they matter).
+//! A method is a [`Method`] (name, typed parameters, and `prepare`, which builds whatever it
+//! keeps per cloud: a BVH, a k-d tree) returning a [`Prepared`] that answers one view at a
+//! time. Adding a method is one adapter module and one line in [`METHODS`]. Methods return
+//! indices; callers, not methods, score them (ann-benchmarks' rule). `seconds` in every report
+//! is the time of [`Prepared::visible`] alone, measured by [`timing`]: loading and per-cloud
+//! preparation are excluded.
+//!
+//! This crate knows nothing of the command line, datasets, plots or reports: its input is a
+//! cloud and, for the ground truth, a mesh ([`Input`]).
 
+pub mod error;
 mod exact;
 pub mod hpr;
 pub mod params;
 pub mod raycast;
 mod reference;
 mod splat;
+pub mod timing;
 
-use std::time::Instant;
+use cloud::{Camera, PointCloud, TriMesh};
 
-use anyhow::{Context, Result};
-use cloud::Camera;
-
-use crate::datasets::Dataset;
+pub use error::{Error, Result};
 pub use params::{ParamSpec, Params};
+
+/// What a method prepares on: the points and, for the ground truth, the surface.
+#[derive(Debug, Clone, Copy)]
+pub struct Input<'a> {
+    /// The cloud.
+    pub cloud: &'a PointCloud,
+    /// The mesh the points came from, if any.
+    pub mesh: Option<&'a TriMesh>,
+}
+
+impl<'a> Input<'a> {
+    /// The mesh, or an error saying that `what` needs one.
+    pub fn mesh(&self, what: &str) -> Result<&'a TriMesh> {
+        self.mesh.ok_or_else(|| {
+            Error::Unsupported(format!(
+                "{what} needs a mesh (the ground truth renders it) and there is none"
+            ))
+        })
+    }
+}
 
 /// What a method says about one view.
 #[derive(Debug, Clone, Default)]
@@ -59,8 +82,8 @@ pub trait Method: Sync {
     fn summary(&self) -> &'static str;
     /// The `--set` keys it accepts.
     fn params(&self) -> &'static [ParamSpec];
-    /// Reads `params` and builds the per-dataset state.
-    fn prepare<'a>(&self, dataset: &'a Dataset, params: &Params) -> Result<Box<dyn Prepared + 'a>>;
+    /// Reads `params` and builds the per-cloud state.
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>>;
     /// True when several views are faster answered in parallel (one view per thread) than
     /// one after another (methods whose single view already uses every core say false).
     fn parallel_views(&self) -> bool {
@@ -83,34 +106,35 @@ pub fn method(name: &str) -> Result<&'static dyn Method> {
         .iter()
         .copied()
         .find(|m| m.name() == name)
-        .with_context(|| {
-            format!(
-                "unknown method {name:?}; known methods: {}",
-                METHODS
-                    .iter()
-                    .map(|m| m.name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
+        .ok_or_else(|| Error::UnknownMethod {
+            name: name.to_owned(),
+            known: METHODS
+                .iter()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(", "),
         })
 }
 
-/// Prepares `method` on `dataset`, rejecting parameters it does not read.
+/// Prepares `method` on `input`, rejecting parameters it does not read.
 pub fn prepare<'a>(
     method: &dyn Method,
-    dataset: &'a Dataset,
+    input: Input<'a>,
     params: &Params,
 ) -> Result<Box<dyn Prepared + 'a>> {
-    let prepared = method.prepare(dataset, params)?;
+    let prepared = method.prepare(input, params)?;
     params.check_all_read(method.name(), method.params())?;
     Ok(prepared)
 }
 
-/// Runs one view and times it.
-pub fn timed(prepared: &dyn Prepared, camera: &Camera) -> Result<(Output, f64)> {
-    let start = Instant::now();
-    let out = prepared.visible(camera)?;
-    Ok((out, start.elapsed().as_secs_f64()))
+/// Runs one view `repeats` times (at least once) and times it with the one timing helper:
+/// the last output and the timing (median, spread).
+pub fn timed(
+    prepared: &dyn Prepared,
+    camera: &Camera,
+    repeats: usize,
+) -> Result<(Output, timing::Timing)> {
+    timing::measure(repeats, || prepared.visible(camera))
 }
 
 /// Indices of the true entries of `flags`.

@@ -1,0 +1,63 @@
+//! Typed errors of the registry: parameters, method lookup, and the method crates' own errors.
+
+/// Why a method could not be prepared or run.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// No method of that name.
+    #[error("unknown method {name:?}; known methods: {known}")]
+    UnknownMethod {
+        /// The name asked for.
+        name: String,
+        /// The names there are.
+        known: String,
+    },
+    /// A `KEY=VALUE` pair that is not one.
+    #[error("--set {0}")]
+    BadPair(String),
+    /// A value that does not parse or is out of range.
+    #[error("--set {key}={value}: {reason}")]
+    BadValue {
+        /// Key.
+        key: String,
+        /// Value as given.
+        value: String,
+        /// Why.
+        reason: String,
+    },
+    /// Keys the method does not read.
+    #[error("unknown parameter{plural} {keys} for method {method}; it accepts: {accepted}")]
+    UnknownParams {
+        /// "s" or "".
+        plural: &'static str,
+        /// The unknown keys.
+        keys: String,
+        /// The method.
+        method: String,
+        /// The keys it reads.
+        accepted: String,
+    },
+    /// The method cannot run on this input (a missing mesh, an unsupported camera, ...).
+    #[error("{0}")]
+    Unsupported(String),
+    /// Invalid input or camera (`cloud`).
+    #[error(transparent)]
+    Cloud(#[from] cloud::Error),
+    /// HPR.
+    #[error(transparent)]
+    Hpr(#[from] hpr::HprError),
+    /// A hull implementation.
+    #[error(transparent)]
+    Hull(#[from] hull::HullError),
+    /// The ray cast.
+    #[error(transparent)]
+    Raycast(#[from] raycast::Error),
+    /// The splat baseline.
+    #[error(transparent)]
+    Splat(#[from] splat::Error),
+    /// The ground truth.
+    #[error(transparent)]
+    Truth(#[from] truth::Error),
+}
+
+/// Result alias of the registry.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
