@@ -14,9 +14,21 @@ setup:
 fetch: setup
     cargo run -q -p harness -- fetch
 
-# Run every test, the real-data checks included.
-test: fetch
+# Run every test, the real-data checks included, then the Python package's tests.
+test: fetch python
     POINTSIGHT_REAL_DATA=1 cargo test --workspace
+    .venv/bin/pytest -q crates/python/tests
+
+# Build the Python package into .venv for development (maturin develop, release profile,
+# the workspace's target folder).
+python: setup
+    test -x .venv/bin/python || python3 -m venv .venv
+    .venv/bin/pip install -q maturin numpy pytest
+    VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop -q --release -m crates/python/Cargo.toml
+
+# Install the peers measured beside our methods into .venv: Open3D (the open3d-cpu wheel).
+peers: python
+    scripts/peers.sh
 
 # Build the release binary.
 build: setup

@@ -12,14 +12,15 @@ use harness::methods::{self, Params};
 use harness::score::Score;
 
 fn load(name: &str) -> Dataset {
-    datasets::load(name, Path::new("/nonexistent")).unwrap()
+    datasets::load(name, Path::new("/nonexistent")).expect("a synthetic dataset")
 }
 
 /// F1 of `method` (with `set`) from `camera` against the flags `truth`.
 fn f1(ds: &Dataset, method: &str, set: &[&str], camera: &Camera, truth: &[bool]) -> f64 {
-    let m = methods::method(method).unwrap();
-    let p = methods::prepare(m, ds.input(), &Params::parse(set).unwrap()).unwrap();
-    let out = p.visible(camera).unwrap();
+    let m = methods::method(method).expect("a registered method");
+    let params = Params::parse(set).expect("valid parameters");
+    let p = methods::prepare(m, ds.input(), &params).expect("prepared");
+    let out = p.visible(camera).expect("a visible set");
     Score::of(&out.visible, truth).f1()
 }
 

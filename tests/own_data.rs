@@ -39,7 +39,7 @@ fn write_off(path: &Path, mesh: &TriMesh, shift: DVec3) {
     for t in &mesh.triangles {
         s.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
     }
-    std::fs::write(path, s).unwrap();
+    std::fs::write(path, s).expect("the OFF file is written");
 }
 
 fn write_ply(path: &Path, points: &[DVec3]) {
@@ -47,7 +47,7 @@ fn write_ply(path: &Path, points: &[DVec3]) {
         positions: points.to_vec(),
         ..PointCloud::default()
     };
-    cloud::io::ply_write::write_ply(path, &cloud).unwrap();
+    cloud::io::ply_write::write_ply(path, &cloud).expect("the PLY file is written");
 }
 
 fn field(line: &str, key: &str) -> f64 {
@@ -55,7 +55,7 @@ fn field(line: &str, key: &str) -> f64 {
         .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('='))
         .unwrap_or_else(|| panic!("{key} in {line}"))
         .parse()
-        .unwrap()
+        .expect("a number")
 }
 
 /// Distance from `p` to the sphere-plane scene's surface, analytically.
@@ -74,7 +74,7 @@ fn noisy_scan(dir: &Path) -> (PathBuf, PathBuf, Vec<DVec3>) {
     let (scene, _) = sphere_plane_scene(1_500, 3_000, 11);
     let mut rng = seeded(5, "own-data-noise");
     let mut points = scene.cloud.positions.clone();
-    let normals = scene.cloud.normals.clone().unwrap();
+    let normals = scene.cloud.normals.clone().expect("the scene has normals");
     for (p, n) in points.iter_mut().zip(&normals) {
         let r: f64 = rng.random();
         if r < 0.03 {

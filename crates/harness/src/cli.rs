@@ -27,6 +27,8 @@ pub struct Cli {
 }
 
 /// Subcommands.
+// The enum is parsed once per process: the size of its largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Download the real meshes (Debian's libcgal-demo) into the data folder, checksummed.

@@ -58,9 +58,9 @@ pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
         },
         "exp" => {
             if radius.is_some() {
-                return Err(Error::Unsupported(format!(
-                    "--set radius applies to the linear kernel only"
-                )));
+                return Err(Error::Unsupported(
+                    "--set radius applies to the linear kernel only".into(),
+                ));
             }
             Kernel::Exponential(gamma.unwrap_or(DEFAULT_EXP_GAMMA))
         }

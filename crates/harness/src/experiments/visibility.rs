@@ -366,11 +366,12 @@ impl Experiment for VisibilityExperiment {
                         &truth,
                         &ds.mesh,
                     ) {
-                        if !mesh_pixels.contains_key(&(c.width, c.height)) {
-                            let t = truth::rasterize(mesh, c)?.triangle;
-                            mesh_pixels.insert((c.width, c.height), t);
-                        }
-                        let mesh = &mesh_pixels[&(c.width, c.height)];
+                        let mesh = match mesh_pixels.entry((c.width, c.height)) {
+                            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+                            std::collections::btree_map::Entry::Vacant(e) => {
+                                e.insert(truth::rasterize(mesh, c)?.triangle)
+                            }
+                        };
                         let covered = pixel_point.iter().filter(|&&p| p != raycast::NONE).count();
                         let true_pixels = pixel_point
                             .iter()

@@ -1,0 +1,305 @@
+"""pointsight: point-cloud visibility and level of detail on numpy arrays.
+
+The methods of the pointsight benchmark (https://github.com/... see the repository's README),
+called in-process from Python: Hidden Point Removal (Katz et al. 2007) with an exact convex
+hull, ray-cast point filtering (Jensen 2012), a z-buffer splat baseline, the mesh ground truth
+(``reference``), and the level-of-detail methods QSplat, Sequential Point Trees and SRN.
+
+Keyword arguments are the keys of the command line's ``--set KEY=VALUE`` (one parameter
+vocabulary). Points are (N, 3) arrays of float64 or float32 (anything else is converted once,
+or refused with a TypeError/ValueError saying what was expected); results are sorted int64
+indices (``as_mask=True`` gives a boolean mask). NaN, empty input and bad parameters raise
+ValueError with the library's message. The computation runs without the GIL on a private copy
+of the inputs: another thread may read or even modify the arrays meanwhile; the answer is for
+the values at the time of the call.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Iterable, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _native
+from ._native import Camera, QSplat, SequentialPointTree
+
+__all__ = [
+    "Camera",
+    "QSplat",
+    "SequentialPointTree",
+    "hpr",
+    "hpr_many",
+    "hidden_point_removal",
+    "raycast",
+    "splat_visibility",
+    "reference",
+    "score",
+    "convex_hull_vertices",
+    "read_cloud",
+    "read_mesh",
+    "srn_select",
+    "set_num_threads",
+    "methods",
+    "to_mask",
+]
+
+ArrayLike = Any
+
+
+def _points(points: ArrayLike, name: str = "points") -> np.ndarray:
+    """An (N, 3) C-contiguous float64 array, or a TypeError/ValueError."""
+    if hasattr(points, "points") and not isinstance(points, np.ndarray):
+        # An Open3D PointCloud (or anything with a `.points` attribute).
+        points = np.asarray(points.points)
+    try:
+        a = np.asarray(points)
+    except Exception as e:  # noqa: BLE001 - numpy raises many kinds
+        raise TypeError(f"{name}: expected an (N, 3) array of numbers, got {type(points).__name__}") from e
+    if a.dtype == object or not (np.issubdtype(a.dtype, np.number) or a.dtype == np.bool_):
+        raise TypeError(f"{name}: expected an (N, 3) array of numbers, got dtype {a.dtype}")
+    if np.issubdtype(a.dtype, np.complexfloating):
+        raise TypeError(f"{name}: complex numbers are not coordinates")
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"{name}: expected shape (N, 3), got {a.shape}")
+    if a.shape[0] == 0:
+        raise ValueError(f"{name}: the array is empty")
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if not np.isfinite(a).all():
+        bad = int(np.argmax(~np.isfinite(a).all(axis=1)))
+        raise ValueError(f"{name}: point {bad} has a non-finite coordinate")
+    return a
+
+
+def _vec3(v: ArrayLike, name: str) -> list:
+    a = np.asarray(v, dtype=np.float64).reshape(-1)
+    if a.shape != (3,) or not np.isfinite(a).all():
+        raise ValueError(f"{name}: expected three finite numbers, got {v!r}")
+    return [float(x) for x in a]
+
+
+def _params(**kwargs: Any) -> list:
+    """Keyword arguments as the registry's KEY=VALUE pairs (None: the method's default)."""
+    out = []
+    for k, v in kwargs.items():
+        if v is None:
+            continue
+        if isinstance(v, bool):
+            v = "true" if v else "false"
+        out.append((k, str(v)))
+    return out
+
+
+def to_mask(indices: np.ndarray, n: int) -> np.ndarray:
+    """A boolean mask of length n, True at `indices`."""
+    mask = np.zeros(n, dtype=bool)
+    mask[np.asarray(indices, dtype=np.int64)] = True
+    return mask
+
+
+def _result(indices: np.ndarray, n: int, as_mask: bool) -> np.ndarray:
+    return to_mask(indices, n) if as_mask else indices
+
+
+def _viewpoint(eye: ArrayLike) -> Camera:
+    """A spherical camera at `eye`: HPR needs only the viewpoint."""
+    e = _vec3(eye, "eye")
+    return Camera.look_at("spherical", e, [e[0] + 1.0, e[1], e[2]], [0.0, 0.0, 1.0], 2, 1)
+
+
+def hpr(
+    points: ArrayLike,
+    eye: ArrayLike,
+    *,
+    gamma: Optional[float] = None,
+    radius: Optional[float] = None,
+    kernel: str = "linear",
+    hull: str = "own",
+    perturb: float = 0.0,
+    seed: int = 0,
+    as_mask: bool = False,
+) -> np.ndarray:
+    """Hidden Point Removal (Katz, Tal, Basri 2007): the points visible from `eye`.
+
+    Spherical flipping about the eye with R = max|p - eye| * 10**gamma (gamma defaults to 3;
+    `radius` gives R directly, Open3D's meaning), then the convex hull (`hull`: "own", our
+    exact hull, or "qhull", "parry", "quickhull", "chull"). `kernel="exp"` is Katz & Tal's
+    exponential kernel (gamma < 0). `perturb` adds seed 000's +-perturb*R noise (seeded).
+    Returns sorted int64 indices, or a boolean mask with `as_mask=True`.
+    """
+    p = _points(points)
+    (v,) = _native.visible(
+        "hpr",
+        p,
+        [_viewpoint(eye)],
+        _params(gamma=gamma, radius=radius, kernel=kernel, hull=hull, perturb=perturb, seed=seed),
+    )
+    return _result(v, len(p), as_mask)
+
+
+def hpr_many(points: ArrayLike, eyes: ArrayLike, **kwargs: Any) -> list:
+    """`hpr` from every eye of `eyes` (M, 3), views in parallel; one result per eye."""
+    p = _points(points)
+    e = np.asarray(eyes, dtype=np.float64)
+    if e.ndim != 2 or e.shape[1] != 3:
+        raise ValueError(f"eyes: expected shape (M, 3), got {e.shape}")
+    as_mask = kwargs.pop("as_mask", False)
+    allowed = {"gamma", "radius", "kernel", "hull", "perturb", "seed"}
+    unknown = set(kwargs) - allowed
+    if unknown:
+        raise TypeError(f"hpr_many: unexpected keyword arguments {sorted(unknown)}")
+    kwargs.setdefault("kernel", "linear")
+    kwargs.setdefault("hull", "own")
+    out = _native.visible("hpr", p, [_viewpoint(x) for x in e], _params(**kwargs))
+    return [_result(v, len(p), as_mask) for v in out]
+
+
+def hidden_point_removal(pcd_or_points: ArrayLike, camera_location: ArrayLike, radius: float) -> np.ndarray:
+    """Open3D's `PointCloud.hidden_point_removal(camera_location, radius)`, same meaning.
+
+    `radius` is the absolute flipping radius (Open3D's tutorial: 100 * the cloud's diameter).
+    Accepts an (N, 3) array or anything with `.points` (an Open3D PointCloud). Returns the
+    indices of the visible points (Open3D's second return value; no mesh is returned), sorted.
+    Our hull is exact where Open3D's Qhull (`Qt`) merges nearly coplanar facets, so the sets can
+    differ on degenerate input.
+    """
+    if not (isinstance(radius, (int, float)) and radius > 0):
+        raise ValueError(f"radius must be a positive number, got {radius!r}")
+    return hpr(pcd_or_points, camera_location, radius=float(radius))
+
+
+def _camera(camera: Union[Camera, str, dict]) -> Camera:
+    if isinstance(camera, Camera):
+        return camera
+    if isinstance(camera, dict):
+        return Camera.from_json(json.dumps(camera))
+    if isinstance(camera, str):
+        return Camera.from_json(camera)
+    raise TypeError(f"camera: expected a pointsight.Camera, its JSON or a dict, got {type(camera).__name__}")
+
+
+def raycast(
+    points: ArrayLike,
+    camera: Union[Camera, str, dict],
+    *,
+    radius: Optional[float] = None,
+    radius_factor: Optional[float] = None,
+    width: Optional[int] = None,
+    height: Optional[int] = None,
+    traversal: Optional[str] = None,
+    as_mask: bool = False,
+) -> np.ndarray:
+    """Ray-cast point filtering (Jensen 2012): one ray per pixel of `camera` through a point
+    k-d tree, points as spheres of `radius` (default: `radius_factor` = 1.5 density spacings).
+    Any camera model. `traversal`: "exact" (nearest hit, default) or "seed" (S1-S9)."""
+    p = _points(points)
+    (v,) = _native.visible(
+        "raycast",
+        p,
+        [_camera(camera)],
+        _params(radius=radius, radius_factor=radius_factor, width=width, height=height, traversal=traversal),
+    )
+    return _result(v, len(p), as_mask)
+
+
+def splat_visibility(
+    points: ArrayLike,
+    camera: Union[Camera, str, dict],
+    *,
+    radius_px: Optional[float] = None,
+    depth_tolerance: Optional[float] = None,
+    width: Optional[int] = None,
+    height: Optional[int] = None,
+    as_mask: bool = False,
+) -> np.ndarray:
+    """The z-buffer splat baseline: discs of `radius_px` pixels (default 2) into a depth
+    buffer; visible within `depth_tolerance` (default 0.01, relative) of the nearest."""
+    p = _points(points)
+    (v,) = _native.visible(
+        "splat",
+        p,
+        [_camera(camera)],
+        _params(radius_px=radius_px, depth_tolerance=depth_tolerance, width=width, height=height),
+    )
+    return _result(v, len(p), as_mask)
+
+
+def reference(
+    vertices: ArrayLike,
+    faces: ArrayLike,
+    points: ArrayLike,
+    camera: Union[Camera, str, dict],
+    *,
+    tolerance_px: Optional[float] = None,
+    as_mask: bool = False,
+) -> np.ndarray:
+    """The ground truth: which `points` (lying on the mesh) the mesh (vertices (V, 3), faces
+    (F, 3) integer) lets `camera` see (a depth buffer of at least 2048 px, each point's own ray,
+    exact segment tests at silhouettes; spherical cameras: exact tests for every point)."""
+    p = _points(points)
+    v = _points(vertices, "vertices")
+    f = np.asarray(faces)
+    if not np.issubdtype(f.dtype, np.integer):
+        raise TypeError(f"faces: expected an (F, 3) integer array, got dtype {f.dtype}")
+    f = np.ascontiguousarray(f, dtype=np.int64)
+    (out,) = _native.visible("reference", p, [_camera(camera)], _params(tolerance_px=tolerance_px), v, f)
+    return _result(out, len(p), as_mask)
+
+
+def score(visible: ArrayLike, truth: ArrayLike, n: int) -> dict:
+    """Precision, recall, F1 and Jaccard of `visible` against `truth` (index arrays or boolean
+    masks of length n)."""
+
+    def idx(a: ArrayLike) -> np.ndarray:
+        a = np.asarray(a)
+        if a.dtype == np.bool_:
+            if a.shape != (n,):
+                raise ValueError(f"a mask must have length n = {n}, got {a.shape}")
+            return np.flatnonzero(a).astype(np.int64)
+        return np.ascontiguousarray(a, dtype=np.int64).reshape(-1)
+
+    return _native.score(idx(visible), idx(truth), int(n))
+
+
+def convex_hull_vertices(points: ArrayLike, impl: str = "own") -> np.ndarray:
+    """Indices of the convex hull's vertices, sorted: our exact hull ("own") or "qhull",
+    "parry", "quickhull" (f32), "chull"."""
+    return _native.convex_hull_vertices(_points(points), impl)
+
+
+def read_cloud(path: str, *, format: Optional[str] = None, classes: Optional[Sequence[int]] = None, scan: Optional[int] = None) -> dict:
+    """Reads a point file (ply, off, obj, xyz, las, laz, e57, pcd) into a dict of arrays:
+    `positions` (N, 3) and, where the file has them, `normals`, `colors` (uint8), `intensity`,
+    `classification`, `scan`, `faces`, `scanner_positions`."""
+    return _native.read(str(path), format, list(classes) if classes is not None else None, scan)
+
+
+def read_mesh(path: str) -> tuple:
+    """Reads a mesh file (off, ply, obj with faces): (vertices (V, 3), faces (F, 3) int64)."""
+    d = _native.read(str(path), None, None, None)
+    if "faces" not in d:
+        raise ValueError(f"{path} has no faces: a mesh file is needed")
+    return d["positions"], d["faces"]
+
+
+def srn_select(uvs: ArrayLike, image: ArrayLike, *, scale: float = 1.0, seed: int = 0) -> tuple:
+    """SRN (Qu et al. 2006): the points kept at density `scale` with the JPEG2000 masking
+    importance of `image` ((H, W, 3) uint8) at texture coordinates `uvs` ((N, 2) in [0, 1]):
+    (indices, radius factors 1/sqrt(I))."""
+    u = np.ascontiguousarray(uvs, dtype=np.float64)
+    img = np.asarray(image)
+    if img.dtype != np.uint8:
+        raise TypeError(f"image: expected uint8 (H, W, 3), got {img.dtype}")
+    return _native.srn_select(u, np.ascontiguousarray(img), float(scale), int(seed))
+
+
+def set_num_threads(n: int) -> None:
+    """Use `n` threads for every later call (0: one per core)."""
+    if not (isinstance(n, int) and n >= 0):
+        raise ValueError(f"n must be a non-negative integer, got {n!r}")
+    _native.set_num_threads(n)
+
+
+def methods() -> list:
+    """The registry's visibility methods: (name, summary, [(key, default, help), ...])."""
+    return _native.methods()

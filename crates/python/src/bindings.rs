@@ -1,0 +1,718 @@
+//! The PyO3 module `pointsight._native`.
+
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::PathBuf;
+use std::sync::{Mutex, OnceLock};
+
+use cloud::glam::{DVec3, Vec2, Vec3};
+use cloud::{Model, PointCloud, TriMesh};
+use numpy::ndarray::Array2;
+use numpy::{
+    IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3,
+};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rayon::prelude::*;
+
+/// The thread pool every call runs in (`set_num_threads`); rayon's global pool by default.
+static POOL: OnceLock<Mutex<Option<std::sync::Arc<rayon::ThreadPool>>>> = OnceLock::new();
+
+fn pool() -> Option<std::sync::Arc<rayon::ThreadPool>> {
+    POOL.get_or_init(|| Mutex::new(None))
+        .lock()
+        .ok()
+        .and_then(|p| p.clone())
+}
+
+/// Runs `f` without the GIL, in the chosen pool, turning panics into `RuntimeError`.
+fn run<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, String> + Send) -> PyResult<T> {
+    let pool = pool();
+    let out = py.detach(move || {
+        catch_unwind(AssertUnwindSafe(|| match pool {
+            Some(p) => p.install(f),
+            None => f(),
+        }))
+    });
+    match out {
+        Ok(Ok(v)) => Ok(v),
+        Ok(Err(msg)) => Err(PyValueError::new_err(msg)),
+        Err(panic) => {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| (*s).to_owned()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(PyRuntimeError::new_err(format!(
+                "internal error (please report it): {msg}"
+            )))
+        }
+    }
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+/// An (N, 3) float64 array as points (copied).
+fn points_of(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
+    let v = a.as_array();
+    if v.ncols() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "expected an (N, 3) array, got shape {:?}",
+            v.shape()
+        )));
+    }
+    Ok(v.rows()
+        .into_iter()
+        .map(|r| DVec3::new(r[0], r[1], r[2]))
+        .collect())
+}
+
+fn cloud_of(points: Vec<DVec3>) -> Result<PointCloud, String> {
+    if points.is_empty() {
+        return Err("the point array is empty".into());
+    }
+    PointCloud::from_positions(points).map_err(err)
+}
+
+fn mesh_of(
+    vertices: &PyReadonlyArray2<'_, f64>,
+    faces: &PyReadonlyArray2<'_, i64>,
+) -> PyResult<TriMesh> {
+    let vertices = points_of(vertices)?;
+    let f = faces.as_array();
+    if f.ncols() != 3 {
+        return Err(PyValueError::new_err(format!(
+            "faces: expected an (M, 3) integer array, got shape {:?}",
+            f.shape()
+        )));
+    }
+    let mut triangles = Vec::with_capacity(f.nrows());
+    for (k, r) in f.rows().into_iter().enumerate() {
+        let mut t = [0u32; 3];
+        for (c, &v) in t.iter_mut().zip(r.iter()) {
+            if v < 0 || v as usize >= vertices.len() {
+                return Err(PyValueError::new_err(format!(
+                    "face {k} refers to vertex {v} but there are {} vertices",
+                    vertices.len()
+                )));
+            }
+            *c = v as u32;
+        }
+        triangles.push(t);
+    }
+    TriMesh::new(vertices, triangles).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+fn indices_array<'py>(py: Python<'py>, v: Vec<u32>) -> Bound<'py, PyArray1<i64>> {
+    v.into_iter()
+        .map(i64::from)
+        .collect::<Vec<_>>()
+        .into_pyarray(py)
+}
+
+fn vec3_array<'py, T: Copy>(
+    py: Python<'py>,
+    rows: &[T],
+    f: impl Fn(T) -> [f64; 3],
+) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flat_map(|&r| f(r)).collect();
+    Array2::from_shape_vec((rows.len(), 3), flat)
+        .map(|a| a.into_pyarray(py))
+        .unwrap_or_else(|_| Array2::<f64>::zeros((0, 3)).into_pyarray(py))
+}
+
+/// A camera: pinhole, orthographic or spherical, with a pose (see `cloud::camera`).
+#[pyclass(module = "pointsight._native", frozen, from_py_object)]
+#[derive(Clone)]
+pub struct Camera {
+    inner: cloud::Camera,
+}
+
+#[pymethods]
+impl Camera {
+    /// Parses the camera's JSON form (one line of a views file).
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        cloud::Camera::from_json(text)
+            .map(|inner| Self { inner })
+            .map_err(|e| PyValueError::new_err(e.to_string()))
+    }
+
+    /// A look-at camera of any model.
+    #[staticmethod]
+    #[pyo3(signature = (model, eye, target, up, width, height, fov_y_deg=None, fx=None, fy=None, cx=None, cy=None, view_width=None, view_height=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn look_at(
+        model: &str,
+        eye: [f64; 3],
+        target: [f64; 3],
+        up: [f64; 3],
+        width: u32,
+        height: u32,
+        fov_y_deg: Option<f64>,
+        fx: Option<f64>,
+        fy: Option<f64>,
+        cx: Option<f64>,
+        cy: Option<f64>,
+        view_width: Option<f64>,
+        view_height: Option<f64>,
+    ) -> PyResult<Self> {
+        let bad = |e: cloud::Error| PyValueError::new_err(e.to_string());
+        let m = match model {
+            "pinhole" => match (fx, fy, cx, cy, fov_y_deg) {
+                (Some(fx), Some(fy), cx, cy, _) => Model::Pinhole {
+                    fx,
+                    fy,
+                    cx: cx.unwrap_or(0.5 * width as f64),
+                    cy: cy.unwrap_or(0.5 * height as f64),
+                },
+                (None, None, None, None, Some(f)) => {
+                    Model::pinhole_fov(f, width, height).map_err(bad)?
+                }
+                _ => {
+                    return Err(PyValueError::new_err(
+                        "a pinhole camera needs fov_y_deg, or fx and fy (cx, cy default to the centre)",
+                    ));
+                }
+            },
+            "orthographic" => match (view_width, view_height) {
+                (Some(view_width), Some(view_height)) => Model::Orthographic {
+                    view_width,
+                    view_height,
+                },
+                _ => {
+                    return Err(PyValueError::new_err(
+                        "an orthographic camera needs view_width and view_height",
+                    ));
+                }
+            },
+            "spherical" => Model::Spherical,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown camera model {other:?}: expected pinhole, orthographic or spherical"
+                )));
+            }
+        };
+        cloud::Camera::look_at(
+            DVec3::from_array(eye),
+            DVec3::from_array(target),
+            DVec3::from_array(up),
+            m,
+            width,
+            height,
+        )
+        .map(|inner| Self { inner })
+        .map_err(bad)
+    }
+
+    /// The JSON form (what views files hold and external methods read).
+    fn to_json(&self) -> String {
+        self.inner.to_json()
+    }
+
+    /// The projection model's name.
+    #[getter]
+    fn model(&self) -> &'static str {
+        self.inner.model().name()
+    }
+
+    /// The eye.
+    #[getter]
+    fn eye(&self) -> [f64; 3] {
+        self.inner.eye.to_array()
+    }
+
+    /// Image width.
+    #[getter]
+    fn width(&self) -> u32 {
+        self.inner.width
+    }
+
+    /// Image height.
+    #[getter]
+    fn height(&self) -> u32 {
+        self.inner.height
+    }
+
+    /// Projects (N, 3) points: (N, 3) array of pixel x, pixel y, depth (NaN where a point is
+    /// not in front of the camera).
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let pts = points_of(&points)?;
+        let c = self.inner;
+        let out: Vec<[f64; 3]> = pts
+            .iter()
+            .map(|&p| c.project(p).map_or([f64::NAN; 3], |q| [q.x, q.y, q.depth]))
+            .collect();
+        Ok(vec3_array(py, &out, |r| r))
+    }
+
+    fn __repr__(&self) -> String {
+        format!("Camera({})", self.inner.to_json())
+    }
+}
+
+/// Runs registry method `method` with `params` (the `--set` keys) on `points` for each camera;
+/// `vertices`/`faces` give the mesh for `reference`. One index array per camera.
+#[pyfunction]
+#[pyo3(signature = (method, points, cameras, params, vertices=None, faces=None))]
+fn visible<'py>(
+    py: Python<'py>,
+    method: &str,
+    points: PyReadonlyArray2<'py, f64>,
+    cameras: Vec<Camera>,
+    params: Vec<(String, String)>,
+    vertices: Option<PyReadonlyArray2<'py, f64>>,
+    faces: Option<PyReadonlyArray2<'py, i64>>,
+) -> PyResult<Vec<Bound<'py, PyArray1<i64>>>> {
+    let pts = points_of(&points)?;
+    let mesh = match (vertices, faces) {
+        (Some(v), Some(f)) => Some(mesh_of(&v, &f)?),
+        (None, None) => None,
+        _ => return Err(PyValueError::new_err("give vertices and faces together")),
+    };
+    let method = method.to_owned();
+    let cams: Vec<cloud::Camera> = cameras.iter().map(|c| c.inner).collect();
+    let results = run(py, move || {
+        let cloud = cloud_of(pts)?;
+        let m = registry::method(&method).map_err(err)?;
+        let p = registry::Params::from_pairs(
+            &params
+                .iter()
+                .map(|(k, v)| (k.as_str(), v.clone()))
+                .collect::<Vec<_>>(),
+        );
+        let input = registry::Input {
+            cloud: &cloud,
+            mesh: mesh.as_ref(),
+        };
+        let prepared = registry::prepare(m, input, &p).map_err(err)?;
+        let one = |c: &cloud::Camera| prepared.visible(c).map(|o| o.visible).map_err(err);
+        if m.parallel_views() && cams.len() > 1 {
+            cams.par_iter().map(one).collect::<Result<Vec<_>, _>>()
+        } else {
+            cams.iter().map(one).collect::<Result<Vec<_>, _>>()
+        }
+    })?;
+    Ok(results.into_iter().map(|v| indices_array(py, v)).collect())
+}
+
+/// Precision, recall, F1 and Jaccard of `visible` (indices) against `truth` (indices) among
+/// `n` points.
+#[pyfunction]
+fn score<'py>(
+    py: Python<'py>,
+    visible: PyReadonlyArray1<'py, i64>,
+    truth: PyReadonlyArray1<'py, i64>,
+    n: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let to_set = |a: &PyReadonlyArray1<'py, i64>, what: &str| -> PyResult<Vec<u32>> {
+        let mut v: Vec<u32> = Vec::with_capacity(a.len()?);
+        for &i in a.as_array().iter() {
+            if i < 0 || i as usize >= n {
+                return Err(PyValueError::new_err(format!(
+                    "{what}: index {i} is outside 0..{n}"
+                )));
+            }
+            v.push(i as u32);
+        }
+        v.sort_unstable();
+        v.dedup();
+        Ok(v)
+    };
+    let (p, t) = (to_set(&visible, "visible")?, to_set(&truth, "truth")?);
+    let (mut i, mut j, mut tp) = (0, 0, 0usize);
+    while i < p.len() && j < t.len() {
+        match p[i].cmp(&t[j]) {
+            std::cmp::Ordering::Less => i += 1,
+            std::cmp::Ordering::Greater => j += 1,
+            std::cmp::Ordering::Equal => {
+                tp += 1;
+                i += 1;
+                j += 1;
+            }
+        }
+    }
+    let (fp, fn_) = (p.len() - tp, t.len() - tp);
+    let ratio = |a: usize, b: usize| if b == 0 { 1.0 } else { a as f64 / b as f64 };
+    let d = PyDict::new(py);
+    d.set_item("precision", ratio(tp, tp + fp))?;
+    d.set_item("recall", ratio(tp, tp + fn_))?;
+    d.set_item("f1", ratio(2 * tp, 2 * tp + fp + fn_))?;
+    d.set_item("jaccard", ratio(tp, tp + fp + fn_))?;
+    Ok(d)
+}
+
+/// Indices of the convex hull's vertices, ascending (`impl_`: own, qhull, parry, quickhull,
+/// chull).
+#[pyfunction]
+fn convex_hull_vertices<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    impl_: &str,
+) -> PyResult<Bound<'py, PyArray1<i64>>> {
+    let pts: Vec<[f64; 3]> = points_of(&points)?.iter().map(|p| p.to_array()).collect();
+    let name = impl_.to_owned();
+    let v = run(py, move || {
+        let h = hull::by_name(&name).map_err(err)?;
+        h.vertices(&pts).map_err(err)
+    })?;
+    Ok(indices_array(py, v))
+}
+
+/// Reads a point or mesh file: a dict of arrays (`positions`, and where the file has them
+/// `normals`, `colors`, `intensity`, `classification`, `scan`, `faces`, `scanner_positions`).
+#[pyfunction]
+#[pyo3(signature = (path, format=None, classes=None, scan=None))]
+fn read<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    format: Option<String>,
+    classes: Option<Vec<u8>>,
+    scan: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let format = match format {
+        Some(f) => Some(cloud::io::Format::from_name(&f).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "unknown format {f:?}; known: {}",
+                cloud::io::Format::NAMES
+            ))
+        })?),
+        None => None,
+    };
+    let loaded = run(py, move || {
+        cloud::io::read_with(
+            &path,
+            &cloud::io::ReadOptions {
+                format,
+                classes,
+                scan,
+            },
+        )
+        .map_err(err)
+    })?;
+    let c = loaded.cloud;
+    let d = PyDict::new(py);
+    d.set_item("positions", vec3_array(py, &c.positions, |p| p.to_array()))?;
+    if let Some(n) = &c.normals {
+        d.set_item(
+            "normals",
+            vec3_array(py, n, |v: Vec3| v.as_dvec3().to_array()),
+        )?;
+    }
+    if let Some(colors) = &c.colors {
+        let flat: Vec<u8> = colors.iter().flatten().copied().collect();
+        let a = Array2::from_shape_vec((colors.len(), 3), flat)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        d.set_item("colors", a.into_pyarray(py))?;
+    }
+    if let Some(v) = c.intensity {
+        d.set_item("intensity", v.into_pyarray(py))?;
+    }
+    if let Some(v) = c.classification {
+        d.set_item("classification", v.into_pyarray(py))?;
+    }
+    if let Some(v) = c.scan {
+        d.set_item("scan", v.into_pyarray(py))?;
+    }
+    if !loaded.triangles.is_empty() {
+        let flat: Vec<i64> = loaded
+            .triangles
+            .iter()
+            .flatten()
+            .map(|&v| i64::from(v))
+            .collect();
+        let a = Array2::from_shape_vec((loaded.triangles.len(), 3), flat)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        d.set_item("faces", a.into_pyarray(py))?;
+    }
+    if !loaded.scanners.is_empty() {
+        d.set_item(
+            "scanner_positions",
+            vec3_array(py, &loaded.scanners, |s| s.position.to_array()),
+        )?;
+    }
+    Ok(d)
+}
+
+/// Sets the number of threads every later call uses (a pool of that size; 0: rayon's default).
+#[pyfunction]
+fn set_num_threads(n: usize) -> PyResult<()> {
+    let slot = POOL.get_or_init(|| Mutex::new(None));
+    let mut guard = slot
+        .lock()
+        .map_err(|_| PyRuntimeError::new_err("thread pool lock poisoned"))?;
+    *guard = if n == 0 {
+        None
+    } else {
+        Some(std::sync::Arc::new(
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))?,
+        ))
+    };
+    Ok(())
+}
+
+fn splats_dict<'py>(
+    py: Python<'py>,
+    centers: Vec<[f64; 3]>,
+    radii: Vec<f64>,
+    normals: Vec<[f64; 3]>,
+    colors: Vec<[f64; 3]>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("centers", vec3_array(py, &centers, |r| r))?;
+    d.set_item("radii", radii.into_pyarray(py))?;
+    d.set_item("normals", vec3_array(py, &normals, |r| r))?;
+    d.set_item("colors", vec3_array(py, &colors, |r| r))?;
+    Ok(d)
+}
+
+fn lod_cloud(
+    points: &PyReadonlyArray2<'_, f64>,
+    normals: &PyReadonlyArray2<'_, f64>,
+    colors: Option<&PyReadonlyArray2<'_, f64>>,
+) -> PyResult<PointCloud> {
+    let positions = points_of(points)?;
+    let n: Vec<Vec3> = points_of(normals)?.iter().map(|v| v.as_vec3()).collect();
+    let colors = colors
+        .map(|c| {
+            points_of(c).map(|rows| {
+                rows.iter()
+                    .map(|v| {
+                        let q = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+                        [q(v.x), q(v.y), q(v.z)]
+                    })
+                    .collect::<Vec<_>>()
+            })
+        })
+        .transpose()?;
+    let cloud = PointCloud {
+        positions,
+        normals: Some(n),
+        colors,
+        ..PointCloud::default()
+    };
+    cloud
+        .validate()
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
+    if cloud.is_empty() {
+        return Err(PyValueError::new_err("the point array is empty"));
+    }
+    Ok(cloud)
+}
+
+/// QSplat's bounding-sphere hierarchy (seed 002 §5.2), built once, selected per view.
+#[pyclass(module = "pointsight._native", frozen)]
+pub struct QSplat {
+    tree: qsplat::QTree,
+}
+
+#[pymethods]
+impl QSplat {
+    /// Builds the tree of points (N, 3), unit normals (N, 3), optional colours (N, 3) in
+    /// [0, 1], leaves of `leaf_radius`.
+    #[new]
+    #[pyo3(signature = (points, normals, leaf_radius, colors=None))]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        normals: PyReadonlyArray2<'_, f64>,
+        leaf_radius: f64,
+        colors: Option<PyReadonlyArray2<'_, f64>>,
+    ) -> PyResult<Self> {
+        let cloud = lod_cloud(&points, &normals, colors.as_ref())?;
+        let tree = run(py, move || {
+            qsplat::build_tree(&cloud, leaf_radius).map_err(err)
+        })?;
+        Ok(Self { tree })
+    }
+
+    /// The splats the traversal draws for `camera` (pinhole) at `threshold_px`: a dict of
+    /// `centers`, `radii`, `normals`, `colors` arrays.
+    fn select<'py>(
+        &self,
+        py: Python<'py>,
+        camera: &Camera,
+        threshold_px: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        camera
+            .inner
+            .require("QSplat's traversal", &["pinhole"])
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        if !(threshold_px > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "threshold_px must be positive, got {threshold_px}"
+            )));
+        }
+        let params = qsplat::TraverseParams {
+            threshold_px,
+            ..Default::default()
+        };
+        let s = qsplat::traverse(&self.tree, &camera.inner, &params);
+        splats_dict(
+            py,
+            s.iter().map(|s| s.center.to_array()).collect(),
+            s.iter().map(|s| s.radius).collect(),
+            s.iter().map(|s| s.normal.to_array()).collect(),
+            s.iter()
+                .map(|s| s.color.map(|c| f64::from(c) / 255.0))
+                .collect(),
+        )
+    }
+}
+
+/// A sequential point tree (seed 002 §5.3), built once, cut per eye.
+#[pyclass(module = "pointsight._native", frozen)]
+pub struct SequentialPointTree {
+    spt: spt::Spt,
+}
+
+#[pymethods]
+impl SequentialPointTree {
+    /// Builds the tree of points (N, 3) and unit normals (N, 3), leaf discs of `leaf_diameter`.
+    #[new]
+    #[pyo3(signature = (points, normals, leaf_diameter, colors=None))]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        normals: PyReadonlyArray2<'_, f64>,
+        leaf_diameter: f64,
+        colors: Option<PyReadonlyArray2<'_, f64>>,
+    ) -> PyResult<Self> {
+        let cloud = lod_cloud(&points, &normals, colors.as_ref())?;
+        let spt = run(py, move || spt::build(&cloud, leaf_diameter).map_err(err))?;
+        Ok(Self { spt })
+    }
+
+    /// The splats of the cut for `eye` at error `epsilon` (world units per unit distance; see
+    /// `epsilon_for_pixels`): a dict of `centers`, `radii`, `normals`, `colors`.
+    fn cut<'py>(
+        &self,
+        py: Python<'py>,
+        eye: [f64; 3],
+        epsilon: f64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let (entries, _) = self
+            .spt
+            .cut(DVec3::from_array(eye), epsilon)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let s = self.spt.splats(&entries);
+        splats_dict(
+            py,
+            s.iter().map(|s| s.center.to_array()).collect(),
+            s.iter().map(|s| s.radius).collect(),
+            s.iter().map(|s| s.normal.as_dvec3().to_array()).collect(),
+            s.iter().map(|s| s.color.as_dvec3().to_array()).collect(),
+        )
+    }
+
+    /// ε for a tolerance of `px` pixels seen through `camera`.
+    #[staticmethod]
+    fn epsilon_for_pixels(camera: &Camera, px: f64) -> f64 {
+        spt::epsilon_for_pixels(&camera.inner, px)
+    }
+
+    /// Number of entries of the sequential list.
+    fn __len__(&self) -> usize {
+        self.spt.len()
+    }
+}
+
+/// Kept indices and their radius factors.
+type IndicesAndFactors<'py> = (Bound<'py, PyArray1<i64>>, Bound<'py, PyArray1<f64>>);
+
+/// A method's name, summary and parameters (key, default, help).
+type MethodListing = (String, String, Vec<(String, String, String)>);
+
+/// SRN (seed 003): the points kept at density `scale` with the JPEG2000 masking importance of
+/// `image` (H, W, 3) uint8, through texture coordinates `uvs` (N, 2): their indices and the
+/// radius factor 1/sqrt(I) of each kept point.
+#[pyfunction]
+#[pyo3(signature = (uvs, image, scale=1.0, seed=0))]
+fn srn_select<'py>(
+    py: Python<'py>,
+    uvs: PyReadonlyArray2<'py, f64>,
+    image: PyReadonlyArray3<'py, u8>,
+    scale: f32,
+    seed: u64,
+) -> PyResult<IndicesAndFactors<'py>> {
+    let u = uvs.as_array();
+    if u.ncols() != 2 {
+        return Err(PyValueError::new_err(format!(
+            "uvs: expected an (N, 2) array, got shape {:?}",
+            u.shape()
+        )));
+    }
+    let uv: Vec<Vec2> = u
+        .rows()
+        .into_iter()
+        .map(|r| Vec2::new(r[0] as f32, r[1] as f32))
+        .collect();
+    let img = image.as_array();
+    let shape = img.shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "image: expected an (H, W, 3) uint8 array, got shape {shape:?}"
+        )));
+    }
+    let rgb: Vec<[u8; 3]> = img.rows().into_iter().map(|p| [p[0], p[1], p[2]]).collect();
+    let (h, w) = (shape[0], shape[1]);
+    let (kept, factors) = run(py, move || {
+        let texture = srn::Texture::new(w, h, rgb).map_err(err)?;
+        let map = srn::masking_map(&texture, &srn::MaskingParams::default()).map_err(err)?;
+        let s = srn::Srn::new(&uv, &map, seed).map_err(err)?;
+        let params = srn::SrnParams {
+            scale,
+            ..srn::SrnParams::default()
+        };
+        let kept = s.select(&params).map_err(err)?;
+        let factors: Vec<f64> = kept
+            .iter()
+            .map(|&i| f64::from(s.radius_factor(i as usize, &params)))
+            .collect();
+        Ok((kept, factors))
+    })?;
+    Ok((indices_array(py, kept), factors.into_pyarray(py)))
+}
+
+/// The registry's methods: name, one-line summary, and their parameters (key, default, help).
+#[pyfunction]
+fn methods() -> Vec<MethodListing> {
+    registry::METHODS
+        .iter()
+        .map(|m| {
+            (
+                m.name().to_owned(),
+                m.summary().to_owned(),
+                m.params()
+                    .iter()
+                    .map(|p| (p.key.to_owned(), p.default.to_owned(), p.help.to_owned()))
+                    .collect(),
+            )
+        })
+        .collect()
+}
+
+/// The module.
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Camera>()?;
+    m.add_class::<QSplat>()?;
+    m.add_class::<SequentialPointTree>()?;
+    m.add_function(wrap_pyfunction!(visible, m)?)?;
+    m.add_function(wrap_pyfunction!(score, m)?)?;
+    m.add_function(wrap_pyfunction!(convex_hull_vertices, m)?)?;
+    m.add_function(wrap_pyfunction!(read, m)?)?;
+    m.add_function(wrap_pyfunction!(set_num_threads, m)?)?;
+    m.add_function(wrap_pyfunction!(srn_select, m)?)?;
+    m.add_function(wrap_pyfunction!(methods, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,255 @@
+"""The Python package against the command line (same indices), the readers, every error case,
+threads, and Open3D where it is installed. Run by `just test` (so by CI)."""
+
+import json
+import os
+import shutil
+import subprocess
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import pointsight as ps
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def cli() -> str:
+    """The pointsight binary: $POINTSIGHT_BIN, else the workspace's debug or release build."""
+    if os.environ.get("POINTSIGHT_BIN"):
+        return os.environ["POINTSIGHT_BIN"]
+    for profile in ("debug", "release"):
+        p = ROOT / "target" / profile / "pointsight"
+        if p.exists():
+            return str(p)
+    pytest.skip("no pointsight binary: run `cargo build -p harness` first")
+
+
+def run(*args, cwd=None):
+    out = subprocess.run([cli(), *args], capture_output=True, text=True, cwd=cwd or ROOT)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
+def read_indices(path):
+    text = Path(path).read_text()
+    return np.array([int(x) for x in text.split()], dtype=np.int64)
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory):
+    """sphere-plane-24000 as the command line exports it, and its 16 views."""
+    d = tmp_path_factory.mktemp("ds")
+    run("export", "--dataset", "sphere-plane-24000", "--out", str(d / "points.ply"))
+    run("views", "--dataset", "sphere-plane-24000", "--format", "jsonl", "--out", str(d / "views.jsonl"))
+    points = ps.read_cloud(d / "points.ply")["positions"]
+    views = (d / "views.jsonl").read_text().splitlines()
+    return d, points, views
+
+
+@pytest.mark.parametrize(
+    "method,sets,call",
+    [
+        ("hpr", [], lambda p, c: ps.hpr(p, c.eye)),
+        ("hpr", ["gamma=2.5", "hull=qhull"], lambda p, c: ps.hpr(p, c.eye, gamma=2.5, hull="qhull")),
+        ("hpr", ["kernel=exp", "gamma=-0.001"], lambda p, c: ps.hpr(p, c.eye, kernel="exp", gamma=-0.001)),
+        ("raycast", [], lambda p, c: ps.raycast(p, c)),
+        ("raycast", ["radius_factor=2", "width=640", "height=360"], lambda p, c: ps.raycast(p, c, radius_factor=2, width=640, height=360)),
+        ("splat", [], lambda p, c: ps.splat_visibility(p, c)),
+        ("splat", ["radius_px=3", "depth_tolerance=0.03"], lambda p, c: ps.splat_visibility(p, c, radius_px=3, depth_tolerance=0.03)),
+    ],
+)
+def test_same_indices_as_the_command_line(dataset, method, sets, call):
+    d, points, views = dataset
+    for k in (0, 5):
+        out = d / f"{method}-{k}-{'-'.join(sets)}.txt"
+        args = ["visible", "--dataset", "sphere-plane-24000", "--view", str(k), "--method", method, "--out", str(out)]
+        for s in sets:
+            args += ["--set", s]
+        run(*args)
+        expected = read_indices(out)
+        got = call(points, ps.Camera.from_json(views[k]))
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, expected)
+
+
+def test_reference_and_files_as_the_command_line(tmp_path):
+    scan = ROOT / "examples/own-data/scan.ply"
+    mesh = ROOT / "examples/own-data/scene.off"
+    cams = [
+        ps.Camera.look_at("pinhole", [3, -4, 2.5], [0, 0, 0.3], [0, 0, 1], 1280, 720, fov_y_deg=50),
+        ps.Camera.look_at("spherical", [1.5, -1.5, 1.2], [0.5, -0.5, 1.2], [0, 0, 1], 1024, 512),
+        ps.Camera.look_at("orthographic", [0, 0, 5], [0, 0, 0], [0, 1, 0], 600, 600, view_width=5, view_height=5),
+    ]
+    views = tmp_path / "views.jsonl"
+    views.write_text("".join(c.to_json() + "\n" for c in cams))
+    points = ps.read_cloud(scan)["positions"]
+    vertices, faces = ps.read_mesh(mesh)
+    assert points.shape == (6000, 3) and faces.shape[1] == 3
+    for method in ("reference", "raycast", "splat"):
+        out = tmp_path / method
+        run("visible", "--cloud", str(scan), "--mesh", str(mesh), "--views", str(views), "--view", "all",
+            "--method", method, "--out", str(out))
+        for k, c in enumerate(cams):
+            expected = read_indices(out / f"view-{k}.txt")
+            if method == "reference":
+                got = ps.reference(vertices, faces, points, c)
+            elif method == "raycast":
+                got = ps.raycast(points, c)
+            else:
+                got = ps.splat_visibility(points, c)
+            np.testing.assert_array_equal(got, expected, err_msg=f"{method} view {k}")
+
+
+def test_the_issue_example_and_masks():
+    p = np.random.default_rng(0).normal(size=(10000, 3))
+    v = ps.hpr(p, [0, 0, 10], gamma=3)
+    assert 1000 < len(v) < 5000
+    assert np.all(np.diff(v) > 0)
+    m = ps.hpr(p, [0, 0, 10], gamma=3, as_mask=True)
+    assert m.dtype == np.bool_ and m.sum() == len(v)
+    np.testing.assert_array_equal(np.flatnonzero(m), v)
+    # float32 input gives the same answer as its float64 conversion.
+    p32 = p.astype(np.float32)
+    np.testing.assert_array_equal(ps.hpr(p32, [0, 0, 10]), ps.hpr(p32.astype(np.float64), [0, 0, 10]))
+    # Fortran order and non-contiguous views are converted once.
+    np.testing.assert_array_equal(ps.hpr(np.asfortranarray(p), [0, 0, 10]), v)
+    many = ps.hpr_many(p, [[0, 0, 10], [10, 0, 0]], gamma=3)
+    np.testing.assert_array_equal(many[0], v)
+    s = ps.score(v, v, len(p))
+    assert s == {"precision": 1.0, "recall": 1.0, "f1": 1.0, "jaccard": 1.0}
+    assert ps.score(m, m, len(p))["f1"] == 1.0
+
+
+def test_hull_and_lod():
+    rng = np.random.default_rng(1)
+    p = rng.normal(size=(5000, 3))
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    own = ps.convex_hull_vertices(p)
+    assert len(own) == 5000  # every point of a sphere is a vertex
+    np.testing.assert_array_equal(own, ps.convex_hull_vertices(p, "qhull"))
+    normals = p.copy()
+    cam = ps.Camera.look_at("pinhole", [0, 0, 4], [0, 0, 0], [0, 1, 0], 640, 480, fov_y_deg=40)
+    q = ps.QSplat(p, normals, 0.03)
+    fine, coarse = q.select(cam, 1.0), q.select(cam, 16.0)
+    assert len(coarse["radii"]) < len(fine["radii"]) <= 5000
+    assert fine["centers"].shape == (len(fine["radii"]), 3)
+    spt = ps.SequentialPointTree(p, normals, 0.06)
+    eps = ps.SequentialPointTree.epsilon_for_pixels(cam, 2.0)
+    cut = spt.cut([0, 0, 4], eps)
+    assert 0 < len(cut["radii"]) < len(spt)
+    uv = rng.random((5000, 2))
+    image = np.full((256, 256, 3), 128, np.uint8)
+    image[:, 128:] = rng.integers(0, 255, size=(256, 128, 3), dtype=np.uint8)
+    kept, factors = ps.srn_select(uv, image, scale=1.0, seed=3)
+    busy = uv[kept, 0] >= 0.5
+    # Flat texture (left half, u < 0.5): little masking, most points kept; noise (right half)
+    # masks detail, so few are (measured: 86 % and 4 %).
+    assert (~busy).sum() > 0.7 * (uv[:, 0] < 0.5).sum()
+    assert busy.sum() < 0.2 * (uv[:, 0] >= 0.5).sum()
+    assert np.all(factors >= 1.0)
+
+
+def test_readers_on_files_of_other_tools():
+    laz = ps.read_cloud(ROOT / "tests/data/formats/tiny.laz")
+    np.testing.assert_array_equal(laz["classification"], [2, 2, 6, 1, 6])
+    assert laz["positions"][0].tolist() == [500000.125, 4000000.25, 100.5]
+    assert laz["colors"].dtype == np.uint8 and laz["colors"][0].tolist() == [255, 0, 0]
+    six = ps.read_cloud(ROOT / "tests/data/formats/tiny.laz", classes=[6])
+    assert len(six["positions"]) == 2
+    e57 = ps.read_cloud(ROOT / "tests/data/formats/tiny.e57")
+    assert e57["scanner_positions"].tolist()[1] == [10.0, 0.0, 0.0]
+    assert ps.read_cloud(ROOT / "tests/data/formats/tiny.e57", scan=1)["positions"].shape == (5, 3)
+    with pytest.raises(ValueError, match="read_mesh|faces"):
+        ps.read_mesh(ROOT / "tests/data/formats/tiny.laz")
+
+
+@pytest.mark.parametrize(
+    "bad,exc,match",
+    [
+        (np.array([["a", "b", "c"]]), TypeError, "numbers"),
+        (np.zeros((4, 2)), ValueError, r"shape \(N, 3\)"),
+        (np.zeros((0, 3)), ValueError, "empty"),
+        (np.array([[0, 0, np.nan], [1, 0, 0], [0, 1, 0], [0, 0, 1]]), ValueError, "point 0"),
+        (np.zeros((4, 3), dtype=complex), TypeError, "complex"),
+        ([[0, 0, 0], [1, 1]], TypeError, "numbers"),
+        ("points", TypeError, "numbers"),
+    ],
+)
+def test_bad_points(bad, exc, match):
+    with pytest.raises(exc, match=match):
+        ps.hpr(bad, [0, 0, 5])
+
+
+def test_bad_parameters_and_cameras():
+    p = np.random.default_rng(2).normal(size=(500, 3))
+    with pytest.raises(ValueError, match="gamma"):
+        ps.hpr(p, [0, 0, 5], gamma="lots")
+    with pytest.raises(ValueError, match="hull"):
+        ps.hpr(p, [0, 0, 5], hull="magic")
+    with pytest.raises(ValueError, match="eye"):
+        ps.hpr(p, [0, 0])
+    with pytest.raises(ValueError):
+        ps.hidden_point_removal(p, [0, 0, 5], -1.0)
+    with pytest.raises(ValueError, match="unknown camera model"):
+        ps.Camera.look_at("fisheye", [0, 0, 5], [0, 0, 0], [0, 1, 0], 10, 10)
+    with pytest.raises(ValueError, match="coincide"):
+        ps.Camera.look_at("spherical", [0, 0, 0], [0, 0, 0], [0, 1, 0], 10, 10)
+    with pytest.raises(ValueError, match="field of view"):
+        ps.Camera.look_at("pinhole", [0, 0, 5], [0, 0, 0], [0, 1, 0], 10, 10, fov_y_deg=-3)
+    with pytest.raises(ValueError, match="malformed"):
+        ps.Camera.from_json("{")
+    ortho = ps.Camera.look_at("orthographic", [0, 0, 5], [0, 0, 0], [0, 1, 0], 10, 10, view_width=2, view_height=2)
+    with pytest.raises(ValueError, match="radius"):
+        ps.raycast(p, ortho, radius=-1.0)
+    with pytest.raises(ValueError, match="face 0 refers to vertex 999"):
+        ps.reference(p, np.array([[0, 1, 999]]), p, ortho)
+    with pytest.raises(TypeError):
+        ps.raycast(p, 42)
+    with pytest.raises(ValueError, match="n must be"):
+        ps.set_num_threads(-1)
+
+
+def test_two_threads_at_once_and_a_thread_count():
+    p = np.random.default_rng(3).normal(size=(20000, 3))
+    expected = ps.hpr(p, [0, 0, 10])
+    results = [None, None]
+
+    def work(k):
+        results[k] = ps.hpr(p, [0, 0, 10])
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in results:
+        np.testing.assert_array_equal(r, expected)
+    ps.set_num_threads(1)
+    try:
+        np.testing.assert_array_equal(ps.hpr(p, [0, 0, 10]), expected)
+    finally:
+        ps.set_num_threads(0)
+
+
+def test_methods_listing_matches_the_cli_vocabulary():
+    names = {m[0] for m in ps.methods()}
+    assert {"hpr", "raycast", "splat", "reference", "exact"} <= names
+    hpr_keys = {k for name, _, params in ps.methods() if name == "hpr" for k, _, _ in params}
+    assert {"gamma", "radius", "kernel", "hull", "perturb", "seed"} == hpr_keys
+
+
+def test_open3d_hidden_point_removal_if_installed():
+    o3d = pytest.importorskip("open3d")
+    rng = np.random.default_rng(4)
+    p = rng.normal(size=(3000, 3))
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    p *= 1.0 + 0.05 * rng.random((3000, 1))
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(p))
+    eye = [0.0, 0.0, 4.0]
+    radius = 100.0 * 2.2
+    _, theirs = pcd.hidden_point_removal(eye, radius)
+    ours = ps.hidden_point_removal(pcd, eye, radius)
+    np.testing.assert_array_equal(ours, np.sort(np.asarray(theirs)))
