@@ -35,7 +35,8 @@ build: setup
     cargo build --release -p harness
 
 # Run every experiment in full and write reports/ (add --quick for the short version).
-bench *args: build fetch
+bench *args: build
+    target/release/pointsight fetch
     target/release/pointsight bench {{args}}
 
 # The quick benchmark.
