@@ -13,6 +13,14 @@ pub struct Cli {
     /// `pointsight.toml` in the working directory when it exists.
     #[arg(long, global = true, env = "POINTSIGHT_MANIFEST")]
     pub manifest: Option<PathBuf>,
+    /// Folder of external methods (`NAME/method.toml` each; see methods/README.md).
+    #[arg(
+        long,
+        global = true,
+        env = "POINTSIGHT_METHODS",
+        default_value = "methods"
+    )]
+    pub methods_dir: PathBuf,
     /// Folder of fetched data.
     #[arg(
         long,

@@ -36,6 +36,7 @@ use crate::cli::{Cli, Command};
 pub fn run(cli: Cli) -> Result<ExitCode> {
     let data_dir = cli.data_dir;
     datasets::use_manifest(manifest::Manifest::discover(cli.manifest.as_deref())?);
+    registry::register_external(&cli.methods_dir)?;
     match cli.command {
         Command::Fetch => {
             let report = fetch::fetch(&data_dir)?;
@@ -79,8 +80,11 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             }
         }
         Command::Methods => {
-            for m in methods::METHODS {
-                println!("{:<10} {}", m.name(), m.summary());
+            for m in methods::all() {
+                match m.availability() {
+                    Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
+                    Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
+                }
                 for p in m.params() {
                     println!("    --set {}=…  (default {}) {}", p.key, p.default, p.help);
                 }

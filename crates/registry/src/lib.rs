@@ -13,6 +13,7 @@
 
 pub mod error;
 mod exact;
+pub mod external;
 pub mod hpr;
 pub mod params;
 pub mod raycast;
@@ -55,6 +56,9 @@ pub struct Output {
     /// For per-pixel methods: the image size and, per pixel (row-major), the point it shows
     /// (`u32::MAX` for none).
     pub pixels: Option<PixelChoice>,
+    /// The method's own compute seconds, for methods that report it (external programs,
+    /// whose wall time includes the protocol); `None`: the caller's timing is the time.
+    pub reported_seconds: Option<f64>,
 }
 
 /// The point each pixel of a per-pixel method shows.
@@ -89,6 +93,44 @@ pub trait Method: Sync {
     fn parallel_views(&self) -> bool {
         false
     }
+    /// `Ok` when the method can run here; else why not (an external method's environment is
+    /// missing).
+    fn availability(&self) -> std::result::Result<(), String> {
+        Ok(())
+    }
+}
+
+/// External methods registered for this process ([`register_external`]).
+static EXTERNAL: std::sync::OnceLock<Vec<&'static dyn Method>> = std::sync::OnceLock::new();
+
+/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup;
+/// once per process (later calls keep the first set). Names must not shadow built-in methods.
+pub fn register_external(dir: &std::path::Path) -> Result<()> {
+    let loaded = external::ExternalMethod::load_dir(dir)?;
+    for m in &loaded {
+        if METHODS.iter().any(|b| b.name() == m.name()) {
+            return Err(Error::Unsupported(format!(
+                "external method {} in {} shadows a built-in method",
+                m.name(),
+                dir.display()
+            )));
+        }
+    }
+    let leaked: Vec<&'static dyn Method> = loaded
+        .into_iter()
+        .map(|m| &*Box::leak(Box::new(m)) as &'static dyn Method)
+        .collect();
+    let _ = EXTERNAL.set(leaked);
+    Ok(())
+}
+
+/// Every method: built-in, then external.
+pub fn all() -> Vec<&'static dyn Method> {
+    METHODS
+        .iter()
+        .copied()
+        .chain(EXTERNAL.get().into_iter().flatten().copied())
+        .collect()
 }
 
 /// Every method, in listing order.
@@ -102,13 +144,12 @@ pub static METHODS: &[&dyn Method] = &[
 
 /// Looks a method up by name.
 pub fn method(name: &str) -> Result<&'static dyn Method> {
-    METHODS
-        .iter()
-        .copied()
+    all()
+        .into_iter()
         .find(|m| m.name() == name)
         .ok_or_else(|| Error::UnknownMethod {
             name: name.to_owned(),
-            known: METHODS
+            known: all()
                 .iter()
                 .map(|m| m.name())
                 .collect::<Vec<_>>()

@@ -80,6 +80,7 @@ impl Prepared for Prep {
                 height: camera.height,
                 point: frame.pixel_point,
             }),
+            reported_seconds: None,
         })
     }
 }

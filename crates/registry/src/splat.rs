@@ -62,6 +62,7 @@ impl Prepared for Prep {
                 height: camera.height,
                 point: out.pixel_point,
             }),
+            reported_seconds: None,
         })
     }
 }
