@@ -14,7 +14,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "visibility/results.csv",
-        "dataset,n_points,view,method,params,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples",
+        "dataset,n_points,view,method,params,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status",
     ),
     (
         "lod/results.csv",

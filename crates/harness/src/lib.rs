@@ -19,6 +19,7 @@ pub mod manifest;
 pub mod output;
 pub mod progress;
 pub mod score;
+pub mod stats;
 pub mod visible;
 
 /// The method registry (its own crate, shared with the Python package).

@@ -29,6 +29,8 @@
 //! install = "just peers"                     # said when the check fails
 //! timeout_seconds = 120
 //! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
+//! grid = [{gamma = "2"}, {gamma = "3"}]    # what the visibility experiment sweeps
+//! quick_grid = [{gamma = "3"}]
 //! [params.gamma]
 //! default = "3"
 //! help = "R = max|p - C| * 10^gamma"
@@ -76,6 +78,10 @@ struct Manifest {
     cameras: Option<Vec<String>>,
     #[serde(default)]
     params: BTreeMap<String, ParamEntry>,
+    #[serde(default)]
+    grid: Vec<BTreeMap<String, String>>,
+    #[serde(default)]
+    quick_grid: Vec<BTreeMap<String, String>>,
 }
 
 /// An external method (leaked once per process: the registry's methods live for it).
@@ -90,6 +96,8 @@ pub struct ExternalMethod {
     timeout: Duration,
     cameras: Vec<String>,
     params: &'static [ParamSpec],
+    grid: Vec<Vec<(String, String)>>,
+    quick_grid: Vec<Vec<(String, String)>>,
 }
 
 fn leak(s: String) -> &'static str {
@@ -159,6 +167,16 @@ impl ExternalMethod {
                 vec!["pinhole".into(), "orthographic".into(), "spherical".into()]
             }),
             params: Box::leak(params.into_boxed_slice()),
+            grid: m
+                .grid
+                .into_iter()
+                .map(|s| s.into_iter().collect())
+                .collect(),
+            quick_grid: m
+                .quick_grid
+                .into_iter()
+                .map(|s| s.into_iter().collect())
+                .collect(),
         })
     }
 
@@ -230,6 +248,18 @@ impl Method for ExternalMethod {
 
     fn availability(&self) -> std::result::Result<(), String> {
         ExternalMethod::availability(self)
+    }
+
+    fn grid(&self, quick: bool) -> Vec<Vec<(String, String)>> {
+        if quick && !self.quick_grid.is_empty() {
+            self.quick_grid.clone()
+        } else {
+            self.grid.clone()
+        }
+    }
+
+    fn is_external(&self) -> bool {
+        true
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {

@@ -98,6 +98,15 @@ pub trait Method: Sync {
     fn availability(&self) -> std::result::Result<(), String> {
         Ok(())
     }
+    /// The settings an experiment sweeps (`--set` pairs each), full or quick; empty for the
+    /// built-in methods, whose sweeps the experiments still declare themselves.
+    fn grid(&self, _quick: bool) -> Vec<Vec<(String, String)>> {
+        Vec::new()
+    }
+    /// True for methods loaded from a `method.toml` (external programs).
+    fn is_external(&self) -> bool {
+        false
+    }
 }
 
 /// External methods registered for this process ([`register_external`]).

@@ -94,6 +94,13 @@ pub struct Row {
     /// Number of timed runs.
     #[serde(default)]
     pub samples: usize,
+    /// `ok`, or `error: …` for a view an external method failed (scores NaN).
+    #[serde(default = "ok_status")]
+    pub status: String,
+}
+
+fn ok_status() -> String {
+    "ok".into()
 }
 
 /// One row of `agreement.csv`: for datasets without a mesh, how far two methods' visible sets
@@ -141,15 +148,49 @@ pub struct PixelRow {
     pub mesh_coverage: f64,
 }
 
-/// The family a row belongs to, for plots and tables.
-pub fn family(method: &str, params: &str) -> &'static str {
+/// The family a row belongs to, for plots and tables (an external method is its own family).
+pub fn family<'a>(method: &'a str, params: &str) -> &'a str {
     match method {
         "hpr" if params.contains("kernel=exp") => "hpr-exp",
         "hpr" => "hpr-linear",
-        "raycast" => "raycast",
-        "splat" => "splat",
-        _ => "other",
+        other => other,
     }
+}
+
+/// The built-in families, in plotting order; external methods follow in the order they
+/// appear.
+const FAMILIES: &[&str] = &["hpr-linear", "hpr-exp", "raycast", "splat"];
+
+/// Every family of `rows`: the built-in ones, then the others.
+fn families_of(rows: &[Row]) -> Vec<String> {
+    let mut out: Vec<String> = FAMILIES.iter().map(|f| (*f).to_owned()).collect();
+    for r in rows {
+        let f = family(&r.method, &r.params);
+        if !out.iter().any(|o| o == f) {
+            out.push(f.to_owned());
+        }
+    }
+    out
+}
+
+/// One row of `peers.csv`: a peer (external method with a `gamma`) against our exact HPR at
+/// the same γ, same view.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct PeerRow {
+    /// Dataset.
+    pub dataset: String,
+    /// View.
+    pub view: usize,
+    /// The peer method.
+    pub peer: String,
+    /// γ of both.
+    pub gamma: String,
+    /// Our HPR's median seconds.
+    pub ours_seconds: f64,
+    /// The peer's seconds (its own compute time, median).
+    pub peer_seconds: f64,
+    /// Jaccard index of the two visible sets.
+    pub jaccard: f64,
 }
 
 fn is_auto(params: &str) -> bool {
@@ -194,6 +235,8 @@ impl Experiment for VisibilityExperiment {
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
         let mut agreement = Vec::new();
+        let mut peers = Vec::new();
+        let mut not_run: Vec<String> = Vec::new();
         let mut off_surface_meta = serde_json::Map::new();
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
@@ -220,6 +263,9 @@ impl Experiment for VisibilityExperiment {
             let mut ray_lists: BTreeMap<(u32, u32), RayList> = BTreeMap::new();
             let bar = progress::bar(n_views as u64, format!("visibility {name}"));
             let mut kept_for_render: Vec<(usize, Run)> = Vec::new();
+            // For the peers: each view's truth, and our exact HPR's sets and times by γ.
+            let mut truths: Vec<Option<Vec<bool>>> = Vec::new();
+            let mut ours: BTreeMap<(usize, String), (Vec<u32>, f64)> = BTreeMap::new();
             for view in 0..n_views {
                 let cam = *ds.view(view)?;
                 let truth = match &reference {
@@ -229,6 +275,7 @@ impl Experiment for VisibilityExperiment {
                     ),
                     None => None,
                 };
+                truths.push(truth.clone());
                 let mut runs: Vec<Run> = Vec::new();
                 let max_distance = points
                     .iter()
@@ -336,6 +383,18 @@ impl Experiment for VisibilityExperiment {
                 if truth.is_none() {
                     agreement.extend(agreement_rows(name, view, &runs));
                 }
+                for run in &runs {
+                    if let Some(g) = run
+                        .params
+                        .strip_prefix("kernel=linear;gamma=")
+                        .and_then(|rest| rest.strip_suffix(";perturb=0"))
+                    {
+                        ours.insert(
+                            (view, g.to_owned()),
+                            (run.visible.clone(), run.timing.median),
+                        );
+                    }
+                }
                 let off_flags = off.as_ref().map(|(f, _)| &f[..]);
                 for run in runs {
                     let s = truth
@@ -354,6 +413,7 @@ impl Experiment for VisibilityExperiment {
                         seconds_min: run.timing.min,
                         seconds_max: run.timing.max,
                         samples: run.timing.samples,
+                        status: ok_status(),
                         rays: run.rays,
                         n_visible: run.visible.len(),
                         precision: s.map_or(f64::NAN, |s| s.precision()),
@@ -405,6 +465,17 @@ impl Experiment for VisibilityExperiment {
                 bar.inc(1);
             }
             bar.finish_and_clear();
+            let off_flags = off.as_ref().map(|(f, _)| &f[..]);
+            measure_externals(
+                ctx,
+                &ds,
+                &truths,
+                off_flags,
+                &ours,
+                &mut rows,
+                &mut peers,
+                &mut not_run,
+            )?;
             if let Some(reference) = reference.as_ref().filter(|_| !kept_for_render.is_empty()) {
                 render_bunny(&ctx.out_dir, &ds, reference, &rows, kept_for_render)?;
             }
@@ -412,6 +483,9 @@ impl Experiment for VisibilityExperiment {
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
         write_csv(&ctx.out_dir.join("agreement.csv"), &agreement)?;
+        write_csv(&ctx.out_dir.join("peers.csv"), &peers)?;
+        not_run.sort();
+        not_run.dedup();
         Ok(serde_json::json!({
             "views": n_views,
             "hpr_linear_gammas": GAMMAS,
@@ -426,6 +500,7 @@ impl Experiment for VisibilityExperiment {
             "splat_tolerances": SPLAT_TOLERANCES,
             "timing": format!("median of {} runs (seconds_min, seconds_max: their spread)", super::REPEATS),
             "off_surface": off_surface_meta,
+            "external_methods_not_run": not_run,
         }))
     }
 
@@ -438,8 +513,126 @@ impl Experiment for VisibilityExperiment {
         } else {
             Vec::new()
         };
-        render(dir, &rows, &pixels, &agreement)
+        let peers: Vec<PeerRow> = if dir.join("peers.csv").exists() {
+            read_csv(&dir.join("peers.csv"))?
+        } else {
+            Vec::new()
+        };
+        let not_run: Vec<String> = crate::output::meta::RunMeta::read(dir)
+            .ok()
+            .and_then(|m| {
+                serde_json::from_value(m.parameters["external_methods_not_run"].clone()).ok()
+            })
+            .unwrap_or_default();
+        let peers_md = peers_summary(&peers, &not_run);
+        render(dir, &rows, &pixels, &agreement, &peers_md)
     }
+}
+
+/// Runs every available external method with a grid (methods/NAME/method.toml) on `ds`: one
+/// preparation and process per setting, every view, scored like the built-in methods; a
+/// failing view is a row with NaN scores and its error on stderr (the run goes on). Peers with
+/// a `gamma` are paired with our exact HPR at the same γ (`peers.csv`). Methods that are not
+/// installed are listed in `not_run`.
+#[allow(clippy::too_many_arguments)]
+fn measure_externals(
+    ctx: &Context,
+    ds: &datasets::Dataset,
+    truths: &[Option<Vec<bool>>],
+    off: Option<&[bool]>,
+    ours: &BTreeMap<(usize, String), (Vec<u32>, f64)>,
+    rows: &mut Vec<Row>,
+    peers: &mut Vec<PeerRow>,
+    not_run: &mut Vec<String>,
+) -> Result<()> {
+    let points = &ds.cloud.positions;
+    for m in registry::all().into_iter().filter(|m| m.is_external()) {
+        let grid = m.grid(ctx.quick);
+        if grid.is_empty() {
+            continue;
+        }
+        if let Err(why) = m.availability() {
+            not_run.push(format!("{}: {why}", m.name()));
+            continue;
+        }
+        for setting in grid {
+            let params = registry::Params::from_pairs(
+                &setting
+                    .iter()
+                    .map(|(k, v)| (k.as_str(), v.clone()))
+                    .collect::<Vec<_>>(),
+            );
+            let label = params.canonical();
+            let prepared = registry::prepare(m, ds.input(), &params)?;
+            for (view, truth) in truths.iter().enumerate() {
+                let cam = *ds.view(view)?;
+                let row = |visible: &[u32], t: registry::timing::Timing| {
+                    let s = truth
+                        .as_ref()
+                        .map(|t| Score::of_on_surface(visible, t, off));
+                    Row {
+                        dataset: ds.name().to_owned(),
+                        n_points: points.len(),
+                        view,
+                        method: m.name().to_owned(),
+                        params: label.clone(),
+                        seconds: t.median,
+                        rays: 0,
+                        n_visible: visible.len(),
+                        precision: s.map_or(f64::NAN, |s| s.precision()),
+                        recall: s.map_or(f64::NAN, |s| s.recall()),
+                        f1: s.map_or(f64::NAN, |s| s.f1()),
+                        off_surface_visible: off
+                            .map_or(0, |f| visible.iter().filter(|&&i| f[i as usize]).count()),
+                        seconds_min: t.min,
+                        seconds_max: t.max,
+                        samples: t.samples,
+                        status: ok_status(),
+                    }
+                };
+                // The program's own seconds are the time (wall time includes the protocol).
+                let mut reported = Vec::new();
+                let outcome = registry::timing::measure(super::REPEATS, || {
+                    let out = prepared.visible(&cam)?;
+                    reported.push(out.reported_seconds.unwrap_or(f64::NAN));
+                    Ok::<_, registry::Error>(out)
+                });
+                match outcome {
+                    Ok((out, wall)) => {
+                        let t = if reported.iter().all(|s| s.is_finite()) {
+                            registry::timing::Timing::of(&reported)
+                        } else {
+                            wall
+                        };
+                        rows.push(row(&out.visible, t));
+                        if let Some(g) = setting.iter().find(|(k, _)| k == "gamma").map(|p| &p.1)
+                            && let Some((our_set, our_seconds)) = ours.get(&(view, g.clone()))
+                        {
+                            peers.push(PeerRow {
+                                dataset: ds.name().to_owned(),
+                                view,
+                                peer: m.name().to_owned(),
+                                gamma: g.clone(),
+                                ours_seconds: *our_seconds,
+                                peer_seconds: t.median,
+                                jaccard: Score::of_sets(&out.visible, our_set).jaccard(),
+                            });
+                        }
+                    }
+                    Err(e) => {
+                        eprintln!("visibility: {} {label} view {view}: {e}", m.name());
+                        let mut r = row(&[], registry::timing::Timing::of(&[f64::NAN]));
+                        r.precision = f64::NAN;
+                        r.recall = f64::NAN;
+                        r.f1 = f64::NAN;
+                        r.status = format!("error: {e}");
+                        rows.push(r);
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The settings compared on datasets without a mesh: each family's automatic rule (the ray
@@ -579,7 +772,81 @@ fn param(params: &str, key: &str) -> Option<f64> {
         .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')?.parse().ok())
 }
 
-fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementRow]) -> Result<()> {
+/// The peers' section: per dataset, peer and γ, our exact HPR's speed ratio against the peer
+/// (geometric mean over views of the paired per-view ratios, bootstrap 95 % interval) and the
+/// Jaccard index of the two visible sets; the peers that were not run, and why.
+fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
+    let mut s = String::from("### Peers, measured in the same run\n\n");
+    let mut groups: BTreeMap<(&str, &str, &str), Vec<&PeerRow>> = BTreeMap::new();
+    for p in peers {
+        groups
+            .entry((&p.dataset, &p.peer, &p.gamma))
+            .or_default()
+            .push(p);
+    }
+    if groups.is_empty() && not_run.is_empty() {
+        s.push_str("No external peer method has a grid in methods/: none was run.\n\n");
+        return s;
+    }
+    if !groups.is_empty() {
+        s.push_str(
+            "`speed ratio`: the peer's seconds over our exact HPR's (own hull) at the same γ and \
+             view, geometric mean over the views, with its bootstrap 95 % interval (views \
+             resampled, 10,000 times); above 1 means ours is faster. `Jaccard`: of the two visible \
+             sets, mean over views.\n\n",
+        );
+        let rows: Vec<Vec<String>> = groups
+            .iter()
+            .map(|((d, peer, g), ps)| {
+                let peer_s: Vec<f64> = ps.iter().map(|p| p.peer_seconds).collect();
+                let ours_s: Vec<f64> = ps.iter().map(|p| p.ours_seconds).collect();
+                let ratio = crate::stats::paired_ratio(&peer_s, &ours_s, 2007)
+                    .map_or("-".to_owned(), |(r, lo, hi)| {
+                        format!("{r:.2}× [{lo:.2}, {hi:.2}]")
+                    });
+                vec![
+                    (*d).to_owned(),
+                    (*peer).to_owned(),
+                    (*g).to_owned(),
+                    ps.len().to_string(),
+                    format!("{:.4}", mean(ours_s.iter().copied())),
+                    format!("{:.4}", mean(peer_s.iter().copied())),
+                    ratio,
+                    format!("{:.6}", mean(ps.iter().map(|p| p.jaccard))),
+                ]
+            })
+            .collect();
+        s.push_str(&markdown_table(
+            &[
+                "dataset",
+                "peer",
+                "γ",
+                "views",
+                "hpr (ours) s",
+                "peer s",
+                "speed ratio [95 % CI]",
+                "Jaccard",
+            ],
+            &rows,
+        ));
+        s.push('\n');
+    }
+    for n in not_run {
+        s.push_str(&format!("- not run: {n}\n"));
+    }
+    if !not_run.is_empty() {
+        s.push('\n');
+    }
+    s
+}
+
+fn render(
+    dir: &Path,
+    rows: &[Row],
+    pixels: &[PixelRow],
+    agreement: &[AgreementRow],
+    peers_md: &str,
+) -> Result<()> {
     let all_datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
         if !acc.contains(&r.dataset) {
             acc.push(r.dataset.clone());
@@ -655,7 +922,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
             ));
         }
     }
-    let families = ["hpr-linear", "hpr-exp", "raycast", "splat"];
+    let families = families_of(rows);
     let mut pictures = String::new();
 
     // F1 against seconds, every setting (mean over views), Pareto front marked, per dataset.
@@ -666,7 +933,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
             let mut by: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
             for r in rows
                 .iter()
-                .filter(|r| r.dataset == *d && family(&r.method, &r.params) == *fam)
+                .filter(|r| r.dataset == *d && family(&r.method, &r.params) == fam.as_str())
             {
                 by.entry(&r.params).or_default().push(r);
             }
@@ -680,7 +947,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
                 })
                 .collect();
             all.extend(&pts);
-            let mut s = Series::new(*fam, pts, Mark::Points);
+            let mut s = Series::new(fam.clone(), pts, Mark::Points);
             s.color = Some(k);
             series.push(s);
         }
@@ -818,7 +1085,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
     // Best setting per family and dataset.
     let mut best_table = Vec::new();
     for d in &datasets {
-        for fam in families {
+        for fam in families.iter().map(String::as_str) {
             let Some((p, f1)) = best_setting(rows, d, fam) else {
                 continue;
             };
@@ -939,7 +1206,7 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
          ### Image space (per-pixel methods)\n\nA ray cast shows at most one point per pixel: \
          `pixel precision` is the share of covered pixels whose point is truly visible, `mesh \
          coverage` the share of the mesh's pixels that got a point.\n\n{}\n{pictures}\
-         {off_surface}{no_mesh}Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv){}.\n",
+         {peers_md}{off_surface}{no_mesh}Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv){}.\n",
         markdown_table(
             &[
                 "dataset",
@@ -985,5 +1252,13 @@ fn render(dir: &Path, rows: &[Row], pixels: &[PixelRow], agreement: &[AgreementR
             ", [agreement.csv](agreement.csv)"
         },
     );
+    let summary = if dir.join("peers.csv").exists() {
+        summary.replace(
+            "[pixels.csv](pixels.csv)",
+            "[pixels.csv](pixels.csv), [peers.csv](peers.csv)",
+        )
+    } else {
+        summary
+    };
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
 }
