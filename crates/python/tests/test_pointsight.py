@@ -253,3 +253,14 @@ def test_open3d_hidden_point_removal_if_installed():
     _, theirs = pcd.hidden_point_removal(eye, radius)
     ours = ps.hidden_point_removal(pcd, eye, radius)
     np.testing.assert_array_equal(ours, np.sort(np.asarray(theirs)))
+
+
+def test_open3d_peer_through_the_external_protocol_if_installed(tmp_path):
+    """CI installs Open3D (`just peers`): one view of a synthetic dataset through
+    methods/open3d-hpr, so the adapter cannot rot; its set equals our exact HPR's there."""
+    pytest.importorskip("open3d")
+    out_peer, out_ours = tmp_path / "peer.txt", tmp_path / "ours.txt"
+    stdout = run("visible", "--dataset", "sphere-20000", "--view", "3", "--method", "open3d-hpr", "--out", str(out_peer))
+    assert stdout.splitlines()[-1].startswith("method=open3d-hpr points=20000 visible=")
+    run("visible", "--dataset", "sphere-20000", "--view", "3", "--method", "hpr", "--out", str(out_ours))
+    np.testing.assert_array_equal(read_indices(out_peer), read_indices(out_ours))
