@@ -141,13 +141,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             scan,
         } => {
             let options = cloud::io::ReadOptions {
-                format: format
-                    .map(|f| {
-                        cloud::io::Format::from_name(&f).with_context(|| {
-                            format!("unknown format {f:?}; known: {}", cloud::io::Format::NAMES)
-                        })
-                    })
-                    .transpose()?,
+                format: parse_format(format)?,
                 classes,
                 scan,
             };
@@ -238,13 +232,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 cloud,
                 mesh,
                 read: cloud::io::ReadOptions {
-                    format: format
-                        .map(|f| {
-                            cloud::io::Format::from_name(&f).with_context(|| {
-                                format!("unknown format {f:?}; known: {}", cloud::io::Format::NAMES)
-                            })
-                        })
-                        .transpose()?,
+                    format: parse_format(format)?,
                     classes,
                     scan,
                 },
@@ -370,6 +358,15 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A `--format` name as a reader format, or an error listing the known ones.
+fn parse_format(name: Option<String>) -> Result<Option<cloud::io::Format>> {
+    name.map(|f| {
+        cloud::io::Format::from_name(&f)
+            .with_context(|| format!("unknown format {f:?}; known: {}", cloud::io::Format::NAMES))
+    })
+    .transpose()
 }
 
 /// The views CSV of the output contract (look-at pinhole views; other models need the JSON
