@@ -293,3 +293,31 @@ fn run_writes_csv_plot_metadata_and_the_report_links_only_existing_files() {
         before
     );
 }
+
+/// Regression: a 100000 × 100000 ray cast used to abort the process (exit 134) allocating
+/// 160 GB; the memory guard refuses it first, with the estimate.
+#[test]
+fn an_image_too_large_for_memory_is_refused_not_an_abort() {
+    let out = pointsight(&[
+        "visible",
+        "--dataset",
+        "sphere-20000",
+        "--view",
+        "0",
+        "--method",
+        "raycast",
+        "--set",
+        "width=100000",
+        "--set",
+        "height=100000",
+        "--out",
+        "/tmp/pointsight-never-written.txt",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("100000x100000") && err.contains("needs about 260.8 GiB"),
+        "{err}"
+    );
+    assert!(!Path::new("/tmp/pointsight-never-written.txt").exists());
+}

@@ -175,6 +175,18 @@ pub enum Error {
         /// The models it supports.
         supported: String,
     },
+    /// An allocation sized by user input would not fit in memory.
+    #[error(
+        "{what} needs about {needed} of memory but {available} is available: refused before allocating"
+    )]
+    OutOfMemory {
+        /// What would be allocated.
+        what: String,
+        /// The estimate.
+        needed: String,
+        /// What the system has.
+        available: String,
+    },
     /// A parameter is out of its valid range.
     #[error("invalid parameter {name}: {reason}")]
     InvalidParameter {

@@ -7,6 +7,7 @@
 //! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
 //! - the [`Camera`] (pinhole, orthographic, spherical; its JSON form) and deterministic
 //!   viewpoint sets ([`views`]);
+//! - the memory guard for allocations sized by user input ([`memory`]);
 //! - lossless recentring of georeferenced clouds ([`recentre`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]).
@@ -18,6 +19,7 @@ pub mod camera;
 pub mod double_buffer;
 pub mod error;
 pub mod io;
+pub mod memory;
 pub mod mesh;
 pub mod normals;
 pub mod points;

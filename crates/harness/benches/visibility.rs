@@ -52,7 +52,7 @@ fn benches(c: &mut Criterion) {
     let caster = RayCaster::new(&points).expect("build");
     let radius = raycast::auto::auto_radius(&points).expect("radius");
     let cam = view.with_resolution(1920, 1080).expect("camera");
-    let rays = RayList::new(&cam);
+    let rays = RayList::new(&cam).expect("a ray list");
     let mut g = c.benchmark_group("raycast-frame");
     g.sample_size(10).measurement_time(Duration::from_secs(15));
     g.throughput(Throughput::Elements(rays.len() as u64));

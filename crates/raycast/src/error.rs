@@ -17,6 +17,9 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// The image would not fit in memory (`cloud::memory`).
+    #[error("{0}")]
+    OutOfMemory(String),
     /// The camera does not match the ray list.
     #[error("the ray list is for {list} but the camera is {camera}")]
     CameraMismatch {

@@ -37,9 +37,15 @@ pub struct RayList {
 }
 
 impl RayList {
-    /// The rays of `camera`'s image (its size and model).
-    pub fn new(camera: &Camera) -> Self {
+    /// The rays of `camera`'s image (its size and model); refused before allocating when the
+    /// list and a frame's per-pixel hits (up to 28 bytes a pixel) would not fit in memory.
+    pub fn new(camera: &Camera) -> Result<Self> {
         let (w, h) = (camera.width, camera.height);
+        cloud::memory::ensure(
+            cloud::memory::image_bytes(w, h, 28, 1),
+            &format!("the ray list and per-pixel hits of a {w}x{h} image"),
+        )
+        .map_err(|e| Error::OutOfMemory(e.to_string()))?;
         let n = w as usize * h as usize;
         let (right, down, forward) = (camera.right(), camera.down(), camera.forward());
         let pixels = (0..h).flat_map(|y| (0..w).map(move |x| (x as f64 + 0.5, y as f64 + 0.5)));
@@ -69,12 +75,12 @@ impl RayList {
                 Layout::Sphere(v)
             }
         };
-        Self {
+        Ok(Self {
             width: w,
             height: h,
             model: *camera.model(),
             layout,
-        }
+        })
     }
 
     /// Number of rays.
@@ -148,7 +154,7 @@ mod tests {
                 48,
             )
             .unwrap();
-            let rays = RayList::new(&cam);
+            let rays = RayList::new(&cam).unwrap();
             assert_eq!(rays.len(), 64 * 48);
             for (k, (x, y)) in [
                 (0usize, (0, 0)),

@@ -128,7 +128,7 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
             30,
         )
         .unwrap();
-        let rays = RayList::new(&cam);
+        let rays = RayList::new(&cam).unwrap();
         let params = CastParams {
             radius: 0.08,
             traversal: Traversal::Exact,
@@ -156,7 +156,7 @@ fn errors() {
     );
     let caster = RayCaster::new(&[DVec3::ZERO]).unwrap();
     let cam = Camera::new(DVec3::Z * 3.0, DVec3::ZERO, DVec3::Y, 40.0, 8, 8).unwrap();
-    let rays = RayList::new(&cam);
+    let rays = RayList::new(&cam).unwrap();
     for radius in [0.0, -1.0, f64::NAN] {
         let params = CastParams {
             radius,
@@ -203,7 +203,7 @@ fn concurrent_update_gives_the_direct_result() {
         48,
     )
     .unwrap();
-    let rays = Arc::new(RayList::new(&cam));
+    let rays = Arc::new(RayList::new(&cam).unwrap());
     let params = CastParams {
         radius: 0.05,
         traversal: Traversal::Exact,

@@ -59,7 +59,7 @@ impl Prepared for Prep {
             .map_err(|_| Error::Unsupported("ray list poisoned".into()))?;
         // The ray list is built once per image size and field of view, then re-aimed.
         if rays.as_ref().is_none_or(|r| r.check(&camera).is_err()) {
-            *rays = Some(RayList::new(&camera));
+            *rays = Some(RayList::new(&camera)?);
         }
         let rays = rays
             .as_ref()

@@ -233,6 +233,14 @@ impl Splatter {
                 reason: format!("at most {} pixels a side, got {w}x{h}", OFF - 1),
             });
         }
+        // Per pixel: a private nearest-point buffer per thread, the filtered and splatted
+        // buffers, the depth and the per-pixel output (8 B each but the last two, 4 B).
+        let threads = rayon::current_num_threads().max(1) as u64;
+        cloud::memory::ensure(
+            cloud::memory::image_bytes(camera.width, camera.height, 8 * threads + 8 + 8 + 4 + 4, 1)
+                + 12 * self.pos.len() as u128,
+            &format!("the splat buffers of a {w}x{h} image"),
+        )?;
 
         // Pass 1: project, and find the pixel rectangle the points cover on the way.
         let project = self.projector(camera);

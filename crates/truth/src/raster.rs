@@ -64,6 +64,14 @@ struct ScreenTri {
 pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> Result<DepthBuffer> {
     camera.require("the mesh rasteriser", &["pinhole", "orthographic"])?;
     let perspective = matches!(camera.model(), Model::Pinhole { .. });
+    // The buffer (8 B depth + 4 B triangle per pixel) and the tiles' copies of it.
+    cloud::memory::ensure(
+        cloud::memory::image_bytes(camera.width, camera.height, 12, 2),
+        &format!(
+            "the mesh depth buffer of {}x{} pixels",
+            camera.width, camera.height
+        ),
+    )?;
     let (width, height) = (camera.width as usize, camera.height as usize);
     let tris = screen_triangles(mesh, camera);
 

@@ -334,7 +334,12 @@ impl Experiment for VisibilityExperiment {
                 for (factor, auto) in cast_factors {
                     for &(w, h) in RESOLUTIONS {
                         let c = cam.with_resolution(w, h)?;
-                        let rays = ray_lists.entry((w, h)).or_insert_with(|| RayList::new(&c));
+                        let rays = match ray_lists.entry((w, h)) {
+                            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+                            std::collections::btree_map::Entry::Vacant(e) => {
+                                e.insert(RayList::new(&c)?)
+                            }
+                        };
                         // `scale.spacing` is the density spacing, the unit of both rules.
                         let params = CastParams {
                             radius: factor * scale.spacing,

@@ -211,3 +211,25 @@ proptest! {
         prop_assert!(verify(&pts, &h.facets, &h.vertices).is_ok());
     }
 }
+
+/// Regression (issue 13): 2,000 random points in [0, 1e200]³ were refused as "all points are
+/// collinear" and in [0, 1e-200]³ as "all points coincide" (the predicates overflowed and
+/// underflowed). Exact power-of-two copies of a unit cloud now give its hull.
+#[test]
+fn extreme_magnitudes_give_the_same_hull_as_the_unit_cloud() {
+    let mut r = rng(2000);
+    let unit: Vec<P3> = (0..2000).map(|_| [r(), r(), r()]).collect();
+    let expected = hull(&unit).unwrap().vertices;
+    for k in [664, -664, 1000, -1000] {
+        let f = 2f64.powi(k / 2) * 2f64.powi(k - k / 2);
+        let scaled: Vec<P3> = unit.iter().map(|p| p.map(|c| c * f)).collect();
+        assert!(scaled.iter().flatten().all(|c| c.is_finite()));
+        assert_eq!(hull(&scaled).unwrap().vertices, expected, "2^{k}");
+    }
+    // Coordinates spanning more than a double can rescale are refused, not misreported.
+    let mut wide = unit.clone();
+    wide[0] = [1e300, 0.5, 0.5];
+    wide[1] = [1e-300, 0.5, 0.5];
+    let err = hull(&wide).unwrap_err().to_string();
+    assert!(err.contains("magnitudes"), "{err}");
+}
