@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what pointsight's build and data need, only where it is missing:
 # - libclang-dev (bindgen for the bundled Qhull), via apt-get;
+# - python3-venv where Debian's python3 lacks venv (for `just python`);
 # - the `just` runner: `pip install rust-just`, else `cargo install just`;
 # - Debian package lists, when `apt-get download libcgal-demo` could not find the package.
 # Safe to run again; prints what it does.
@@ -25,6 +26,12 @@ if command -v apt-get >/dev/null; then
     apt_update_once
     echo "bootstrap: installing libclang-dev"
     as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libclang-dev >/dev/null
+  fi
+  # `just python` makes a virtual environment: Debian splits venv/ensurepip out of python3.
+  if command -v python3 >/dev/null && ! python3 -c "import venv, ensurepip" >/dev/null 2>&1; then
+    apt_update_once
+    echo "bootstrap: installing python3-venv"
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq python3-venv >/dev/null
   fi
   # `pointsight fetch` downloads libcgal-demo with apt-get: the lists must know it.
   if ! apt-cache show libcgal-demo >/dev/null 2>&1; then
