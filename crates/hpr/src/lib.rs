@@ -119,6 +119,42 @@ pub struct Visibility {
     pub timings: Timings,
 }
 
+/// The power of two that brings the largest coordinate of `points` and `eye` into [0.5, 1)
+/// when it lies outside [2^-100, 2^100]; an error when the scaling would not be exact (the
+/// coordinates span more magnitudes than a double holds).
+fn power_of_two_scale(points: &[DVec3], eye: DVec3) -> Result<Option<f64>, HprError> {
+    let max = points
+        .iter()
+        .chain(std::iter::once(&eye))
+        .map(|p| p.abs().max_element())
+        .fold(0.0f64, f64::max);
+    if !max.is_finite() || max == 0.0 || (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
+        return Ok(None);
+    }
+    let exponent = -(max.log2().floor() as i32 + 1);
+    let f = 2f64.powi(exponent);
+    let exact = f.is_finite()
+        && f > 0.0
+        && points
+            .iter()
+            .chain(std::iter::once(&eye))
+            .flat_map(|p| p.to_array())
+            .all(|c| {
+                let s = c * f;
+                s / f == c && (c == 0.0 || s != 0.0)
+            });
+    if !exact {
+        return Err(HprError::InvalidParameter {
+            name: "points",
+            reason: format!(
+                "the coordinates span more magnitudes than a double can rescale exactly \
+                 (largest {max:e}): recentre or rescale the cloud"
+            ),
+        });
+    }
+    Ok(Some(f))
+}
+
 /// Runs HPR for `points` seen from `eye` with hull implementation `hull`.
 pub fn visible(
     points: &[DVec3],
@@ -126,6 +162,19 @@ pub fn visible(
     params: &HprParams,
     hull: &dyn ConvexHull,
 ) -> Result<Visibility, HprError> {
+    // Coordinates far outside [2^-100, 2^100] would overflow the flip's norms (squares) or
+    // underflow them: run on an exact power-of-two copy instead. Flipping commutes with such a
+    // scaling (the radius scales with the cloud; an absolute radius is scaled too; the
+    // exponential kernel's result is scaled uniformly), so the visible set is unchanged.
+    if let Some(f) = power_of_two_scale(points, eye)? {
+        let scaled: Vec<DVec3> = points.iter().map(|p| *p * f).collect();
+        let kernel = match params.kernel {
+            Kernel::Linear(Radius::Absolute(r)) => Kernel::Linear(Radius::Absolute(r * f)),
+            k => k,
+        };
+        let p = HprParams { kernel, ..*params };
+        return visible(&scaled, eye * f, &p, hull);
+    }
     let start = Instant::now();
     let transformed = transform::transform(points, eye, params.kernel)?;
     let transformed = if params.perturb > 0.0 {
@@ -194,6 +243,35 @@ mod tests {
             }
         }
         (false_pos, false_neg, worst)
+    }
+
+    /// Issue 13: clouds at 1e200 and 1e-200 give the visible set of the same cloud at unit
+    /// size (the flip used to overflow or underflow its norms).
+    #[test]
+    fn extreme_magnitudes_give_the_unit_answer() {
+        let scene = sphere_scene(3_000);
+        let eye = DVec3::new(0.3, 0.2, 3.0);
+        for params in [
+            HprParams::default(),
+            HprParams {
+                kernel: Kernel::Linear(Radius::Absolute(500.0)),
+                ..HprParams::default()
+            },
+        ] {
+            let unit = visible(&scene.cloud.positions, eye, &params, own().as_ref())
+                .unwrap()
+                .visible;
+            for k in [664, -664] {
+                let f = 2f64.powi(k);
+                let pts: Vec<DVec3> = scene.cloud.positions.iter().map(|p| *p * f).collect();
+                let mut p = params;
+                if let Kernel::Linear(Radius::Absolute(r)) = params.kernel {
+                    p.kernel = Kernel::Linear(Radius::Absolute(r * f));
+                }
+                let v = visible(&pts, eye * f, &p, own().as_ref()).unwrap().visible;
+                assert_eq!(v, unit, "2^{k}, {params:?}");
+            }
+        }
     }
 
     #[test]
