@@ -119,42 +119,6 @@ pub struct Visibility {
     pub timings: Timings,
 }
 
-/// The power of two that brings the largest coordinate of `points` and `eye` into [0.5, 1)
-/// when it lies outside [2^-100, 2^100]; an error when the scaling would not be exact (the
-/// coordinates span more magnitudes than a double holds).
-fn power_of_two_scale(points: &[DVec3], eye: DVec3) -> Result<Option<f64>, HprError> {
-    let max = points
-        .iter()
-        .chain(std::iter::once(&eye))
-        .map(|p| p.abs().max_element())
-        .fold(0.0f64, f64::max);
-    if !max.is_finite() || max == 0.0 || (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
-        return Ok(None);
-    }
-    let exponent = -(max.log2().floor() as i32 + 1);
-    let f = 2f64.powi(exponent);
-    let exact = f.is_finite()
-        && f > 0.0
-        && points
-            .iter()
-            .chain(std::iter::once(&eye))
-            .flat_map(|p| p.to_array())
-            .all(|c| {
-                let s = c * f;
-                s / f == c && (c == 0.0 || s != 0.0)
-            });
-    if !exact {
-        return Err(HprError::InvalidParameter {
-            name: "points",
-            reason: format!(
-                "the coordinates span more magnitudes than a double can rescale exactly \
-                 (largest {max:e}): recentre or rescale the cloud"
-            ),
-        });
-    }
-    Ok(Some(f))
-}
-
 /// Runs HPR for `points` seen from `eye` with hull implementation `hull`.
 pub fn visible(
     points: &[DVec3],
@@ -166,14 +130,19 @@ pub fn visible(
     // underflow them: run on an exact power-of-two copy instead. Flipping commutes with such a
     // scaling (the radius scales with the cloud; an absolute radius is scaled too; the
     // exponential kernel's result is scaled uniformly), so the visible set is unchanged.
-    if let Some(f) = power_of_two_scale(points, eye)? {
-        let scaled: Vec<DVec3> = points.iter().map(|p| *p * f).collect();
+    let coords = points
+        .iter()
+        .chain(std::iter::once(&eye))
+        .flat_map(|p| p.to_array());
+    if let Some((f1, f2)) = hull::exact_rescale(coords)? {
+        let scale = |v: DVec3| v * f1 * f2;
+        let scaled: Vec<DVec3> = points.iter().map(|&p| scale(p)).collect();
         let kernel = match params.kernel {
-            Kernel::Linear(Radius::Absolute(r)) => Kernel::Linear(Radius::Absolute(r * f)),
+            Kernel::Linear(Radius::Absolute(r)) => Kernel::Linear(Radius::Absolute(r * f1 * f2)),
             k => k,
         };
         let p = HprParams { kernel, ..*params };
-        return visible(&scaled, eye * f, &p, hull);
+        return visible(&scaled, scale(eye), &p, hull);
     }
     let start = Instant::now();
     let transformed = transform::transform(points, eye, params.kernel)?;

@@ -99,6 +99,37 @@ pub fn by_name(name: &str) -> Result<Box<dyn ConvexHull>, HullError> {
     })
 }
 
+/// The power of two, as two factors to apply in turn, that brings the largest of `coords`
+/// into [0.5, 1), when it lies outside [2^-100, 2^100], the range where the exact predicates
+/// cannot overflow or underflow (Shewchuk's orient3d multiplies three differences: magnitudes
+/// beyond about 2^300 overflow, below about 2^-300 underflow); `None` when no rescaling is
+/// needed. Scaling by a power of two is exact and keeps every orientation's sign (and commutes
+/// with HPR's flip), so answers do not change; an error when some coordinate would not survive
+/// it (the input spans more magnitudes than a double holds).
+pub fn exact_rescale(
+    coords: impl Iterator<Item = f64> + Clone,
+) -> Result<Option<(f64, f64)>, HullError> {
+    let max = coords.clone().fold(0.0f64, |m, c| m.max(c.abs()));
+    if !max.is_finite() || max == 0.0 || (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
+        return Ok(None);
+    }
+    let exponent = max.log2().floor() as i32 + 1;
+    // 2^-exponent may itself be out of range: apply it in two halves.
+    let (h1, h2) = (exponent / 2, exponent - exponent / 2);
+    let (f1, f2) = (2f64.powi(-h1), 2f64.powi(-h2));
+    let exact = coords.into_iter().all(|c| {
+        let s = c * f1 * f2;
+        s / f2 / f1 == c && (c == 0.0 || s != 0.0)
+    });
+    if !exact {
+        return Err(HullError::Degenerate(format!(
+            "the coordinates span more magnitudes than a double can rescale exactly (largest \
+             {max:e}); rescale or recentre the input"
+        )));
+    }
+    Ok(Some((f1, f2)))
+}
+
 /// Checks what every implementation needs: at least 4 points, all coordinates finite.
 pub fn validate(points: &[P3]) -> Result<(), HullError> {
     if points.len() < 4 {

@@ -114,40 +114,10 @@ pub fn hull(points: &[P3]) -> Result<OwnHull, HullError> {
     hull_with_stats(points).map(|(h, _)| h)
 }
 
-/// The power of two that brings the largest coordinate of `points` into [0.5, 1), when the
-/// coordinates lie outside the range where the exact predicates cannot overflow or underflow
-/// (Shewchuk's orient3d multiplies three differences: magnitudes beyond about 2^300 overflow,
-/// below about 2^-300 underflow); `None` when no rescaling is needed. Scaling by a power of two
-/// is exact and keeps every orientation's sign, so the hull's vertices do not change.
-fn exact_rescale(points: &[P3]) -> Result<Option<(f64, f64)>, HullError> {
-    let max = points
-        .iter()
-        .flat_map(|p| p.iter())
-        .fold(0.0f64, |m, c| m.max(c.abs()));
-    if max == 0.0 || (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
-        return Ok(None);
-    }
-    let exponent = max.log2().floor() as i32 + 1;
-    // 2^-exponent may itself be out of range: apply it in two halves.
-    let (h1, h2) = (exponent / 2, exponent - exponent / 2);
-    let (f1, f2) = (2f64.powi(-h1), 2f64.powi(-h2));
-    let exact = points.iter().flat_map(|p| p.iter()).all(|&c| {
-        let s = c * f1 * f2;
-        s / f2 / f1 == c && (c == 0.0 || s != 0.0)
-    });
-    if !exact {
-        return Err(HullError::Degenerate(format!(
-            "the coordinates span more magnitudes than a double can rescale exactly (largest {max:e}); \
-             rescale or recentre the input"
-        )));
-    }
-    Ok(Some((f1, f2)))
-}
-
 /// Computes the hull of `points` and reports construction statistics.
 pub fn hull_with_stats(points: &[P3]) -> Result<(OwnHull, Stats), HullError> {
     validate(points)?;
-    if let Some((f1, f2)) = exact_rescale(points)? {
+    if let Some((f1, f2)) = crate::exact_rescale(points.iter().flatten().copied())? {
         let scaled: Vec<P3> = points.iter().map(|p| p.map(|c| c * f1 * f2)).collect();
         return hull_with_stats(&scaled);
     }
