@@ -18,12 +18,13 @@ pub mod fetch;
 pub mod manifest;
 pub mod output;
 pub mod progress;
-pub mod score;
 pub mod stats;
 pub mod visible;
 
 /// The method registry (its own crate, shared with the Python package).
 pub use registry as methods;
+/// Precision, recall, F1, Jaccard (the registry's, shared with the Python package).
+pub use registry::score;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};

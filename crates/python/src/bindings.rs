@@ -326,25 +326,12 @@ fn score<'py>(
         Ok(v)
     };
     let (p, t) = (to_set(&visible, "visible")?, to_set(&truth, "truth")?);
-    let (mut i, mut j, mut tp) = (0, 0, 0usize);
-    while i < p.len() && j < t.len() {
-        match p[i].cmp(&t[j]) {
-            std::cmp::Ordering::Less => i += 1,
-            std::cmp::Ordering::Greater => j += 1,
-            std::cmp::Ordering::Equal => {
-                tp += 1;
-                i += 1;
-                j += 1;
-            }
-        }
-    }
-    let (fp, fn_) = (p.len() - tp, t.len() - tp);
-    let ratio = |a: usize, b: usize| if b == 0 { 1.0 } else { a as f64 / b as f64 };
+    let s = registry::score::Score::of_sets(&p, &t);
     let d = PyDict::new(py);
-    d.set_item("precision", ratio(tp, tp + fp))?;
-    d.set_item("recall", ratio(tp, tp + fn_))?;
-    d.set_item("f1", ratio(2 * tp, 2 * tp + fp + fn_))?;
-    d.set_item("jaccard", ratio(tp, tp + fp + fn_))?;
+    d.set_item("precision", s.precision())?;
+    d.set_item("recall", s.recall())?;
+    d.set_item("f1", s.f1())?;
+    d.set_item("jaccard", s.jaccard())?;
     Ok(d)
 }
 

@@ -18,6 +18,7 @@ pub mod hpr;
 pub mod params;
 pub mod raycast;
 mod reference;
+pub mod score;
 mod splat;
 pub mod timing;
 

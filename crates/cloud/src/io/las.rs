@@ -80,6 +80,19 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     let with_color = header.point_format().has_color;
     let keep = |c: u8| options.classes.as_ref().is_none_or(|k| k.contains(&c));
     let reserve = if options.classes.is_some() { 0 } else { n };
+    // A LAZ header may claim as many points as its file has bytes: check the arrays (position,
+    // intensity, classification, colour: 30 bytes a point) against memory before reserving.
+    crate::memory::ensure(
+        30 * reserve as u128,
+        &format!("the {n} points {} announces", path.display()),
+    )
+    .map_err(|e| {
+        ReadError::new(
+            path,
+            Location::File,
+            ReadErrorKind::Malformed(e.to_string()),
+        )
+    })?;
     let mut cloud = PointCloud {
         positions: Vec::with_capacity(reserve),
         intensity: Some(Vec::with_capacity(reserve)),
