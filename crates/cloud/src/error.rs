@@ -110,8 +110,8 @@ pub struct ReadError {
     pub path: PathBuf,
     /// Where in the file.
     pub location: Location,
-    /// What went wrong.
-    #[source]
+    /// What went wrong (part of the message, so not also a `source`: chained printing such as
+    /// `{:#}` would say it twice).
     pub kind: ReadErrorKind,
 }
 

@@ -108,19 +108,19 @@ pub enum Command {
         #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
         eye: Option<[f64; 3]>,
         /// Target (default: the centre of the cloud's bounding box).
-        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
         target: Option<[f64; 3]>,
         /// Up vector (default +z, or +y when looking along z).
-        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
         up: Option<[f64; 3]>,
         /// Vertical field of view in degrees (default: fits the cloud).
-        #[arg(long = "fov-y")]
+        #[arg(long = "fov-y", requires = "eye", allow_hyphen_values = true)]
         fov_y: Option<f64>,
-        /// Image width (default 1280).
-        #[arg(long)]
+        /// Image width (default 1280; with `--eye`, else the view's own).
+        #[arg(long, requires = "eye")]
         width: Option<u32>,
-        /// Image height (default 720).
-        #[arg(long)]
+        /// Image height (default 720; with `--eye`, else the view's own).
+        #[arg(long, requires = "eye")]
         height: Option<u32>,
         /// View index, `all`, or a comma-separated list of indices.
         #[arg(long, default_value = "0")]

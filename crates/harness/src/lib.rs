@@ -107,21 +107,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                     classification: ds.cloud.classification,
                     ..Default::default()
                 };
-                // Written beside the target, then renamed: no half-written file on error.
-                let tmp = out.with_extension(format!(
-                    "partial.{}",
-                    out.extension().and_then(|e| e.to_str()).unwrap_or("las")
-                ));
-                let scale = cloud::io::las::write_las(&tmp, &with_attributes);
-                let scale = match scale {
-                    Ok(s) => s,
-                    Err(e) => {
-                        let _ = std::fs::remove_file(&tmp);
-                        return Err(e.into());
-                    }
-                };
-                std::fs::rename(&tmp, &out)
-                    .with_context(|| format!("cannot move {} into place", out.display()))?;
+                // Whole or not at all (cloud::io::atomic).
+                let scale = cloud::io::las::write_las(&out, &with_attributes)?;
                 println!(
                     "dataset={dataset} points={n} file={} scale={scale:e}",
                     out.display()

@@ -16,8 +16,11 @@
 //!
 //! The radius R is absolute, or Katz's parameterisation R = max‖p − C‖ · 10^γ ([`Radius`]).
 //! R ≤ max‖p − C‖, a viewpoint on a point, an empty cloud and non-finite input are errors.
-//! Coincident input points flip to coincident points; the hull reports one index of each such
-//! group (the lowest, with `own`).
+//! Coincident input points flip to coincident points, so all of them lie on the hull when one
+//! does; a hull reports one index of each such group (the lowest, with `own`), and the mapping
+//! step adds the others ([`with_duplicates`]): every copy of a visible point is visible, as
+//! Katz's criterion (p̂ on the hull) says. (With a perturbation the copies are moved apart and
+//! each is classified on its own.)
 //!
 //! Seed 000 §5's front/back buffer with an auxiliary thread is the reusable
 //! [`cloud::double_buffer::DoubleBuffer`] (the ray caster uses it too); [`background`] runs HPR
@@ -163,6 +166,11 @@ pub fn visible(
     let start = Instant::now();
     let eye_index = points.len() as u32;
     let visible: Vec<u32> = vertices.into_iter().filter(|&v| v != eye_index).collect();
+    let visible = if params.perturb > 0.0 {
+        visible
+    } else {
+        with_duplicates(points, visible)
+    };
     let t_map = start.elapsed().as_secs_f64();
     Ok(Visibility {
         visible,
@@ -175,6 +183,31 @@ pub fn visible(
     })
 }
 
+/// `visible` (ascending indices into `points`) with every point that coincides with one of
+/// them added, ascending: one parallel pass over the cloud with a hash set of the visible
+/// positions' bit patterns (−0.0 and 0.0 differ in bits; they flip alike only when the other
+/// coordinates do, and such pairs are left as the hull reports them).
+pub fn with_duplicates(points: &[DVec3], visible: Vec<u32>) -> Vec<u32> {
+    use rayon::prelude::*;
+    use rustc_hash::FxHashSet;
+    let key = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
+    let set: FxHashSet<[u64; 3]> = visible.iter().map(|&i| key(points[i as usize])).collect();
+    if set.len() == points.len() {
+        return visible;
+    }
+    let all: Vec<u32> = points
+        .par_iter()
+        .enumerate()
+        .filter(|(_, p)| set.contains(&key(**p)))
+        .map(|(i, _)| i as u32)
+        .collect();
+    if all.len() == visible.len() {
+        visible
+    } else {
+        all
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use cloud::synth::{sphere_point_visible, sphere_scene};
@@ -183,6 +216,47 @@ mod tests {
 
     fn own() -> Box<dyn ConvexHull> {
         hull::by_name("own").unwrap()
+    }
+
+    #[test]
+    fn every_copy_of_a_visible_point_is_visible() {
+        let scene = sphere_scene(3_000);
+        let mut points = scene.cloud.positions.clone();
+        // Every 7th point again, at the end.
+        let copies: Vec<usize> = (0..points.len()).step_by(7).collect();
+        let extra: Vec<DVec3> = copies.iter().map(|&i| points[i]).collect();
+        points.extend(extra);
+        let eye = DVec3::new(0.3, 0.2, 3.0);
+        let v = visible(&points, eye, &HprParams::default(), own().as_ref()).unwrap();
+        let seen: std::collections::HashSet<u32> = v.visible.iter().copied().collect();
+        assert!(v.visible.windows(2).all(|w| w[0] < w[1]), "ascending");
+        let n = scene.cloud.len();
+        let mut visible_copies = 0;
+        for (k, &i) in copies.iter().enumerate() {
+            let copy = (n + k) as u32;
+            assert_eq!(
+                seen.contains(&(i as u32)),
+                seen.contains(&copy),
+                "point {i}"
+            );
+            visible_copies += usize::from(seen.contains(&copy));
+        }
+        assert!(visible_copies > 50, "{visible_copies}");
+        // The same visible set as without the copies, on the original points.
+        let plain = visible(
+            &scene.cloud.positions,
+            eye,
+            &HprParams::default(),
+            own().as_ref(),
+        )
+        .unwrap();
+        let original: Vec<u32> = v
+            .visible
+            .iter()
+            .copied()
+            .filter(|&i| (i as usize) < n)
+            .collect();
+        assert_eq!(original, plain.visible);
     }
 
     /// Misclassified points of the unit sphere seen from `eye` at `gamma`, with the largest

@@ -53,7 +53,7 @@ pub fn to_bytes(tree: &QTree) -> Vec<u8> {
 
 /// Writes `tree` to `path`.
 pub fn write(tree: &QTree, path: &Path) -> Result<()> {
-    fs::write(path, to_bytes(tree)).map_err(|source| Error::Io {
+    cloud::io::atomic::write(path, &to_bytes(tree)).map_err(|source| Error::Io {
         path: path.display().to_string(),
         source,
     })

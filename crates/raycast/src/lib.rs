@@ -31,7 +31,7 @@ use rayon::prelude::*;
 
 pub use error::{Error, Result};
 pub use kdtree::{KdTree, NONE};
-pub use rays::RayList;
+pub use rays::{RayList, memory_estimate};
 pub use traverse::{Ray, Scratch, Traversal};
 
 /// How to cast.

@@ -36,13 +36,23 @@ pub struct RayList {
     layout: Layout,
 }
 
+/// An upper bound of the bytes a view of `camera` over `n_points` points allocates: the ray
+/// list (up to 24 bytes a pixel, spherical), the per-pixel hit (4 bytes a pixel), and the
+/// visible set (a flag and an index per point). The per-dataset k-d tree is not included
+/// (it is built once, before). `tests/memory_estimates.rs` checks it against the measured peak.
+pub fn memory_estimate(camera: &Camera, n_points: usize) -> u128 {
+    cloud::memory::image_bytes(camera.width, camera.height, 28, 1)
+        + 5 * n_points as u128
+        + (1 << 16)
+}
+
 impl RayList {
     /// The rays of `camera`'s image (its size and model); refused before allocating when the
     /// list and a frame's per-pixel hits (up to 28 bytes a pixel) would not fit in memory.
     pub fn new(camera: &Camera) -> Result<Self> {
         let (w, h) = (camera.width, camera.height);
         cloud::memory::ensure(
-            cloud::memory::image_bytes(w, h, 28, 1),
+            memory_estimate(camera, 0),
             &format!("the ray list and per-pixel hits of a {w}x{h} image"),
         )
         .map_err(|e| Error::OutOfMemory(e.to_string()))?;

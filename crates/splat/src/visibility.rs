@@ -206,6 +206,17 @@ impl Splatter {
         }
     }
 
+    /// An upper bound of the bytes one view allocates. Per pixel: a private nearest-point
+    /// buffer per thread, the filtered and splatted buffers, the depth and the per-pixel output
+    /// (8 B each but the last two, 4 B); per point: its projection (12 B) and the visible set.
+    /// `tests/memory_estimates.rs` checks it against the measured peak.
+    pub fn memory_estimate(&self, camera: &Camera) -> u128 {
+        let threads = rayon::current_num_threads().max(1) as u64;
+        cloud::memory::image_bytes(camera.width, camera.height, 8 * threads + 8 + 8 + 4 + 4, 1)
+            + 17 * self.pos.len() as u128
+            + (1 << 16)
+    }
+
     /// Runs the baseline for `camera`; `pixels` asks for the per-pixel output.
     pub fn visibility(
         &self,
@@ -233,12 +244,8 @@ impl Splatter {
                 reason: format!("at most {} pixels a side, got {w}x{h}", OFF - 1),
             });
         }
-        // Per pixel: a private nearest-point buffer per thread, the filtered and splatted
-        // buffers, the depth and the per-pixel output (8 B each but the last two, 4 B).
-        let threads = rayon::current_num_threads().max(1) as u64;
         cloud::memory::ensure(
-            cloud::memory::image_bytes(camera.width, camera.height, 8 * threads + 8 + 8 + 4 + 4, 1)
-                + 12 * self.pos.len() as u128,
+            self.memory_estimate(camera),
             &format!("the splat buffers of a {w}x{h} image"),
         )?;
 

@@ -60,13 +60,21 @@ struct ScreenTri {
     id: u32,
 }
 
+/// An upper bound of the bytes [`rasterize`] allocates: the buffer (8 B depth + 4 B triangle
+/// per pixel) and the tiles' copies of it, and per triangle its screen form and its tile bins.
+/// `tests/memory_estimates.rs` checks it against the measured peak.
+pub fn memory_estimate(mesh: &TriMesh, camera: &Camera) -> u128 {
+    cloud::memory::image_bytes(camera.width, camera.height, 12, 2)
+        + 128 * mesh.triangles.len() as u128
+        + (1 << 16)
+}
+
 /// Rasterises `mesh` as seen by `camera` (pinhole or orthographic) at the camera's resolution.
 pub fn rasterize(mesh: &TriMesh, camera: &Camera) -> Result<DepthBuffer> {
     camera.require("the mesh rasteriser", &["pinhole", "orthographic"])?;
     let perspective = matches!(camera.model(), Model::Pinhole { .. });
-    // The buffer (8 B depth + 4 B triangle per pixel) and the tiles' copies of it.
     cloud::memory::ensure(
-        cloud::memory::image_bytes(camera.width, camera.height, 12, 2),
+        memory_estimate(mesh, camera),
         &format!(
             "the mesh depth buffer of {}x{} pixels",
             camera.width, camera.height

@@ -67,14 +67,31 @@ impl E57Scans {
 
 /// The number of scans of an E57 file (its header and XML only).
 pub fn scan_count(path: &Path) -> Result<usize, ReadError> {
-    let reader = E57Reader::from_file(path).map_err(|e| {
-        ReadError::new(
-            path,
-            Location::File,
-            ReadErrorKind::BadHeader(e.to_string()),
-        )
-    })?;
+    let reader = E57Reader::from_file(path).map_err(|e| open_error(path, &e))?;
     Ok(reader.pointclouds().len())
+}
+
+/// E57 pages: 1,024 bytes, the last four a CRC-32C of the rest (ASTM E2807 §8.3).
+const PAGE: u64 = 1024;
+
+/// An error opening an E57 file, located where the `e57` crate's message allows: a page whose
+/// checksum fails is named by its byte offset, a file that is not a whole number of pages by
+/// its length; XML errors keep the crate's "at line:column" of the XML section.
+fn open_error(path: &Path, e: &e57::Error) -> ReadError {
+    let message = e.to_string();
+    let number_after = |key: &str| -> Option<u64> {
+        let rest = &message[message.find(key)? + key.len()..];
+        let digits: String = rest.chars().take_while(char::is_ascii_digit).collect();
+        digits.parse().ok()
+    };
+    let location = if let Some(page) = number_after("for page ") {
+        Location::Byte(page * PAGE)
+    } else if let Some(size) = number_after("file size ") {
+        Location::Byte(size)
+    } else {
+        Location::File
+    };
+    ReadError::new(path, location, ReadErrorKind::BadHeader(message))
 }
 
 /// Reads every scan of an E57 file.
@@ -86,8 +103,7 @@ pub fn read_e57(path: &Path) -> Result<E57Scans, ReadError> {
     if len == 0 {
         return Err(err(ReadErrorKind::Empty));
     }
-    let mut reader =
-        E57Reader::from_file(path).map_err(|e| err(ReadErrorKind::BadHeader(e.to_string())))?;
+    let mut reader = E57Reader::from_file(path).map_err(|e| open_error(path, &e))?;
     let pointclouds = reader.pointclouds();
     if pointclouds.is_empty() {
         return Err(err(ReadErrorKind::Empty));

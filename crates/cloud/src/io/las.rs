@@ -32,12 +32,160 @@ pub struct LasOptions {
     pub classes: Option<Vec<u8>>,
 }
 
-fn malformed(path: &Path, e: las::Error) -> ReadError {
-    ReadError::new(
-        path,
-        Location::File,
-        ReadErrorKind::Malformed(e.to_string()),
-    )
+/// The bytes of the smallest LAS header (LAS 1.0 to 1.2, §2.2 of the specification).
+const MIN_HEADER: u64 = 227;
+
+/// The fields of the public header block the checks below need, read from the raw bytes
+/// (the `las` crate does not expose the offsets).
+struct RawHeader {
+    /// "Offset to point data" (byte 96, u32).
+    point_data: u64,
+    /// Whether the point format's compression bits (6 and 7) are set (LAZ).
+    compressed: bool,
+    /// "Point data record length" (byte 105, u16).
+    record: u64,
+    /// The point count the `las` crate will use: the legacy 32-bit count (byte 107), or when
+    /// it is 0 the LAS 1.4 64-bit count (byte 247).
+    points: u64,
+    /// "Header size" (byte 94): where the VLRs start.
+    header_size: u64,
+    /// "Number of variable length records" (byte 100).
+    vlrs: u32,
+}
+
+fn raw_header(path: &Path, len: u64) -> Result<RawHeader, ReadError> {
+    use std::io::Read;
+    if len < MIN_HEADER {
+        return Err(ReadError::new(
+            path,
+            Location::Byte(len),
+            ReadErrorKind::BadHeader(format!(
+                "the file ends after {len} bytes, inside the LAS header (at least \
+                 {MIN_HEADER} bytes)"
+            )),
+        ));
+    }
+    let mut head = [0u8; 255];
+    let got = (len as usize).min(head.len());
+    super::open(path)?
+        .read_exact(&mut head[..got])
+        .map_err(|e| ReadError::new(path, Location::Byte(0), ReadErrorKind::Io(e)))?;
+    let u32_at = |i: usize| u32::from_le_bytes([head[i], head[i + 1], head[i + 2], head[i + 3]]);
+    let header_size = u16::from_le_bytes([head[94], head[95]]);
+    let legacy = u64::from(u32_at(107));
+    let large = if (head[24], head[25]) >= (1, 4) && got >= 255 {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&head[247..255]);
+        u64::from_le_bytes(b)
+    } else {
+        0
+    };
+    Ok(RawHeader {
+        point_data: u64::from(u32_at(96)),
+        compressed: head[104] & 0xC0 != 0,
+        record: u64::from(u16::from_le_bytes([head[105], head[106]])),
+        points: if legacy != 0 { legacy } else { large },
+        header_size: u64::from(header_size),
+        vlrs: u32_at(100),
+    })
+}
+
+/// Reads `buf.len()` bytes at `offset`, as a located error when the file is shorter.
+fn read_at(path: &Path, offset: u64, buf: &mut [u8]) -> Result<(), ReadError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let mut file = std::fs::File::open(path)
+        .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?;
+    file.seek(SeekFrom::Start(offset))
+        .and_then(|_| file.read_exact(buf))
+        .map_err(|e| ReadError::new(path, Location::Byte(offset), ReadErrorKind::Io(e)))
+}
+
+/// The structure of a LAZ file checked before `laz` decodes it, because `laz` trusts it: it
+/// panics on a LASzip record without items and reserves whatever chunk count the chunk table
+/// announces (a 598-byte file asked for 16 GB). Checked here (LAZ 1.4 specification, §2.2
+/// the LASzip VLR, §2.3 the chunk table): the LASzip VLR exists, lists at least one item and
+/// has the length its item count implies; the chunk table lies inside the file and announces no
+/// more chunks than there are points (each chunk holds at least one).
+fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
+    let bad = |at: u64, message: String| {
+        Err(ReadError::new(
+            path,
+            Location::Byte(at),
+            ReadErrorKind::BadHeader(message),
+        ))
+    };
+    // The LASzip VLR.
+    let mut at = raw.header_size;
+    let mut items = None;
+    for _ in 0..raw.vlrs {
+        let mut head = [0u8; 54];
+        if at + 54 > len {
+            return bad(
+                at,
+                format!("the VLR at byte {at} runs past the end of the file"),
+            );
+        }
+        read_at(path, at, &mut head)?;
+        let user = &head[2..18];
+        let record_id = u16::from_le_bytes([head[18], head[19]]);
+        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
+        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+            if length < 34 || at + 54 + length > len {
+                return bad(at, format!("the LASzip VLR has {length} bytes"));
+            }
+            let mut body = vec![0u8; length as usize];
+            read_at(path, at + 54, &mut body)?;
+            let n = u64::from(u16::from_le_bytes([body[32], body[33]]));
+            if n == 0 || 34 + 6 * n != length {
+                return bad(
+                    at + 54 + 32,
+                    format!("the LASzip VLR lists {n} items in {length} bytes (34 + 6 per item)"),
+                );
+            }
+            items = Some(n);
+        }
+        at += 54 + length;
+    }
+    if items.is_none() {
+        return bad(
+            raw.header_size,
+            "a compressed point format without a LASzip VLR".to_owned(),
+        );
+    }
+    // The chunk table.
+    if raw.point_data + 8 > len {
+        return bad(len, "truncated LAZ: no chunk table offset".to_owned());
+    }
+    let mut offset = [0u8; 8];
+    read_at(path, raw.point_data, &mut offset)?;
+    let table = i64::from_le_bytes(offset);
+    let table = match u64::try_from(table) {
+        Ok(t) if t.checked_add(8).is_some_and(|end| end <= len) && t >= raw.point_data + 8 => t,
+        // -1: the writer did not record it; `laz` then finds the table at the end.
+        _ if table == -1 => return Ok(()),
+        _ => {
+            return bad(
+                len,
+                format!(
+                    "truncated LAZ: the chunk table should be at byte {table} but the file ends \
+                     at byte {len}"
+                ),
+            );
+        }
+    };
+    let mut head = [0u8; 8];
+    read_at(path, table, &mut head)?;
+    let chunks = u64::from(u32::from_le_bytes([head[4], head[5], head[6], head[7]]));
+    if chunks > raw.points.max(1) || chunks > len {
+        return bad(
+            table + 4,
+            format!(
+                "the LAZ chunk table announces {chunks} chunks for {} points",
+                raw.points
+            ),
+        );
+    }
+    Ok(())
 }
 
 /// Reads a LAS or LAZ file.
@@ -48,6 +196,44 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     if len == 0 {
         return Err(ReadError::new(path, Location::File, ReadErrorKind::Empty));
     }
+    let raw = raw_header(path, len)?;
+    if raw.point_data > len {
+        return Err(ReadError::new(
+            path,
+            Location::Byte(len),
+            ReadErrorKind::BadHeader(format!(
+                "the point data starts at byte {} but the file ends at byte {len}",
+                raw.point_data
+            )),
+        ));
+    }
+    // The point count against the file, before the `las` crate multiplies it by the record
+    // length (which overflows for absurd counts): uncompressed records must fit in the file;
+    // LAZ never compresses below a byte a point.
+    let data_bytes = len - raw.point_data;
+    let fits = if raw.compressed {
+        data_bytes
+    } else {
+        data_bytes / raw.record.max(1)
+    };
+    if raw.points > fits {
+        return Err(ReadError::new(
+            path,
+            Location::Byte(if raw.compressed {
+                len
+            } else {
+                raw.point_data + fits * raw.record
+            }),
+            ReadErrorKind::Truncated {
+                what: "points",
+                expected: usize::try_from(raw.points).unwrap_or(usize::MAX),
+                found: fits as usize,
+            },
+        ));
+    }
+    if raw.compressed {
+        check_laz(path, &raw, len)?;
+    }
     let mut reader = Reader::from_path(path).map_err(|e| {
         ReadError::new(
             path,
@@ -57,18 +243,22 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     })?;
     let header = reader.header().clone();
     let announced = header.number_of_points();
-    // A LAS header cannot claim more points than its file could hold (LAZ compresses, but
-    // never below a byte a point).
-    let record = u64::from(header.point_format().len());
-    let plausible = if header.point_format().is_compressed {
-        len
+    // The same check on the count the crate parsed (it may differ from the raw fields above
+    // for headers those fields do not describe).
+    let record = raw.record.max(1);
+    let plausible = if raw.compressed {
+        data_bytes
     } else {
-        len / record.max(1)
+        data_bytes / record
     };
     if announced > plausible {
         return Err(ReadError::new(
             path,
-            Location::File,
+            Location::Byte(if raw.compressed {
+                len
+            } else {
+                raw.point_data + plausible * record
+            }),
             ReadErrorKind::Truncated {
                 what: "points",
                 expected: announced as usize,
@@ -103,14 +293,35 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     let mut chunk = PointDataBuilder::new().for_header(&header).build();
     let mut read: u64 = 0;
     while read < announced {
+        // Where the failing points start: exact for LAS; for LAZ the start of the compressed
+        // data, with the point range in the message.
+        let malformed = |e: las::Error| {
+            let at = if raw.compressed {
+                raw.point_data
+            } else {
+                raw.point_data + read * record
+            };
+            ReadError::new(
+                path,
+                Location::Byte(at),
+                ReadErrorKind::Malformed(format!(
+                    "decoding points {read}.. of {announced}{}: {e}",
+                    if raw.compressed {
+                        " (corrupt compressed data)"
+                    } else {
+                        ""
+                    }
+                )),
+            )
+        };
         let got = reader
             .fill_points(CHUNK.min(announced - read), &mut chunk)
-            .map_err(|e| malformed(path, e))?;
+            .map_err(malformed)?;
         if got == 0 {
             break;
         }
         for (k, point) in chunk.points().enumerate() {
-            let point = point.map_err(|e| malformed(path, e))?;
+            let point = point.map_err(malformed)?;
             let index = (read + k as u64) as usize;
             let class = u8::from(point.classification);
             if !keep(class) {
@@ -119,7 +330,11 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
             if let Some(&value) = [point.x, point.y, point.z].iter().find(|v| !v.is_finite()) {
                 return Err(ReadError::new(
                     path,
-                    Location::File,
+                    if raw.compressed {
+                        Location::File
+                    } else {
+                        Location::Byte(raw.point_data + index as u64 * record)
+                    },
                     ReadErrorKind::NonFinite { index, value },
                 ));
             }
@@ -144,7 +359,7 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     if read < announced {
         return Err(ReadError::new(
             path,
-            Location::File,
+            Location::Byte(len),
             ReadErrorKind::Truncated {
                 what: "points",
                 expected: n,
@@ -183,8 +398,29 @@ pub fn las_scale(min: DVec3, max: DVec3) -> f64 {
     scale
 }
 
-/// Writes `cloud` as LAS (or LAZ, by the extension); returns the scale used.
+/// Writes `cloud` as LAS (or LAZ, by the extension), whole or not at all
+/// ([`super::atomic`]); returns the scale used.
 pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
+    let compress = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+    super::atomic::write_via(
+        path,
+        |partial| write_las_to(partial, path, cloud, compress),
+        |source| Error::Write {
+            path: path.to_owned(),
+            source,
+        },
+    )
+}
+
+fn write_las_to(
+    partial: &Path,
+    path: &Path,
+    cloud: &PointCloud,
+    compress: bool,
+) -> Result<f64, Error> {
     let werr = |e: las::Error| Error::Write {
         path: path.to_owned(),
         source: std::io::Error::other(e.to_string()),
@@ -211,8 +447,14 @@ pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
             offset: offset.z,
         },
     };
+    builder.point_format.is_compressed = compress;
     let header = builder.into_header().map_err(werr)?;
-    let mut writer = Writer::from_path(path, header).map_err(werr)?;
+    let file = std::fs::File::create(partial).map_err(|source| Error::Write {
+        path: path.to_owned(),
+        source,
+    })?;
+    let mut writer =
+        Writer::new(std::io::BufWriter::with_capacity(1 << 20, file), header).map_err(werr)?;
     for (i, p) in cloud.positions.iter().enumerate() {
         let mut point = Point {
             x: p.x,

@@ -7,7 +7,8 @@
 //! - with the cargo feature `formats` (on for the harness, off for the method crates): LAS and
 //!   LAZ (`las`, reader and writer), E57 (`e57`, every scan with its pose) and PCD (`pcd`,
 //!   ascii, binary and binary_compressed);
-//! - a binary little-endian PLY writer ([`ply_write`]);
+//! - a binary little-endian PLY writer ([`ply_write`]); every writer goes through [`atomic`]
+//!   (whole file or none);
 //! - views files: JSON lines of cameras ([`views`]) and COLMAP text models ([`colmap`]).
 //!
 //! Every reader returns a [`ReadError`](crate::ReadError) that names the file and the line
@@ -15,6 +16,7 @@
 //! larger than the data), non-numeric fields, NaN or infinite coordinates, faces that index
 //! missing vertices.
 
+pub mod atomic;
 pub mod colmap;
 #[cfg(feature = "formats")]
 pub mod e57;
@@ -148,7 +150,33 @@ pub fn read(path: &Path) -> Result<Loaded, ReadError> {
 }
 
 /// Reads a file with options.
+///
+/// The third-party parsers underneath (`ply-rs`, `las`/`laz`, `e57`, `pcd-rs`) are trusted to
+/// return errors, and the checks before them catch what we found that they do not (see
+/// `tests/fuzz_readers.rs`); should one still panic, the panic is caught here and becomes an
+/// error naming the file, never a crash.
 pub fn read_with(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadError> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        read_unguarded(path, options)
+    }))
+    .unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_owned())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "no message".to_owned());
+        Err(ReadError::new(
+            path,
+            Location::File,
+            ReadErrorKind::Malformed(format!(
+                "the reader panicked ({message}): a bug in the parser, caught; the file is \
+                     probably malformed"
+            )),
+        ))
+    })
+}
+
+fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadError> {
     let format = match options.format.or_else(|| Format::of_path(path)) {
         Some(f) => f,
         None => {

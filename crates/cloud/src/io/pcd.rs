@@ -9,6 +9,10 @@
 //! data must hold `POINTS × record size` bytes, compressed data must announce exactly that many
 //! uncompressed bytes and no more compressed bytes than the file has, so a lying header cannot
 //! drive an allocation. Errors name the file and the line (header) or byte offset (data).
+//!
+//! A point whose x, y and z are all NaN is skipped: PCL writes that for "no return" in
+//! organised clouds (`is_dense false`, e.g. from depth cameras), and PCL's own
+//! `removeNaNFromPointCloud` drops them. Any other non-finite coordinate is an error.
 
 use std::io::Read;
 use std::path::Path;
@@ -54,6 +58,61 @@ fn packed_rgb(field: &Field) -> Option<[u8; 3]> {
     Some([(bits >> 16) as u8, (bits >> 8) as u8, bits as u8])
 }
 
+/// The header keywords, in PCL's order.
+const KEYWORDS: [&str; 10] = [
+    "VERSION",
+    "FIELDS",
+    "SIZE",
+    "TYPE",
+    "COUNT",
+    "WIDTH",
+    "HEIGHT",
+    "VIEWPOINT",
+    "POINTS",
+    "DATA",
+];
+
+/// A header error from `pcd-rs`, located at the line of the keyword its message names (the
+/// crate reports the line where it noticed, which is the end of the header).
+fn header_error(path: &Path, e: &pcd_rs::Error) -> ReadError {
+    use std::io::BufRead;
+    let message = e.to_string();
+    // The keyword the message names first ("SIZE entry conflicts with FIELDS entry": SIZE).
+    let keyword = KEYWORDS
+        .iter()
+        .filter_map(|k| Some((message.find(k)?, k)))
+        .min()
+        .map(|(_, k)| k);
+    let line = keyword.and_then(|k| {
+        open(path)
+            .ok()?
+            .lines()
+            .take(64)
+            .position(|l| l.is_ok_and(|l| l.split_whitespace().next() == Some(k)))
+    });
+    let detail = message
+        .split_once(": ")
+        .filter(|(head, _)| head.starts_with("parsing error at line"))
+        .map_or(message.as_str(), |(_, rest)| rest);
+    ReadError::new(
+        path,
+        line.map_or(Location::File, |l| Location::Line(l + 1)),
+        ReadErrorKind::BadHeader(detail.to_owned()),
+    )
+}
+
+/// The number of non-blank lines after the header of an ASCII PCD.
+fn ascii_data_lines(path: &Path, header_lines: usize) -> usize {
+    use std::io::BufRead;
+    open(path).map_or(0, |r| {
+        r.lines()
+            .skip(header_lines)
+            .map_while(Result::ok)
+            .filter(|l| !l.trim().is_empty())
+            .count()
+    })
+}
+
 /// Reads a PCD file.
 pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
     let err = |location, kind| ReadError::new(path, location, kind);
@@ -65,8 +124,7 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
     }
     // The header, and where the data starts.
     let mut counting = CountingReader::new(open(path)?);
-    let meta = PcdMeta::from_reader(&mut counting)
-        .map_err(|e| err(Location::File, ReadErrorKind::BadHeader(e.to_string())))?;
+    let meta = PcdMeta::from_reader(&mut counting).map_err(|e| header_error(path, &e))?;
     let data_start = counting.consumed;
     let header_lines = {
         let mut head = Vec::new();
@@ -143,8 +201,8 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
         )
     });
 
-    let reader: DynReader<_> = DynReader::from_reader(open(path)?)
-        .map_err(|e| err(Location::File, ReadErrorKind::BadHeader(e.to_string())))?;
+    let reader: DynReader<_> =
+        DynReader::from_reader(open(path)?).map_err(|e| header_error(path, &e))?;
     let mut cloud = PointCloud {
         positions: Vec::with_capacity(capacity_for(n)),
         ..PointCloud::default()
@@ -152,18 +210,39 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
     let mut normals = Vec::new();
     let mut colors = Vec::new();
     let mut intensities = Vec::new();
+    let mut records = 0;
     for (index, rec) in reader.enumerate() {
         // ASCII: the header's lines plus this record's; binary: the record's offset.
         let here = match meta.data {
             DataKind::Ascii => Location::Line(header_lines + 1 + index),
             _ => Location::Byte(data_start + index as u64 * record),
         };
-        let rec = rec.map_err(|e| err(here, ReadErrorKind::Malformed(e.to_string())))?;
+        let rec = rec.map_err(|e| {
+            // An ASCII record missing altogether is a truncated file, not a malformed line.
+            if meta.data == DataKind::Ascii && ascii_data_lines(path, header_lines) <= index {
+                err(
+                    here,
+                    ReadErrorKind::Truncated {
+                        what: "points",
+                        expected: n,
+                        found: index,
+                    },
+                )
+            } else {
+                err(here, ReadErrorKind::Malformed(e.to_string()))
+            }
+        })?;
+        records += 1;
         let fields = &rec.0;
         let get = |i: usize| fields.get(i).and_then(first_f64);
         let (Some(x), Some(y), Some(z)) = (get(ix), get(iy), get(iz)) else {
             return Err(err(here, ReadErrorKind::Malformed("x y z missing".into())));
         };
+        // PCL marks "no return" in organised clouds (is_dense = false) with x = y = z = NaN:
+        // such points are skipped, as PCL's removeNaNFromPointCloud does.
+        if x.is_nan() && y.is_nan() && z.is_nan() {
+            continue;
+        }
         if let Some(&value) = [x, y, z].iter().find(|v| !v.is_finite()) {
             return Err(err(here, ReadErrorKind::NonFinite { index, value }));
         }
@@ -185,13 +264,13 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
             intensities.push(scaled.clamp(0.0, 65535.0) as u16);
         }
     }
-    if cloud.positions.len() != n {
+    if records != n {
         return Err(err(
-            Location::File,
+            Location::Byte(file_len),
             ReadErrorKind::Truncated {
                 what: "points",
                 expected: n,
-                found: cloud.positions.len(),
+                found: records,
             },
         ));
     }

@@ -187,6 +187,28 @@ fn read_elements<R: BufRead>(
     Ok(())
 }
 
+/// The first sentence of a `ply-rs` header error and the offending line, without the parser's
+/// debug dump ("Line 2: Couldn't parse line.\n\tString: 'format json 1.0'\n\tError: ParseError
+/// {..}" becomes "couldn't parse line: \"format json 1.0\"").
+fn header_message(full: &str) -> String {
+    let mut lines = full.lines();
+    let first = lines.next().unwrap_or_default();
+    // "Line N: " is already the error's location.
+    let first = first
+        .split_once(": ")
+        .filter(|(head, _)| head.starts_with("Line "))
+        .map_or(first, |(_, rest)| rest)
+        .trim_end_matches('.');
+    let offending = full
+        .split_once("String: '")
+        .and_then(|(_, rest)| rest.split_once('\''))
+        .map(|(text, _)| text.trim());
+    match offending {
+        Some(text) => format!("{}: {text:?}", first.to_lowercase()),
+        None => first.to_owned(),
+    }
+}
+
 fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     let mut counting = CountingReader::new(reader);
     if counting
@@ -200,7 +222,10 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     let parser = Parser::<Record>::new();
     let header = parser.read_header(&mut reader).map_err(|e| {
         let location = e.line().map_or(Location::File, Location::Line);
-        (location, ReadErrorKind::BadHeader(e.to_string()))
+        (
+            location,
+            ReadErrorKind::BadHeader(header_message(&e.to_string())),
+        )
     })?;
     // The number of lines the header used: ASCII payload lines are numbered after it.
     let mut next_line = reader.line();

@@ -5,8 +5,7 @@
 //! The format is simple enough that a hand-written writer is clearer and much faster than
 //! building `ply-rs-bw`'s per-element maps; the tests read the output back with `ply-rs-bw`.
 
-use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -18,10 +17,7 @@ pub fn write_ply(path: &Path, cloud: &PointCloud) -> Result<()> {
         path: path.to_owned(),
         source,
     };
-    let file = File::create(path).map_err(io_err)?;
-    let mut out = BufWriter::with_capacity(1 << 20, file);
-    write_ply_to(&mut out, cloud).map_err(io_err)?;
-    out.flush().map_err(io_err)
+    super::atomic::write_with(path, |out| write_ply_to(out, cloud)).map_err(io_err)
 }
 
 /// Writes `cloud` as binary little-endian PLY to any writer.
