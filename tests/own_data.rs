@@ -288,6 +288,55 @@ fn a_georeferenced_cloud_gives_the_same_visible_sets_as_near_the_origin() {
     }
 }
 
+/// Issue 13: exact at every magnitude. The same scene multiplied by 2^±665 (about 1e±200, far
+/// outside where squared distances, the flip and the exact predicates hold) is rescaled by a
+/// power of two on loading, so every method gives the same visible set as at unit scale.
+#[test]
+fn a_cloud_near_the_ends_of_the_f64_range_gives_the_same_visible_sets() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, _) = sphere_plane_scene(1_000, 2_000, 3);
+    let eye = DVec3::new(0.75, -2.5, 3.25);
+    let target = DVec3::new(0.0, 0.0, 0.5);
+    for method in ["hpr", "raycast", "splat", "reference", "exact"] {
+        let mut answers = Vec::new();
+        for k in [0, 665, -665] {
+            let f = 2f64.powi(k);
+            let name = format!("scale{k}");
+            let pts: Vec<DVec3> = scene.cloud.positions.iter().map(|&p| p * f).collect();
+            write_ply(&dir.path().join(format!("{name}.ply")), &pts);
+            let mesh = TriMesh {
+                vertices: scene.mesh.vertices.iter().map(|&v| v * f).collect(),
+                ..scene.mesh.clone()
+            };
+            write_off(&dir.path().join(format!("{name}.off")), &mesh, DVec3::ZERO);
+            let (e, t) = (eye * f, target * f);
+            let out = dir.path().join(format!("{name}-{method}.txt"));
+            ok(
+                dir.path(),
+                &[
+                    "visible",
+                    "--cloud",
+                    &format!("{name}.ply"),
+                    "--mesh",
+                    &format!("{name}.off"),
+                    "--eye",
+                    &format!("{:?},{:?},{:?}", e.x, e.y, e.z),
+                    "--target",
+                    &format!("{:?},{:?},{:?}", t.x, t.y, t.z),
+                    "--method",
+                    method,
+                    "--out",
+                    out.to_str().unwrap(),
+                ],
+            );
+            answers.push(std::fs::read_to_string(out).unwrap());
+        }
+        assert!(answers[0].lines().count() > 500, "{method}");
+        assert_eq!(answers[0], answers[1], "{method}: 2^665 differs");
+        assert_eq!(answers[0], answers[2], "{method}: 2^-665 differs");
+    }
+}
+
 #[test]
 fn the_readme_examples_run_on_the_example_files() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");

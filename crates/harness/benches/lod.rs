@@ -33,6 +33,7 @@ fn dragon() -> (String, PointCloud, Vec<Camera>) {
             views,
             files: Vec::new(),
             origin: cloud::glam::DVec3::ZERO,
+            scale: (1.0, 1.0),
             surface_tolerance: None,
         })
     });

@@ -249,12 +249,35 @@ pub struct Dataset {
     /// The lossless offset subtracted from user files' coordinates (`cloud::recentre`); zero
     /// for built-in datasets, which keep their source coordinates.
     pub origin: DVec3,
+    /// The power of two, as two factors applied in turn, the recentred coordinates were
+    /// multiplied by when they lay outside [2^-100, 2^100] (`hull::exact_rescale`: exact, and
+    /// every visibility answer is invariant under it); (1, 1) otherwise. Position = (world −
+    /// origin) × scale.
+    pub scale: (f64, f64),
     /// Points farther than this from the mesh are off-surface (scored apart); `None`: one
     /// density spacing.
     pub surface_tolerance: Option<f64>,
 }
 
 impl Dataset {
+    /// A camera given in world coordinates, in the dataset's frame.
+    pub fn camera_from_world(&self, camera: &Camera) -> Camera {
+        camera
+            .translated(self.origin)
+            .scaled(self.scale.0)
+            .scaled(self.scale.1)
+    }
+
+    /// The points in world coordinates (both steps undone exactly).
+    pub fn world_positions(&self) -> Vec<DVec3> {
+        let (f1, f2) = self.scale;
+        self.cloud
+            .positions
+            .iter()
+            .map(|&p| p / f2 / f1 + self.origin)
+            .collect()
+    }
+
     /// The dataset's name.
     pub fn name(&self) -> &str {
         &self.name
@@ -413,10 +436,31 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         origin = DVec3::ZERO;
     }
     cloud::recentre::shift(&mut cloud.positions, origin);
-    let mesh = mesh.map(|mut m| {
+    let mut mesh = mesh.map(|mut m| {
         cloud::recentre::shift(&mut m.vertices, origin);
         m
     });
+    // Rescale: coordinates at the ends of the f64 range, by a power of two, exactly.
+    let coords = cloud
+        .positions
+        .iter()
+        .chain(mesh.iter().flat_map(|m| m.vertices.iter()))
+        .flat_map(|p| p.to_array());
+    let scale = hull::exact_rescale(coords)
+        .with_context(|| format!("dataset {}", spec.name))?
+        .unwrap_or((1.0, 1.0));
+    if scale != (1.0, 1.0) {
+        let (f1, f2) = scale;
+        for p in &mut cloud.positions {
+            *p = *p * f1 * f2;
+        }
+        if let Some(m) = mesh.as_mut() {
+            for p in &mut m.vertices {
+                *p = *p * f1 * f2;
+            }
+        }
+    }
+    let from_world = |c: &Camera| c.translated(origin).scaled(scale.0).scaled(scale.1);
     let views = match &spec.views {
         ViewsFrom::Spec(vs) => {
             let bbox = match &mesh {
@@ -433,7 +477,7 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
             })?);
             cloud::io::views::read_views(p)?
                 .iter()
-                .map(|c| c.translated(origin))
+                .map(from_world)
                 .collect()
         }
         ViewsFrom::Scanners => {
@@ -445,7 +489,7 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
             }
             scanners
                 .iter()
-                .map(|s| Ok(s.camera(2048, 1024)?.translated(origin)))
+                .map(|s| Ok(from_world(&s.camera(2048, 1024)?)))
                 .collect::<Result<_>>()?
         }
     };
@@ -457,7 +501,9 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         views,
         files,
         origin,
-        surface_tolerance: spec.surface_tolerance,
+        scale,
+        // A tolerance in world units, in the scaled frame.
+        surface_tolerance: spec.surface_tolerance.map(|t| t * scale.0 * scale.1),
     })
 }
 
@@ -557,6 +603,7 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
         views,
         files: Vec::new(),
         origin: DVec3::ZERO,
+        scale: (1.0, 1.0),
         surface_tolerance: None,
     })
 }

@@ -94,9 +94,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
         Command::Export { dataset, out } => {
             let ds = datasets::load(&dataset, &data_dir)?;
-            // In world coordinates (the recentring undone: exact, see cloud::recentre).
-            let mut positions = ds.cloud.positions;
-            cloud::recentre::shift(&mut positions, -ds.origin);
+            // In world coordinates (the recentring and rescaling undone: exact).
+            let positions = ds.world_positions();
             let is_las = cloud::io::Format::of_path(&out) == Some(cloud::io::Format::Las);
             let n = positions.len();
             if is_las {

@@ -50,9 +50,18 @@ impl CameraFlags {
         let fov = match self.fov_y_deg {
             Some(f) => f,
             None => {
-                // The bounding sphere seen from the eye, 5 % margin; 90° from inside it.
-                let r = 0.5 * bbox.diagonal();
-                let d = (bbox.center() - eye).length();
+                // The bounding sphere seen from the eye, 5 % margin; 90° from inside it. Only
+                // r / d matters: both are computed on vectors divided by their largest
+                // component, so clouds near the ends of the f64 range do not overflow.
+                let (extent, to_eye) = (bbox.max - bbox.min, bbox.center() - eye);
+                let unit = extent.abs().max_element().max(to_eye.abs().max_element());
+                let unit = if unit > 0.0 && unit.is_finite() {
+                    unit
+                } else {
+                    1.0
+                };
+                let r = 0.5 * (extent / unit).length();
+                let d = (to_eye / unit).length();
                 if d > 1.0001 * r {
                     ((2.0 * (r / d).asin()).to_degrees() * 1.05).min(170.0)
                 } else {
@@ -231,11 +240,11 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     if let Some(path) = &req.views {
         ds.views = cloud::io::views::read_views(path)?
             .iter()
-            .map(|c| c.translated(ds.origin))
+            .map(|c| ds.camera_from_world(c))
             .collect();
     } else if req.camera.eye.is_some() {
-        let world: Vec<DVec3> = ds.cloud.positions.iter().map(|p| *p + ds.origin).collect();
-        ds.views = vec![req.camera.camera(&world)?.translated(ds.origin)];
+        let world = ds.world_positions();
+        ds.views = vec![ds.camera_from_world(&req.camera.camera(&world)?)];
     } else if req.cloud.is_some() {
         bail!(
             "with --cloud, give a camera: --eye X,Y,Z (and optionally --target, --up, --fov-y, --width, --height) or --views FILE"

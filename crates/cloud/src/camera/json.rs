@@ -235,7 +235,7 @@ impl TryFrom<&CameraJson> for Camera {
 
 /// +z, or +y when the view direction is within about 1° of ±z.
 pub fn default_up(view: DVec3) -> DVec3 {
-    if view.normalize_or_zero().z.abs() > 1f64.to_radians().cos() {
+    if super::direction(view).z.abs() > 1f64.to_radians().cos() {
         DVec3::Y
     } else {
         DVec3::Z

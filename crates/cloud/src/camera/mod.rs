@@ -164,6 +164,17 @@ pub struct Camera {
     forward: DVec3,
 }
 
+/// `v` normalised after dividing by its largest component, so that vectors near the ends of
+/// the f64 range neither overflow nor underflow; zero for a zero or non-finite vector.
+pub(crate) fn direction(v: DVec3) -> DVec3 {
+    let m = v.abs().max_element();
+    if m > 0.0 && m.is_finite() {
+        (v / m).normalize_or_zero()
+    } else {
+        DVec3::ZERO
+    }
+}
+
 impl Camera {
     /// A look-at pinhole camera with square pixels, the principal point at the image centre and
     /// the vertical field of view `fov_y_deg`; fails when eye = target, up is parallel to the
@@ -201,7 +212,14 @@ impl Camera {
                 "non-finite eye, target or up".into(),
             ));
         }
-        let forward = (target - eye).normalize_or_zero();
+        let unit = direction;
+        let (difference, up) = (target - eye, unit(up));
+        if !difference.is_finite() {
+            return Err(Error::DegenerateCamera(format!(
+                "eye {eye} and target {target} are too far apart for f64"
+            )));
+        }
+        let forward = unit(difference);
         if forward == DVec3::ZERO {
             return Err(Error::DegenerateCamera("eye and target coincide".into()));
         }
@@ -369,6 +387,28 @@ impl Camera {
         Self {
             eye: self.eye - offset,
             target: self.target - offset,
+            ..*self
+        }
+    }
+
+    /// The same camera for a world scaled by `factor` about the origin (a power of two from
+    /// [`crate::recentre::exact_scale`] keeps it exact): the eye and target scale, and so does
+    /// an orthographic view box; pinhole intrinsics and spherical images are scale-free.
+    pub fn scaled(&self, factor: f64) -> Self {
+        let model = match self.model {
+            Model::Orthographic {
+                view_width,
+                view_height,
+            } => Model::Orthographic {
+                view_width: view_width * factor,
+                view_height: view_height * factor,
+            },
+            m => m,
+        };
+        Self {
+            eye: self.eye * factor,
+            target: self.target * factor,
+            model,
             ..*self
         }
     }

@@ -42,7 +42,7 @@ impl Context {
         if let Some(path) = &self.views {
             ds.views = cloud::io::views::read_views(path)?
                 .iter()
-                .map(|c| c.translated(ds.origin))
+                .map(|c| ds.camera_from_world(c))
                 .collect();
         }
         if let Ok(mut files) = self.files.lock() {
