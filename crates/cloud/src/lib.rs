@@ -16,6 +16,7 @@
 
 pub mod bbox;
 pub mod camera;
+pub mod degrade;
 pub mod double_buffer;
 pub mod error;
 pub mod io;

@@ -14,7 +14,7 @@ const PARAMS: &[ParamSpec] = &[
     ParamSpec {
         key: "gamma",
         default: "3 (linear), -0.05 (exp)",
-        help: "linear: R = max|p - C| * 10^gamma; exp: the exponent (< 0)",
+        help: "linear: R = max|p - C| * 10^gamma, or auto (hpr::auto's rule, per view); exp: the exponent (< 0)",
     },
     ParamSpec {
         key: "radius",
@@ -46,10 +46,15 @@ const PARAMS: &[ParamSpec] = &[
 /// Default exponent of the exponential kernel.
 pub const DEFAULT_EXP_GAMMA: f64 = -0.05;
 
-/// Reads HPR's parameters from `params`.
+/// Reads HPR's parameters from `params` (`gamma=auto` reads as the default γ here; see
+/// [`wants_auto_gamma`]).
 pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
     let kernel_name: String = params.get("kernel", "linear".to_owned())?;
-    let gamma: Option<f64> = params.get_opt("gamma")?;
+    let gamma: Option<f64> = if wants_auto_gamma(params)? {
+        None
+    } else {
+        params.get_opt("gamma")?
+    };
     let radius: Option<f64> = params.get_opt("radius")?;
     let kernel = match kernel_name.as_str() {
         "linear" => match (radius, gamma) {
@@ -81,10 +86,24 @@ pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
     ))
 }
 
+/// True for `gamma=auto` (linear kernel): γ from `hpr::auto::auto_gamma` per view.
+pub fn wants_auto_gamma(params: &Params) -> Result<bool> {
+    let text: Option<String> = params.get_opt("gamma")?;
+    let auto = text.as_deref() == Some("auto");
+    if auto && params.get("kernel", "linear".to_owned())? != "linear" {
+        return Err(Error::Unsupported(
+            "gamma=auto applies to the linear kernel only".into(),
+        ));
+    }
+    Ok(auto)
+}
+
 struct Prep<'a> {
     points: &'a [cloud::glam::DVec3],
     params: HprParams,
     hull: Box<dyn ConvexHull>,
+    /// For `gamma=auto`: the cloud's scale, measured once.
+    auto: Option<hpr::auto::CloudScale>,
 }
 
 impl Prepared for Prep<'_> {
@@ -98,7 +117,22 @@ impl Prepared for Prep<'_> {
                 camera.model().name()
             )));
         }
-        let v = hpr::visible(self.points, camera.eye, &self.params, self.hull.as_ref())?;
+        let params = match &self.auto {
+            Some(scale) => {
+                let max_distance = self
+                    .points
+                    .iter()
+                    .map(|p| (*p - camera.eye).length())
+                    .fold(0.0, f64::max);
+                let gamma = hpr::auto::auto_gamma(scale, camera.eye, max_distance);
+                HprParams {
+                    kernel: Kernel::Linear(Radius::Gamma(gamma)),
+                    ..self.params
+                }
+            }
+            None => self.params,
+        };
+        let v = hpr::visible(self.points, camera.eye, &params, self.hull.as_ref())?;
         Ok(Output {
             visible: v.visible,
             ..Output::default()
@@ -124,11 +158,18 @@ impl Method for HprMethod {
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+        let auto = wants_auto_gamma(params)?;
         let (params, hull) = hpr_params(params)?;
+        let auto = if auto {
+            Some(hpr::auto::CloudScale::of(&input.cloud.positions)?)
+        } else {
+            None
+        };
         Ok(Box::new(Prep {
             points: &input.cloud.positions,
             params,
             hull: hull::by_name(&hull)?,
+            auto,
         }))
     }
 }

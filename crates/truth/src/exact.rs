@@ -57,6 +57,18 @@ impl ExactVisibility {
             .is_none()
     }
 
+    /// The first surface point along the ray from `origin` in direction `dir` (any length)
+    /// within `max_distance` of the origin: its distance and the surface normal there.
+    pub fn first_hit(&self, origin: DVec3, dir: DVec3, max_distance: f64) -> Option<(f64, DVec3)> {
+        let dir = dir.normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return None;
+        }
+        self.mesh
+            .cast_local_ray_and_get_normal(&Ray::new(origin, dir), max_distance, false)
+            .map(|hit| (hit.time_of_impact, hit.normal))
+    }
+
     /// Distance from `p` to the surface (the nearest point of any triangle).
     pub fn distance(&self, p: DVec3) -> f64 {
         (self.mesh.project_local_point(p, false).point - p).length()
