@@ -17,6 +17,10 @@ const CSVS: &[(&str, &str)] = &[
         "dataset,n_points,view,method,params,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status",
     ),
     (
+        "robustness/results.csv",
+        "dataset,degradation,level,n_points,method,setting,params,view,precision,recall,f1,outliers,outliers_visible,seconds,status",
+    ),
+    (
         "lod/results.csv",
         "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction",
     ),

@@ -126,6 +126,89 @@ impl Degradation {
     }
 }
 
+impl std::str::FromStr for Degradation {
+    type Err = Error;
+
+    /// `KIND:key=value,key=value`, the form manifests use:
+    /// `noise:sigma=0.5[,unit=spacing|diagonal][,along=normal]`,
+    /// `falloff:ratio=4,from=X;Y;Z`, `density:ratio=4[,wavelength=0.5]`,
+    /// `holes:count=5,radius=10[,unit=...]`, `outliers:fraction=0.01[,near=5][,unit=...]`.
+    fn from_str(text: &str) -> Result<Self> {
+        let bad = |reason: String| invalid("degrade", format!("{text:?}: {reason}"));
+        let (kind, rest) = text.split_once(':').unwrap_or((text, ""));
+        let mut pairs = std::collections::BTreeMap::new();
+        for pair in rest.split(',').filter(|p| !p.trim().is_empty()) {
+            let (k, v) = pair
+                .split_once('=')
+                .ok_or_else(|| bad(format!("expected key=value, got {pair:?}")))?;
+            pairs.insert(k.trim().to_owned(), v.trim().to_owned());
+        }
+        let mut take = |key: &str| pairs.remove(key);
+        let number = |v: Option<String>, key: &str| -> Result<Option<f64>> {
+            v.map(|v| {
+                v.parse::<f64>()
+                    .map_err(|_| bad(format!("{key} is not a number: {v:?}")))
+            })
+            .transpose()
+        };
+        let unit = match take("unit").as_deref() {
+            None | Some("spacing") => Unit::Spacing,
+            Some("diagonal") => Unit::Diagonal,
+            Some(other) => return Err(bad(format!("unit {other:?}: spacing or diagonal"))),
+        };
+        let need = |v: Option<f64>, key: &str| v.ok_or_else(|| bad(format!("needs {key}=")));
+        let step = match kind.trim() {
+            "noise" => Degradation::Noise {
+                sigma: need(number(take("sigma"), "sigma")?, "sigma")?,
+                unit,
+                along_normal: match take("along").as_deref() {
+                    None | Some("isotropic") => false,
+                    Some("normal") => true,
+                    Some(other) => return Err(bad(format!("along={other}: normal or isotropic"))),
+                },
+            },
+            "falloff" => {
+                let from = take("from").ok_or_else(|| bad("needs from=X;Y;Z".into()))?;
+                let c: Vec<f64> = from
+                    .split(';')
+                    .map(|c| c.trim().parse::<f64>())
+                    .collect::<std::result::Result<_, _>>()
+                    .map_err(|_| bad(format!("from={from}: three numbers X;Y;Z")))?;
+                let [x, y, z] = c[..] else {
+                    return Err(bad(format!("from={from}: three numbers X;Y;Z")));
+                };
+                Degradation::FallOff {
+                    from: DVec3::new(x, y, z),
+                    ratio: need(number(take("ratio"), "ratio")?, "ratio")?,
+                }
+            }
+            "density" => Degradation::DensityField {
+                ratio: need(number(take("ratio"), "ratio")?, "ratio")?,
+                wavelength: number(take("wavelength"), "wavelength")?.unwrap_or(0.5),
+            },
+            "holes" => Degradation::Holes {
+                count: need(number(take("count"), "count")?, "count")? as usize,
+                radius: need(number(take("radius"), "radius")?, "radius")?,
+                unit,
+            },
+            "outliers" => Degradation::Outliers {
+                fraction: need(number(take("fraction"), "fraction")?, "fraction")?,
+                near_surface: number(take("near"), "near")?,
+                unit,
+            },
+            other => {
+                return Err(bad(format!(
+                    "unknown degradation {other:?}: noise, falloff, density, holes or outliers"
+                )));
+            }
+        };
+        if let Some(key) = pairs.keys().next() {
+            return Err(bad(format!("unknown key {key:?}")));
+        }
+        Ok(step)
+    }
+}
+
 /// A degraded cloud.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Degraded {
@@ -536,6 +619,47 @@ mod tests {
         )
         .unwrap();
         assert_eq!(again, d);
+    }
+
+    #[test]
+    fn steps_parse_from_their_manifest_form() {
+        let parsed: Degradation = "noise:sigma=0.5,along=normal".parse().unwrap();
+        assert_eq!(
+            parsed,
+            Degradation::Noise {
+                sigma: 0.5,
+                unit: Unit::Spacing,
+                along_normal: true
+            }
+        );
+        let parsed: Degradation = "falloff:ratio=4,from=1;2;3".parse().unwrap();
+        assert_eq!(
+            parsed,
+            Degradation::FallOff {
+                from: DVec3::new(1.0, 2.0, 3.0),
+                ratio: 4.0
+            }
+        );
+        let parsed: Degradation = "outliers:fraction=0.01,near=5,unit=diagonal"
+            .parse()
+            .unwrap();
+        assert_eq!(
+            parsed,
+            Degradation::Outliers {
+                fraction: 0.01,
+                near_surface: Some(5.0),
+                unit: Unit::Diagonal
+            }
+        );
+        for bad in [
+            "blur:sigma=1",
+            "noise",
+            "noise:sigma=x",
+            "noise:sigma=1,color=red",
+            "falloff:ratio=2,from=1;2",
+        ] {
+            assert!(bad.parse::<Degradation>().is_err(), "{bad}");
+        }
     }
 
     #[test]

@@ -35,6 +35,8 @@ fn dragon() -> (String, PointCloud, Vec<Camera>) {
             origin: cloud::glam::DVec3::ZERO,
             scale: (1.0, 1.0),
             surface_tolerance: None,
+            truth_positions: None,
+            outliers: None,
         })
     });
     let ds = ds.expect("dataset");

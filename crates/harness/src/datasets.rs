@@ -13,6 +13,7 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 use anyhow::{Context, Result, bail};
+use cloud::degrade::{Degradation, Unit};
 use cloud::glam::{DVec3, Vec3};
 use cloud::synth::{Scene, sphere_plane_scene, sphere_scene, torus_scene};
 use cloud::views::{ViewSpec, fibonacci_views};
@@ -72,6 +73,34 @@ pub enum Source {
     },
     /// Generated in code.
     Synthetic(fn() -> Result<Scene>),
+    /// Samples of a mesh, degraded (`cloud::degrade`, seeded).
+    Degraded {
+        /// The mesh.
+        mesh: MeshFile,
+        /// Samples before degrading.
+        n: usize,
+        /// Seed of the sampling and of the degradations.
+        seed: u64,
+        /// The steps.
+        steps: fn() -> Vec<Degradation>,
+    },
+    /// A simulated scan (`truth::scan`): `scanners` on a ring at 1.5 bounding-box diagonals
+    /// from the mesh's centre, 0.5 diagonals up, each a `width × height` grid, range noise
+    /// `sigma` diagonals, range at most 5 diagonals.
+    Scanned {
+        /// The mesh.
+        mesh: MeshFile,
+        /// Number of scanners.
+        scanners: usize,
+        /// Directions around, per scanner.
+        width: u32,
+        /// Directions from zenith to nadir, per scanner.
+        height: u32,
+        /// Range noise, bounding-box diagonals.
+        sigma: f64,
+        /// Seed of the range noise.
+        seed: u64,
+    },
 }
 
 /// A registry entry.
@@ -96,10 +125,29 @@ impl DatasetInfo {
     /// The mesh file a real dataset needs.
     pub fn mesh_file(&self) -> Option<MeshFile> {
         match self.source {
-            Source::MeshVertices(m) | Source::MeshSamples { mesh: m, .. } => Some(m),
+            Source::MeshVertices(m)
+            | Source::MeshSamples { mesh: m, .. }
+            | Source::Degraded { mesh: m, .. }
+            | Source::Scanned { mesh: m, .. } => Some(m),
             Source::Synthetic(_) => None,
         }
     }
+}
+
+fn noise_half_spacing() -> Vec<Degradation> {
+    vec![Degradation::Noise {
+        sigma: 0.5,
+        unit: Unit::Spacing,
+        along_normal: false,
+    }]
+}
+
+fn outliers_five_percent() -> Vec<Degradation> {
+    vec![Degradation::Outliers {
+        fraction: 0.05,
+        near_surface: None,
+        unit: Unit::Spacing,
+    }]
 }
 
 fn sphere() -> Result<Scene> {
@@ -180,7 +228,60 @@ pub const REGISTRY: &[DatasetInfo] = &[
             seed: 200_004,
         },
     },
+    DatasetInfo {
+        name: "bunny-noise-0.5",
+        n_points: 69_451,
+        description: "bunny-69451 with isotropic Gaussian noise, sigma 0.5 density spacings (truth: the clean samples)",
+        source: Source::Degraded {
+            mesh: BUNNY_MESH,
+            n: 69_451,
+            seed: 69_451,
+            steps: noise_half_spacing,
+        },
+    },
+    DatasetInfo {
+        name: "bunny-outliers-0.05",
+        n_points: 72_924,
+        description: "bunny-69451 plus 5 % outliers uniform in the bounding box (scored apart)",
+        source: Source::Degraded {
+            mesh: BUNNY_MESH,
+            n: 69_451,
+            seed: 69_451,
+            steps: outliers_five_percent,
+        },
+    },
+    DatasetInfo {
+        name: "bunny-scan-4",
+        n_points: BUNNY_SCAN_POINTS,
+        description: "simulated scan of bunny00.off from 4 scanners (2048x1024 directions each, range noise 1e-4 diagonals)",
+        source: Source::Scanned {
+            mesh: BUNNY_MESH,
+            scanners: 4,
+            width: 2048,
+            height: 1024,
+            sigma: 1e-4,
+            seed: 4,
+        },
+    },
+    DatasetInfo {
+        name: "dragon-scan-4",
+        n_points: DRAGON_SCAN_POINTS,
+        description: "simulated scan of ChineseDragon-10kv.off from 4 scanners (4096x2048 directions each, range noise 1e-4 diagonals)",
+        source: Source::Scanned {
+            mesh: DRAGON_MESH,
+            scanners: 4,
+            width: 4096,
+            height: 2048,
+            sigma: 1e-4,
+            seed: 4,
+        },
+    },
 ];
+
+/// Points of `bunny-scan-4` (checked on loading: the capture is deterministic).
+const BUNNY_SCAN_POINTS: usize = 36_070;
+/// Points of `dragon-scan-4`.
+const DRAGON_SCAN_POINTS: usize = 159_472;
 
 /// The manifest of this process (`--manifest`, or `pointsight.toml`), set once at start.
 static MANIFEST: OnceLock<Option<Manifest>> = OnceLock::new();
@@ -257,9 +358,24 @@ pub struct Dataset {
     /// Points farther than this from the mesh are off-surface (scored apart); `None`: one
     /// density spacing.
     pub surface_tolerance: Option<f64>,
+    /// For degraded and scanned datasets: per point, where it truly lies on the surface (the
+    /// clean sample a noisy point came from, the noise-free hit of a scanner ray); its ground
+    /// truth is that position's visibility. `None`: the points themselves.
+    pub truth_positions: Option<Vec<DVec3>>,
+    /// For degraded datasets: per point, whether it is an added outlier (scored apart, with
+    /// the off-surface points).
+    pub outliers: Option<Vec<bool>>,
 }
 
 impl Dataset {
+    /// The positions whose visibility is the ground truth ([`Dataset::truth_positions`], else
+    /// the points).
+    pub fn truth_points(&self) -> &[DVec3] {
+        self.truth_positions
+            .as_deref()
+            .unwrap_or(&self.cloud.positions)
+    }
+
     /// A camera given in world coordinates, in the dataset's frame.
     pub fn camera_from_world(&self, camera: &Camera) -> Camera {
         camera
@@ -323,9 +439,13 @@ impl Dataset {
             Some(t) => t,
             None => cloud::spacing::density_spacing(&self.cloud.positions, 8, 20_000, 1)?,
         };
-        let d = truth::ExactVisibility::new(mesh)?.distances(&self.cloud.positions)?;
+        let d = truth::ExactVisibility::new(mesh)?.distances(self.truth_points())?;
+        let outlier = |i: usize| self.outliers.as_ref().is_some_and(|o| o[i]);
         Ok(Some((
-            d.iter().map(|&d| d > tolerance).collect(),
+            d.iter()
+                .enumerate()
+                .map(|(i, &d)| d > tolerance || outlier(i))
+                .collect(),
             tolerance,
         )))
     }
@@ -400,6 +520,8 @@ pub struct FileDataset {
     pub views: ViewsFrom,
     /// Off-surface tolerance.
     pub surface_tolerance: Option<f64>,
+    /// Degradations applied after loading (`cloud::degrade`), with their seed.
+    pub degrade: (Vec<Degradation>, u64),
 }
 
 /// Loads a dataset made of user files, recentred without loss.
@@ -461,6 +583,20 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         }
     }
     let from_world = |c: &Camera| c.translated(origin).scaled(scale.0).scaled(scale.1);
+    // Degrade (after rescaling: the steps' lengths are relative to the cloud).
+    let (mut truth_positions, mut outliers) = (None, None);
+    if !spec.degrade.0.is_empty() {
+        let d = cloud::degrade::apply(&cloud, &spec.degrade.0, spec.degrade.1)?;
+        truth_positions = Some(
+            d.source
+                .iter()
+                .zip(&d.cloud.positions)
+                .map(|(&s, &p)| cloud.positions.get(s as usize).copied().unwrap_or(p))
+                .collect(),
+        );
+        outliers = Some(d.outliers());
+        cloud = d.cloud;
+    }
     let views = match &spec.views {
         ViewsFrom::Spec(vs) => {
             let bbox = match &mesh {
@@ -504,6 +640,8 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         scale,
         // A tolerance in world units, in the scaled frame.
         surface_tolerance: spec.surface_tolerance.map(|t| t * scale.0 * scale.1),
+        truth_positions,
+        outliers,
     })
 }
 
@@ -547,6 +685,14 @@ pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDatas
         },
         views,
         surface_tolerance: e.surface_tolerance,
+        degrade: (
+            e.degrade
+                .iter()
+                .map(|d| d.parse::<Degradation>())
+                .collect::<cloud::Result<Vec<_>>>()
+                .with_context(|| format!("dataset {name}: degrade"))?,
+            e.degrade_seed.unwrap_or(1),
+        ),
     })
 }
 
@@ -560,6 +706,8 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
             .with_context(|| format!("dataset {name} of {}", m.path.display()));
     }
     let info = info(name)?;
+    let mut truth_positions = None;
+    let mut outliers = None;
     let (cloud, mesh) = match info.source {
         Source::MeshVertices(file) => {
             let mesh = load_mesh(data_dir, &file)?;
@@ -584,6 +732,38 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
             let scene = make()?;
             (scene.cloud, scene.mesh)
         }
+        Source::Degraded {
+            mesh: file,
+            n,
+            seed,
+            steps,
+        } => {
+            let mesh = load_mesh(data_dir, &file)?;
+            let clean = cloud::sample::sample_surface(&mesh, n, seed)?;
+            let d = cloud::degrade::apply(&clean, &steps(), seed)?;
+            truth_positions = Some(
+                d.source
+                    .iter()
+                    .zip(&d.cloud.positions)
+                    .map(|(&s, &p)| clean.positions.get(s as usize).copied().unwrap_or(p))
+                    .collect(),
+            );
+            outliers = Some(d.outliers());
+            (d.cloud, mesh)
+        }
+        Source::Scanned {
+            mesh: file,
+            scanners,
+            width,
+            height,
+            sigma,
+            seed,
+        } => {
+            let mesh = load_mesh(data_dir, &file)?;
+            let capture = scan_mesh(&mesh, scanners, width, height, sigma, seed)?;
+            truth_positions = Some(capture.clean);
+            (capture.cloud, mesh)
+        }
     };
     if cloud.len() != info.n_points {
         bail!(
@@ -605,7 +785,40 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
         origin: DVec3::ZERO,
         scale: (1.0, 1.0),
         surface_tolerance: None,
+        truth_positions,
+        outliers,
     })
+}
+
+/// A simulated scan of `mesh` ([`Source::Scanned`]).
+pub fn scan_mesh(
+    mesh: &TriMesh,
+    scanners: usize,
+    width: u32,
+    height: u32,
+    sigma: f64,
+    seed: u64,
+) -> Result<truth::scan::Capture> {
+    let bbox = mesh.bbox().context("the mesh has no vertices")?;
+    let diagonal = bbox.diagonal();
+    let surface = truth::ExactVisibility::new(mesh)?;
+    let positions = truth::scan::ring(bbox.center(), 1.5 * diagonal, 0.5 * diagonal, scanners);
+    let scanners: Vec<truth::scan::Scanner> = positions
+        .into_iter()
+        .map(|position| truth::scan::Scanner {
+            position,
+            width,
+            height,
+            max_range: 5.0 * diagonal,
+            range_sigma: sigma * diagonal,
+        })
+        .collect();
+    Ok(truth::scan::capture(
+        &surface,
+        (bbox.center(), 0.5 * diagonal * 1.0001),
+        &scanners,
+        seed,
+    )?)
 }
 
 #[cfg(test)]
@@ -634,6 +847,47 @@ mod tests {
             err.contains("bunny-69451") && err.contains("sphere-20000"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_manifest_degrades_its_dataset_and_keeps_the_truth_clean() {
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = sphere_scene(100).mesh;
+        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
+        for v in &mesh.vertices {
+            off.push_str(&format!("{} {} {}\n", v.x, v.y, v.z));
+        }
+        for t in &mesh.triangles {
+            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+        }
+        std::fs::write(dir.path().join("ball.off"), off).unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            "[datasets.noisy]\nmesh = \"ball.off\"\nsample = { n = 5000, seed = 2 }\n\
+             degrade = [\"noise:sigma=0.5\", \"outliers:fraction=0.1\"]\ndegrade_seed = 3\n",
+        )
+        .unwrap();
+        let m = Manifest::read(&path).unwrap();
+        let spec = manifest_dataset(&m, "noisy", &m.datasets["noisy"]).unwrap();
+        let ds = load_files(&spec).unwrap();
+        assert_eq!(ds.cloud.len(), 5_500);
+        let outliers = ds.outliers.as_ref().unwrap();
+        assert_eq!(outliers.iter().filter(|&&o| o).count(), 500);
+        let truth = ds.truth_positions.as_ref().unwrap();
+        // Surface points' truth positions lie on the mesh; the points themselves do not.
+        let exact = truth::ExactVisibility::new(ds.mesh.as_ref().unwrap()).unwrap();
+        let on = |p: DVec3| exact.distance(p) < 1e-9;
+        assert!((0..5_000).all(|i| on(truth[i])));
+        assert!((0..5_000).filter(|&i| on(ds.cloud.positions[i])).count() < 100);
+        let bad = "[datasets.x]\nmesh = \"ball.off\"\nsample = { n = 10, seed = 1 }\ndegrade = [\"blur:sigma=1\"]\n";
+        std::fs::write(&path, bad).unwrap();
+        let m = Manifest::read(&path).unwrap();
+        let err = format!(
+            "{:#}",
+            manifest_dataset(&m, "x", &m.datasets["x"]).unwrap_err()
+        );
+        assert!(err.contains("unknown degradation \"blur\""), "{err}");
     }
 
     #[test]

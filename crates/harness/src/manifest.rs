@@ -111,6 +111,13 @@ pub struct Entry {
     /// scan, named `NAME-scan-K`, viewed from its scanner).
     #[serde(default)]
     pub merge_scans: bool,
+    /// Degradations applied after loading (`cloud::degrade`'s `KIND:key=value,...` form, in
+    /// order), e.g. `["noise:sigma=0.5", "outliers:fraction=0.01"]`; the truth stays the clean
+    /// points'.
+    #[serde(default)]
+    pub degrade: Vec<String>,
+    /// Seed of the degradations (default 1).
+    pub degrade_seed: Option<u64>,
 }
 
 impl Manifest {

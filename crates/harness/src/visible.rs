@@ -172,7 +172,7 @@ fn score_line(
     };
     let truth = reference
         .visibility(
-            &ds.cloud.positions,
+            ds.truth_points(),
             camera,
             &truth::ReferenceParams::default(),
         )?
@@ -226,6 +226,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
                 read: req.read.clone(),
                 views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
                 surface_tolerance: req.surface_tolerance,
+                degrade: (Vec::new(), 1),
             })?
         }
         (None, Some(name)) => {

@@ -179,7 +179,7 @@ impl Experiment for BackgroundExperiment {
             for (k, reference) in to_score.into_iter().zip(reference.iter().cycle()) {
                 let cam = orbit_camera(&ds, shown[k].2)?;
                 let truth = reference
-                    .visibility(&ds.cloud.positions, &cam, &ReferenceParams::default())?
+                    .visibility(ds.truth_points(), &cam, &ReferenceParams::default())?
                     .visible;
                 f1[k] = Score::of(&shown[k].4, &truth).f1();
                 bar.inc(1);

@@ -156,7 +156,7 @@ impl Experiment for HullExperiment {
                 let cam = ds.view(view)?;
                 let truth = match &reference {
                     Some(r) => Some(
-                        r.visibility(&ds.cloud.positions, cam, &ReferenceParams::default())?
+                        r.visibility(ds.truth_points(), cam, &ReferenceParams::default())?
                             .visible,
                     ),
                     None => None,

@@ -9,6 +9,7 @@ mod background;
 mod hull;
 mod lod;
 mod reference;
+mod robustness;
 mod visibility;
 
 use std::path::{Path, PathBuf};
@@ -76,6 +77,7 @@ pub static EXPERIMENTS: &[&dyn Experiment] = &[
     &hull::HullExperiment,
     &background::BackgroundExperiment,
     &visibility::VisibilityExperiment,
+    &robustness::RobustnessExperiment,
     &lod::LodExperiment,
 ];
 

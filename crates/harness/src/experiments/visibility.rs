@@ -270,7 +270,7 @@ impl Experiment for VisibilityExperiment {
                 let cam = *ds.view(view)?;
                 let truth = match &reference {
                     Some(r) => Some(
-                        r.visibility(points, &cam, &ReferenceParams::default())?
+                        r.visibility(ds.truth_points(), &cam, &ReferenceParams::default())?
                             .visible,
                     ),
                     None => None,
@@ -696,7 +696,7 @@ fn render_bunny(
     let cam = ds.views[0];
     let points = &ds.cloud.positions;
     let truth = reference
-        .visibility(points, &cam, &ReferenceParams::default())?
+        .visibility(ds.truth_points(), &cam, &ReferenceParams::default())?
         .visible;
     // Drawn at the view's resolution, cropped to the object.
     let small = cam;
