@@ -21,6 +21,10 @@ const CSVS: &[(&str, &str)] = &[
         "dataset,degradation,level,n_points,method,setting,params,view,precision,recall,f1,outliers,outliers_visible,seconds,status",
     ),
     (
+        "scale/results.csv",
+        "method,n_points,seconds,peak_rss_bytes,status",
+    ),
+    (
         "lod/results.csv",
         "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction",
     ),

@@ -98,6 +98,13 @@ fn benches(c: &mut Criterion) {
             ),
             |b| b.iter(|| tree.cut_into(eye, black_box(eps), &mut out).expect("cut")),
         );
+        // The same cut in bytes of list entries scanned (16 each), to set against the read
+        // bandwidth of `benches/bandwidth.rs`.
+        let entry = size_of::<spt::list::Entry>() as u64;
+        g.throughput(Throughput::Bytes(stats.entries as u64 * entry));
+        g.bench_function(format!("{name} view 0 {px} px, bytes of entries"), |b| {
+            b.iter(|| tree.cut_into(eye, black_box(eps), &mut out).expect("cut"))
+        });
     }
     g.finish();
 

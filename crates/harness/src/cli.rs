@@ -150,6 +150,20 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = ParallelViews::Auto)]
         parallel_views: ParallelViews,
     },
+    /// One cell of the `scale` experiment, in its own process (internal): prints one JSON line
+    /// with the seconds and the process's peak RSS.
+    #[command(hide = true)]
+    ScaleCell {
+        /// The dataset whose mesh is sampled.
+        #[arg(long)]
+        dataset: String,
+        /// The cell's method.
+        #[arg(long)]
+        method: String,
+        /// Points.
+        #[arg(long)]
+        n: u64,
+    },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
     /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).
     Inspect {

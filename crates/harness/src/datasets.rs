@@ -456,7 +456,8 @@ pub fn mesh_path(data_dir: &Path, mesh: &MeshFile) -> PathBuf {
     data_dir.join("meshes").join(mesh.file)
 }
 
-fn load_mesh(data_dir: &Path, mesh: &MeshFile) -> Result<TriMesh> {
+/// Reads a fetched mesh (checksummed by `pointsight fetch`), or says to fetch it.
+pub fn load_mesh(data_dir: &Path, mesh: &MeshFile) -> Result<TriMesh> {
     let path = mesh_path(data_dir, mesh);
     if !path.exists() {
         bail!(
@@ -788,6 +789,22 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
         truth_positions,
         outliers,
     })
+}
+
+/// The mesh of dataset `name` alone (without sampling its cloud, where that can be avoided).
+pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
+    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
+        return load(name, data_dir)?
+            .mesh
+            .with_context(|| format!("dataset {name} has no mesh"));
+    }
+    match info(name)?.source {
+        Source::MeshVertices(file)
+        | Source::MeshSamples { mesh: file, .. }
+        | Source::Degraded { mesh: file, .. }
+        | Source::Scanned { mesh: file, .. } => load_mesh(data_dir, &file),
+        Source::Synthetic(make) => Ok(make()?.mesh),
+    }
 }
 
 /// A simulated scan of `mesh` ([`Source::Scanned`]).

@@ -121,6 +121,10 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 println!("dataset={dataset} points={n} file={}", out.display());
             }
         }
+        Command::ScaleCell { dataset, method, n } => {
+            let out = experiments::scale::cell(&dataset, &method, n, &data_dir)?;
+            println!("{}", serde_json::to_string(&out)?);
+        }
         Command::Inspect {
             file,
             format,

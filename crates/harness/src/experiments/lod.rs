@@ -145,7 +145,7 @@ pub struct SrnRow {
 }
 
 /// A dataset prepared for the LOD methods.
-struct Prepared {
+pub(crate) struct Prepared {
     cloud: PointCloud,
     colors: Vec<Vec3>,
     normals: Vec<Vec3>,
@@ -182,7 +182,11 @@ fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
     uvs
 }
 
-fn prepare(name: &str, mut cloud: PointCloud, builds: &mut Vec<BuildRow>) -> Result<Prepared> {
+pub(crate) fn prepare(
+    name: &str,
+    mut cloud: PointCloud,
+    builds: &mut Vec<BuildRow>,
+) -> Result<Prepared> {
     let texture = marble_texture();
     let uvs = colorize(&mut cloud, &texture);
     let n = cloud.len();
@@ -260,7 +264,7 @@ impl Prepared {
         }
     }
 
-    fn full_splats(&self) -> Vec<Splat> {
+    pub(crate) fn full_splats(&self) -> Vec<Splat> {
         (0..self.cloud.len())
             .map(|i| self.point_splat(i, self.ref_radius))
             .collect()
@@ -268,14 +272,14 @@ impl Prepared {
 }
 
 /// A method's drawable output for one setting.
-struct Selection {
-    method: &'static str,
-    params: String,
-    splats: Vec<Splat>,
-    seconds: f64,
+pub(crate) struct Selection {
+    pub(crate) method: &'static str,
+    pub(crate) params: String,
+    pub(crate) splats: Vec<Splat>,
+    pub(crate) seconds: f64,
 }
 
-fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
+pub(crate) fn selections(p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
     let mut out = Vec::new();
     for &px in QSPLAT_PX {
         let params = qsplat::TraverseParams {
@@ -458,7 +462,7 @@ pub fn hole_fraction(reference: &Image, image: &Image) -> f64 {
     }
 }
 
-fn render_params() -> RenderParams {
+pub(crate) fn render_params() -> RenderParams {
     RenderParams {
         background: [255, 255, 255],
         ..RenderParams::default()

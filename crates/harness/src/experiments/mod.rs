@@ -10,6 +10,7 @@ mod hull;
 mod lod;
 mod reference;
 mod robustness;
+pub mod scale;
 mod visibility;
 
 use std::path::{Path, PathBuf};
@@ -79,6 +80,7 @@ pub static EXPERIMENTS: &[&dyn Experiment] = &[
     &visibility::VisibilityExperiment,
     &robustness::RobustnessExperiment,
     &lod::LodExperiment,
+    &scale::ScaleExperiment,
 ];
 
 /// Looks an experiment up by name.
