@@ -28,7 +28,7 @@ use glam::{DVec3, Vec3};
 
 use crate::error::{Error, Result};
 use crate::points::PointCloud;
-use crate::rng::{RngExt, seeded};
+use crate::rng::{RngExt, gaussian, seeded};
 
 /// `source` of a point that no clean point produced.
 pub const OUTLIER: u32 = u32::MAX;
@@ -228,6 +228,16 @@ impl Degraded {
         self.source.iter().map(|&s| s == OUTLIER).collect()
     }
 
+    /// Per point, where it truly lies: its clean source's position in `clean` (the cloud
+    /// [`apply`] was given), or its own position for an outlier.
+    pub fn truth_positions(&self, clean: &[DVec3]) -> Vec<DVec3> {
+        self.source
+            .iter()
+            .zip(&self.cloud.positions)
+            .map(|(&s, &p)| clean.get(s as usize).copied().unwrap_or(p))
+            .collect()
+    }
+
     /// Per point, the clean truth of its source (`false` for outliers).
     pub fn truth_of(&self, clean: &[bool]) -> Vec<bool> {
         self.source
@@ -239,13 +249,6 @@ impl Degraded {
 
 fn invalid(name: &'static str, reason: String) -> Error {
     Error::InvalidParameter { name, reason }
-}
-
-/// A standard normal variate (Box–Muller).
-fn gaussian(rng: &mut crate::rng::Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>(); // (0, 1]
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
 /// A uniform direction on the unit sphere.
@@ -580,45 +583,26 @@ mod tests {
     #[test]
     fn density_field_and_holes_remove_and_keep_sources() {
         let c = clean();
-        let d = apply(
-            &c,
-            &[
-                Degradation::DensityField {
-                    ratio: 8.0,
-                    wavelength: 0.5,
-                },
-                Degradation::Holes {
-                    count: 5,
-                    radius: 10.0,
-                    unit: Unit::Spacing,
-                },
-            ],
-            9,
-        )
-        .unwrap();
+        let steps = [
+            Degradation::DensityField {
+                ratio: 8.0,
+                wavelength: 0.5,
+            },
+            Degradation::Holes {
+                count: 5,
+                radius: 10.0,
+                unit: Unit::Spacing,
+            },
+        ];
+        let d = apply(&c, &steps, 9).unwrap();
         assert!(d.cloud.len() < c.len() / 2, "{}", d.cloud.len());
         assert!(d.cloud.len() > c.len() / 10, "{}", d.cloud.len());
         for (p, &s) in d.cloud.positions.iter().zip(&d.source) {
             assert_eq!(*p, c.positions[s as usize]);
         }
+        assert_eq!(d.truth_positions(&c.positions), d.cloud.positions);
         // The same seed gives the same cloud.
-        let again = apply(
-            &c,
-            &[
-                Degradation::DensityField {
-                    ratio: 8.0,
-                    wavelength: 0.5,
-                },
-                Degradation::Holes {
-                    count: 5,
-                    radius: 10.0,
-                    unit: Unit::Spacing,
-                },
-            ],
-            9,
-        )
-        .unwrap();
-        assert_eq!(again, d);
+        assert_eq!(apply(&c, &steps, 9).unwrap(), d);
     }
 
     #[test]

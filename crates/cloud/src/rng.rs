@@ -18,6 +18,14 @@ pub fn seeded(seed: u64, purpose: &str) -> Rng {
     Rng::seed_from_u64(mix(seed, purpose))
 }
 
+/// A standard normal variate (Box–Muller, one of the pair).
+pub fn gaussian(rng: &mut Rng) -> f64 {
+    use rand::RngExt as _;
+    let u1: f64 = 1.0 - rng.random::<f64>(); // (0, 1]: the logarithm stays finite
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
 /// FNV-1a of the purpose, folded into the seed with a SplitMix64 finaliser.
 fn mix(seed: u64, purpose: &str) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

@@ -588,13 +588,7 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
     let (mut truth_positions, mut outliers) = (None, None);
     if !spec.degrade.0.is_empty() {
         let d = cloud::degrade::apply(&cloud, &spec.degrade.0, spec.degrade.1)?;
-        truth_positions = Some(
-            d.source
-                .iter()
-                .zip(&d.cloud.positions)
-                .map(|(&s, &p)| cloud.positions.get(s as usize).copied().unwrap_or(p))
-                .collect(),
-        );
+        truth_positions = Some(d.truth_positions(&cloud.positions));
         outliers = Some(d.outliers());
         cloud = d.cloud;
     }
@@ -742,13 +736,7 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
             let mesh = load_mesh(data_dir, &file)?;
             let clean = cloud::sample::sample_surface(&mesh, n, seed)?;
             let d = cloud::degrade::apply(&clean, &steps(), seed)?;
-            truth_positions = Some(
-                d.source
-                    .iter()
-                    .zip(&d.cloud.positions)
-                    .map(|(&s, &p)| clean.positions.get(s as usize).copied().unwrap_or(p))
-                    .collect(),
-            );
+            truth_positions = Some(d.truth_positions(&clean.positions));
             outliers = Some(d.outliers());
             (d.cloud, mesh)
         }

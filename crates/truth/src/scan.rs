@@ -16,7 +16,7 @@
 //! directions sees nothing of an object).
 
 use cloud::glam::{DVec3, Vec3};
-use cloud::rng::{RngExt, seeded};
+use cloud::rng::{gaussian, seeded};
 use cloud::{Camera, Model, PointCloud};
 use rayon::prelude::*;
 
@@ -111,10 +111,7 @@ pub fn capture(
         for (_, d, t, n) in hits {
             let hit = s.position + d * t;
             let noisy = if s.range_sigma > 0.0 {
-                let u1: f64 = 1.0 - rng.random::<f64>();
-                let u2: f64 = rng.random();
-                let g = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
-                s.position + d * (t + s.range_sigma * g)
+                s.position + d * (t + s.range_sigma * gaussian(&mut rng))
             } else {
                 hit
             };

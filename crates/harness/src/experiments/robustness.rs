@@ -219,12 +219,7 @@ fn degraded(
     step: Degradation,
 ) -> Result<Case> {
     let d = cloud::degrade::apply(clean, &[step], SEED)?;
-    let truth_positions = d
-        .source
-        .iter()
-        .zip(&d.cloud.positions)
-        .map(|(&s, &p)| clean.positions.get(s as usize).copied().unwrap_or(p))
-        .collect();
+    let truth_positions = d.truth_positions(&clean.positions);
     let outliers = d.outliers();
     Ok(Case {
         degradation,
@@ -307,29 +302,15 @@ fn run_views(
     }
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
+/// Median, quartiles and range of the finite values (`registry::timing::Timing::of`: Tukey's
+/// hinges); NaN when there are none (failed runs have NaN scores).
+fn stats(v: &[f64]) -> registry::timing::Timing {
+    let finite: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    registry::timing::Timing::of(&finite)
 }
 
-fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
-    v.retain(|x| x.is_finite());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let pos = q * (v.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    v[lo] + (v[hi] - v[lo]) * (pos - lo as f64)
+fn median(v: Vec<f64>) -> f64 {
+    stats(&v).median
 }
 
 impl Experiment for RobustnessExperiment {
@@ -543,15 +524,13 @@ impl Experiment for RobustnessExperiment {
                         .cloned()
                         .unwrap_or_default();
                     let mut med = vec![(0.0, median(base.clone()))];
-                    let mut quart = vec![
-                        (0.0, quantile(base.clone(), 0.25)),
-                        (0.0, quantile(base, 0.75)),
-                    ];
+                    let mut quart = vec![(0.0, stats(&base).q1), (0.0, stats(&base).q3)];
                     for (level, f1s) in levels {
                         let x = *level as f64 / 1e6;
                         med.push((x, median(f1s.clone())));
-                        quart.push((x, quantile(f1s.clone(), 0.25)));
-                        quart.push((x, quantile(f1s.clone(), 0.75)));
+                        let st = stats(f1s);
+                        quart.push((x, st.q1));
+                        quart.push((x, st.q3));
                     }
                     if axis == "noise" {
                         // The σ at which the median F1 first falls below 0.9 (linear between
@@ -795,7 +774,7 @@ impl Experiment for RobustnessExperiment {
                 setting.clone(),
                 rs[0].params.clone(),
                 format!("{:.3}", median(f1.clone())),
-                format!("{:.3}–{:.3}", quantile(f1.clone(), 0.0), quantile(f1, 1.0)),
+                format!("{:.3}–{:.3}", stats(&f1).min, stats(&f1).max),
                 format!(
                     "{:.0} of {}",
                     median(rs.iter().map(|r| r.outliers_visible as f64).collect()),
