@@ -357,6 +357,14 @@ pub fn apply(clean: &PointCloud, steps: &[Degradation], seed: u64) -> Result<Deg
                 if !(r >= 0.0 && r.is_finite()) {
                     return Err(invalid("radius", format!("must be >= 0, got {radius}")));
                 }
+                // Centres are drawn from the points: more holes than points is a mistake (and
+                // a count from a manifest must not size an allocation unchecked).
+                if count > cloud.len() {
+                    return Err(invalid(
+                        "count",
+                        format!("{count} holes for {} points", cloud.len()),
+                    ));
+                }
                 let centres: Vec<DVec3> = (0..count)
                     .map(|_| cloud.positions[rng.random_range(0..cloud.len())])
                     .collect();
@@ -383,6 +391,11 @@ pub fn apply(clean: &PointCloud, steps: &[Degradation], seed: u64) -> Result<Deg
                 }
                 let n = cloud.len();
                 let added = (fraction * n as f64).round() as usize;
+                // The cloud grows by `added` points with their attributes (at most ~64 bytes).
+                crate::memory::ensure(
+                    64 * (n + added) as u128,
+                    &format!("{added} outliers added to {n} points"),
+                )?;
                 let grown = (bbox.max - bbox.min) * 0.05;
                 let (lo, size) = (bbox.min - grown, bbox.max - bbox.min + 2.0 * grown);
                 let new: Vec<DVec3> = (0..added)
@@ -672,6 +685,8 @@ mod tests {
             )
             .is_err()
         );
+        let holes: Degradation = "holes:count=1e15,radius=1".parse().unwrap();
+        assert!(apply(&c, &[holes], 1).is_err());
         let bare = PointCloud::from_positions(c.positions.clone()).unwrap();
         assert!(
             apply(
