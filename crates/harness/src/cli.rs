@@ -196,6 +196,9 @@ pub enum Command {
         /// views.
         #[arg(long)]
         views: Option<PathBuf>,
+        /// Sweeps, repeats, shard.
+        #[command(flatten)]
+        sweep: SweepFlags,
     },
     /// Run every experiment with its default datasets into reports/, then write the report.
     Bench {
@@ -209,7 +212,22 @@ pub enum Command {
         /// Reports folder.
         #[arg(long, default_value = "reports")]
         reports: PathBuf,
+        /// Sweeps, repeats, shard.
+        #[command(flatten)]
+        sweep: SweepFlags,
     },
+    /// Combine the reports folders of a sharded run (`--shard K/N` each) into one, as an
+    /// unsharded run would have written it, then draw its plots, tables and report.
+    Merge {
+        /// The merged reports folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// The shards' reports folders (each holds EXPERIMENT/ folders).
+        #[arg(required = true)]
+        shards: Vec<PathBuf>,
+    },
+    /// Print the built-in sweeps (every method's grid), a starting point for `--config`.
+    Sweeps,
     /// Assemble reports/README.md from the experiments' results.
     Report {
         /// Reports folder.
@@ -261,4 +279,19 @@ pub fn parse_vec3(text: &str) -> Result<[f64; 3], String> {
         }
     }
     Ok(out)
+}
+
+/// What the experiments sweep, how often they time, and which part of the cells to run.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SweepFlags {
+    /// A sweeps file (TOML, `registry::sweep`'s format) replacing the grid of every method it
+    /// names; `pointsight sweeps` prints the built-in one to start from.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Timed runs per call (default: the sweeps file's `repeats`, else 3).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeats: Option<u32>,
+    /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<crate::experiments::Shard>,
 }

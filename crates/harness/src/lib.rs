@@ -254,6 +254,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             quick,
             out,
             views,
+            sweep,
         } => {
             let exp = experiments::experiment(&experiment)?;
             let datasets: Vec<String> = match datasets {
@@ -269,17 +270,20 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             }
             let default_out = out.is_none();
             let out_dir = out.unwrap_or_else(|| PathBuf::from("reports").join(exp.name()));
+            let (sweeps, repeats) = sweep_settings(&sweep)?;
             let ctx = experiments::Context {
-                data_dir,
-                out_dir: out_dir.clone(),
-                quick,
-                datasets,
                 views,
-                files: Default::default(),
+                sweeps,
+                repeats,
+                shard: sweep.shard,
+                ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
             };
-            experiments::run(exp, &ctx)?;
+            if !experiments::run(exp, &ctx)? {
+                println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
+                return Ok(ExitCode::SUCCESS);
+            }
             println!("{}: results in {}", exp.name(), out_dir.display());
-            if default_out {
+            if default_out && sweep.shard.is_none() {
                 output::report::assemble(Path::new("reports"))?;
             }
         }
@@ -287,39 +291,59 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             quick,
             datasets: chosen,
             reports,
+            sweep,
         } => {
+            let (sweeps, repeats) = sweep_settings(&sweep)?;
             let start = std::time::Instant::now();
             for name in chosen.iter().flatten() {
                 datasets::check(name)?;
             }
             for exp in experiments::EXPERIMENTS {
+                let datasets = match &chosen {
+                    Some(list) => list.clone(),
+                    None => exp
+                        .default_datasets(quick)
+                        .iter()
+                        .map(|s| s.to_string())
+                        .collect(),
+                };
                 let ctx = experiments::Context {
-                    data_dir: data_dir.clone(),
-                    out_dir: reports.join(exp.name()),
-                    quick,
-                    datasets: match &chosen {
-                        Some(list) => list.clone(),
-                        None => exp
-                            .default_datasets(quick)
-                            .iter()
-                            .map(|s| s.to_string())
-                            .collect(),
-                    },
-                    views: None,
-                    files: Default::default(),
+                    sweeps: sweeps.clone(),
+                    repeats,
+                    shard: sweep.shard,
+                    ..experiments::Context::new(
+                        data_dir.clone(),
+                        reports.join(exp.name()),
+                        quick,
+                        datasets,
+                    )
                 };
                 eprintln!("== {} ({})", exp.name(), exp.summary());
                 let t = std::time::Instant::now();
-                experiments::run(*exp, &ctx)?;
-                eprintln!("   done in {:.1} s", t.elapsed().as_secs_f64());
+                if experiments::run(*exp, &ctx)? {
+                    eprintln!("   done in {:.1} s", t.elapsed().as_secs_f64());
+                } else {
+                    eprintln!("   not in shard {}", shard_text(sweep.shard));
+                }
             }
-            output::report::assemble(&reports)?;
+            if sweep.shard.is_none() {
+                output::report::assemble(&reports)?;
+            }
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",
                 experiments::EXPERIMENTS.len(),
                 start.elapsed().as_secs_f64(),
                 reports.join("README.md").display()
             );
+        }
+        Command::Merge { out, shards } => {
+            for name in experiments::merge::merge(&out, &shards)? {
+                println!("{name}: merged into {}", out.join(&name).display());
+            }
+            output::report::assemble(&out)?;
+        }
+        Command::Sweeps => {
+            print!("{}", registry::sweep::BUILTIN);
         }
         Command::Report { reports } => {
             output::report::assemble(&reports)?;
@@ -390,4 +414,24 @@ pub fn views_csv(views: &[cloud::Camera]) -> Result<String> {
         ));
     }
     Ok(s)
+}
+
+/// The sweeps (built-in, external methods', `--config`'s) and repeats of `flags`.
+fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, usize)> {
+    let user = flags
+        .config
+        .as_deref()
+        .map(registry::Sweeps::read)
+        .transpose()?;
+    let sweeps = registry::Sweeps::resolve(user)?;
+    let repeats = flags
+        .repeats
+        .map(|r| r as usize)
+        .or(sweeps.repeats)
+        .unwrap_or(experiments::REPEATS);
+    Ok((sweeps, repeats))
+}
+
+fn shard_text(shard: Option<experiments::Shard>) -> String {
+    shard.map_or_else(|| "-".into(), |s| format!("{}/{}", s.k, s.n))
 }

@@ -266,8 +266,8 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         let prepared = methods::prepare(method, ds.input(), &params)?;
         let prepare_seconds = start.elapsed().as_secs_f64();
         let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)?;
-        // An external program reports its own compute time; the wall time is on the line before.
-        let seconds = output.reported_seconds.unwrap_or(timing.median);
+        // An external program's timing is its own reported compute time (`registry::timed`).
+        let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
         println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
         if let Some(r) = &reference {
@@ -301,8 +301,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
         let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)
             .with_context(|| format!("view {k}"))?;
-        let seconds = output.reported_seconds.unwrap_or(timing.median);
-        Ok((k, output, seconds))
+        Ok((k, output, timing.median))
     };
     let results: Vec<(usize, Output, f64)> = if parallel {
         cameras.par_iter().map(run_one).collect::<Result<_>>()?

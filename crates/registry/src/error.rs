@@ -39,6 +39,9 @@ pub enum Error {
     /// The method cannot run on this input (a missing mesh, an unsupported camera, ...).
     #[error("{0}")]
     Unsupported(String),
+    /// A sweeps file (`registry::sweep`) that does not parse.
+    #[error("sweeps: {0}")]
+    Sweep(String),
     /// Invalid input or camera (`cloud`).
     #[error(transparent)]
     Cloud(#[from] cloud::Error),

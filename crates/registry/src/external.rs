@@ -29,8 +29,9 @@
 //! install = "just peers"                     # said when the check fails
 //! timeout_seconds = 120
 //! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
-//! grid = [{gamma = "2"}, {gamma = "3"}]    # what the visibility experiment sweeps
-//! quick_grid = [{gamma = "3"}]
+//! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
+//! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
+//! family = "open3d-hpr"                      # how its rows group in plots (default: name)
 //! [params.gamma]
 //! default = "3"
 //! help = "R = max|p - C| * 10^gamma"
@@ -48,7 +49,7 @@ use cloud::Camera;
 use serde::Deserialize;
 
 use crate::error::{Error, Result};
-use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
+use crate::{Input, Method, MethodSweep, Output, ParamSpec, Params, Prepared};
 
 /// The protocol version this crate speaks.
 pub const PROTOCOL: u32 = 1;
@@ -78,10 +79,10 @@ struct Manifest {
     cameras: Option<Vec<String>>,
     #[serde(default)]
     params: BTreeMap<String, ParamEntry>,
-    #[serde(default)]
-    grid: Vec<BTreeMap<String, String>>,
-    #[serde(default)]
-    quick_grid: Vec<BTreeMap<String, String>>,
+    grid: Option<toml::Value>,
+    quick_grid: Option<toml::Value>,
+    default: Option<toml::Value>,
+    family: Option<String>,
 }
 
 /// An external method (leaked once per process: the registry's methods live for it).
@@ -96,8 +97,8 @@ pub struct ExternalMethod {
     timeout: Duration,
     cameras: Vec<String>,
     params: &'static [ParamSpec],
-    grid: Vec<Vec<(String, String)>>,
-    quick_grid: Vec<Vec<(String, String)>>,
+    sweep: Option<MethodSweep>,
+    family: Option<String>,
 }
 
 fn leak(s: String) -> &'static str {
@@ -138,6 +139,22 @@ impl ExternalMethod {
                 .file_name()
                 .map_or_else(|| "external".into(), |n| n.to_string_lossy().into_owned())
         });
+        // The grid in `registry::sweep`'s format (a list of blocks, lists swept).
+        let mut table = toml::Table::new();
+        for (key, value) in [
+            ("grid", &m.grid),
+            ("quick_grid", &m.quick_grid),
+            ("default", &m.default),
+        ] {
+            if let Some(v) = value {
+                table.insert(key.to_owned(), v.clone());
+            }
+        }
+        let sweep = if table.contains_key("grid") {
+            Some(MethodSweep::from_toml(&table, &path.display().to_string())?)
+        } else {
+            None
+        };
         let params: Vec<ParamSpec> = m
             .params
             .into_iter()
@@ -167,16 +184,8 @@ impl ExternalMethod {
                 vec!["pinhole".into(), "orthographic".into(), "spherical".into()]
             }),
             params: Box::leak(params.into_boxed_slice()),
-            grid: m
-                .grid
-                .into_iter()
-                .map(|s| s.into_iter().collect())
-                .collect(),
-            quick_grid: m
-                .quick_grid
-                .into_iter()
-                .map(|s| s.into_iter().collect())
-                .collect(),
+            sweep,
+            family: m.family,
         })
     }
 
@@ -250,12 +259,12 @@ impl Method for ExternalMethod {
         ExternalMethod::availability(self)
     }
 
-    fn grid(&self, quick: bool) -> Vec<Vec<(String, String)>> {
-        if quick && !self.quick_grid.is_empty() {
-            self.quick_grid.clone()
-        } else {
-            self.grid.clone()
-        }
+    fn sweep(&self) -> Option<MethodSweep> {
+        self.sweep.clone()
+    }
+
+    fn family(&self, _setting: &crate::Setting) -> String {
+        self.family.clone().unwrap_or_else(|| self.name.to_owned())
     }
 
     fn is_external(&self) -> bool {

@@ -117,6 +117,7 @@ impl Prepared for Prep<'_> {
                 camera.model().name()
             )));
         }
+        let mut detail = Vec::new();
         let params = match &self.auto {
             Some(scale) => {
                 let max_distance = self
@@ -125,6 +126,7 @@ impl Prepared for Prep<'_> {
                     .map(|p| (*p - camera.eye).length())
                     .fold(0.0, f64::max);
                 let gamma = hpr::auto::auto_gamma(scale, camera.eye, max_distance);
+                detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
                 HprParams {
                     kernel: Kernel::Linear(Radius::Gamma(gamma)),
                     ..self.params
@@ -135,6 +137,7 @@ impl Prepared for Prep<'_> {
         let v = hpr::visible(self.points, camera.eye, &params, self.hull.as_ref())?;
         Ok(Output {
             visible: v.visible,
+            detail,
             ..Output::default()
         })
     }
@@ -155,6 +158,13 @@ impl Method for HprMethod {
 
     fn parallel_views(&self) -> bool {
         true
+    }
+
+    fn family(&self, setting: &crate::Setting) -> String {
+        match setting.text("kernel").as_deref() {
+            Some("exp") => "hpr-exp".into(),
+            _ => "hpr-linear".into(),
+        }
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {

@@ -15,17 +15,21 @@ pub mod error;
 mod exact;
 pub mod external;
 pub mod hpr;
+pub mod image_score;
+pub mod lod;
 pub mod params;
 pub mod raycast;
 mod reference;
 pub mod score;
 mod splat;
+pub mod sweep;
 pub mod timing;
 
 use cloud::{Camera, PointCloud, TriMesh};
 
 pub use error::{Error, Result};
 pub use params::{ParamSpec, Params};
+pub use sweep::{MethodSweep, Setting, Sweeps};
 
 /// What a method prepares on: the points and, for the ground truth, the surface.
 #[derive(Debug, Clone, Copy)]
@@ -60,6 +64,8 @@ pub struct Output {
     /// The method's own compute seconds, for methods that report it (external programs,
     /// whose wall time includes the protocol); `None`: the caller's timing is the time.
     pub reported_seconds: Option<f64>,
+    /// What a rule chose for this view (`gamma=2.87` for HPR's `gamma=auto`), `k=v` pairs.
+    pub detail: Vec<(String, String)>,
 }
 
 /// The point each pixel of a per-pixel method shows.
@@ -99,10 +105,15 @@ pub trait Method: Sync {
     fn availability(&self) -> std::result::Result<(), String> {
         Ok(())
     }
-    /// The settings an experiment sweeps (`--set` pairs each), full or quick; empty for the
-    /// built-in methods, whose sweeps the experiments still declare themselves.
-    fn grid(&self, _quick: bool) -> Vec<Vec<(String, String)>> {
-        Vec::new()
+    /// The method's own sweep, for methods that carry one (an external method's
+    /// `method.toml`); `None`: the built-in grids ([`sweep::BUILTIN`]) say, if anything.
+    fn sweep(&self) -> Option<MethodSweep> {
+        None
+    }
+    /// The family a setting's results group under in plots and tables (HPR's two kernels are
+    /// two families); default: the method's name.
+    fn family(&self, _setting: &Setting) -> String {
+        self.name().to_owned()
     }
     /// True for methods loaded from a `method.toml` (external programs).
     fn is_external(&self) -> bool {
@@ -110,14 +121,32 @@ pub trait Method: Sync {
     }
 }
 
-/// External methods registered for this process ([`register_external`]).
-static EXTERNAL: std::sync::OnceLock<Vec<&'static dyn Method>> = std::sync::OnceLock::new();
+/// Methods registered at run time: external ones ([`register_external`]) and any a program
+/// embedding this crate adds ([`register`]).
+static EXTRA: std::sync::RwLock<Vec<&'static dyn Method>> = std::sync::RwLock::new(Vec::new());
 
-/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup;
-/// once per process (later calls keep the first set). Names must not shadow built-in methods.
+/// Adds `method` for every later lookup in this process (a program embedding the registry, or
+/// a test, plugs its own method in here: one adapter, one call). Its name must be new.
+pub fn register(method: &'static dyn Method) -> Result<()> {
+    if all().iter().any(|m| m.name() == method.name()) {
+        return Err(Error::Unsupported(format!(
+            "a method named {} is already registered",
+            method.name()
+        )));
+    }
+    EXTRA
+        .write()
+        .map_err(|_| Error::Unsupported("the method registry is poisoned".into()))?
+        .push(method);
+    Ok(())
+}
+
+/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup.
+/// Names must not shadow built-in methods; a method already loaded under the same name is kept
+/// (loading the same folder twice is harmless).
 pub fn register_external(dir: &std::path::Path) -> Result<()> {
     let loaded = external::ExternalMethod::load_dir(dir)?;
-    for m in &loaded {
+    for m in loaded {
         if METHODS.iter().any(|b| b.name() == m.name()) {
             return Err(Error::Unsupported(format!(
                 "external method {} in {} shadows a built-in method",
@@ -125,31 +154,27 @@ pub fn register_external(dir: &std::path::Path) -> Result<()> {
                 dir.display()
             )));
         }
+        if all().iter().any(|b| b.name() == m.name()) {
+            continue;
+        }
+        register(Box::leak(Box::new(m)))?;
     }
-    let leaked: Vec<&'static dyn Method> = loaded
-        .into_iter()
-        .map(|m| &*Box::leak(Box::new(m)) as &'static dyn Method)
-        .collect();
-    let _ = EXTERNAL.set(leaked);
     Ok(())
 }
 
-/// Every method: built-in, then external.
+/// Every method: built-in, then those registered at run time.
 pub fn all() -> Vec<&'static dyn Method> {
-    METHODS
-        .iter()
-        .copied()
-        .chain(EXTERNAL.get().into_iter().flatten().copied())
-        .collect()
+    let extra = EXTRA.read().map(|e| e.clone()).unwrap_or_default();
+    METHODS.iter().copied().chain(extra).collect()
 }
 
 /// Every method, in listing order.
 pub static METHODS: &[&dyn Method] = &[
     &reference::ReferenceMethod,
     &exact::ExactMethod,
-    &splat::SplatMethod,
     &hpr::HprMethod,
     &raycast::RaycastMethod,
+    &splat::SplatMethod,
 ];
 
 /// Looks a method up by name.
@@ -179,13 +204,25 @@ pub fn prepare<'a>(
 }
 
 /// Runs one view `repeats` times (at least once) and times it with the one timing helper:
-/// the last output and the timing (median, spread).
+/// the last output and the timing (median, spread). A method that reports its own compute
+/// seconds on every run (an external program, whose wall time includes the protocol) is timed
+/// by those.
 pub fn timed(
     prepared: &dyn Prepared,
     camera: &Camera,
     repeats: usize,
 ) -> Result<(Output, timing::Timing)> {
-    timing::measure(repeats, || prepared.visible(camera))
+    let mut reported = Vec::new();
+    let (out, wall) = timing::measure(repeats, || {
+        let out = prepared.visible(camera)?;
+        reported.push(out.reported_seconds);
+        Ok::<_, Error>(out)
+    })?;
+    let own: Option<Vec<f64>> = reported.into_iter().collect();
+    Ok(match own {
+        Some(own) if !own.is_empty() => (out, timing::Timing::of(&own)),
+        _ => (out, wall),
+    })
 }
 
 /// Indices of the true entries of `flags`.

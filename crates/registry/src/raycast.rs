@@ -17,7 +17,7 @@ const PARAMS: &[ParamSpec] = &[
     ParamSpec {
         key: "radius",
         default: "-",
-        help: "point radius in world units (overrides radius_factor)",
+        help: "point radius in world units (overrides radius_factor), or auto: raycast::auto's rule (1.5 density spacings)",
     },
     ParamSpec {
         key: "radius_factor",
@@ -81,6 +81,7 @@ impl Prepared for Prep {
                 point: frame.pixel_point,
             }),
             reported_seconds: None,
+            detail: Vec::new(),
         })
     }
 }
@@ -88,10 +89,20 @@ impl Prepared for Prep {
 /// The point radius the parameters ask for on `points`.
 pub fn radius(points: &[cloud::glam::DVec3], params: &Params) -> Result<f64> {
     let factor: f64 = params.get("radius_factor", raycast::auto::RADIUS_FACTOR)?;
-    match params.get_opt::<f64>("radius")? {
-        Some(r) => Ok(r),
-        None => Ok(factor * cloud::spacing::density_spacing(points, 8, 20_000, 1)?),
-    }
+    let given: Option<String> = params.get_opt("radius")?;
+    let factor = match given.as_deref() {
+        Some("auto") => {
+            if params.get_opt::<f64>("radius_factor")?.is_some() {
+                return Err(Error::Unsupported(
+                    "--set radius=auto is raycast::auto's radius factor; drop radius_factor".into(),
+                ));
+            }
+            raycast::auto::RADIUS_FACTOR
+        }
+        Some(_) => return params.get("radius", 0.0),
+        None => factor,
+    };
+    Ok(factor * cloud::spacing::density_spacing(points, 8, 20_000, 1)?)
 }
 
 impl Method for RaycastMethod {

@@ -63,6 +63,7 @@ impl Prepared for Prep {
                 point: out.pixel_point,
             }),
             reported_seconds: None,
+            detail: Vec::new(),
         })
     }
 }

@@ -2,7 +2,7 @@
 //! perturbation; seed 000 Table 1 regenerated.
 //!
 //! For each dataset, view, γ (R = max‖p − C‖·10^γ, linear kernel), hull implementation and
-//! perturbation k, `seconds` is the median of [`REPEATS`] runs of flip + hull + mapping
+//! perturbation k, `seconds` is the median of `--repeats` runs of flip + hull + mapping
 //! (`hpr::visible`), `jaccard_vs_exact` compares the visible set with the exact unperturbed
 //! answer (`own`, k = 0, same dataset, view and γ) and `f1_vs_reference` scores it against the
 //! mesh reference. A failure is a row with status `error: …` or `panic: …`.
@@ -32,8 +32,6 @@ use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 use crate::score::Score;
 
-/// Timed runs per configuration (the median is reported).
-pub const REPEATS: usize = 3;
 /// Hull implementations compared, in report order.
 pub const HULLS: &[&str] = &["own", "qhull", "qhull-qj", "parry", "quickhull", "chull"];
 /// Katz's γ values.
@@ -190,9 +188,9 @@ impl Experiment for HullExperiment {
                                 perturb,
                                 seed: SEED,
                             };
-                            let mut times = Vec::with_capacity(REPEATS);
+                            let mut times = Vec::with_capacity(ctx.repeats);
                             let mut outcome = None;
-                            for _ in 0..REPEATS {
+                            for _ in 0..ctx.repeats.max(1) {
                                 match hpr::visible(
                                     &ds.cloud.positions,
                                     cam.eye,
@@ -214,7 +212,7 @@ impl Experiment for HullExperiment {
                                     if *hull_name == "own" && perturb == 0.0 {
                                         exact = Some(visible.clone());
                                     }
-                                    row.seconds = median(times);
+                                    row.seconds = registry::timing::Timing::of(&times).median;
                                     row.n_visible = visible.len();
                                     row.f1_vs_reference = truth
                                         .as_ref()
@@ -240,7 +238,7 @@ impl Experiment for HullExperiment {
             "gammas": GAMMAS,
             "perturbs": perturbs,
             "hulls": HULLS,
-            "repeats": REPEATS,
+            "repeats": ctx.repeats,
             "perturbation_seed": SEED,
             "kernel": "linear (spherical flipping), R = max|p - C| * 10^gamma",
             "extra_perturbs_own_qhull": EXTRA_PERTURBS,
@@ -250,7 +248,10 @@ impl Experiment for HullExperiment {
 
     fn render(&self, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
-        render(dir, &rows)
+        let repeats = crate::output::meta::RunMeta::read(dir)?.parameters["repeats"]
+            .as_u64()
+            .unwrap_or(super::REPEATS as u64);
+        render(dir, &rows, repeats)
     }
 }
 
@@ -287,7 +288,7 @@ fn fmt_s(v: Option<f64>) -> String {
     })
 }
 
-fn render(dir: &Path, rows: &[Row]) -> Result<()> {
+fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
     let datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
         if !acc.contains(&r.dataset) {
             acc.push(r.dataset.clone());
@@ -478,7 +479,7 @@ fn render(dir: &Path, rows: &[Row]) -> Result<()> {
 
     let summary = format!(
         "HPR (linear kernel, R = max‖p − C‖·10^γ) with six convex hull implementations. \
-         `seconds`: median of {REPEATS} runs of flip + hull + mapping. `min Jaccard vs exact`: \
+         `seconds`: median of {repeats} runs of flip + hull + mapping. `min Jaccard vs exact`: \
          the worst agreement with the exact visible set (`own`, k = 0) over the configurations. \
          Grid and skips: see the rows with status `error: skipped`.\n\n\
          **own vs Qhull (Qt), k = 0:** identical visible sets in {identical} of {} configurations; \

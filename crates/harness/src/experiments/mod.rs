@@ -8,6 +8,7 @@
 mod background;
 mod hull;
 mod lod;
+pub mod merge;
 mod reference;
 mod robustness;
 pub mod scale;
@@ -35,6 +36,80 @@ pub struct Context {
     pub views: Option<PathBuf>,
     /// User files the loaded datasets came from, for the run metadata.
     pub files: std::sync::Arc<std::sync::Mutex<Vec<crate::datasets::SourceFile>>>,
+    /// Every method's sweep: the built-in grids, the external methods' and `--config`'s.
+    pub sweeps: registry::Sweeps,
+    /// Timed runs per call (`--repeats`, or the sweeps file's `repeats`; default [`REPEATS`]).
+    pub repeats: usize,
+    /// The part of the cells this process runs (`--shard K/N`); `None`: all.
+    pub shard: Option<Shard>,
+}
+
+impl Context {
+    /// A context with the built-in sweeps, [`REPEATS`] and no shard.
+    pub fn new(data_dir: PathBuf, out_dir: PathBuf, quick: bool, datasets: Vec<String>) -> Self {
+        Self {
+            data_dir,
+            out_dir,
+            quick,
+            datasets,
+            views: None,
+            files: Default::default(),
+            sweeps: registry::Sweeps::builtin(),
+            repeats: REPEATS,
+            shard: None,
+        }
+    }
+
+    /// Runs `f` [`Context::repeats`] times with the one timing helper (`registry::timing`):
+    /// its output and the timing (median and spread).
+    pub fn timed<T>(&self, f: impl FnMut() -> Result<T>) -> Result<(T, registry::timing::Timing)> {
+        registry::timing::measure(self.repeats, f)
+    }
+
+    /// True when this process runs view `view` of the `dataset`-th dataset (of an experiment
+    /// that covers `views_per_dataset` views of each): cells are numbered dataset-major and
+    /// dealt round-robin to the shards.
+    pub fn owns(&self, dataset: usize, view: usize, views_per_dataset: usize) -> bool {
+        self.shard
+            .is_none_or(|s| s.owns(dataset * views_per_dataset.max(1) + view))
+    }
+}
+
+/// `--shard K/N`: the K-th of N parts (1-based) of an experiment's cells.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct Shard {
+    /// This part, 1..=n.
+    pub k: usize,
+    /// Number of parts.
+    pub n: usize,
+}
+
+impl Shard {
+    /// True when cell number `cell` (0-based) belongs to this part.
+    pub fn owns(&self, cell: usize) -> bool {
+        cell % self.n == self.k - 1
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let (k, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("--shard expects K/N (for example 2/8), got {s:?}"))?;
+        let (k, n): (usize, usize) = (
+            k.trim()
+                .parse()
+                .map_err(|_| format!("--shard {s}: K is not a whole number"))?,
+            n.trim()
+                .parse()
+                .map_err(|_| format!("--shard {s}: N is not a whole number"))?,
+        );
+        if n == 0 || k == 0 || k > n {
+            return Err(format!("--shard {s}: expects 1 <= K <= N"));
+        }
+        Ok(Self { k, n })
+    }
 }
 
 impl Context {
@@ -70,6 +145,12 @@ pub trait Experiment: Sync {
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value>;
     /// Reads the CSVs in `dir` and writes plots, tables and `summary.md`.
     fn render(&self, dir: &Path) -> Result<()>;
+    /// True when the experiment splits its (dataset, view) cells over shards
+    /// ([`Context::owns`]) and its CSVs are rows of those cells, which `pointsight merge`
+    /// concatenates. Otherwise a sharded run gives the whole experiment to one shard.
+    fn shardable(&self) -> bool {
+        false
+    }
 }
 
 /// Every experiment, in report order.
@@ -101,12 +182,25 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
         })
 }
 
-/// Runs `exp`: measure, write metadata, render.
+/// Runs `exp`: measure, write metadata, render. Returns false (and does nothing) when a
+/// sharded run gives this experiment to another shard: an experiment that does not split its
+/// cells ([`Experiment::shardable`]) is one cell, dealt by its position in [`EXPERIMENTS`].
 ///
 /// Everything is written into a staging folder beside the output folder
 /// (`.NAME.partial`), which replaces the output folder only when the experiment has finished:
 /// an interrupted run leaves the previous results as they were.
-pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
+pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
+    if let Some(shard) = ctx.shard
+        && !exp.shardable()
+    {
+        let position = EXPERIMENTS
+            .iter()
+            .position(|e| e.name() == exp.name())
+            .unwrap_or(0);
+        if !shard.owns(position) {
+            return Ok(false);
+        }
+    }
     let start = Instant::now();
     let mut meta = RunMeta::now(
         exp.name(),
@@ -134,11 +228,16 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
         out_dir: staging.clone(),
         ..ctx.clone()
     };
+    meta.shard = ctx.shard;
     meta.parameters = exp.measure(&staged)?;
     meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
     meta.seconds = start.elapsed().as_secs_f64();
     meta.write(&staging)?;
-    exp.render(&staging)?;
+    // A shard's output is drawn once merged (`pointsight merge`); a shard alone may hold too
+    // few cells for some plots.
+    if ctx.shard.is_none() {
+        exp.render(&staging)?;
+    }
     if out.exists() {
         std::fs::rename(out, &previous)
             .with_context(|| format!("cannot move {} aside", out.display()))?;
@@ -149,7 +248,7 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<()> {
         std::fs::remove_dir_all(&previous)
             .with_context(|| format!("cannot remove {}", previous.display()))?;
     }
-    Ok(())
+    Ok(true)
 }
 
 /// Markdown table from a header and rows.
@@ -165,11 +264,5 @@ pub fn markdown_table(header: &[&str], rows: &[Vec<String>]) -> String {
     s
 }
 
-/// Runs per timed call in the experiments: enough for a median and a spread.
+/// Runs per timed call in the experiments by default: enough for a median and a spread.
 pub const REPEATS: usize = 3;
-
-/// Runs `f` [`REPEATS`] times with the one timing helper (`registry::timing`): its output and
-/// the timing (median and spread).
-pub(crate) fn timed<T>(f: impl FnMut() -> Result<T>) -> Result<(T, registry::timing::Timing)> {
-    registry::timing::measure(REPEATS, f)
-}

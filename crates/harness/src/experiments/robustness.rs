@@ -72,7 +72,12 @@ struct LodRow {
 }
 
 /// The LOD part for one clean dataset.
-fn lod_rows(name: &str, clean: &cloud::PointCloud, views: &[cloud::Camera]) -> Result<Vec<LodRow>> {
+fn lod_rows(
+    ctx: &Context,
+    name: &str,
+    clean: &cloud::PointCloud,
+    views: &[cloud::Camera],
+) -> Result<Vec<LodRow>> {
     use super::lod;
     use splat::render::render;
     // Texture coordinates of the clean points (the colours follow the source, not the noise).
@@ -84,7 +89,7 @@ fn lod_rows(name: &str, clean: &cloud::PointCloud, views: &[cloud::Camera]) -> R
     let mut builds = Vec::new();
     let mut base = clean.clone();
     base.uvs = Some(uvs.clone());
-    let reference = lod::prepare(name, base, &mut builds)?;
+    let reference = lod::prepare(ctx, name, base, &mut builds)?;
     let full = reference.full_splats();
     let mut rows = Vec::new();
     for &sigma in LOD_NOISE {
@@ -99,7 +104,7 @@ fn lod_rows(name: &str, clean: &cloud::PointCloud, views: &[cloud::Camera]) -> R
         )?;
         let mut noisy = d.cloud;
         noisy.uvs = Some(d.source.iter().map(|&s| uvs[s as usize]).collect());
-        let p = lod::prepare(name, noisy, &mut builds)?;
+        let p = lod::prepare(ctx, name, noisy, &mut builds)?;
         let noisy_full = p.full_splats();
         for (view, cam) in views.iter().enumerate() {
             let target = render(&full, cam, &lod::render_params());
@@ -112,14 +117,16 @@ fn lod_rows(name: &str, clean: &cloud::PointCloud, views: &[cloud::Camera]) -> R
                     params,
                     view,
                     points_rendered: splats.len(),
-                    psnr: lod::psnr(&target, &img),
-                    ssim: lod::ssim(&target, &img),
+                    psnr: registry::image_score::psnr(&target, &img),
+                    ssim: registry::image_score::ssim(&target, &img),
                 });
             };
             push("full", String::new(), &noisy_full);
             // Each method's finest setting (the most splats).
-            let sels = lod::selections(&p, cam)?;
-            for method in ["qsplat", "spt", "srn", "random"] {
+            let sels = lod::selections(ctx, &p, cam)?;
+            let mut methods: Vec<&str> = sels.iter().map(|s| s.method).collect();
+            methods.dedup();
+            for method in methods {
                 if let Some(s) = sels
                     .iter()
                     .filter(|s| s.method == method)
@@ -365,7 +372,7 @@ impl Experiment for RobustnessExperiment {
                     .filter(|c| matches!(c.model(), cloud::Model::Pinhole { .. }))
                     .copied()
                     .collect();
-                lod.extend(lod_rows(name, &ds.cloud, &pinhole)?);
+                lod.extend(lod_rows(ctx, name, &ds.cloud, &pinhole)?);
                 let bbox = mesh.bbox().context("the mesh has no vertices")?;
                 let from = bbox.center() + DVec3::new(1.5, 0.0, 0.5) * bbox.diagonal();
                 for &sigma in NOISE {

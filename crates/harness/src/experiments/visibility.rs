@@ -1,57 +1,44 @@
-//! Experiment `visibility`: every visibility method and setting against the reference.
+//! Experiment `visibility`: every registered visibility method over its sweep, against the
+//! reference.
 //!
-//! Sweeps, on each dataset and view:
-//! - `hpr`, linear kernel: γ ∈ [`GAMMAS`] without perturbation, and γ ∈ [`PERTURBED_GAMMAS`]
-//!   with a perturbation of k = [`PERTURB`];
-//! - `hpr`, exponential kernel: γ ∈ [`EXP_GAMMAS`];
-//! - `raycast` (exact traversal): radius ∈ [`RADIUS_FACTORS`] density spacings × resolution ∈
-//!   [`RESOLUTIONS`];
-//! - `splat`: radius ∈ [`SPLAT_RADII`] pixels × depth tolerance ∈ {0.01, 0.03};
-//! - the automatic rules: `hpr` with γ from `hpr::auto` and `raycast` with the radius of
-//!   `raycast::auto`, from the cloud alone.
+//! A generic loop: for each dataset, every method of `registry::all()` that has a sweep
+//! (`registry::sweep`: the built-in grids in `registry/src/sweeps.toml`, an external method's
+//! own in its `method.toml`, a user's `--config` file over both) is prepared once per setting
+//! and run on every view; the harness scores each answer against the reference (the mesh's
+//! z-buffer). Adding a method to this experiment is a registry entry and a grid; nothing here
+//! names a method except where a peer is paired with our exact HPR at the same γ.
 //!
-//! `results.csv`: one row per (dataset, view, method, setting) with precision, recall and F1
-//! against `reference`; `seconds` is the median of [`super::REPEATS`] runs (`registry::timing`),
-//! `seconds_min`/`seconds_max` their spread. `pixels.csv`: for the per-pixel methods (ray cast, splat), the share of
-//! covered pixels whose point is truly visible and the share of the mesh's pixels (the mesh
-//! rasterised at the method's resolution) that got a point. Renders of bunny-69451, view 0,
-//! every family at its best setting beside the reference: `renders.png`.
+//! `results.csv`: one row per (dataset, view, method, setting), in that order, with precision,
+//! recall and F1 against `reference`; `family` groups rows in plots (HPR's two kernels are two
+//! families); `detail` is what a rule chose (HPR's `gamma=auto`: `gamma_value`); `seconds` is
+//! the median of `--repeats` runs (`registry::timing`; an external method's own reported
+//! seconds), `seconds_min`/`seconds_max` their spread; `status` is `ok` or `error: ...` (a
+//! failing view is a row and the run goes on). `pixels.csv`: for the per-pixel methods (ray
+//! cast, splat), the share of covered pixels whose point is truly visible and the share of the
+//! mesh's pixels (the mesh rasterised at the method's resolution) that got a point.
+//! `agreement.csv`: on clouds without a mesh, the Jaccard index of each pair of methods at
+//! their default settings. `peers.csv`: an external method with a `gamma` against our exact
+//! HPR at that γ, per view. `renders.png`: bunny-69451 (else the first dataset), view 0, every
+//! family at its best setting beside the reference.
+//!
+//! Sharded runs (`--shard K/N`) split the (dataset, view) cells round-robin; every method and
+//! setting of one view stays in one shard, because agreement and peers pair methods per view.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
-use cloud::Camera;
-use hpr::{HprParams, Kernel, Radius};
-use raycast::{CastParams, RayCaster, RayList, Traversal};
+use registry::Setting;
 use serde::{Deserialize, Serialize};
-use splat::{SplatParams, SplatScratch, Splatter};
 use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
-use super::{Context, Experiment, markdown_table, timed};
+use super::{Context, Experiment, markdown_table};
 use crate::datasets;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 use crate::score::Score;
-
-/// Katz's γ (linear kernel).
-pub const GAMMAS: &[f64] = &[1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5];
-/// Exponents of the exponential kernel.
-pub const EXP_GAMMAS: &[f64] = &[-1e-5, -3e-5, -1e-4, -3e-4, -1e-3, -3e-3, -1e-2];
-/// Perturbation used for the "with perturbation" HPR rows.
-pub const PERTURB: f64 = 1e-5;
-/// The γ values also run with the perturbation.
-pub const PERTURBED_GAMMAS: &[f64] = &[2.0, 3.0, 4.0];
-/// Ray-cast radii, in density spacings (1/sqrt(points per unit area)).
-pub const RADIUS_FACTORS: &[f64] = &[0.5, 0.75, 1.0, 1.5, 2.0, 3.0];
-/// Ray-cast resolutions (one ray per pixel), same field of view.
-pub const RESOLUTIONS: &[(u32, u32)] = &[(640, 360), (1280, 720), (1920, 1080)];
-/// Splat radii in pixels.
-pub const SPLAT_RADII: &[f64] = &[0.5, 1.0, 1.5, 2.0, 3.0, 4.0];
-/// Splat depth tolerances.
-pub const SPLAT_TOLERANCES: &[f64] = &[0.01, 0.03];
 
 /// The experiment.
 pub struct VisibilityExperiment;
@@ -67,9 +54,13 @@ pub struct Row {
     pub view: usize,
     /// Method name.
     pub method: String,
-    /// Setting, `k=v` pairs joined by `;`.
+    /// How its rows group in plots and tables (`registry::Method::family`).
+    pub family: String,
+    /// Setting, `k=v` pairs sorted by key and joined by `;` (`registry::Setting::label`).
     pub params: String,
-    /// Median seconds of the method alone (`REPEATS` runs).
+    /// What a rule chose for this view (`gamma_value=2.871` for `gamma=auto`), `k=v` pairs.
+    pub detail: String,
+    /// Median seconds of the method alone (`--repeats` runs).
     pub seconds: f64,
     /// Rays cast (0 for methods that cast none).
     pub rays: u64,
@@ -128,6 +119,8 @@ pub struct PixelRow {
     pub view: usize,
     /// Method.
     pub method: String,
+    /// Family.
+    pub family: String,
     /// Setting.
     pub params: String,
     /// Image width.
@@ -148,26 +141,12 @@ pub struct PixelRow {
     pub mesh_coverage: f64,
 }
 
-/// The family a row belongs to, for plots and tables (an external method is its own family).
-pub fn family<'a>(method: &'a str, params: &str) -> &'a str {
-    match method {
-        "hpr" if params.contains("kernel=exp") => "hpr-exp",
-        "hpr" => "hpr-linear",
-        other => other,
-    }
-}
-
-/// The built-in families, in plotting order; external methods follow in the order they
-/// appear.
-const FAMILIES: &[&str] = &["hpr-linear", "hpr-exp", "raycast", "splat"];
-
-/// Every family of `rows`: the built-in ones, then the others.
+/// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {
-    let mut out: Vec<String> = FAMILIES.iter().map(|f| (*f).to_owned()).collect();
+    let mut out: Vec<String> = Vec::new();
     for r in rows {
-        let f = family(&r.method, &r.params);
-        if !out.iter().any(|o| o == f) {
-            out.push(f.to_owned());
+        if !out.contains(&r.family) {
+            out.push(r.family.clone());
         }
     }
     out
@@ -194,17 +173,52 @@ pub struct PeerRow {
 }
 
 fn is_auto(params: &str) -> bool {
-    params.contains("=auto")
+    Setting::parse(params).is_auto()
 }
 
-/// Runs `f` once, and twice more if it took under a tenth of a second; returns the median time.
+/// A visible set kept past its row (for agreement, peers and the renders).
 struct Run {
-    method: &'static str,
+    method: String,
+    family: String,
     params: String,
     visible: Vec<u32>,
-    timing: registry::timing::Timing,
-    rays: u64,
-    pixels: Option<(Camera, Vec<u32>)>,
+}
+
+/// Every registered method with a non-empty sweep, in registry order, that can run here; the
+/// others (an external method whose environment is missing) are listed with why.
+fn methods_to_run(
+    ctx: &Context,
+) -> (
+    Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+    Vec<String>,
+) {
+    let mut not_run = Vec::new();
+    let mut out = Vec::new();
+    for m in registry::all() {
+        let Some(sweep) = ctx
+            .sweeps
+            .methods
+            .get(m.name())
+            .filter(|s| !s.settings(ctx.quick).is_empty())
+        else {
+            continue;
+        };
+        match m.availability() {
+            Ok(()) => out.push((m, sweep.clone())),
+            Err(why) => not_run.push(format!("{}: {why}", m.name())),
+        }
+    }
+    (out, not_run)
+}
+
+/// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
+/// first dataset (a fixed choice, so every shard agrees on it).
+fn render_dataset(datasets: &[String]) -> Option<&str> {
+    datasets
+        .iter()
+        .find(|d| *d == "bunny-69451")
+        .or(datasets.first())
+        .map(String::as_str)
 }
 
 impl Experiment for VisibilityExperiment {
@@ -213,7 +227,7 @@ impl Experiment for VisibilityExperiment {
     }
 
     fn summary(&self) -> &'static str {
-        "HPR (two kernels, with and without perturbation), ray casting and splatting against the reference"
+        "every registered visibility method over its sweep (HPR two kernels, ray cast, splat, external methods and peers) against the reference"
     }
 
     fn default_datasets(&self, quick: bool) -> &'static [&'static str] {
@@ -230,17 +244,39 @@ impl Experiment for VisibilityExperiment {
         }
     }
 
+    fn shardable(&self) -> bool {
+        true
+    }
+
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let n_views = if ctx.quick { 2 } else { 8 };
+        let (methods, mut not_run) = methods_to_run(ctx);
+        // The setting that stands for each method (agreement on clouds without a mesh).
+        let defaults: BTreeMap<String, String> = methods
+            .iter()
+            .filter_map(|(m, s)| Some((m.name().to_owned(), s.default_setting()?.label())))
+            .collect();
+        let peers_wanted = methods.iter().any(|(m, s)| {
+            m.is_external()
+                && s.settings(ctx.quick)
+                    .iter()
+                    .any(|x| x.get("gamma").is_some())
+        });
+        let render_ds = render_dataset(&ctx.datasets);
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
         let mut agreement = Vec::new();
         let mut peers = Vec::new();
-        let mut not_run: Vec<String> = Vec::new();
         let mut off_surface_meta = serde_json::Map::new();
-        for name in &ctx.datasets {
+        for (d_idx, name) in ctx.datasets.iter().enumerate() {
+            let owned: Vec<usize> = (0..n_views)
+                .filter(|&v| ctx.owns(d_idx, v, n_views))
+                .collect();
+            if owned.is_empty() {
+                continue;
+            }
             let ds = ctx.dataset(name)?;
-            let n_views = n_views.min(ds.views.len());
+            let views: Vec<usize> = owned.into_iter().filter(|&v| v < ds.views.len()).collect();
             let points = &ds.cloud.positions;
             // No mesh, no ground truth: rows keep speed and counts, F1 is NaN, and the methods'
             // agreement is recorded instead.
@@ -255,235 +291,149 @@ impl Experiment for VisibilityExperiment {
                     }),
                 );
             }
-            let scale = hpr::auto::CloudScale::of(points)?;
-            let caster = RayCaster::new(points)?;
-            let splatter = Splatter::new(points)?;
-            let mut splat_scratch = SplatScratch::default();
-            let own = hull::by_name("own")?;
-            let mut ray_lists: BTreeMap<(u32, u32), RayList> = BTreeMap::new();
-            let bar = progress::bar(n_views as u64, format!("visibility {name}"));
-            let mut kept_for_render: Vec<(usize, Run)> = Vec::new();
-            // For the peers: each view's truth, and our exact HPR's sets and times by γ.
-            let mut truths: Vec<Option<Vec<bool>>> = Vec::new();
-            let mut ours: BTreeMap<(usize, String), (Vec<u32>, f64)> = BTreeMap::new();
-            for view in 0..n_views {
-                let cam = *ds.view(view)?;
+            let off_flags = off.as_ref().map(|(f, _)| &f[..]);
+            let mut truths: BTreeMap<usize, Option<Vec<bool>>> = BTreeMap::new();
+            for &v in &views {
                 let truth = match &reference {
                     Some(r) => Some(
-                        r.visibility(ds.truth_points(), &cam, &ReferenceParams::default())?
+                        r.visibility(ds.truth_points(), ds.view(v)?, &ReferenceParams::default())?
                             .visible,
                     ),
                     None => None,
                 };
-                truths.push(truth.clone());
-                let mut runs: Vec<Run> = Vec::new();
-                let max_distance = points
-                    .iter()
-                    .map(|p| (*p - cam.eye).length())
-                    .fold(0.0, f64::max);
-
-                let hpr_run = |kernel: Kernel, perturb: f64, label: String| -> Result<Run> {
-                    let params = HprParams {
-                        kernel,
-                        perturb,
-                        seed: 2007,
-                    };
-                    let (v, timing) =
-                        timed(|| Ok(hpr::visible(points, cam.eye, &params, own.as_ref())?))?;
-                    Ok(Run {
-                        method: "hpr",
-                        params: label,
-                        visible: v.visible,
-                        timing,
-                        rays: 0,
-                        pixels: None,
-                    })
-                };
-                for &g in GAMMAS {
-                    let perturbs: &[f64] = if PERTURBED_GAMMAS.contains(&g) {
-                        &[0.0, PERTURB]
-                    } else {
-                        &[0.0]
-                    };
-                    for &perturb in perturbs {
-                        runs.push(hpr_run(
-                            Kernel::Linear(Radius::Gamma(g)),
-                            perturb,
-                            format!("kernel=linear;gamma={g};perturb={perturb}"),
-                        )?);
-                    }
-                }
-                for &g in EXP_GAMMAS {
-                    runs.push(hpr_run(
-                        Kernel::Exponential(g),
-                        0.0,
-                        format!("kernel=exp;gamma={g};perturb=0"),
-                    )?);
-                }
-                let g_auto = hpr::auto::auto_gamma(&scale, cam.eye, max_distance);
-                runs.push(hpr_run(
-                    Kernel::Linear(Radius::Gamma(g_auto)),
-                    0.0,
-                    format!("kernel=linear;gamma=auto;gamma_value={g_auto:.3};perturb=0"),
-                )?);
-
-                let cast_factors = RADIUS_FACTORS
-                    .iter()
-                    .map(|&f| (f, false))
-                    .chain([(raycast::auto::RADIUS_FACTOR, true)]);
-                for (factor, auto) in cast_factors {
-                    for &(w, h) in RESOLUTIONS {
-                        let c = cam.with_resolution(w, h)?;
-                        let rays = match ray_lists.entry((w, h)) {
-                            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
-                            std::collections::btree_map::Entry::Vacant(e) => {
-                                e.insert(RayList::new(&c)?)
-                            }
-                        };
-                        // `scale.spacing` is the density spacing, the unit of both rules.
-                        let params = CastParams {
-                            radius: factor * scale.spacing,
-                            traversal: Traversal::Exact,
-                        };
-                        let (frame, timing) = timed(|| Ok(caster.cast(rays, &c, &params)?))?;
-                        let label = if auto {
-                            format!("radius=auto;radius_factor_value={factor};width={w};height={h}")
-                        } else {
-                            format!("radius_factor={factor};width={w};height={h}")
-                        };
-                        runs.push(Run {
-                            method: "raycast",
-                            params: label,
-                            visible: frame.visible,
-                            timing,
-                            rays: frame.rays,
-                            pixels: Some((c, frame.pixel_point)),
-                        });
-                    }
-                }
-                for &radius_px in SPLAT_RADII {
-                    for &depth_tolerance in SPLAT_TOLERANCES {
-                        let params = SplatParams {
-                            radius_px,
-                            depth_tolerance,
-                        };
-                        let (out, timing) = timed(|| {
-                            Ok(splatter.visibility(&cam, &params, &mut splat_scratch, true)?)
-                        })?;
-                        runs.push(Run {
-                            method: "splat",
-                            params: format!(
-                                "radius_px={radius_px};depth_tolerance={depth_tolerance}"
-                            ),
-                            visible: out.visible,
-                            timing,
-                            rays: 0,
-                            pixels: Some((cam, out.pixel_point)),
-                        });
-                    }
-                }
-
-                // Score; image-space figures for the per-pixel methods.
-                let mut mesh_pixels: BTreeMap<(u32, u32), Vec<u32>> = BTreeMap::new();
-                if truth.is_none() {
-                    agreement.extend(agreement_rows(name, view, &runs));
-                }
-                for run in &runs {
-                    if let Some(g) = run
-                        .params
-                        .strip_prefix("kernel=linear;gamma=")
-                        .and_then(|rest| rest.strip_suffix(";perturb=0"))
-                    {
-                        ours.insert(
-                            (view, g.to_owned()),
-                            (run.visible.clone(), run.timing.median),
-                        );
-                    }
-                }
-                let off_flags = off.as_ref().map(|(f, _)| &f[..]);
-                for run in runs {
-                    let s = truth
-                        .as_ref()
-                        .map(|t| Score::of_on_surface(&run.visible, t, off_flags));
-                    let off_surface_visible = off_flags.map_or(0, |f| {
-                        run.visible.iter().filter(|&&i| f[i as usize]).count()
-                    });
-                    rows.push(Row {
-                        dataset: name.clone(),
-                        n_points: points.len(),
-                        view,
-                        method: run.method.into(),
-                        params: run.params.clone(),
-                        seconds: run.timing.median,
-                        seconds_min: run.timing.min,
-                        seconds_max: run.timing.max,
-                        samples: run.timing.samples,
-                        status: ok_status(),
-                        rays: run.rays,
-                        n_visible: run.visible.len(),
-                        precision: s.map_or(f64::NAN, |s| s.precision()),
-                        recall: s.map_or(f64::NAN, |s| s.recall()),
-                        f1: s.map_or(f64::NAN, |s| s.f1()),
-                        off_surface_visible,
-                    });
-                    if let (Some((c, pixel_point)), Some(truth), Some(mesh)) = (
-                        run.pixels.as_ref().filter(|(c, _)| c.has_frustum()),
-                        &truth,
-                        &ds.mesh,
-                    ) {
-                        let mesh = match mesh_pixels.entry((c.width, c.height)) {
-                            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
-                            std::collections::btree_map::Entry::Vacant(e) => {
-                                e.insert(truth::rasterize(mesh, c)?.triangle)
-                            }
-                        };
-                        let covered = pixel_point.iter().filter(|&&p| p != raycast::NONE).count();
-                        let true_pixels = pixel_point
-                            .iter()
-                            .filter(|&&p| p != raycast::NONE && truth[p as usize])
-                            .count();
-                        let mesh_total = mesh.iter().filter(|&&t| t != NO_TRIANGLE).count();
-                        let mesh_covered = mesh
-                            .iter()
-                            .zip(pixel_point)
-                            .filter(|&(&t, &p)| t != NO_TRIANGLE && p != raycast::NONE)
-                            .count();
-                        pixel_rows.push(PixelRow {
+                truths.insert(v, truth);
+            }
+            // The mesh's pixels per view and image size, for the per-pixel methods.
+            let mut mesh_masks: BTreeMap<(usize, u32, u32), Vec<bool>> = BTreeMap::new();
+            let mut kept: BTreeMap<usize, Vec<Run>> = BTreeMap::new();
+            let mut ds_rows: Vec<Row> = Vec::new();
+            let mut ds_pixels: Vec<PixelRow> = Vec::new();
+            let cells: usize = methods
+                .iter()
+                .map(|(_, s)| s.settings(ctx.quick).len())
+                .sum::<usize>()
+                * views.len();
+            let bar = progress::bar(cells as u64, format!("visibility {name}"));
+            for (m, sweep) in &methods {
+                for setting in sweep.settings(ctx.quick) {
+                    let label = setting.label();
+                    let family = m.family(setting);
+                    // One preparation per setting, every view; a failure is a row per view.
+                    let prepared = registry::prepare(*m, ds.input(), &setting.params());
+                    for &view in &views {
+                        let cam = *ds.view(view)?;
+                        let truth = truths.get(&view).and_then(Option::as_deref);
+                        let mut row = Row {
                             dataset: name.clone(),
+                            n_points: points.len(),
                             view,
-                            method: run.method.into(),
-                            params: run.params.clone(),
-                            width: c.width,
-                            height: c.height,
-                            covered_pixels: covered,
-                            true_pixels,
-                            mesh_pixels: mesh_total,
-                            mesh_pixels_covered: mesh_covered,
-                            pixel_precision: true_pixels as f64 / covered.max(1) as f64,
-                            mesh_coverage: mesh_covered as f64 / mesh_total.max(1) as f64,
-                        });
-                    }
-                    if name == "bunny-69451" && view == 0 {
-                        kept_for_render.push((view, run));
+                            method: m.name().to_owned(),
+                            family: family.clone(),
+                            params: label.clone(),
+                            detail: String::new(),
+                            seconds: f64::NAN,
+                            rays: 0,
+                            n_visible: 0,
+                            precision: f64::NAN,
+                            recall: f64::NAN,
+                            f1: f64::NAN,
+                            off_surface_visible: 0,
+                            seconds_min: f64::NAN,
+                            seconds_max: f64::NAN,
+                            samples: 0,
+                            status: ok_status(),
+                        };
+                        let outcome = match &prepared {
+                            Ok(p) => registry::timed(p.as_ref(), &cam, ctx.repeats)
+                                .map_err(|e| e.to_string()),
+                            Err(e) => Err(e.to_string()),
+                        };
+                        match outcome {
+                            Ok((out, t)) => {
+                                if let Some(t) = truth {
+                                    let s = Score::of_on_surface(&out.visible, t, off_flags);
+                                    (row.precision, row.recall, row.f1) =
+                                        (s.precision(), s.recall(), s.f1());
+                                }
+                                row.off_surface_visible = off_flags.map_or(0, |f| {
+                                    out.visible.iter().filter(|&&i| f[i as usize]).count()
+                                });
+                                row.n_visible = out.visible.len();
+                                row.rays = out.rays;
+                                (row.seconds, row.seconds_min, row.seconds_max, row.samples) =
+                                    (t.median, t.min, t.max, t.samples);
+                                row.detail = out
+                                    .detail
+                                    .iter()
+                                    .map(|(k, v)| format!("{k}={v}"))
+                                    .collect::<Vec<_>>()
+                                    .join(";");
+                                if let (Some(px), Some(truth), Some(mesh)) =
+                                    (&out.pixels, truth, &ds.mesh)
+                                {
+                                    let c = cam.with_resolution(px.width, px.height)?;
+                                    if c.has_frustum() {
+                                        let mask = match mesh_masks.entry((view, c.width, c.height))
+                                        {
+                                            std::collections::btree_map::Entry::Occupied(e) => {
+                                                e.into_mut()
+                                            }
+                                            std::collections::btree_map::Entry::Vacant(e) => e
+                                                .insert(
+                                                    truth::rasterize(mesh, &c)?
+                                                        .triangle
+                                                        .iter()
+                                                        .map(|&t| t != NO_TRIANGLE)
+                                                        .collect(),
+                                                ),
+                                        };
+                                        ds_pixels.push(pixel_row(&row, px, truth, mask));
+                                    }
+                                }
+                                let keep = (truth.is_none()
+                                    && defaults.get(m.name()) == Some(&label))
+                                    || (peers_wanted
+                                        && (m.is_external() || is_peer_partner(m.name(), setting)))
+                                    || (Some(name.as_str()) == render_ds && view == 0);
+                                if keep {
+                                    kept.entry(view).or_default().push(Run {
+                                        method: m.name().to_owned(),
+                                        family: family.clone(),
+                                        params: label.clone(),
+                                        visible: out.visible,
+                                    });
+                                }
+                            }
+                            Err(e) => {
+                                eprintln!("visibility: {} {label} view {view}: {e}", m.name());
+                                row.status = format!("error: {e}");
+                            }
+                        }
+                        ds_rows.push(row);
+                        bar.inc(1);
                     }
                 }
-                bar.inc(1);
             }
             bar.finish_and_clear();
-            let off_flags = off.as_ref().map(|(f, _)| &f[..]);
-            measure_externals(
-                ctx,
-                &ds,
-                &truths,
-                off_flags,
-                &ours,
-                &mut rows,
-                &mut peers,
-                &mut not_run,
-            )?;
-            if let Some(reference) = reference.as_ref().filter(|_| !kept_for_render.is_empty()) {
-                render_bunny(&ctx.out_dir, &ds, reference, &rows, kept_for_render)?;
+            // Rows in (view, method, setting) order, whatever the loop order was.
+            ds_rows.sort_by_key(|r| r.view);
+            ds_pixels.sort_by_key(|r| r.view);
+            for (&view, runs) in &kept {
+                if truths.get(&view).is_some_and(Option::is_none) {
+                    agreement.extend(agreement_rows(name, view, runs, &defaults));
+                }
+                peers.extend(peer_rows(name, view, runs, &ds_rows));
             }
+            if let (Some(reference), Some(runs)) = (
+                reference
+                    .as_ref()
+                    .filter(|_| Some(name.as_str()) == render_ds),
+                kept.remove(&0).filter(|_| Some(name.as_str()) == render_ds),
+            ) {
+                render_bunny(&ctx.out_dir, &ds, reference, &ds_rows, runs)?;
+            }
+            rows.extend(ds_rows);
+            pixel_rows.extend(ds_pixels);
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
@@ -491,170 +441,139 @@ impl Experiment for VisibilityExperiment {
         write_csv(&ctx.out_dir.join("peers.csv"), &peers)?;
         not_run.sort();
         not_run.dedup();
+        let sweeps: serde_json::Map<String, serde_json::Value> = methods
+            .iter()
+            .map(|(m, s)| {
+                (
+                    m.name().to_owned(),
+                    serde_json::json!(
+                        s.settings(ctx.quick)
+                            .iter()
+                            .map(Setting::label)
+                            .collect::<Vec<_>>()
+                    ),
+                )
+            })
+            .collect();
         Ok(serde_json::json!({
             "views": n_views,
-            "hpr_linear_gammas": GAMMAS,
-            "hpr_perturbation": PERTURB,
-            "hpr_exp_gammas": EXP_GAMMAS,
+            "sweeps": sweeps,
+            "default_settings": defaults,
             "hpr_hull": "own",
             "hpr_auto_rule": format!("gamma = log10(kappa * D * d^2 / (s^2 * m)), kappa = {}", hpr::auto::KAPPA),
-            "raycast_radius_factors_density_spacings": RADIUS_FACTORS,
-            "raycast_resolutions": RESOLUTIONS,
             "raycast_auto_rule": format!("radius = {} x density spacing (k = 8)", raycast::auto::RADIUS_FACTOR),
-            "splat_radii_px": SPLAT_RADII,
-            "splat_tolerances": SPLAT_TOLERANCES,
-            "timing": format!("median of {} runs (seconds_min, seconds_max: their spread)", super::REPEATS),
+            "repeats": ctx.repeats,
+            "timing": format!("median of {} runs (seconds_min, seconds_max: their spread); external methods: their own reported seconds", ctx.repeats),
             "off_surface": off_surface_meta,
             "external_methods_not_run": not_run,
+            "render_dataset": render_ds,
         }))
     }
 
     fn render(&self, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let pixels: Vec<PixelRow> = read_csv(&dir.join("pixels.csv"))?;
-        // Runs before agreement.csv existed have none.
-        let agreement: Vec<AgreementRow> = if dir.join("agreement.csv").exists() {
-            read_csv(&dir.join("agreement.csv"))?
-        } else {
-            Vec::new()
-        };
-        let peers: Vec<PeerRow> = if dir.join("peers.csv").exists() {
-            read_csv(&dir.join("peers.csv"))?
-        } else {
-            Vec::new()
-        };
-        let not_run: Vec<String> = crate::output::meta::RunMeta::read(dir)
-            .ok()
-            .and_then(|m| {
-                serde_json::from_value(m.parameters["external_methods_not_run"].clone()).ok()
-            })
-            .unwrap_or_default();
+        let agreement: Vec<AgreementRow> = read_csv(&dir.join("agreement.csv"))?;
+        let peers: Vec<PeerRow> = read_csv(&dir.join("peers.csv"))?;
+        let meta = crate::output::meta::RunMeta::read(dir)?;
+        let not_run: Vec<String> =
+            serde_json::from_value(meta.parameters["external_methods_not_run"].clone())
+                .unwrap_or_default();
+        let defaults: BTreeMap<String, String> =
+            serde_json::from_value(meta.parameters["default_settings"].clone()).unwrap_or_default();
         let peers_md = peers_summary(&peers, &not_run);
-        render(dir, &rows, &pixels, &agreement, &peers_md)
+        let render_ds = meta.parameters["render_dataset"].as_str();
+        render(
+            dir, &rows, &pixels, &agreement, &peers_md, &defaults, render_ds,
+        )
     }
 }
 
-/// Runs every available external method with a grid (methods/NAME/method.toml) on `ds`: one
-/// preparation and process per setting, every view, scored like the built-in methods; a
-/// failing view is a row with NaN scores and its error on stderr (the run goes on). Peers with
-/// a `gamma` are paired with our exact HPR at the same γ (`peers.csv`). Methods that are not
-/// installed are listed in `not_run`.
-#[allow(clippy::too_many_arguments)]
-fn measure_externals(
-    ctx: &Context,
-    ds: &datasets::Dataset,
-    truths: &[Option<Vec<bool>>],
-    off: Option<&[bool]>,
-    ours: &BTreeMap<(usize, String), (Vec<u32>, f64)>,
-    rows: &mut Vec<Row>,
-    peers: &mut Vec<PeerRow>,
-    not_run: &mut Vec<String>,
-) -> Result<()> {
-    let points = &ds.cloud.positions;
-    for m in registry::all().into_iter().filter(|m| m.is_external()) {
-        let grid = m.grid(ctx.quick);
-        if grid.is_empty() {
+/// The image-space figures of one per-pixel run: which covered pixels show a truly visible
+/// point, and how much of the mesh's footprint got a point.
+fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool]) -> PixelRow {
+    let covered = px.point.iter().filter(|&&p| p != raycast::NONE).count();
+    let true_pixels = px
+        .point
+        .iter()
+        .filter(|&&p| p != raycast::NONE && truth[p as usize])
+        .count();
+    let mesh_total = mesh.iter().filter(|&&m| m).count();
+    let mesh_covered = mesh
+        .iter()
+        .zip(&px.point)
+        .filter(|&(&m, &p)| m && p != raycast::NONE)
+        .count();
+    PixelRow {
+        dataset: row.dataset.clone(),
+        view: row.view,
+        method: row.method.clone(),
+        family: row.family.clone(),
+        params: row.params.clone(),
+        width: px.width,
+        height: px.height,
+        covered_pixels: covered,
+        true_pixels,
+        mesh_pixels: mesh_total,
+        mesh_pixels_covered: mesh_covered,
+        pixel_precision: true_pixels as f64 / covered.max(1) as f64,
+        mesh_coverage: mesh_covered as f64 / mesh_total.max(1) as f64,
+    }
+}
+
+/// True for the settings of ours a peer is paired with: exact HPR, linear kernel, a fixed γ, no
+/// perturbation.
+fn is_peer_partner(method: &str, setting: &Setting) -> bool {
+    method == "hpr"
+        && setting.text("kernel").as_deref() != Some("exp")
+        && setting.number("perturb").unwrap_or(0.0) == 0.0
+        && setting.number("gamma").is_some()
+}
+
+/// Each external run with a `gamma` against our exact HPR at the same γ, same view.
+fn peer_rows(dataset: &str, view: usize, runs: &[Run], rows: &[Row]) -> Vec<PeerRow> {
+    let mut out = Vec::new();
+    for peer in runs
+        .iter()
+        .filter(|r| registry::method(&r.method).is_ok_and(|m| m.is_external()))
+    {
+        let Some(g) = Setting::parse(&peer.params).number("gamma") else {
             continue;
-        }
-        if let Err(why) = m.availability() {
-            not_run.push(format!("{}: {why}", m.name()));
+        };
+        let Some(ours) = runs.iter().find(|r| {
+            let s = Setting::parse(&r.params);
+            is_peer_partner(&r.method, &s) && s.number("gamma") == Some(g)
+        }) else {
             continue;
-        }
-        for setting in grid {
-            let params = registry::Params::from_pairs(
-                &setting
-                    .iter()
-                    .map(|(k, v)| (k.as_str(), v.clone()))
-                    .collect::<Vec<_>>(),
-            );
-            let label = params.canonical();
-            let prepared = registry::prepare(m, ds.input(), &params)?;
-            for (view, truth) in truths.iter().enumerate() {
-                let cam = *ds.view(view)?;
-                let row = |visible: &[u32], t: registry::timing::Timing| {
-                    let s = truth
-                        .as_ref()
-                        .map(|t| Score::of_on_surface(visible, t, off));
-                    Row {
-                        dataset: ds.name().to_owned(),
-                        n_points: points.len(),
-                        view,
-                        method: m.name().to_owned(),
-                        params: label.clone(),
-                        seconds: t.median,
-                        rays: 0,
-                        n_visible: visible.len(),
-                        precision: s.map_or(f64::NAN, |s| s.precision()),
-                        recall: s.map_or(f64::NAN, |s| s.recall()),
-                        f1: s.map_or(f64::NAN, |s| s.f1()),
-                        off_surface_visible: off
-                            .map_or(0, |f| visible.iter().filter(|&&i| f[i as usize]).count()),
-                        seconds_min: t.min,
-                        seconds_max: t.max,
-                        samples: t.samples,
-                        status: ok_status(),
-                    }
-                };
-                // The program's own seconds are the time (wall time includes the protocol).
-                let mut reported = Vec::new();
-                let outcome = registry::timing::measure(super::REPEATS, || {
-                    let out = prepared.visible(&cam)?;
-                    reported.push(out.reported_seconds.unwrap_or(f64::NAN));
-                    Ok::<_, registry::Error>(out)
-                });
-                match outcome {
-                    Ok((out, wall)) => {
-                        let t = if reported.iter().all(|s| s.is_finite()) {
-                            registry::timing::Timing::of(&reported)
-                        } else {
-                            wall
-                        };
-                        rows.push(row(&out.visible, t));
-                        if let Some(g) = setting.iter().find(|(k, _)| k == "gamma").map(|p| &p.1)
-                            && let Some((our_set, our_seconds)) = ours.get(&(view, g.clone()))
-                        {
-                            peers.push(PeerRow {
-                                dataset: ds.name().to_owned(),
-                                view,
-                                peer: m.name().to_owned(),
-                                gamma: g.clone(),
-                                ours_seconds: *our_seconds,
-                                peer_seconds: t.median,
-                                jaccard: Score::of_sets(&out.visible, our_set).jaccard(),
-                            });
-                        }
-                    }
-                    Err(e) => {
-                        eprintln!("visibility: {} {label} view {view}: {e}", m.name());
-                        let mut r = row(&[], registry::timing::Timing::of(&[f64::NAN]));
-                        r.precision = f64::NAN;
-                        r.recall = f64::NAN;
-                        r.f1 = f64::NAN;
-                        r.status = format!("error: {e}");
-                        rows.push(r);
-                    }
-                }
-            }
-        }
+        };
+        let seconds = |r: &Run| {
+            rows.iter()
+                .find(|x| x.view == view && x.method == r.method && x.params == r.params)
+                .map_or(f64::NAN, |x| x.seconds)
+        };
+        out.push(PeerRow {
+            dataset: dataset.to_owned(),
+            view,
+            peer: peer.method.clone(),
+            gamma: format!("{g}"),
+            ours_seconds: seconds(ours),
+            peer_seconds: seconds(peer),
+            jaccard: Score::of_sets(&peer.visible, &ours.visible).jaccard(),
+        });
     }
-    Ok(())
+    out
 }
 
-/// The settings compared on datasets without a mesh: each family's automatic rule (the ray
-/// cast at 1280 × 720) and the splat baseline's default.
-fn agreement_setting(method: &str, params: &str) -> bool {
-    match method {
-        "hpr" => params.contains("gamma=auto"),
-        "raycast" => params.contains("radius=auto") && params.contains("width=1280"),
-        "splat" => params == "radius_px=2;depth_tolerance=0.01",
-        _ => false,
-    }
-}
-
-fn agreement_rows(dataset: &str, view: usize, runs: &[Run]) -> Vec<AgreementRow> {
+/// On a cloud without a mesh: how far each pair of methods agree at their default settings.
+fn agreement_rows(
+    dataset: &str,
+    view: usize,
+    runs: &[Run],
+    defaults: &BTreeMap<String, String>,
+) -> Vec<AgreementRow> {
     let chosen: Vec<&Run> = runs
         .iter()
-        .filter(|r| agreement_setting(r.method, &r.params))
+        .filter(|r| defaults.get(&r.method) == Some(&r.params))
         .collect();
     let mut out = Vec::new();
     for (i, a) in chosen.iter().enumerate() {
@@ -662,8 +581,8 @@ fn agreement_rows(dataset: &str, view: usize, runs: &[Run]) -> Vec<AgreementRow>
             out.push(AgreementRow {
                 dataset: dataset.to_owned(),
                 view,
-                a: family(a.method, &a.params).to_owned(),
-                b: family(b.method, &b.params).to_owned(),
+                a: a.family.clone(),
+                b: b.family.clone(),
                 jaccard: Score::of_sets(&a.visible, &b.visible).jaccard(),
             });
         }
@@ -675,7 +594,7 @@ fn agreement_rows(dataset: &str, view: usize, runs: &[Run]) -> Vec<AgreementRow>
 fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
     let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
     for r in rows.iter().filter(|r| {
-        r.dataset == dataset && family(&r.method, &r.params) == fam && !is_auto(&r.params)
+        r.dataset == dataset && r.family == fam && !is_auto(&r.params) && r.status == "ok"
     }) {
         let e = by.entry(&r.params).or_default();
         e.0 += r.f1;
@@ -691,7 +610,7 @@ fn render_bunny(
     ds: &datasets::Dataset,
     reference: &Reference,
     rows: &[Row],
-    runs: Vec<(usize, Run)>,
+    runs: Vec<Run>,
 ) -> Result<()> {
     let cam = ds.views[0];
     let points = &ds.cloud.positions;
@@ -712,14 +631,11 @@ fn render_bunny(
         &truth,
         None,
     )];
-    for fam in ["hpr-linear", "hpr-exp", "raycast", "splat"] {
-        let Some((best, _)) = best_setting(rows, ds.name(), fam) else {
+    for fam in families_of(rows) {
+        let Some((best, _)) = best_setting(rows, ds.name(), &fam) else {
             continue;
         };
-        let Some((_, run)) = runs
-            .iter()
-            .find(|(_, r)| family(r.method, &r.params) == fam && r.params == best)
-        else {
+        let Some(run) = runs.iter().find(|r| r.family == fam && r.params == best) else {
             continue;
         };
         let mut flags = vec![false; points.len()];
@@ -739,7 +655,10 @@ fn render_bunny(
     compose(
         &panels,
         3,
-        "bunny-69451, view 0. green: visible and found; blue: visible, missed; red: hidden, reported visible; grey: hidden",
+        &format!(
+            "{}, view 0. green: visible and found; blue: visible, missed; red: hidden, reported visible; grey: hidden",
+            ds.name()
+        ),
         &dir.join("renders.png"),
     )
 }
@@ -771,10 +690,196 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { s / n as f64 }
 }
 
-fn param(params: &str, key: &str) -> Option<f64> {
-    params
-        .split(';')
-        .find_map(|kv| kv.strip_prefix(key)?.strip_prefix('=')?.parse().ok())
+/// Each family at its best setting against exact HPR (linear kernel) at its best, paired per
+/// view: the speed ratio (geometric mean of per-view ratios) and the F1 difference (mean of
+/// per-view differences), each with its bootstrap 95 % interval.
+fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> String {
+    const BASE: &str = "hpr-linear";
+    let mut table = Vec::new();
+    for d in datasets {
+        let Some((base, _)) = best_setting(rows, d, BASE) else {
+            continue;
+        };
+        let by_view = |fam: &str, params: &str| -> BTreeMap<usize, (f64, f64)> {
+            rows.iter()
+                .filter(|r| {
+                    r.dataset == *d && r.family == fam && r.params == params && r.status == "ok"
+                })
+                .map(|r| (r.view, (r.seconds, r.f1)))
+                .collect()
+        };
+        let ours = by_view(BASE, &base);
+        for fam in families.iter().filter(|f| *f != BASE) {
+            let Some((best, _)) = best_setting(rows, d, fam) else {
+                continue;
+            };
+            let theirs = by_view(fam, &best);
+            let paired: Vec<((f64, f64), (f64, f64))> = theirs
+                .iter()
+                .filter_map(|(v, t)| Some((*t, *ours.get(v)?)))
+                .collect();
+            if paired.is_empty() {
+                continue;
+            }
+            let (ts, os): (Vec<f64>, Vec<f64>) = paired.iter().map(|(t, o)| (t.0, o.0)).unzip();
+            let df: Vec<f64> = paired.iter().map(|(t, o)| t.1 - o.1).collect();
+            let ratio = crate::stats::paired_ratio(&ts, &os, 2007)
+                .map_or("-".to_owned(), |(r, lo, hi)| format!("{r:.2}× [{lo:.2}, {hi:.2}]"));
+            let diff = crate::stats::bootstrap_mean(&df, 2007)
+                .map_or("-".to_owned(), |(m, lo, hi)| format!("{m:+.4} [{lo:+.4}, {hi:+.4}]"));
+            table.push(vec![
+                d.clone(),
+                fam.clone(),
+                best.replace(';', " "),
+                paired.len().to_string(),
+                ratio,
+                diff,
+            ]);
+        }
+    }
+    if table.is_empty() {
+        return String::new();
+    }
+    format!(
+        "### Against exact HPR, paired per view
+
+Each method at its best setting against \
+         `hpr-linear` at its best (same dataset, same views). `time ratio`: the method's \
+         seconds over HPR's, geometric mean of the per-view ratios (below 1: faster than HPR); \
+         `F1 − HPR`: mean of the per-view differences; both with a bootstrap 95 % interval \
+         (views resampled, 10,000 times).\n\n{}\n",
+        markdown_table(
+            &[
+                "dataset",
+                "method",
+                "its best setting",
+                "views",
+                "time ratio [95 % CI]",
+                "F1 − HPR [95 % CI]",
+            ],
+            &table
+        )
+    )
+}
+
+/// True when a fixed setting `o` agrees with the automatic `rule` on every key both set,
+/// the rule's own `auto` keys aside.
+fn comparable(rule: &Setting, o: &Setting) -> bool {
+    rule.0.iter().all(|(k, v)| {
+        *v == registry::sweep::Value::Text("auto".into()) || o.get(k).is_none_or(|w| w == v)
+    })
+}
+
+/// F1 against a family's main parameter (the numeric key with the most values over its fixed
+/// settings), one line per dataset and per combination of the other varying keys; `None` when
+/// the family sweeps no number. Negative parameters (the exponential kernel's γ) are negated
+/// and spans over two decades get a log axis.
+fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Result<Option<String>> {
+    let fixed: Vec<(&Row, Setting)> = rows
+        .iter()
+        .filter(|r| r.family == fam && r.status == "ok" && !r.f1.is_nan() && !is_auto(&r.params))
+        .map(|r| (r, Setting::parse(&r.params)))
+        .collect();
+    // Distinct values per key.
+    let mut values: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+    for (_, s) in &fixed {
+        for (k, v) in &s.0 {
+            let e = values.entry(k.as_str()).or_default();
+            let t = v.to_string();
+            if !e.contains(&t) {
+                e.push(t);
+            }
+        }
+    }
+    let Some(key) = values
+        .iter()
+        .filter(|(k, vs)| {
+            vs.len() > 1
+                && fixed
+                    .iter()
+                    .all(|(_, s)| s.get(k).is_none_or(|v| v.as_f64().is_some()))
+        })
+        .max_by_key(|(_, vs)| vs.len())
+        .map(|(k, _)| (*k).to_owned())
+    else {
+        return Ok(None);
+    };
+    let others: Vec<&str> = values
+        .iter()
+        .filter(|(k, vs)| **k != key && vs.len() > 1)
+        .map(|(k, _)| *k)
+        .collect();
+    let xs: Vec<f64> = fixed.iter().filter_map(|(_, s)| s.number(&key)).collect();
+    let negate = xs.iter().all(|&x| x < 0.0);
+    let (lo, hi) = xs
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            let x = if negate { -x } else { x };
+            (a.min(x), b.max(x))
+        });
+    let x_log = lo > 0.0 && hi / lo > 100.0;
+    let mut series = Vec::new();
+    for d in datasets {
+        let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
+        for (r, s) in fixed.iter().filter(|(r, _)| r.dataset == *d) {
+            let Some(x) = s.number(&key) else { continue };
+            let x = if negate { -x } else { x };
+            let line = others
+                .iter()
+                .map(|k| format!("{k}={}", s.text(k).unwrap_or_default()))
+                .collect::<Vec<_>>()
+                .join(" ");
+            let e = lines
+                .entry(line)
+                .or_default()
+                .entry((x * 1e9).round() as i64)
+                .or_insert((x, Vec::new()));
+            e.1.push(r.f1);
+        }
+        for (line, pts) in lines {
+            let label = if line.is_empty() {
+                d.clone()
+            } else {
+                format!("{d} {line}")
+            };
+            let mut sr = Series::new(
+                label,
+                pts.values()
+                    .map(|(x, f)| (*x, mean(f.iter().copied())))
+                    .collect(),
+                Mark::LinePoints,
+            );
+            sr.y_spread = pts
+                .values()
+                .map(|(_, f)| {
+                    f.iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+                            (a.min(v), b.max(v))
+                        })
+                })
+                .collect();
+            series.push(sr);
+        }
+    }
+    if series.is_empty() {
+        return Ok(None);
+    }
+    let file = format!("f1_{fam}.png");
+    let shown = if negate {
+        format!("-{key}")
+    } else {
+        key.clone()
+    };
+    Chart {
+        title: format!("{fam}: F1 against {shown}"),
+        x_label: format!("{shown}{}", if x_log { " (log)" } else { "" }),
+        y_label: "F1 (mean over views; bars: lowest to highest view)".into(),
+        x_log,
+        series,
+        ..Chart::default()
+    }
+    .save(&dir.join(&file), 900, 500)?;
+    Ok(Some(file))
 }
 
 /// The peers' section: per dataset, peer and γ, our exact HPR's speed ratio against the peer
@@ -851,6 +956,8 @@ fn render(
     pixels: &[PixelRow],
     agreement: &[AgreementRow],
     peers_md: &str,
+    defaults: &BTreeMap<String, String>,
+    render_ds: Option<&str>,
 ) -> Result<()> {
     let all_datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
         if !acc.contains(&r.dataset) {
@@ -871,18 +978,18 @@ fn render(
         let mut speed: BTreeMap<&str, Vec<(f64, usize)>> = BTreeMap::new();
         for r in rows
             .iter()
-            .filter(|r| r.dataset == *d && agreement_setting(&r.method, &r.params))
+            .filter(|r| r.dataset == *d && defaults.get(&r.method) == Some(&r.params))
         {
             speed
-                .entry(family(&r.method, &r.params))
+                .entry(r.family.as_str())
                 .or_default()
                 .push((r.seconds, r.n_visible));
         }
         no_mesh.push_str(&format!(
             "#### {d}: no mesh, no ground truth\n\nThis dataset has no mesh, so there is nothing \
              to score against: its F1 columns are empty (NaN in results.csv). What can be \
-             measured is reported: each method's time and visible count at its automatic \
-             setting, and how far the methods agree (Jaccard index of their visible sets, mean \
+             measured is reported: each method's time and visible count at its default \
+             setting (its automatic rule where it has one), and how far the methods agree (Jaccard index of their visible sets, mean \
              over views).\n\n{}\n{}\n",
             markdown_table(
                 &["method", "seconds", "visible points"],
@@ -930,7 +1037,8 @@ fn render(
     let families = families_of(rows);
     let mut pictures = String::new();
 
-    // F1 against seconds, every setting (mean over views), Pareto front marked, per dataset.
+    // F1 against seconds, every setting (mean over views; bars: the views' fastest and slowest
+    // timed runs and the lowest and highest F1), Pareto front marked, per dataset.
     for d in &datasets {
         let mut series = Vec::new();
         let mut all: Vec<(f64, f64)> = Vec::new();
@@ -938,7 +1046,7 @@ fn render(
             let mut by: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
             for r in rows
                 .iter()
-                .filter(|r| r.dataset == *d && family(&r.method, &r.params) == fam.as_str())
+                .filter(|r| r.dataset == *d && r.family == *fam && r.status == "ok")
             {
                 by.entry(&r.params).or_default().push(r);
             }
@@ -951,9 +1059,22 @@ fn render(
                     )
                 })
                 .collect();
+            let spread = |f: &dyn Fn(&Row) -> (f64, f64)| -> Vec<(f64, f64)> {
+                by.values()
+                    .map(|rs| {
+                        rs.iter()
+                            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
+                                let (a, b) = f(r);
+                                (lo.min(a), hi.max(b))
+                            })
+                    })
+                    .collect()
+            };
             all.extend(&pts);
             let mut s = Series::new(fam.clone(), pts, Mark::Points);
             s.color = Some(k);
+            s.x_spread = spread(&|r| (r.seconds_min, r.seconds_max));
+            s.y_spread = spread(&|r| (r.f1, r.f1));
             series.push(s);
         }
         all.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -972,8 +1093,8 @@ fn render(
         let file = format!("pareto_{d}.png");
         Chart {
             title: format!("{d}: F1 against time, every method and setting (mean over views)"),
-            x_label: "seconds per view (log)".into(),
-            y_label: "F1 against the reference".into(),
+            x_label: "seconds per view (log; bars: fastest to slowest run over the views)".into(),
+            y_label: "F1 against the reference (bars: lowest to highest view)".into(),
             x_log: true,
             series,
             ..Chart::default()
@@ -982,109 +1103,11 @@ fn render(
         pictures.push_str(&format!("![{d} Pareto]({file})\n\n"));
     }
 
-    // F1 against each family's parameter.
-    let param_chart = |fam: &str,
-                       key: &str,
-                       title: &str,
-                       x_label: &str,
-                       x_log: bool,
-                       negate: bool,
-                       by_res: bool|
-     -> Result<String> {
-        let mut series = Vec::new();
-        for d in &datasets {
-            let resolutions: Vec<String> = if by_res {
-                RESOLUTIONS
-                    .iter()
-                    .map(|(w, h)| format!("width={w};height={h}"))
-                    .collect()
-            } else {
-                vec![String::new()]
-            };
-            for res in resolutions {
-                let mut by: BTreeMap<i64, Vec<f64>> = BTreeMap::new();
-                let mut xs: BTreeMap<i64, f64> = BTreeMap::new();
-                for r in rows.iter().filter(|r| {
-                    r.dataset == *d
-                        && family(&r.method, &r.params) == fam
-                        && !is_auto(&r.params)
-                        && r.params.contains(&res)
-                        && param(&r.params, "perturb").unwrap_or(0.0) == 0.0
-                        && (fam != "splat" || param(&r.params, "depth_tolerance") == Some(0.01))
-                }) {
-                    let Some(x) = param(&r.params, key) else {
-                        continue;
-                    };
-                    let x = if negate { -x } else { x };
-                    let key = (x * 1e9) as i64;
-                    by.entry(key).or_default().push(r.f1);
-                    xs.insert(key, x);
-                }
-                let pts: Vec<(f64, f64)> = by
-                    .iter()
-                    .map(|(k, f)| (xs[k], mean(f.iter().copied())))
-                    .collect();
-                if !pts.is_empty() {
-                    let label = if by_res {
-                        format!("{d} {}", res.replace("width=", "").replace(";height=", "x"))
-                    } else {
-                        d.clone()
-                    };
-                    series.push(Series::new(label, pts, Mark::LinePoints));
-                }
-            }
+    // F1 against each family's main parameter.
+    for fam in &families {
+        if let Some(file) = param_chart(dir, rows, &datasets, fam)? {
+            pictures.push_str(&format!("![{file}]({file})\n\n"));
         }
-        let file = format!("f1_{fam}.png");
-        Chart {
-            title: title.into(),
-            x_label: x_label.into(),
-            y_label: "F1 (mean over views)".into(),
-            x_log,
-            series,
-            ..Chart::default()
-        }
-        .save(&dir.join(&file), 900, 500)?;
-        Ok(file)
-    };
-    for file in [
-        param_chart(
-            "hpr-linear",
-            "gamma",
-            "HPR (linear kernel): F1 against gamma",
-            "gamma (R = max|p - C| x 10^gamma)",
-            false,
-            false,
-            false,
-        )?,
-        param_chart(
-            "hpr-exp",
-            "gamma",
-            "HPR (exponential kernel): F1 against -gamma",
-            "-gamma (log)",
-            true,
-            true,
-            false,
-        )?,
-        param_chart(
-            "raycast",
-            "radius_factor",
-            "Ray cast: F1 against the point radius, per resolution",
-            "radius (density spacings)",
-            false,
-            false,
-            true,
-        )?,
-        param_chart(
-            "splat",
-            "radius_px",
-            "Splat baseline (depth tolerance 0.01): F1 against splat radius",
-            "splat radius (pixels)",
-            false,
-            false,
-            false,
-        )?,
-    ] {
-        pictures.push_str(&format!("![{file}]({file})\n\n"));
     }
 
     // Best setting per family and dataset.
@@ -1096,7 +1119,7 @@ fn render(
             };
             let rs: Vec<&Row> = rows
                 .iter()
-                .filter(|r| r.dataset == *d && r.params == p && family(&r.method, &r.params) == fam)
+                .filter(|r| r.dataset == *d && r.params == p && r.family == fam)
                 .collect();
             best_table.push(vec![
                 d.clone(),
@@ -1110,51 +1133,68 @@ fn render(
         }
     }
 
-    // The automatic rules against the best fixed setting, view by view.
+    let versus = versus_table(rows, &datasets, &families);
+
+    // The automatic rules against the best fixed setting of the same family, view by view:
+    // fixed settings that agree with the rule's setting on every fixed key both have (the ray
+    // cast at the same resolution, HPR without perturbation).
     let mut auto_table = Vec::new();
     let mut worst: BTreeMap<(String, &str), f64> = BTreeMap::new();
-    for r in rows.iter().filter(|r| is_auto(&r.params)) {
-        let fam = family(&r.method, &r.params);
-        let same_res = |p: &str| {
-            fam != "raycast"
-                || (p.contains(&format!(
-                    "width={}",
-                    param(&r.params, "width").unwrap_or(0.0)
-                )))
-        };
+    let mut gaps: BTreeMap<(String, &str), Vec<f64>> = BTreeMap::new();
+    for r in rows
+        .iter()
+        .filter(|r| is_auto(&r.params) && r.status == "ok" && !r.f1.is_nan())
+    {
+        let rule = Setting::parse(&r.params);
         let best = rows
             .iter()
             .filter(|o| {
                 o.dataset == r.dataset
                     && o.view == r.view
-                    && family(&o.method, &o.params) == fam
+                    && o.family == r.family
+                    && o.status == "ok"
                     && !is_auto(&o.params)
-                    && same_res(&o.params)
+                    && comparable(&rule, &Setting::parse(&o.params))
             })
-            .filter(|o| fam != "hpr-linear" || param(&o.params, "perturb") == Some(0.0))
             .map(|o| o.f1)
             .fold(f64::NEG_INFINITY, f64::max);
+        if best == f64::NEG_INFINITY {
+            continue;
+        }
         let gap = best - r.f1;
-        let key = (r.dataset.clone(), fam);
+        let key = (r.dataset.clone(), r.family.as_str());
+        gaps.entry(key.clone()).or_default().push(gap);
         let w = worst.entry(key).or_insert(f64::NEG_INFINITY);
         *w = w.max(gap);
-        if fam == "hpr-linear" || r.params.contains("width=1280") {
-            auto_table.push(vec![
-                r.dataset.clone(),
-                r.view.to_string(),
-                fam.to_owned(),
+        auto_table.push(vec![
+            r.dataset.clone(),
+            r.view.to_string(),
+            r.family.clone(),
+            format!(
+                "{}{}",
                 r.params.replace(';', " "),
-                format!("{:.4}", r.f1),
-                format!("{best:.4}"),
-                format!("{gap:+.4}"),
-            ]);
-        }
+                if r.detail.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({})", r.detail.replace(';', " "))
+                }
+            ),
+            format!("{:.4}", r.f1),
+            format!("{best:.4}"),
+            format!("{gap:+.4}"),
+        ]);
     }
     let worst_lines: Vec<String> = worst
         .iter()
         .map(|((d, fam), g)| {
+            let mean = gaps
+                .get(&(d.clone(), *fam))
+                .and_then(|v| crate::stats::bootstrap_mean(v, 2007))
+                .map_or(String::new(), |(m, lo, hi)| {
+                    format!("; mean gap {m:+.4} [{lo:+.4}, {hi:+.4}]")
+                });
             format!(
-                "- {d}, {fam}: worst gap {g:.4} ({})",
+                "- {d}, {fam}: worst gap {g:.4} ({}){mean}",
                 if *g <= 0.02 {
                     "within 0.02"
                 } else {
@@ -1164,26 +1204,27 @@ fn render(
         })
         .collect();
 
-    // Image-space figures (1280 x 720 ray cast and the splats at the view's resolution).
+    // Image-space figures of the per-pixel families at their best setting.
     let mut pixel_table = Vec::new();
-    for d in &datasets {
-        let mut by: BTreeMap<(String, String), Vec<&PixelRow>> = BTreeMap::new();
-        for p in pixels
-            .iter()
-            .filter(|p| p.dataset == *d && !is_auto(&p.params))
-        {
-            by.entry((p.method.clone(), p.params.clone()))
-                .or_default()
-                .push(p);
+    let pixel_families: Vec<String> = pixels.iter().fold(Vec::new(), |mut acc, p| {
+        if !acc.contains(&p.family) {
+            acc.push(p.family.clone());
         }
-        for fam in ["raycast", "splat"] {
+        acc
+    });
+    for d in &datasets {
+        for fam in &pixel_families {
             let Some((params, _)) = best_setting(rows, d, fam) else {
                 continue;
             };
-            if let Some(ps) = by.get(&(fam.to_owned(), params.clone())) {
+            let ps: Vec<&PixelRow> = pixels
+                .iter()
+                .filter(|p| p.dataset == *d && p.family == *fam && p.params == params)
+                .collect();
+            if !ps.is_empty() {
                 pixel_table.push(vec![
                     d.clone(),
-                    fam.to_owned(),
+                    fam.clone(),
                     params.replace(';', " "),
                     format!("{:.4}", mean(ps.iter().map(|p| p.pixel_precision))),
                     format!("{:.4}", mean(ps.iter().map(|p| p.mesh_coverage))),
@@ -1194,16 +1235,17 @@ fn render(
         }
     }
 
-    let renders = if dir.join("renders.png").exists() {
-        "![bunny-69451 view 0: every method at its best setting](renders.png)\n\n"
-    } else {
-        ""
+    let renders = match (dir.join("renders.png").exists(), render_ds) {
+        (true, Some(d)) => {
+            format!("![{d}, view 0: every method at its best setting](renders.png)\n\n")
+        }
+        _ => String::new(),
     };
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
          alone, median of 3 runs (their spread in results.csv).\n\n{renders}### Best setting per method\n\n{}\n\
-         ### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
+         {versus}### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the best fixed setting's F1 \
          (same view; same resolution for the ray cast) minus the rule's; the goal is at most \

@@ -40,6 +40,13 @@ pub struct RunMeta {
     pub user_files: Vec<crate::datasets::SourceFile>,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
+    /// For one shard's run (`--shard K/N`): which part.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shard: Option<crate::experiments::Shard>,
+    /// For a merged run (`pointsight merge`): each shard's own metadata (its machine, revision,
+    /// date and seconds).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub shards: Vec<RunMeta>,
 }
 
 impl RunMeta {
@@ -66,6 +73,8 @@ impl RunMeta {
             parameters,
             user_files: Vec::new(),
             seconds: 0.0,
+            shard: None,
+            shards: Vec::new(),
         }
     }
 

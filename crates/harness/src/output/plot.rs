@@ -68,6 +68,10 @@ pub struct Series {
     pub mark: Mark,
     /// Palette index; by default the series' position.
     pub color: Option<usize>,
+    /// Per point, the spread of x drawn as a horizontal bar (low, high); empty: none.
+    pub x_spread: Vec<(f64, f64)>,
+    /// Per point, the spread of y drawn as a vertical bar (low, high); empty: none.
+    pub y_spread: Vec<(f64, f64)>,
 }
 
 impl Series {
@@ -78,6 +82,8 @@ impl Series {
             points,
             mark,
             color: None,
+            x_spread: Vec::new(),
+            y_spread: Vec::new(),
         }
     }
 }
@@ -224,6 +230,27 @@ impl Chart {
                 .light_line_style(RGBColor(235, 235, 235))
                 .draw()
                 .map_err(|e| anyhow!("{e:?}"))?;
+            for (i, s) in self.series.iter().enumerate() {
+                let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
+                // Spread bars first, under the marks.
+                let mut bars = Vec::new();
+                for (k, &(x, y)) in s.points.iter().enumerate() {
+                    if let Some(&(lo, hi)) = s.x_spread.get(k) {
+                        bars.push([(lo, y), (hi, y)]);
+                    }
+                    if let Some(&(lo, hi)) = s.y_spread.get(k) {
+                        bars.push([(x, lo), (x, hi)]);
+                    }
+                }
+                let (xl, yl) = (self.x_log, self.y_log);
+                chart
+                    .draw_series(bars.into_iter().filter_map(|[a, b]| {
+                        let a = (transform(a.0, xl)?, transform(a.1, yl)?);
+                        let b = (transform(b.0, xl)?, transform(b.1, yl)?);
+                        Some(PathElement::new(vec![a, b], color.mix(0.6).stroke_width(1)))
+                    }))
+                    .map_err(|e| anyhow!("{e:?}"))?;
+            }
             for (i, (s, pts)) in self.series.iter().zip(&data).enumerate() {
                 let color = PALETTE[s.color.unwrap_or(i) % PALETTE.len()];
                 let anno = match s.mark {

@@ -1,0 +1,460 @@
+//! Level-of-detail methods behind one trait: built once per cloud, asked per view for the
+//! splats to draw at one setting. The caller renders and scores them (PSNR, SSIM, holes against
+//! the full-cloud render); methods never see an image.
+//!
+//! Entries ([`LOD_METHODS`]): `qsplat` (Rusinkiewicz & Levoy 2000, seed 002: the bounding-sphere
+//! tree cut at a projected-size threshold, `threshold_px`), `spt` (Dachsbacher et al. 2003, seed
+//! 002: the sequential list cut at a screen-space error ε of `epsilon_px` pixels), `srn` (seed
+//! 003: each point kept when its random number is below its importance times `scale`, splats
+//! grown by 1/√I) and `random` (each point kept when its seeded uniform number is below
+//! `fraction`, splats grown by 1/√f), the baseline any LOD method must beat. The sweeps are in
+//! `sweeps.toml` like the visibility methods'. Adding one: an adapter implementing [`LodMethod`]
+//! and a line in [`LOD_METHODS`] (or [`register_lod`] at run time).
+//!
+//! Timing: [`LodSelector::select`] is the part a renderer pays per frame (the traversal, cut or
+//! test, into the selector's buffers) and is what callers time; [`LodSelector::splats`] turns
+//! the last selection into drawable splats and is not timed.
+
+use cloud::glam::{Vec2, Vec3};
+use cloud::rng::{RngExt, seeded};
+use cloud::{Camera, PointCloud};
+use splat::render::Splat;
+use srn::texture::Texture;
+use srn::{MaskingParams, Srn, SrnParams, masking_map};
+
+use crate::error::{Error, Result};
+use crate::{ParamSpec, Params};
+
+/// What an LOD method builds on.
+#[derive(Clone, Copy)]
+pub struct LodInput<'a> {
+    /// The cloud, with 8-bit colours.
+    pub cloud: &'a PointCloud,
+    /// A unit normal per point.
+    pub normals: &'a [Vec3],
+    /// Colour per point, in [0, 1]³.
+    pub albedo: &'a [Vec3],
+    /// Texture coordinates per point.
+    pub uvs: &'a [Vec2],
+    /// The texture the colours come from (SRN's masking importance is computed on it).
+    pub texture: &'a Texture,
+    /// Radius of a full-detail splat, world units.
+    pub radius: f64,
+    /// Seed of every random choice.
+    pub seed: u64,
+}
+
+impl LodInput<'_> {
+    /// Point `i` as a splat of `radius`.
+    pub fn point_splat(&self, i: usize, radius: f64) -> Splat {
+        Splat {
+            center: self.cloud.positions[i],
+            radius: radius as f32,
+            normal: self.normals[i],
+            albedo: self.albedo[i],
+        }
+    }
+}
+
+/// Size of a built structure.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LodSize {
+    /// Nodes or entries.
+    pub nodes: usize,
+    /// Bytes (0 when not meaningful).
+    pub bytes: f64,
+}
+
+/// An LOD method.
+pub trait LodMethod: Sync {
+    /// Name (CSV `method`, sweeps table).
+    fn name(&self) -> &'static str;
+    /// One line for listings.
+    fn summary(&self) -> &'static str;
+    /// The keys a setting may set.
+    fn params(&self) -> &'static [ParamSpec];
+    /// Builds the per-cloud structure.
+    fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>>;
+}
+
+/// A built structure.
+pub trait LodBuilt: Sync + Send {
+    /// Its size.
+    fn size(&self) -> LodSize;
+    /// A selector for one setting on the input the structure was built from.
+    fn selector<'s>(
+        &'s self,
+        input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> Result<Box<dyn LodSelector + 's>>;
+}
+
+/// One setting's selection, view by view.
+pub trait LodSelector {
+    /// The timed part for `camera`: traversal, cut or test, into the selector's buffers.
+    fn select(&mut self, camera: &Camera) -> Result<()>;
+    /// The last selection as splats (not timed).
+    fn splats(&self) -> Vec<Splat>;
+}
+
+/// An 8-bit colour as an albedo in [0, 1]³.
+pub fn albedo(c: [u8; 3]) -> Vec3 {
+    Vec3::new(f32::from(c[0]), f32::from(c[1]), f32::from(c[2])) / 255.0
+}
+
+/// Reads a setting, then checks that every key was read.
+fn read<T>(
+    params: &Params,
+    method: &str,
+    specs: &[ParamSpec],
+    f: impl FnOnce(&Params) -> Result<T>,
+) -> Result<T> {
+    let out = f(params)?;
+    params.check_all_read(method, specs)?;
+    Ok(out)
+}
+
+struct QsplatMethod;
+struct QsplatBuilt(qsplat::QTree);
+struct QsplatSel<'s> {
+    tree: &'s qsplat::QTree,
+    params: qsplat::TraverseParams,
+    last: Vec<qsplat::traverse::Splat>,
+}
+
+const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
+    key: "threshold_px",
+    default: "2",
+    help: "a node is drawn when its projected diameter is below this many pixels",
+}];
+
+impl LodMethod for QsplatMethod {
+    fn name(&self) -> &'static str {
+        "qsplat"
+    }
+    fn summary(&self) -> &'static str {
+        "QSplat (Rusinkiewicz & Levoy 2000): bounding-sphere tree, projected-size cut (seed 002)"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        QSPLAT_PARAMS
+    }
+    fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>> {
+        let tree = qsplat::build_tree(input.cloud, input.radius)
+            .map_err(|e| Error::Unsupported(format!("qsplat: {e}")))?;
+        Ok(Box::new(QsplatBuilt(tree)))
+    }
+}
+
+impl LodBuilt for QsplatBuilt {
+    fn size(&self) -> LodSize {
+        // Bytes as the original counts them (node words and colours, offsets included).
+        LodSize {
+            nodes: 1 + self.0.words.len(),
+            bytes: self.0.payload_bytes() as f64,
+        }
+    }
+    fn selector<'s>(
+        &'s self,
+        _input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> Result<Box<dyn LodSelector + 's>> {
+        let threshold_px = read(params, "qsplat", QSPLAT_PARAMS, |p| {
+            p.get("threshold_px", 2.0)
+        })?;
+        Ok(Box::new(QsplatSel {
+            tree: &self.0,
+            params: qsplat::TraverseParams {
+                threshold_px,
+                ..Default::default()
+            },
+            last: Vec::new(),
+        }))
+    }
+}
+
+impl LodSelector for QsplatSel<'_> {
+    fn select(&mut self, camera: &Camera) -> Result<()> {
+        self.last = qsplat::traverse(self.tree, camera, &self.params);
+        Ok(())
+    }
+    fn splats(&self) -> Vec<Splat> {
+        self.last
+            .iter()
+            .map(|s| Splat {
+                center: s.center,
+                radius: s.radius as f32,
+                normal: s.normal.as_vec3(),
+                albedo: albedo(s.color),
+            })
+            .collect()
+    }
+}
+
+struct SptMethod;
+struct SptBuilt(spt::Spt);
+struct SptSel<'s> {
+    spt: &'s spt::Spt,
+    pixels: f64,
+    entries: Vec<u32>,
+}
+
+const SPT_PARAMS: &[ParamSpec] = &[ParamSpec {
+    key: "epsilon_px",
+    default: "1",
+    help: "screen-space error ε in pixels (spt::epsilon_for_pixels)",
+}];
+
+impl LodMethod for SptMethod {
+    fn name(&self) -> &'static str {
+        "spt"
+    }
+    fn summary(&self) -> &'static str {
+        "Sequential Point Trees (Dachsbacher et al. 2003): sorted list cut at an error (seed 002)"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        SPT_PARAMS
+    }
+    fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>> {
+        let s = spt::build(input.cloud, 2.0 * input.radius)
+            .map_err(|e| Error::Unsupported(format!("spt: {e}")))?;
+        Ok(Box::new(SptBuilt(s)))
+    }
+}
+
+impl LodBuilt for SptBuilt {
+    fn size(&self) -> LodSize {
+        LodSize {
+            nodes: self.0.len(),
+            bytes: 0.0,
+        }
+    }
+    fn selector<'s>(
+        &'s self,
+        _input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> Result<Box<dyn LodSelector + 's>> {
+        let pixels = read(params, "spt", SPT_PARAMS, |p| p.get("epsilon_px", 1.0))?;
+        Ok(Box::new(SptSel {
+            spt: &self.0,
+            pixels,
+            entries: Vec::new(),
+        }))
+    }
+}
+
+impl LodSelector for SptSel<'_> {
+    fn select(&mut self, camera: &Camera) -> Result<()> {
+        let eps = spt::epsilon_for_pixels(camera, self.pixels);
+        self.spt
+            .cut_into(camera.eye, eps, &mut self.entries)
+            .map(|_| ())
+            .map_err(|e| Error::Unsupported(format!("spt: {e}")))
+    }
+    fn splats(&self) -> Vec<Splat> {
+        self.spt
+            .splats(&self.entries)
+            .iter()
+            .map(|s| Splat {
+                center: s.center,
+                radius: s.radius as f32,
+                normal: s.normal,
+                albedo: s.color,
+            })
+            .collect()
+    }
+}
+
+struct SrnMethod;
+struct SrnBuilt(Srn);
+struct SrnSel<'s> {
+    srn: &'s Srn,
+    input: &'s LodInput<'s>,
+    params: SrnParams,
+    kept: Vec<u32>,
+}
+
+const SRN_PARAMS: &[ParamSpec] = &[ParamSpec {
+    key: "scale",
+    default: "1",
+    help: "density scale: a point is kept when its random number is below scale × importance (1: the paper)",
+}];
+
+impl LodMethod for SrnMethod {
+    fn name(&self) -> &'static str {
+        "srn"
+    }
+    fn summary(&self) -> &'static str {
+        "SRN (seed 003): random numbers against a JPEG2000 visual-masking importance"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        SRN_PARAMS
+    }
+    fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>> {
+        let err = |e: srn::Error| Error::Unsupported(format!("srn: {e}"));
+        let map = masking_map(input.texture, &MaskingParams::default()).map_err(err)?;
+        Ok(Box::new(SrnBuilt(
+            Srn::new(input.uvs, &map, input.seed).map_err(err)?,
+        )))
+    }
+}
+
+impl LodBuilt for SrnBuilt {
+    fn size(&self) -> LodSize {
+        let n = self.0.len();
+        LodSize {
+            nodes: n,
+            bytes: 8.0 * n as f64,
+        }
+    }
+    fn selector<'s>(
+        &'s self,
+        input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> Result<Box<dyn LodSelector + 's>> {
+        let scale = read(params, "srn", SRN_PARAMS, |p| p.get("scale", 1.0f32))?;
+        Ok(Box::new(SrnSel {
+            srn: &self.0,
+            input,
+            params: SrnParams {
+                scale,
+                ..SrnParams::default()
+            },
+            kept: Vec::new(),
+        }))
+    }
+}
+
+impl LodSelector for SrnSel<'_> {
+    fn select(&mut self, _camera: &Camera) -> Result<()> {
+        self.srn
+            .select_into(&self.params, &mut self.kept)
+            .map_err(|e| Error::Unsupported(format!("srn: {e}")))
+    }
+    fn splats(&self) -> Vec<Splat> {
+        self.kept
+            .iter()
+            .map(|&i| {
+                let i = i as usize;
+                let grow = f64::from(self.srn.radius_factor(i, &self.params));
+                self.input.point_splat(i, self.input.radius * grow)
+            })
+            .collect()
+    }
+}
+
+struct RandomMethod;
+struct RandomBuilt(Vec<f32>);
+struct RandomSel<'s> {
+    numbers: &'s [f32],
+    input: &'s LodInput<'s>,
+    fraction: f64,
+    kept: Vec<u32>,
+}
+
+const RANDOM_PARAMS: &[ParamSpec] = &[ParamSpec {
+    key: "fraction",
+    default: "0.5",
+    help: "share of the points kept (each by its seeded uniform number)",
+}];
+
+impl LodMethod for RandomMethod {
+    fn name(&self) -> &'static str {
+        "random"
+    }
+    fn summary(&self) -> &'static str {
+        "baseline: a seeded uniform random subset, splats grown by 1/sqrt(fraction)"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        RANDOM_PARAMS
+    }
+    fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>> {
+        let mut rng = seeded(input.seed, "lod-random-baseline");
+        Ok(Box::new(RandomBuilt(
+            (0..input.cloud.len())
+                .map(|_| rng.random::<f32>())
+                .collect(),
+        )))
+    }
+}
+
+impl LodBuilt for RandomBuilt {
+    fn size(&self) -> LodSize {
+        LodSize {
+            nodes: self.0.len(),
+            bytes: 4.0 * self.0.len() as f64,
+        }
+    }
+    fn selector<'s>(
+        &'s self,
+        input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> Result<Box<dyn LodSelector + 's>> {
+        let fraction: f64 = read(params, "random", RANDOM_PARAMS, |p| p.get("fraction", 0.5))?;
+        if !(fraction > 0.0 && fraction <= 1.0) {
+            return Err(Error::BadValue {
+                key: "fraction".into(),
+                value: fraction.to_string(),
+                reason: "expected 0 < fraction <= 1".into(),
+            });
+        }
+        Ok(Box::new(RandomSel {
+            numbers: &self.0,
+            input,
+            fraction,
+            kept: Vec::new(),
+        }))
+    }
+}
+
+impl LodSelector for RandomSel<'_> {
+    fn select(&mut self, _camera: &Camera) -> Result<()> {
+        self.kept.clear();
+        self.kept.extend(
+            self.numbers
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| f64::from(**r) < self.fraction)
+                .map(|(i, _)| i as u32),
+        );
+        Ok(())
+    }
+    fn splats(&self) -> Vec<Splat> {
+        let radius = self.input.radius / self.fraction.sqrt();
+        self.kept
+            .iter()
+            .map(|&i| self.input.point_splat(i as usize, radius))
+            .collect()
+    }
+}
+
+/// The built-in LOD methods, in listing order.
+pub static LOD_METHODS: &[&dyn LodMethod] = &[&QsplatMethod, &SptMethod, &SrnMethod, &RandomMethod];
+
+static EXTRA: std::sync::RwLock<Vec<&'static dyn LodMethod>> = std::sync::RwLock::new(Vec::new());
+
+/// Adds an LOD method for every later lookup in this process; its name must be new (among
+/// visibility and LOD methods alike: one sweeps file names both).
+pub fn register_lod(method: &'static dyn LodMethod) -> Result<()> {
+    if all().iter().any(|m| m.name() == method.name()) || crate::method(method.name()).is_ok() {
+        return Err(Error::Unsupported(format!(
+            "a method named {} is already registered",
+            method.name()
+        )));
+    }
+    EXTRA
+        .write()
+        .map_err(|_| Error::Unsupported("the LOD registry is poisoned".into()))?
+        .push(method);
+    Ok(())
+}
+
+/// Every LOD method: built-in, then registered.
+pub fn all() -> Vec<&'static dyn LodMethod> {
+    let extra = EXTRA.read().map(|e| e.clone()).unwrap_or_default();
+    LOD_METHODS.iter().copied().chain(extra).collect()
+}
+
+/// Looks an LOD method up by name.
+pub fn method(name: &str) -> Option<&'static dyn LodMethod> {
+    all().into_iter().find(|m| m.name() == name)
+}

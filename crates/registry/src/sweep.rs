@@ -1,0 +1,467 @@
+//! Sweeps as data: the settings each method is measured at, full and quick, with typed values.
+//!
+//! The built-in grids are [`BUILTIN`] (`sweeps.toml` beside this file: data, not code); an
+//! external method's `method.toml` carries its own; a user's file (`pointsight run visibility
+//! --config sweeps.toml`) replaces the grid of any method it names, in the spirit of
+//! ann-benchmarks' `config.yml`. One format for all three:
+//!
+//! ```toml
+//! repeats = 5                      # optional: timed runs per call (the experiments' default: 3)
+//!
+//! [hpr]
+//! # The one setting that stands for the method where one must (agreement between methods on a
+//! # cloud without a mesh). Default: the first automatic setting, else the first one.
+//! default = {gamma = "auto", kernel = "linear", perturb = 0, seed = 2007}
+//!
+//! [[hpr.grid]]                     # a block: scalars are fixed, lists are swept
+//! kernel = "linear"
+//! gamma = [1.5, 2.0, 2.5]
+//! perturb = 0
+//!
+//! [[hpr.grid]]                     # a list of inline tables sweeps several keys together
+//! size = [{width = 640, height = 360}, {width = 1280, height = 720}]
+//!
+//! [[hpr.quick_grid]]               # optional; --quick uses `grid` when absent
+//! gamma = 3
+//! ```
+//!
+//! A block's settings are the product of its lists, the first key written varying slowest. A
+//! setting is a map from `--set` key to a typed [`Value`]; its label (the CSV `params` column)
+//! is `k=v` pairs sorted by key and joined by `;`, the same text [`crate::Params::canonical`]
+//! gives, and [`Setting::parse`] reads a label back into typed values.
+
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+
+use crate::error::{Error, Result};
+use crate::params::Params;
+
+/// The built-in grids (`sweeps.toml`).
+pub const BUILTIN: &str = include_str!("sweeps.toml");
+
+/// A parameter value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Value {
+    /// An integer.
+    Int(i64),
+    /// A real number.
+    Float(f64),
+    /// A flag.
+    Bool(bool),
+    /// Text (a name, or a rule such as `auto`).
+    Text(String),
+}
+
+impl fmt::Display for Value {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Value::Int(i) => write!(f, "{i}"),
+            Value::Float(x) => write!(f, "{x}"),
+            Value::Bool(b) => write!(f, "{b}"),
+            Value::Text(s) => f.write_str(s),
+        }
+    }
+}
+
+impl Value {
+    /// Reads a value back from its text: an integer, else a real, else a flag, else text.
+    pub fn parse(text: &str) -> Self {
+        if let Ok(i) = text.parse::<i64>() {
+            Value::Int(i)
+        } else if let Ok(x) = text.parse::<f64>() {
+            Value::Float(x)
+        } else if let Ok(b) = text.parse::<bool>() {
+            Value::Bool(b)
+        } else {
+            Value::Text(text.to_owned())
+        }
+    }
+
+    /// The value as a number (integers and reals).
+    pub fn as_f64(&self) -> Option<f64> {
+        match self {
+            Value::Int(i) => Some(*i as f64),
+            Value::Float(x) => Some(*x),
+            _ => None,
+        }
+    }
+
+    fn from_toml(v: &toml::Value, where_: &str) -> Result<Self> {
+        Ok(match v {
+            toml::Value::Integer(i) => Value::Int(*i),
+            toml::Value::Float(x) => Value::Float(*x),
+            toml::Value::Boolean(b) => Value::Bool(*b),
+            toml::Value::String(s) => Value::Text(s.clone()),
+            other => {
+                return Err(Error::Sweep(format!(
+                    "{where_}: expected a number, a flag or text, got {}",
+                    other.type_str()
+                )));
+            }
+        })
+    }
+}
+
+/// One setting: `--set` key to typed value.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Setting(pub BTreeMap<String, Value>);
+
+impl Setting {
+    /// Reads a label (`k=v;k=v`) back into typed values; the empty label is the empty setting.
+    pub fn parse(label: &str) -> Self {
+        Self(
+            label
+                .split(';')
+                .filter(|kv| !kv.is_empty())
+                .map(|kv| match kv.split_once('=') {
+                    Some((k, v)) => (k.to_owned(), Value::parse(v)),
+                    None => (kv.to_owned(), Value::Text(String::new())),
+                })
+                .collect(),
+        )
+    }
+
+    /// The label: `k=v` pairs sorted by key, joined by `;`.
+    pub fn label(&self) -> String {
+        self.0
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(";")
+    }
+
+    /// The setting as `--set` parameters.
+    pub fn params(&self) -> Params {
+        Params::from_pairs(
+            &self
+                .0
+                .iter()
+                .map(|(k, v)| (k.as_str(), v.to_string()))
+                .collect::<Vec<_>>(),
+        )
+    }
+
+    /// The value of `key`.
+    pub fn get(&self, key: &str) -> Option<&Value> {
+        self.0.get(key)
+    }
+
+    /// The value of `key` as a number.
+    pub fn number(&self, key: &str) -> Option<f64> {
+        self.get(key).and_then(Value::as_f64)
+    }
+
+    /// The value of `key` as text.
+    pub fn text(&self, key: &str) -> Option<String> {
+        self.get(key).map(Value::to_string)
+    }
+
+    /// True when some value is a rule computed from the data (`auto`) rather than fixed.
+    pub fn is_auto(&self) -> bool {
+        self.0.values().any(|v| *v == Value::Text("auto".into()))
+    }
+
+    /// True when `self` has every pair of `other`.
+    pub fn contains(&self, other: &Setting) -> bool {
+        other.0.iter().all(|(k, v)| self.0.get(k) == Some(v))
+    }
+}
+
+/// One method's sweep.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct MethodSweep {
+    /// The full grid.
+    pub grid: Vec<Setting>,
+    /// The quick grid (`--quick`); empty: the full grid.
+    pub quick_grid: Vec<Setting>,
+    /// The setting that stands for the method; `None`: the first automatic one, else the first.
+    pub default: Option<Setting>,
+}
+
+impl MethodSweep {
+    /// The settings to run.
+    pub fn settings(&self, quick: bool) -> &[Setting] {
+        if quick && !self.quick_grid.is_empty() {
+            &self.quick_grid
+        } else {
+            &self.grid
+        }
+    }
+
+    /// The setting that stands for the method.
+    pub fn default_setting(&self) -> Option<Setting> {
+        self.default.clone().or_else(|| {
+            self.grid
+                .iter()
+                .find(|s| s.is_auto())
+                .or(self.grid.first())
+                .cloned()
+        })
+    }
+
+    /// Reads one method's table (`grid`, `quick_grid`, `default`).
+    pub fn from_toml(table: &toml::Table, where_: &str) -> Result<Self> {
+        let mut out = Self::default();
+        for (key, value) in table {
+            let here = format!("{where_}.{key}");
+            match key.as_str() {
+                "grid" | "quick_grid" => {
+                    let blocks = value.as_array().ok_or_else(|| {
+                        Error::Sweep(format!("{here}: expected a list of tables ([[{here}]])"))
+                    })?;
+                    let mut settings = Vec::new();
+                    for (i, block) in blocks.iter().enumerate() {
+                        let block = block.as_table().ok_or_else(|| {
+                            Error::Sweep(format!("{here}[{i}]: expected a table"))
+                        })?;
+                        settings.extend(expand(block, &format!("{here}[{i}]"))?);
+                    }
+                    if key == "grid" {
+                        out.grid = settings;
+                    } else {
+                        out.quick_grid = settings;
+                    }
+                }
+                "default" => {
+                    let t = value.as_table().ok_or_else(|| {
+                        Error::Sweep(format!("{here}: expected a table of key = value"))
+                    })?;
+                    let mut s = Setting::default();
+                    for (k, v) in t {
+                        s.0.insert(k.clone(), Value::from_toml(v, &format!("{here}.{k}"))?);
+                    }
+                    out.default = Some(s);
+                }
+                other => {
+                    return Err(Error::Sweep(format!(
+                        "{where_}: unknown key {other:?} (expected grid, quick_grid, default)"
+                    )));
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The settings of one block: the product of its lists, first key slowest.
+fn expand(block: &toml::Table, where_: &str) -> Result<Vec<Setting>> {
+    let mut settings = vec![Setting::default()];
+    for (key, value) in block {
+        let here = format!("{where_}.{key}");
+        // Each choice of this key: the pairs it sets.
+        let choices: Vec<Vec<(String, Value)>> = match value {
+            toml::Value::Array(items) => {
+                if items.is_empty() {
+                    return Err(Error::Sweep(format!(
+                        "{here}: an empty list sweeps nothing"
+                    )));
+                }
+                items
+                    .iter()
+                    .map(|item| match item {
+                        toml::Value::Table(t) => t
+                            .iter()
+                            .map(|(k, v)| {
+                                Ok((k.clone(), Value::from_toml(v, &format!("{here}.{k}"))?))
+                            })
+                            .collect::<Result<Vec<_>>>(),
+                        v => Ok(vec![(key.clone(), Value::from_toml(v, &here)?)]),
+                    })
+                    .collect::<Result<_>>()?
+            }
+            v => vec![vec![(key.clone(), Value::from_toml(v, &here)?)]],
+        };
+        let mut next = Vec::with_capacity(settings.len() * choices.len());
+        for s in &settings {
+            for choice in &choices {
+                let mut s = s.clone();
+                for (k, v) in choice {
+                    if s.0.insert(k.clone(), v.clone()).is_some() {
+                        return Err(Error::Sweep(format!("{here}: {k} is set twice")));
+                    }
+                }
+                next.push(s);
+            }
+        }
+        settings = next;
+    }
+    Ok(settings)
+}
+
+/// Sweeps of several methods, and the number of timed runs per call.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Sweeps {
+    /// By method name.
+    pub methods: BTreeMap<String, MethodSweep>,
+    /// Timed runs per call, when the file sets it.
+    pub repeats: Option<usize>,
+}
+
+impl Sweeps {
+    /// Parses a sweeps file's text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Self> {
+        let table: toml::Table =
+            toml::from_str(text).map_err(|e| Error::Sweep(format!("{origin}: {e}")))?;
+        let mut out = Self::default();
+        for (key, value) in &table {
+            match (key.as_str(), value) {
+                ("repeats", toml::Value::Integer(r)) if *r >= 1 => {
+                    out.repeats = Some(*r as usize);
+                }
+                ("repeats", _) => {
+                    return Err(Error::Sweep(format!(
+                        "{origin}: repeats must be an integer of at least 1"
+                    )));
+                }
+                (name, toml::Value::Table(t)) => {
+                    out.methods.insert(
+                        name.to_owned(),
+                        MethodSweep::from_toml(t, &format!("{origin}: {name}"))?,
+                    );
+                }
+                (name, _) => {
+                    return Err(Error::Sweep(format!(
+                        "{origin}: {name} must be a table ([{name}]) of grid, quick_grid, default"
+                    )));
+                }
+            }
+        }
+        Ok(out)
+    }
+
+    /// Reads a sweeps file.
+    pub fn read(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::Sweep(format!("{}: {e}", path.display())))?;
+        Self::parse(&text, &path.display().to_string())
+    }
+
+    /// The built-in grids.
+    pub fn builtin() -> Self {
+        // The file is part of this crate and tested; an error is a build defect.
+        Self::parse(BUILTIN, "registry/src/sweeps.toml").unwrap_or_default()
+    }
+
+    /// `over` replaces the sweeps of the methods it names (and the repeats, if set).
+    pub fn overlay(mut self, over: Sweeps) -> Self {
+        self.methods.extend(over.methods);
+        if over.repeats.is_some() {
+            self.repeats = over.repeats;
+        }
+        self
+    }
+
+    /// Every registered method with a sweep, in registry order: the built-in grids, the
+    /// external methods' own, then `user` over both. A method `user` names that is not
+    /// registered is an error.
+    pub fn resolve(user: Option<Sweeps>) -> Result<Self> {
+        let mut base = Self::builtin();
+        for m in crate::all() {
+            if let Some(s) = m.sweep() {
+                base.methods.insert(m.name().to_owned(), s);
+            }
+        }
+        if let Some(user) = &user {
+            for name in user.methods.keys() {
+                if crate::lod::method(name).is_none() {
+                    crate::method(name)?;
+                }
+            }
+        }
+        Ok(match user {
+            Some(u) => base.overlay(u),
+            None => base,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blocks_expand_to_products_in_written_order() {
+        let s = Sweeps::parse(
+            r#"
+            repeats = 4
+            [m]
+            [[m.grid]]
+            b = [2, 1]
+            a = "x"
+            size = [{w = 640, h = 360}, {w = 1280, h = 720}]
+            [[m.grid]]
+            c = 1e-5
+            "#,
+            "t",
+        )
+        .unwrap();
+        assert_eq!(s.repeats, Some(4));
+        let labels: Vec<String> = s.methods["m"].grid.iter().map(Setting::label).collect();
+        assert_eq!(
+            labels,
+            [
+                "a=x;b=2;h=360;w=640",
+                "a=x;b=2;h=720;w=1280",
+                "a=x;b=1;h=360;w=640",
+                "a=x;b=1;h=720;w=1280",
+                "c=0.00001",
+            ]
+        );
+        // Labels read back to the same typed values.
+        for set in &s.methods["m"].grid {
+            assert_eq!(Setting::parse(&set.label()), *set);
+        }
+        assert_eq!(s.methods["m"].settings(true).len(), 5);
+    }
+
+    #[test]
+    fn builtin_grids_parse_and_name_registered_methods() {
+        let s = Sweeps::parse(BUILTIN, "sweeps.toml").unwrap();
+        for (name, sweep) in &s.methods {
+            let params = match crate::lod::method(name) {
+                Some(m) => m.params(),
+                None => crate::method(name).unwrap().params(),
+            };
+            assert!(!sweep.grid.is_empty(), "{name}");
+            // Every setting is accepted by the method's parameters.
+            for set in sweep.grid.iter().chain(&sweep.quick_grid) {
+                for k in set.0.keys() {
+                    assert!(
+                        params.iter().any(|p| p.key == k),
+                        "{name}: {k} is not a parameter"
+                    );
+                }
+            }
+            assert!(sweep.default_setting().is_some());
+        }
+        for name in ["hpr", "raycast", "splat", "qsplat", "spt", "srn", "random"] {
+            assert!(s.methods.contains_key(name), "{name}");
+        }
+    }
+
+    #[test]
+    fn errors_name_the_place() {
+        for (text, needle) in [
+            ("[m]\ngrid = 3", "m.grid"),
+            ("[m]\n[[m.grid]]\ng = []", "m.grid[0].g"),
+            ("[m]\n[[m.grid]]\ng = [[1]]", "m.grid[0].g"),
+            ("[m]\nwhat = 1", "what"),
+            ("repeats = 0", "repeats"),
+            ("m = 3", "m must be a table"),
+            ("[m]\n[[m.grid]]\nw = 1\ns = [{w = 2}]", "w is set twice"),
+        ] {
+            let e = Sweeps::parse(text, "f.toml").unwrap_err().to_string();
+            assert!(e.contains(needle) && e.contains("f.toml"), "{text}: {e}");
+        }
+        assert!(Sweeps::resolve(Some(Sweeps::parse("[nosuch]", "u").unwrap())).is_err());
+    }
+
+    #[test]
+    fn user_file_replaces_named_methods_only() {
+        let user = Sweeps::parse("[hpr]\n[[hpr.grid]]\ngamma = [2, 3]", "u").unwrap();
+        let s = Sweeps::resolve(Some(user)).unwrap();
+        assert_eq!(s.methods["hpr"].grid.len(), 2);
+        assert_eq!(s.methods["raycast"], Sweeps::builtin().methods["raycast"]);
+    }
+}
