@@ -14,7 +14,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "visibility/results.csv",
-        "dataset,n_points,view,method,params,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status",
+        "dataset,n_points,view,method,family,params,detail,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status",
     ),
     (
         "robustness/results.csv",
@@ -85,6 +85,14 @@ fn quick_bench_writes_a_complete_report() {
                 .expect("valid CSV");
             assert_eq!(record.len(), n_cols, "{file}: {row}");
         }
+    }
+    // Every built-in method ran at every setting of its sweep without an error.
+    let vis = std::fs::read_to_string(reports.join("visibility/results.csv")).expect("results");
+    for row in vis.lines().skip(1) {
+        assert!(row.ends_with(",ok"), "{row}");
+    }
+    for family in ["hpr-linear", "hpr-exp", "raycast", "splat"] {
+        assert!(vis.contains(&format!(",{family},")), "{family}");
     }
     // Every experiment left its summary and metadata.
     for exp in ["reference", "hull", "background", "visibility", "lod"] {

@@ -51,75 +51,13 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             println!("data folder: {}", data_dir.display());
         }
         Command::Datasets => {
-            for d in datasets::REGISTRY {
-                let ready = match d.mesh_file() {
-                    None => "generated",
-                    Some(m) if datasets::mesh_path(&data_dir, &m).exists() => "ready",
-                    Some(_) => "needs-fetch",
-                };
-                println!(
-                    "{:<20} {:>8}  {:<11}  {}",
-                    d.name, d.n_points, ready, d.description
-                );
-            }
-            if let Some(m) = manifest::Manifest::discover(cli.manifest.as_deref())? {
-                for (name, e) in &m.datasets {
-                    let ready = [&e.cloud, &e.mesh]
-                        .into_iter()
-                        .flatten()
-                        .all(|p| m.resolve(p).exists());
-                    println!(
-                        "{name:<20} {:>8}  {:<11}  {}",
-                        e.sample.map_or("-".to_owned(), |s| s.n.to_string()),
-                        if ready { "ready" } else { "missing-file" },
-                        if e.description.is_empty() {
-                            format!("from {}", m.path.display())
-                        } else {
-                            e.description.clone()
-                        }
-                    );
-                }
-            }
+            list_datasets(&data_dir, cli.manifest.as_deref())?;
         }
         Command::Methods => {
-            for m in methods::all() {
-                match m.availability() {
-                    Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
-                    Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
-                }
-                for p in m.params() {
-                    println!("    --set {}=…  (default {}) {}", p.key, p.default, p.help);
-                }
-            }
+            list_methods()?;
         }
         Command::Export { dataset, out } => {
-            let ds = datasets::load(&dataset, &data_dir)?;
-            // In world coordinates (the recentring and rescaling undone: exact).
-            let positions = ds.world_positions();
-            let is_las = cloud::io::Format::of_path(&out) == Some(cloud::io::Format::Las);
-            let n = positions.len();
-            if is_las {
-                let with_attributes = cloud::PointCloud {
-                    positions,
-                    colors: ds.cloud.colors,
-                    intensity: ds.cloud.intensity,
-                    classification: ds.cloud.classification,
-                    ..Default::default()
-                };
-                // Whole or not at all (cloud::io::atomic).
-                let scale = cloud::io::las::write_las(&out, &with_attributes)?;
-                println!(
-                    "dataset={dataset} points={n} file={} scale={scale:e}",
-                    out.display()
-                );
-            } else {
-                let positions_only = cloud::PointCloud {
-                    positions,
-                    ..Default::default()
-                };
-                cloud::io::ply_write::write_ply(&out, &positions_only)?;
-                println!("dataset={dataset} points={n} file={}", out.display());
-            }
+            export(&dataset, &out, &data_dir)?;
         }
         Command::ScaleCell { dataset, method, n } => {
             let out = experiments::scale::cell(&dataset, &method, n, &data_dir)?;
@@ -131,53 +69,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             classes,
             scan,
         } => {
-            let options = cloud::io::ReadOptions {
-                format: parse_format(format)?,
-                classes,
-                scan,
-            };
-            let start = std::time::Instant::now();
-            let loaded = cloud::io::read_with(&file, &options)?;
-            let seconds = start.elapsed().as_secs_f64();
-            let c = &loaded.cloud;
-            let mut attributes = Vec::new();
-            for (name, present) in [
-                ("normals", c.normals.is_some()),
-                ("colors", c.colors.is_some()),
-                ("uvs", c.uvs.is_some()),
-                ("intensity", c.intensity.is_some()),
-                ("classification", c.classification.is_some()),
-                ("scan", c.scan.is_some()),
-            ] {
-                if present {
-                    attributes.push(name);
-                }
-            }
-            if let Some(b) = c.bbox() {
-                println!(
-                    "bbox_min={},{},{} bbox_max={},{},{}",
-                    b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
-                );
-            }
-            for (k, s) in loaded.scanners.iter().enumerate() {
-                println!(
-                    "scanner={k} position={},{},{}",
-                    s.position.x, s.position.y, s.position.z
-                );
-            }
-            println!(
-                "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
-                 points_per_second={:.0}",
-                file.display(),
-                c.len(),
-                loaded.triangles.len(),
-                if attributes.is_empty() {
-                    "-".to_owned()
-                } else {
-                    attributes.join(",")
-                },
-                c.len() as f64 / seconds.max(1e-12)
-            );
+            inspect(&file, format, classes, scan)?;
         }
         Command::Views {
             dataset,
@@ -256,36 +148,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             views,
             sweep,
         } => {
-            let exp = experiments::experiment(&experiment)?;
-            let datasets: Vec<String> = match datasets {
-                Some(list) => list,
-                None => exp
-                    .default_datasets(quick)
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect(),
-            };
-            for name in &datasets {
-                datasets::check(name)?;
-            }
-            let default_out = out.is_none();
-            let out_dir = out.unwrap_or_else(|| PathBuf::from("reports").join(exp.name()));
-            let (sweeps, repeats) = sweep_settings(&sweep)?;
-            let ctx = experiments::Context {
-                views,
-                sweeps,
-                repeats,
-                shard: sweep.shard,
-                ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
-            };
-            if !experiments::run(exp, &ctx)? {
-                println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
-                return Ok(ExitCode::SUCCESS);
-            }
-            println!("{}: results in {}", exp.name(), out_dir.display());
-            if default_out && sweep.shard.is_none() {
-                output::report::assemble(Path::new("reports"))?;
-            }
+            return run_experiment(&experiment, datasets, quick, out, views, &sweep, data_dir);
         }
         Command::Bench {
             quick,
@@ -293,48 +156,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             reports,
             sweep,
         } => {
-            let (sweeps, repeats) = sweep_settings(&sweep)?;
-            let start = std::time::Instant::now();
-            for name in chosen.iter().flatten() {
-                datasets::check(name)?;
-            }
-            for exp in experiments::EXPERIMENTS {
-                let datasets = match &chosen {
-                    Some(list) => list.clone(),
-                    None => exp
-                        .default_datasets(quick)
-                        .iter()
-                        .map(|s| s.to_string())
-                        .collect(),
-                };
-                let ctx = experiments::Context {
-                    sweeps: sweeps.clone(),
-                    repeats,
-                    shard: sweep.shard,
-                    ..experiments::Context::new(
-                        data_dir.clone(),
-                        reports.join(exp.name()),
-                        quick,
-                        datasets,
-                    )
-                };
-                eprintln!("== {} ({})", exp.name(), exp.summary());
-                let t = std::time::Instant::now();
-                if experiments::run(*exp, &ctx)? {
-                    eprintln!("   done in {:.1} s", t.elapsed().as_secs_f64());
-                } else {
-                    eprintln!("   not in shard {}", shard_text(sweep.shard));
-                }
-            }
-            if sweep.shard.is_none() {
-                output::report::assemble(&reports)?;
-            }
-            println!(
-                "bench: {} experiment(s) in {:.1} s; see {}",
-                experiments::EXPERIMENTS.len(),
-                start.elapsed().as_secs_f64(),
-                reports.join("README.md").display()
-            );
+            bench(quick, chosen, &reports, &sweep, &data_dir)?;
         }
         Command::Merge { out, shards } => {
             for name in experiments::merge::merge(&out, &shards)? {
@@ -350,26 +172,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             println!("wrote {}", reports.join("README.md").display());
         }
         Command::Tables { reports } => {
-            let mut rendered = 0;
-            for exp in experiments::EXPERIMENTS {
-                let dir = reports.join(exp.name());
-                if dir.join("metadata.json").exists() {
-                    exp.render(&dir)
-                        .with_context(|| format!("redrawing {}", dir.display()))?;
-                    rendered += 1;
-                }
-            }
-            if rendered == 0 {
-                bail!(
-                    "no experiment results under {}: run an experiment first",
-                    reports.display()
-                );
-            }
-            output::report::assemble(&reports)?;
-            println!(
-                "redrew {rendered} experiment(s); wrote {}",
-                reports.join("README.md").display()
-            );
+            tables(&reports)?;
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -434,4 +237,269 @@ fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, usize)> 
 
 fn shard_text(shard: Option<experiments::Shard>) -> String {
     shard.map_or_else(|| "-".into(), |s| format!("{}/{}", s.k, s.n))
+}
+
+/// `pointsight datasets`.
+fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
+    for d in datasets::REGISTRY {
+        let ready = match d.mesh_file() {
+            None => "generated",
+            Some(m) if datasets::mesh_path(data_dir, &m).exists() => "ready",
+            Some(_) => "needs-fetch",
+        };
+        println!(
+            "{:<20} {:>8}  {:<11}  {}",
+            d.name, d.n_points, ready, d.description
+        );
+    }
+    if let Some(m) = manifest::Manifest::discover(manifest)? {
+        for (name, e) in &m.datasets {
+            let ready = [&e.cloud, &e.mesh]
+                .into_iter()
+                .flatten()
+                .all(|p| m.resolve(p).exists());
+            println!(
+                "{name:<20} {:>8}  {:<11}  {}",
+                e.sample.map_or("-".to_owned(), |s| s.n.to_string()),
+                if ready { "ready" } else { "missing-file" },
+                if e.description.is_empty() {
+                    format!("from {}", m.path.display())
+                } else {
+                    e.description.clone()
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `pointsight methods`.
+fn list_methods() -> Result<()> {
+    for m in methods::all() {
+        match m.availability() {
+            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
+            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
+        }
+        for p in m.params() {
+            println!("    --set {}=…  (default {}) {}", p.key, p.default, p.help);
+        }
+    }
+    println!("level of detail (experiment lod; sweeps keys):");
+    for m in registry::lod::all() {
+        println!("{:<10} {}", m.name(), m.summary());
+        for p in m.params() {
+            println!("    {}=…  (default {}) {}", p.key, p.default, p.help);
+        }
+    }
+    Ok(())
+}
+
+/// `pointsight export`.
+fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
+    let ds = datasets::load(dataset, data_dir)?;
+    // In world coordinates (the recentring and rescaling undone: exact).
+    let positions = ds.world_positions();
+    let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
+    let n = positions.len();
+    if is_las {
+        let with_attributes = cloud::PointCloud {
+            positions,
+            colors: ds.cloud.colors,
+            intensity: ds.cloud.intensity,
+            classification: ds.cloud.classification,
+            ..Default::default()
+        };
+        // Whole or not at all (cloud::io::atomic).
+        let scale = cloud::io::las::write_las(out, &with_attributes)?;
+        println!(
+            "dataset={dataset} points={n} file={} scale={scale:e}",
+            out.display()
+        );
+    } else {
+        let positions_only = cloud::PointCloud {
+            positions,
+            ..Default::default()
+        };
+        cloud::io::ply_write::write_ply(out, &positions_only)?;
+        println!("dataset={dataset} points={n} file={}", out.display());
+    }
+    Ok(())
+}
+
+/// `pointsight inspect`.
+fn inspect(
+    file: &Path,
+    format: Option<String>,
+    classes: Option<Vec<u8>>,
+    scan: Option<usize>,
+) -> Result<()> {
+    let options = cloud::io::ReadOptions {
+        format: parse_format(format)?,
+        classes,
+        scan,
+    };
+    let start = std::time::Instant::now();
+    let loaded = cloud::io::read_with(file, &options)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let c = &loaded.cloud;
+    let mut attributes = Vec::new();
+    for (name, present) in [
+        ("normals", c.normals.is_some()),
+        ("colors", c.colors.is_some()),
+        ("uvs", c.uvs.is_some()),
+        ("intensity", c.intensity.is_some()),
+        ("classification", c.classification.is_some()),
+        ("scan", c.scan.is_some()),
+    ] {
+        if present {
+            attributes.push(name);
+        }
+    }
+    if let Some(b) = c.bbox() {
+        println!(
+            "bbox_min={},{},{} bbox_max={},{},{}",
+            b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+        );
+    }
+    for (k, s) in loaded.scanners.iter().enumerate() {
+        println!(
+            "scanner={k} position={},{},{}",
+            s.position.x, s.position.y, s.position.z
+        );
+    }
+    println!(
+        "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
+         points_per_second={:.0}",
+        file.display(),
+        c.len(),
+        loaded.triangles.len(),
+        if attributes.is_empty() {
+            "-".to_owned()
+        } else {
+            attributes.join(",")
+        },
+        c.len() as f64 / seconds.max(1e-12)
+    );
+    Ok(())
+}
+
+/// `pointsight run`.
+fn run_experiment(
+    experiment: &str,
+    datasets: Option<Vec<String>>,
+    quick: bool,
+    out: Option<PathBuf>,
+    views: Option<PathBuf>,
+    sweep: &cli::SweepFlags,
+    data_dir: PathBuf,
+) -> Result<ExitCode> {
+    let exp = experiments::experiment(experiment)?;
+    let datasets: Vec<String> = match datasets {
+        Some(list) => list,
+        None => exp
+            .default_datasets(quick)
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+    };
+    for name in &datasets {
+        datasets::check(name)?;
+    }
+    let default_out = out.is_none();
+    let out_dir = out.unwrap_or_else(|| PathBuf::from("reports").join(exp.name()));
+    let (sweeps, repeats) = sweep_settings(sweep)?;
+    let ctx = experiments::Context {
+        views,
+        sweeps,
+        repeats,
+        shard: sweep.shard,
+        ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
+    };
+    if !experiments::run(exp, &ctx)? {
+        println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("{}: results in {}", exp.name(), out_dir.display());
+    if default_out && sweep.shard.is_none() {
+        output::report::assemble(Path::new("reports"))?;
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `pointsight bench`.
+fn bench(
+    quick: bool,
+    chosen: Option<Vec<String>>,
+    reports: &Path,
+    sweep: &cli::SweepFlags,
+    data_dir: &Path,
+) -> Result<()> {
+    let (sweeps, repeats) = sweep_settings(sweep)?;
+    let start = std::time::Instant::now();
+    for name in chosen.iter().flatten() {
+        datasets::check(name)?;
+    }
+    for exp in experiments::EXPERIMENTS {
+        let datasets = match &chosen {
+            Some(list) => list.clone(),
+            None => exp
+                .default_datasets(quick)
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+        };
+        let ctx = experiments::Context {
+            sweeps: sweeps.clone(),
+            repeats,
+            shard: sweep.shard,
+            ..experiments::Context::new(
+                data_dir.to_path_buf(),
+                reports.join(exp.name()),
+                quick,
+                datasets,
+            )
+        };
+        eprintln!("== {} ({})", exp.name(), exp.summary());
+        let t = std::time::Instant::now();
+        if experiments::run(*exp, &ctx)? {
+            eprintln!("   done in {:.1} s", t.elapsed().as_secs_f64());
+        } else {
+            eprintln!("   not in shard {}", shard_text(sweep.shard));
+        }
+    }
+    if sweep.shard.is_none() {
+        output::report::assemble(reports)?;
+    }
+    println!(
+        "bench: {} experiment(s) in {:.1} s; see {}",
+        experiments::EXPERIMENTS.len(),
+        start.elapsed().as_secs_f64(),
+        reports.join("README.md").display()
+    );
+    Ok(())
+}
+
+/// `pointsight tables`.
+fn tables(reports: &Path) -> Result<()> {
+    let mut rendered = 0;
+    for exp in experiments::EXPERIMENTS {
+        let dir = reports.join(exp.name());
+        if dir.join("metadata.json").exists() {
+            exp.render(&dir)
+                .with_context(|| format!("redrawing {}", dir.display()))?;
+            rendered += 1;
+        }
+    }
+    if rendered == 0 {
+        bail!(
+            "no experiment results under {}: run an experiment first",
+            reports.display()
+        );
+    }
+    output::report::assemble(reports)?;
+    println!(
+        "redrew {rendered} experiment(s); wrote {}",
+        reports.join("README.md").display()
+    );
+    Ok(())
 }

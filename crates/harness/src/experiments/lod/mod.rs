@@ -18,7 +18,7 @@
 //!   1/sqrt(f).
 //!
 //! `results.csv` columns: dataset, view, distance, method, params, points_rendered, seconds
-//! (the selection alone: traversal, cut or test; median of [`super::REPEATS`] runs), psnr, ssim,
+//! (the selection alone: traversal, cut or test; median of `--repeats` runs), psnr, ssim,
 //! hole_fraction. PSNR is over the RGB pixels covered in either image (background excluded, so
 //! the object's screen size does not inflate it; capped at 100 dB for identical images); SSIM
 //! is on luma in 8 × 8 windows at a stride of 4 (C1 = (0.01·255)², C2 = (0.03·255)²) averaged
@@ -393,7 +393,12 @@ fn measure_dataset(
         &panels,
         4,
         &format!(
-            "{name}, view 0: the full-cloud reference, then qsplat, spt, srn and random at three levels (rows)"
+            "{name}, view 0: the full-cloud reference, then {} at three levels (rows)",
+            p.built
+                .iter()
+                .map(|(m, _)| m.name())
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
         &ctx.out_dir.join(format!("strip_{name}.png")),
     )
@@ -450,7 +455,10 @@ impl Experiment for LodExperiment {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let builds: Vec<BuildRow> = read_csv(&dir.join("builds.csv"))?;
         let srn_rows: Vec<SrnRow> = read_csv(&dir.join("srn_table.csv"))?;
-        render_outputs(dir, &rows, &builds, &srn_rows)
+        let repeats = crate::output::meta::RunMeta::read(dir)?.parameters["repeats"]
+            .as_u64()
+            .unwrap_or(super::REPEATS as u64);
+        render_outputs(dir, &rows, &builds, &srn_rows, repeats)
     }
 }
 
@@ -504,7 +512,13 @@ fn means(rows: &[Row], dataset: &str, distance: f64, method: &str) -> Vec<Mean> 
         .collect()
 }
 
-fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow]) -> Result<()> {
+fn render_outputs(
+    dir: &Path,
+    rows: &[Row],
+    builds: &[BuildRow],
+    srn: &[SrnRow],
+    repeats: u64,
+) -> Result<()> {
     let mut datasets: Vec<&str> = Vec::new();
     for r in rows {
         if !datasets.contains(&r.dataset.as_str()) {
@@ -635,7 +649,7 @@ fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow])
             })
             .collect::<Vec<_>>(),
     ));
-    let table = srn_table::table(srn);
+    let table = srn_table::table(srn, repeats);
     write_atomic(&dir.join("srn_table.md"), table.as_bytes())?;
     summary.push('\n');
     summary.push_str(&table);
@@ -646,45 +660,6 @@ fn render_outputs(dir: &Path, rows: &[Row], builds: &[BuildRow], srn: &[SrnRow])
 mod tests {
     use super::*;
     use cloud::glam::DVec3;
-
-    fn image(w: u32, h: u32, f: impl Fn(u32, u32) -> Option<[u8; 3]>) -> Image {
-        let mut rgb = Vec::new();
-        let mut covered = Vec::new();
-        for y in 0..h {
-            for x in 0..w {
-                let c = f(x, y);
-                covered.push(c.is_some());
-                rgb.extend(c.unwrap_or([255, 255, 255]));
-            }
-        }
-        Image {
-            width: w,
-            height: h,
-            rgb,
-            covered,
-        }
-    }
-
-    #[test]
-    fn identical_images_score_perfectly() {
-        let a = image(32, 32, |x, y| {
-            (x > 4 && y > 4).then_some([x as u8 * 7, 90, 30])
-        });
-        assert_eq!(psnr(&a, &a), 100.0);
-        assert!((ssim(&a, &a) - 1.0).abs() < 1e-12);
-        assert_eq!(hole_fraction(&a, &a), 0.0);
-    }
-
-    #[test]
-    fn known_error_gives_known_psnr_and_holes() {
-        let a = image(16, 16, |_, _| Some([100, 100, 100]));
-        let b = image(16, 16, |x, _| (x < 8).then_some([110, 110, 110]));
-        // Left half off by 10, right half empty (white, 155 away): MSE = (100 + 155²) / 2.
-        let mse = (100.0 + 155.0f64 * 155.0) / 2.0;
-        assert!((psnr(&a, &b) - 10.0 * (255.0f64 * 255.0 / mse).log10()).abs() < 1e-9);
-        assert!((hole_fraction(&a, &b) - 0.5).abs() < 1e-12);
-        assert!(ssim(&a, &b) < 0.9);
-    }
 
     #[test]
     fn distance_moves_the_eye_along_its_ray() {

@@ -237,18 +237,18 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
 }
 
 /// The table in Markdown, with each model's pictures.
-pub(super) fn table(rows: &[SrnRow]) -> String {
+pub(super) fn table(rows: &[SrnRow], repeats: u64) -> String {
     let mut s = String::from("## Seed 003 Table 1, regenerated\n\n");
-    s.push_str(
+    s.push_str(&format!(
         "SRN (eq. 2) at density scale 1 with the JPEG2000 masking importance of the texture \
          (eq. 1, CDF 9/7, 5 levels, 5 × 5 non-causal neighbourhood). The paper's models and \
          textures are not available: ours are a vase of revolution and a torus with a \
          procedural flower texture (the torus textured on one half, as in its Figure 8) and \
          200,004 samples of CGAL's Armadillo with a marble texture in place of the gargoyle. \
          The paper measured frames per second on a 2006 GPU with texture splatting; we give our \
-         software splat renderer's time for one 1280 × 720 frame (median of 3), so compare \
-         the ratios, not the absolute numbers.\n\n",
-    );
+         software splat renderer's time for one 1280 × 720 frame (median of {repeats}), so compare \
+         the ratios, not the absolute numbers.\n\n"
+    ));
     s.push_str(&markdown_table(
         &[
             "model",

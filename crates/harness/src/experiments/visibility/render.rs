@@ -1,145 +1,22 @@
-//! Experiment `visibility`: every registered visibility method over its sweep, against the
-//! reference.
-//!
-//! A generic loop: for each dataset, every method of `registry::all()` that has a sweep
-//! (`registry::sweep`: the built-in grids in `registry/src/sweeps.toml`, an external method's
-//! own in its `method.toml`, a user's `--config` file over both) is prepared once per setting
-//! and run on every view; the harness scores each answer against the reference (the mesh's
-//! z-buffer). Adding a method to this experiment is a registry entry and a grid; nothing here
-//! names a method except where a peer is paired with our exact HPR at the same γ.
-//!
-//! `results.csv`: one row per (dataset, view, method, setting), in that order, with precision,
-//! recall and F1 against `reference`; `family` groups rows in plots (HPR's two kernels are two
-//! families); `detail` is what a rule chose (HPR's `gamma=auto`: `gamma_value`); `seconds` is
-//! the median of `--repeats` runs (`registry::timing`; an external method's own reported
-//! seconds), `seconds_min`/`seconds_max` their spread; `status` is `ok` or `error: ...` (a
-//! failing view is a row and the run goes on). `pixels.csv`: for the per-pixel methods (ray
-//! cast, splat), the share of covered pixels whose point is truly visible and the share of the
-//! mesh's pixels (the mesh rasterised at the method's resolution) that got a point.
-//! `agreement.csv`: on clouds without a mesh, the Jaccard index of each pair of methods at
-//! their default settings. `peers.csv`: an external method with a `gamma` against our exact
-//! HPR at that γ, per view. `renders.png`: bunny-69451 (else the first dataset), view 0, every
-//! family at its best setting beside the reference.
-//!
-//! Sharded runs (`--shard K/N`) split the (dataset, view) cells round-robin; every method and
-//! setting of one view stays in one shard, because agreement and peers pair methods per view.
+//! The visibility experiment's tables and plots, drawn from its CSVs: Pareto plots and F1
+//! charts per family (bars: the spread over views and runs), the best setting per family, each
+//! family against exact HPR paired per view with bootstrap intervals, the automatic rules'
+//! gaps, image-space figures, the peers, and the renders of one view.
 
 use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
 use registry::Setting;
-use serde::{Deserialize, Serialize};
-use truth::{NO_TRIANGLE, Reference, ReferenceParams};
+use truth::{Reference, ReferenceParams};
 
-use super::{Context, Experiment, markdown_table};
+use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
+use crate::experiments::markdown_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
-use crate::output::{read_csv, write_atomic, write_csv};
-use crate::progress;
+use crate::output::write_atomic;
 use crate::score::Score;
-
-/// The experiment.
-pub struct VisibilityExperiment;
-
-/// One row of `results.csv` (the column order is the output contract).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct Row {
-    /// Dataset.
-    pub dataset: String,
-    /// Points.
-    pub n_points: usize,
-    /// View.
-    pub view: usize,
-    /// Method name.
-    pub method: String,
-    /// How its rows group in plots and tables (`registry::Method::family`).
-    pub family: String,
-    /// Setting, `k=v` pairs sorted by key and joined by `;` (`registry::Setting::label`).
-    pub params: String,
-    /// What a rule chose for this view (`gamma_value=2.871` for `gamma=auto`), `k=v` pairs.
-    pub detail: String,
-    /// Median seconds of the method alone (`--repeats` runs).
-    pub seconds: f64,
-    /// Rays cast (0 for methods that cast none).
-    pub rays: u64,
-    /// Visible points found.
-    pub n_visible: usize,
-    /// Precision against the reference.
-    pub precision: f64,
-    /// Recall.
-    pub recall: f64,
-    /// F1.
-    pub f1: f64,
-    /// Off-surface points (farther from the mesh than the dataset's tolerance) the method
-    /// called visible; they are left out of precision and recall.
-    #[serde(default)]
-    pub off_surface_visible: usize,
-    /// Fastest of the timed runs.
-    #[serde(default)]
-    pub seconds_min: f64,
-    /// Slowest of the timed runs.
-    #[serde(default)]
-    pub seconds_max: f64,
-    /// Number of timed runs.
-    #[serde(default)]
-    pub samples: usize,
-    /// `ok`, or `error: …` for a view an external method failed (scores NaN).
-    #[serde(default = "ok_status")]
-    pub status: String,
-}
-
-fn ok_status() -> String {
-    "ok".into()
-}
-
-/// One row of `agreement.csv`: for datasets without a mesh, how far two methods' visible sets
-/// agree (their automatic settings, same view).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct AgreementRow {
-    /// Dataset.
-    pub dataset: String,
-    /// View.
-    pub view: usize,
-    /// First method family.
-    pub a: String,
-    /// Second method family.
-    pub b: String,
-    /// |A ∩ B| / |A ∪ B|.
-    pub jaccard: f64,
-}
-
-/// One row of `pixels.csv`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PixelRow {
-    /// Dataset.
-    pub dataset: String,
-    /// View.
-    pub view: usize,
-    /// Method.
-    pub method: String,
-    /// Family.
-    pub family: String,
-    /// Setting.
-    pub params: String,
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
-    /// Pixels that show a point.
-    pub covered_pixels: usize,
-    /// Covered pixels whose point is truly visible.
-    pub true_pixels: usize,
-    /// Pixels the mesh covers at this resolution.
-    pub mesh_pixels: usize,
-    /// Mesh pixels that show a point.
-    pub mesh_pixels_covered: usize,
-    /// true_pixels / covered_pixels.
-    pub pixel_precision: f64,
-    /// mesh_pixels_covered / mesh_pixels.
-    pub mesh_coverage: f64,
-}
 
 /// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {
@@ -147,444 +24,6 @@ fn families_of(rows: &[Row]) -> Vec<String> {
     for r in rows {
         if !out.contains(&r.family) {
             out.push(r.family.clone());
-        }
-    }
-    out
-}
-
-/// One row of `peers.csv`: a peer (external method with a `gamma`) against our exact HPR at
-/// the same γ, same view.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct PeerRow {
-    /// Dataset.
-    pub dataset: String,
-    /// View.
-    pub view: usize,
-    /// The peer method.
-    pub peer: String,
-    /// γ of both.
-    pub gamma: String,
-    /// Our HPR's median seconds.
-    pub ours_seconds: f64,
-    /// The peer's seconds (its own compute time, median).
-    pub peer_seconds: f64,
-    /// Jaccard index of the two visible sets.
-    pub jaccard: f64,
-}
-
-fn is_auto(params: &str) -> bool {
-    Setting::parse(params).is_auto()
-}
-
-/// A visible set kept past its row (for agreement, peers and the renders).
-struct Run {
-    method: String,
-    family: String,
-    params: String,
-    visible: Vec<u32>,
-}
-
-/// Every registered method with a non-empty sweep, in registry order, that can run here; the
-/// others (an external method whose environment is missing) are listed with why.
-fn methods_to_run(
-    ctx: &Context,
-) -> (
-    Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
-    Vec<String>,
-) {
-    let mut not_run = Vec::new();
-    let mut out = Vec::new();
-    for m in registry::all() {
-        let Some(sweep) = ctx
-            .sweeps
-            .methods
-            .get(m.name())
-            .filter(|s| !s.settings(ctx.quick).is_empty())
-        else {
-            continue;
-        };
-        match m.availability() {
-            Ok(()) => out.push((m, sweep.clone())),
-            Err(why) => not_run.push(format!("{}: {why}", m.name())),
-        }
-    }
-    (out, not_run)
-}
-
-/// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
-/// first dataset (a fixed choice, so every shard agrees on it).
-fn render_dataset(datasets: &[String]) -> Option<&str> {
-    datasets
-        .iter()
-        .find(|d| *d == "bunny-69451")
-        .or(datasets.first())
-        .map(String::as_str)
-}
-
-impl Experiment for VisibilityExperiment {
-    fn name(&self) -> &'static str {
-        "visibility"
-    }
-
-    fn summary(&self) -> &'static str {
-        "every registered visibility method over its sweep (HPR two kernels, ray cast, splat, external methods and peers) against the reference"
-    }
-
-    fn default_datasets(&self, quick: bool) -> &'static [&'static str] {
-        if quick {
-            &["bunny", "bunny-69451"]
-        } else {
-            &[
-                "bunny",
-                "bunny-69451",
-                "dragon-871414",
-                "torus-22321",
-                "sphere-plane-24000",
-            ]
-        }
-    }
-
-    fn shardable(&self) -> bool {
-        true
-    }
-
-    fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
-        let n_views = if ctx.quick { 2 } else { 8 };
-        let (methods, mut not_run) = methods_to_run(ctx);
-        // The setting that stands for each method (agreement on clouds without a mesh).
-        let defaults: BTreeMap<String, String> = methods
-            .iter()
-            .filter_map(|(m, s)| Some((m.name().to_owned(), s.default_setting()?.label())))
-            .collect();
-        let peers_wanted = methods.iter().any(|(m, s)| {
-            m.is_external()
-                && s.settings(ctx.quick)
-                    .iter()
-                    .any(|x| x.get("gamma").is_some())
-        });
-        let render_ds = render_dataset(&ctx.datasets);
-        let mut rows = Vec::new();
-        let mut pixel_rows = Vec::new();
-        let mut agreement = Vec::new();
-        let mut peers = Vec::new();
-        let mut off_surface_meta = serde_json::Map::new();
-        for (d_idx, name) in ctx.datasets.iter().enumerate() {
-            let owned: Vec<usize> = (0..n_views)
-                .filter(|&v| ctx.owns(d_idx, v, n_views))
-                .collect();
-            if owned.is_empty() {
-                continue;
-            }
-            let ds = ctx.dataset(name)?;
-            let views: Vec<usize> = owned.into_iter().filter(|&v| v < ds.views.len()).collect();
-            let points = &ds.cloud.positions;
-            // No mesh, no ground truth: rows keep speed and counts, F1 is NaN, and the methods'
-            // agreement is recorded instead.
-            let reference = ds.mesh.as_ref().map(Reference::new).transpose()?;
-            let off = ds.off_surface()?;
-            if let Some((flags, tolerance)) = &off {
-                off_surface_meta.insert(
-                    name.clone(),
-                    serde_json::json!({
-                        "tolerance": tolerance,
-                        "off_surface_points": flags.iter().filter(|&&f| f).count(),
-                    }),
-                );
-            }
-            let off_flags = off.as_ref().map(|(f, _)| &f[..]);
-            let mut truths: BTreeMap<usize, Option<Vec<bool>>> = BTreeMap::new();
-            for &v in &views {
-                let truth = match &reference {
-                    Some(r) => Some(
-                        r.visibility(ds.truth_points(), ds.view(v)?, &ReferenceParams::default())?
-                            .visible,
-                    ),
-                    None => None,
-                };
-                truths.insert(v, truth);
-            }
-            // The mesh's pixels per view and image size, for the per-pixel methods.
-            let mut mesh_masks: BTreeMap<(usize, u32, u32), Vec<bool>> = BTreeMap::new();
-            let mut kept: BTreeMap<usize, Vec<Run>> = BTreeMap::new();
-            let mut ds_rows: Vec<Row> = Vec::new();
-            let mut ds_pixels: Vec<PixelRow> = Vec::new();
-            let cells: usize = methods
-                .iter()
-                .map(|(_, s)| s.settings(ctx.quick).len())
-                .sum::<usize>()
-                * views.len();
-            let bar = progress::bar(cells as u64, format!("visibility {name}"));
-            for (m, sweep) in &methods {
-                for setting in sweep.settings(ctx.quick) {
-                    let label = setting.label();
-                    let family = m.family(setting);
-                    // One preparation per setting, every view; a failure is a row per view.
-                    let prepared = registry::prepare(*m, ds.input(), &setting.params());
-                    for &view in &views {
-                        let cam = *ds.view(view)?;
-                        let truth = truths.get(&view).and_then(Option::as_deref);
-                        let mut row = Row {
-                            dataset: name.clone(),
-                            n_points: points.len(),
-                            view,
-                            method: m.name().to_owned(),
-                            family: family.clone(),
-                            params: label.clone(),
-                            detail: String::new(),
-                            seconds: f64::NAN,
-                            rays: 0,
-                            n_visible: 0,
-                            precision: f64::NAN,
-                            recall: f64::NAN,
-                            f1: f64::NAN,
-                            off_surface_visible: 0,
-                            seconds_min: f64::NAN,
-                            seconds_max: f64::NAN,
-                            samples: 0,
-                            status: ok_status(),
-                        };
-                        let outcome = match &prepared {
-                            Ok(p) => registry::timed(p.as_ref(), &cam, ctx.repeats)
-                                .map_err(|e| e.to_string()),
-                            Err(e) => Err(e.to_string()),
-                        };
-                        match outcome {
-                            Ok((out, t)) => {
-                                if let Some(t) = truth {
-                                    let s = Score::of_on_surface(&out.visible, t, off_flags);
-                                    (row.precision, row.recall, row.f1) =
-                                        (s.precision(), s.recall(), s.f1());
-                                }
-                                row.off_surface_visible = off_flags.map_or(0, |f| {
-                                    out.visible.iter().filter(|&&i| f[i as usize]).count()
-                                });
-                                row.n_visible = out.visible.len();
-                                row.rays = out.rays;
-                                (row.seconds, row.seconds_min, row.seconds_max, row.samples) =
-                                    (t.median, t.min, t.max, t.samples);
-                                row.detail = out
-                                    .detail
-                                    .iter()
-                                    .map(|(k, v)| format!("{k}={v}"))
-                                    .collect::<Vec<_>>()
-                                    .join(";");
-                                if let (Some(px), Some(truth), Some(mesh)) =
-                                    (&out.pixels, truth, &ds.mesh)
-                                {
-                                    let c = cam.with_resolution(px.width, px.height)?;
-                                    if c.has_frustum() {
-                                        let mask = match mesh_masks.entry((view, c.width, c.height))
-                                        {
-                                            std::collections::btree_map::Entry::Occupied(e) => {
-                                                e.into_mut()
-                                            }
-                                            std::collections::btree_map::Entry::Vacant(e) => e
-                                                .insert(
-                                                    truth::rasterize(mesh, &c)?
-                                                        .triangle
-                                                        .iter()
-                                                        .map(|&t| t != NO_TRIANGLE)
-                                                        .collect(),
-                                                ),
-                                        };
-                                        ds_pixels.push(pixel_row(&row, px, truth, mask));
-                                    }
-                                }
-                                let keep = (truth.is_none()
-                                    && defaults.get(m.name()) == Some(&label))
-                                    || (peers_wanted
-                                        && (m.is_external() || is_peer_partner(m.name(), setting)))
-                                    || (Some(name.as_str()) == render_ds && view == 0);
-                                if keep {
-                                    kept.entry(view).or_default().push(Run {
-                                        method: m.name().to_owned(),
-                                        family: family.clone(),
-                                        params: label.clone(),
-                                        visible: out.visible,
-                                    });
-                                }
-                            }
-                            Err(e) => {
-                                eprintln!("visibility: {} {label} view {view}: {e}", m.name());
-                                row.status = format!("error: {e}");
-                            }
-                        }
-                        ds_rows.push(row);
-                        bar.inc(1);
-                    }
-                }
-            }
-            bar.finish_and_clear();
-            // Rows in (view, method, setting) order, whatever the loop order was.
-            ds_rows.sort_by_key(|r| r.view);
-            ds_pixels.sort_by_key(|r| r.view);
-            for (&view, runs) in &kept {
-                if truths.get(&view).is_some_and(Option::is_none) {
-                    agreement.extend(agreement_rows(name, view, runs, &defaults));
-                }
-                peers.extend(peer_rows(name, view, runs, &ds_rows));
-            }
-            if let (Some(reference), Some(runs)) = (
-                reference
-                    .as_ref()
-                    .filter(|_| Some(name.as_str()) == render_ds),
-                kept.remove(&0).filter(|_| Some(name.as_str()) == render_ds),
-            ) {
-                render_bunny(&ctx.out_dir, &ds, reference, &ds_rows, runs)?;
-            }
-            rows.extend(ds_rows);
-            pixel_rows.extend(ds_pixels);
-        }
-        write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
-        write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
-        write_csv(&ctx.out_dir.join("agreement.csv"), &agreement)?;
-        write_csv(&ctx.out_dir.join("peers.csv"), &peers)?;
-        not_run.sort();
-        not_run.dedup();
-        let sweeps: serde_json::Map<String, serde_json::Value> = methods
-            .iter()
-            .map(|(m, s)| {
-                (
-                    m.name().to_owned(),
-                    serde_json::json!(
-                        s.settings(ctx.quick)
-                            .iter()
-                            .map(Setting::label)
-                            .collect::<Vec<_>>()
-                    ),
-                )
-            })
-            .collect();
-        Ok(serde_json::json!({
-            "views": n_views,
-            "sweeps": sweeps,
-            "default_settings": defaults,
-            "hpr_hull": "own",
-            "hpr_auto_rule": format!("gamma = log10(kappa * D * d^2 / (s^2 * m)), kappa = {}", hpr::auto::KAPPA),
-            "raycast_auto_rule": format!("radius = {} x density spacing (k = 8)", raycast::auto::RADIUS_FACTOR),
-            "repeats": ctx.repeats,
-            "timing": format!("median of {} runs (seconds_min, seconds_max: their spread); external methods: their own reported seconds", ctx.repeats),
-            "off_surface": off_surface_meta,
-            "external_methods_not_run": not_run,
-            "render_dataset": render_ds,
-        }))
-    }
-
-    fn render(&self, dir: &Path) -> Result<()> {
-        let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
-        let pixels: Vec<PixelRow> = read_csv(&dir.join("pixels.csv"))?;
-        let agreement: Vec<AgreementRow> = read_csv(&dir.join("agreement.csv"))?;
-        let peers: Vec<PeerRow> = read_csv(&dir.join("peers.csv"))?;
-        let meta = crate::output::meta::RunMeta::read(dir)?;
-        let not_run: Vec<String> =
-            serde_json::from_value(meta.parameters["external_methods_not_run"].clone())
-                .unwrap_or_default();
-        let defaults: BTreeMap<String, String> =
-            serde_json::from_value(meta.parameters["default_settings"].clone()).unwrap_or_default();
-        let peers_md = peers_summary(&peers, &not_run);
-        let render_ds = meta.parameters["render_dataset"].as_str();
-        render(
-            dir, &rows, &pixels, &agreement, &peers_md, &defaults, render_ds,
-        )
-    }
-}
-
-/// The image-space figures of one per-pixel run: which covered pixels show a truly visible
-/// point, and how much of the mesh's footprint got a point.
-fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool]) -> PixelRow {
-    let covered = px.point.iter().filter(|&&p| p != raycast::NONE).count();
-    let true_pixels = px
-        .point
-        .iter()
-        .filter(|&&p| p != raycast::NONE && truth[p as usize])
-        .count();
-    let mesh_total = mesh.iter().filter(|&&m| m).count();
-    let mesh_covered = mesh
-        .iter()
-        .zip(&px.point)
-        .filter(|&(&m, &p)| m && p != raycast::NONE)
-        .count();
-    PixelRow {
-        dataset: row.dataset.clone(),
-        view: row.view,
-        method: row.method.clone(),
-        family: row.family.clone(),
-        params: row.params.clone(),
-        width: px.width,
-        height: px.height,
-        covered_pixels: covered,
-        true_pixels,
-        mesh_pixels: mesh_total,
-        mesh_pixels_covered: mesh_covered,
-        pixel_precision: true_pixels as f64 / covered.max(1) as f64,
-        mesh_coverage: mesh_covered as f64 / mesh_total.max(1) as f64,
-    }
-}
-
-/// True for the settings of ours a peer is paired with: exact HPR, linear kernel, a fixed γ, no
-/// perturbation.
-fn is_peer_partner(method: &str, setting: &Setting) -> bool {
-    method == "hpr"
-        && setting.text("kernel").as_deref() != Some("exp")
-        && setting.number("perturb").unwrap_or(0.0) == 0.0
-        && setting.number("gamma").is_some()
-}
-
-/// Each external run with a `gamma` against our exact HPR at the same γ, same view.
-fn peer_rows(dataset: &str, view: usize, runs: &[Run], rows: &[Row]) -> Vec<PeerRow> {
-    let mut out = Vec::new();
-    for peer in runs
-        .iter()
-        .filter(|r| registry::method(&r.method).is_ok_and(|m| m.is_external()))
-    {
-        let Some(g) = Setting::parse(&peer.params).number("gamma") else {
-            continue;
-        };
-        let Some(ours) = runs.iter().find(|r| {
-            let s = Setting::parse(&r.params);
-            is_peer_partner(&r.method, &s) && s.number("gamma") == Some(g)
-        }) else {
-            continue;
-        };
-        let seconds = |r: &Run| {
-            rows.iter()
-                .find(|x| x.view == view && x.method == r.method && x.params == r.params)
-                .map_or(f64::NAN, |x| x.seconds)
-        };
-        out.push(PeerRow {
-            dataset: dataset.to_owned(),
-            view,
-            peer: peer.method.clone(),
-            gamma: format!("{g}"),
-            ours_seconds: seconds(ours),
-            peer_seconds: seconds(peer),
-            jaccard: Score::of_sets(&peer.visible, &ours.visible).jaccard(),
-        });
-    }
-    out
-}
-
-/// On a cloud without a mesh: how far each pair of methods agree at their default settings.
-fn agreement_rows(
-    dataset: &str,
-    view: usize,
-    runs: &[Run],
-    defaults: &BTreeMap<String, String>,
-) -> Vec<AgreementRow> {
-    let chosen: Vec<&Run> = runs
-        .iter()
-        .filter(|r| defaults.get(&r.method) == Some(&r.params))
-        .collect();
-    let mut out = Vec::new();
-    for (i, a) in chosen.iter().enumerate() {
-        for b in &chosen[i + 1..] {
-            out.push(AgreementRow {
-                dataset: dataset.to_owned(),
-                view,
-                a: a.family.clone(),
-                b: b.family.clone(),
-                jaccard: Score::of_sets(&a.visible, &b.visible).jaccard(),
-            });
         }
     }
     out
@@ -605,7 +44,7 @@ fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)>
         .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
-fn render_bunny(
+pub(super) fn render_bunny(
     dir: &Path,
     ds: &datasets::Dataset,
     reference: &Reference,
@@ -724,9 +163,13 @@ fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> Strin
             let (ts, os): (Vec<f64>, Vec<f64>) = paired.iter().map(|(t, o)| (t.0, o.0)).unzip();
             let df: Vec<f64> = paired.iter().map(|(t, o)| t.1 - o.1).collect();
             let ratio = crate::stats::paired_ratio(&ts, &os, 2007)
-                .map_or("-".to_owned(), |(r, lo, hi)| format!("{r:.2}× [{lo:.2}, {hi:.2}]"));
+                .map_or("-".to_owned(), |(r, lo, hi)| {
+                    format!("{r:.2}× [{lo:.2}, {hi:.2}]")
+                });
             let diff = crate::stats::bootstrap_mean(&df, 2007)
-                .map_or("-".to_owned(), |(m, lo, hi)| format!("{m:+.4} [{lo:+.4}, {hi:+.4}]"));
+                .map_or("-".to_owned(), |(m, lo, hi)| {
+                    format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
+                });
             table.push(vec![
                 d.clone(),
                 fam.clone(),
@@ -885,7 +328,7 @@ fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Resu
 /// The peers' section: per dataset, peer and γ, our exact HPR's speed ratio against the peer
 /// (geometric mean over views of the paired per-view ratios, bootstrap 95 % interval) and the
 /// Jaccard index of the two visible sets; the peers that were not run, and why.
-fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
+pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
     let mut s = String::from("### Peers, measured in the same run\n\n");
     let mut groups: BTreeMap<(&str, &str, &str), Vec<&PeerRow>> = BTreeMap::new();
     for p in peers {
@@ -950,7 +393,7 @@ fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
     s
 }
 
-fn render(
+pub(super) fn render(
     dir: &Path,
     rows: &[Row],
     pixels: &[PixelRow],
