@@ -467,15 +467,24 @@ fn bench(
             eprintln!("   not in shard {}", shard_text(sweep.shard));
         }
     }
-    if sweep.shard.is_none() {
-        output::report::assemble(reports)?;
+    match sweep.shard {
+        None => {
+            output::report::assemble(reports)?;
+            println!(
+                "bench: {} experiment(s) in {:.1} s; see {}",
+                experiments::EXPERIMENTS.len(),
+                start.elapsed().as_secs_f64(),
+                reports.join("README.md").display()
+            );
+        }
+        Some(s) => println!(
+            "bench: shard {}/{} done in {:.1} s into {}; once every shard has run: pointsight merge --out DIR SHARD_FOLDERS...",
+            s.k,
+            s.n,
+            start.elapsed().as_secs_f64(),
+            reports.display()
+        ),
     }
-    println!(
-        "bench: {} experiment(s) in {:.1} s; see {}",
-        experiments::EXPERIMENTS.len(),
-        start.elapsed().as_secs_f64(),
-        reports.join("README.md").display()
-    );
     Ok(())
 }
 

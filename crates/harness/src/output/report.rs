@@ -109,6 +109,29 @@ pub fn assemble(reports_dir: &Path) -> Result<()> {
                         meta.seconds,
                         meta.command
                     ));
+                    if !meta.shards.is_empty() {
+                        sections.push_str(&format!(
+                            "{} (`pointsight merge`): {}.\n\n",
+                            if meta.shards.len() == 1 {
+                                "Run whole by one shard of a sharded run".to_owned()
+                            } else {
+                                format!(
+                                    "Merged from {} shards, the time above the slowest one's",
+                                    meta.shards.len()
+                                )
+                            },
+                            meta.shards
+                                .iter()
+                                .map(|s| format!(
+                                    "{} on {} ({:.0} s)",
+                                    s.shard.map_or("?".into(), |k| format!("{}/{}", k.k, k.n)),
+                                    s.cpu,
+                                    s.seconds
+                                ))
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ));
+                    }
                 }
                 sections.push_str(&prefix_links(&text, exp.name()));
                 sections.push('\n');
