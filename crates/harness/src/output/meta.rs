@@ -17,7 +17,7 @@ pub struct RunMeta {
     pub date_utc: String,
     /// `git rev-parse HEAD`, or "unknown".
     pub git_revision: String,
-    /// True when the work tree had uncommitted changes.
+    /// True when the work tree had uncommitted changes outside `reports/` (results are not code).
     pub git_dirty: bool,
     /// `rustc -V` of the compiler that built the harness.
     pub rustc: String,
@@ -119,8 +119,12 @@ fn git_state() -> (String, bool) {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
     };
     let revision = run(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    let dirty =
-        run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| !s.is_empty());
+    // Changes under reports/ are results (a bench writes them as it goes), not code.
+    let dirty = run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| {
+        s.lines()
+            .filter_map(|l| l.get(3..))
+            .any(|path| !path.starts_with("reports/"))
+    });
     (revision, dirty)
 }
 
