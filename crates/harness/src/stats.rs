@@ -6,6 +6,17 @@ use cloud::rng::{RngExt, seeded};
 /// Resamples of the bootstrap.
 pub const RESAMPLES: usize = 10_000;
 
+/// The values of `a` and `b` at the keys both have (views), in key order: the pairs a paired
+/// comparison is made of.
+pub fn pair<K: Ord, V: Copy>(
+    a: &std::collections::BTreeMap<K, V>,
+    b: &std::collections::BTreeMap<K, V>,
+) -> Vec<(V, V)> {
+    a.iter()
+        .filter_map(|(k, x)| Some((*x, *b.get(k)?)))
+        .collect()
+}
+
 /// The geometric mean of the per-view ratios `a[k] / b[k]` and its bootstrap 95 % interval
 /// (views resampled with replacement); `None` without a finite positive pair.
 pub fn paired_ratio(a: &[f64], b: &[f64], seed: u64) -> Option<(f64, f64, f64)> {
@@ -38,6 +49,14 @@ pub fn bootstrap_mean(values: &[f64], seed: u64) -> Option<(f64, f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pairs_are_the_common_views_in_order() {
+        let a = std::collections::BTreeMap::from([(3, 30.0), (0, 0.5), (1, 10.0)]);
+        let b = std::collections::BTreeMap::from([(1, 1.0), (3, 3.0), (7, 7.0)]);
+        assert_eq!(pair(&a, &b), [(10.0, 1.0), (30.0, 3.0)]);
+        assert!(pair(&a, &std::collections::BTreeMap::new()).is_empty());
+    }
 
     #[test]
     fn a_constant_ratio_has_a_point_interval() {

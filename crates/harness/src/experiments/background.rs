@@ -211,12 +211,7 @@ impl Experiment for BackgroundExperiment {
 
     fn render(&self, dir: &Path) -> Result<()> {
         let frames: Vec<Frame> = read_csv(&dir.join("results.csv"))?;
-        let datasets: Vec<String> = frames.iter().fold(Vec::new(), |mut acc, f| {
-            if !acc.contains(&f.dataset) {
-                acc.push(f.dataset.clone());
-            }
-            acc
-        });
+        let datasets = crate::output::distinct(frames.iter().map(|f| f.dataset.as_str()));
         let mut f1_series = Vec::new();
         let mut age_series = Vec::new();
         let mut table = Vec::new();

@@ -289,12 +289,7 @@ fn fmt_s(v: Option<f64>) -> String {
 }
 
 fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
-    let datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
-        if !acc.contains(&r.dataset) {
-            acc.push(r.dataset.clone());
-        }
-        acc
-    });
+    let datasets = crate::output::distinct(rows.iter().map(|r| r.dataset.as_str()));
     let hulls: Vec<&str> = HULLS
         .iter()
         .copied()
@@ -547,9 +542,10 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
                         .map(|r| (r.view, r.seconds))
                         .collect()
                 };
-                let (x, y) = (by_view(a.0, a.1), by_view(b.0, b.1));
                 let (xs, ys): (Vec<f64>, Vec<f64>) =
-                    x.iter().filter_map(|(v, s)| Some((*s, *y.get(v)?))).unzip();
+                    crate::stats::pair(&by_view(a.0, a.1), &by_view(b.0, b.1))
+                        .into_iter()
+                        .unzip();
                 crate::stats::paired_ratio(&xs, &ys, 2007)
             };
             let speed = paired(("qhull", 0.0), ("qhull", 1e-2));

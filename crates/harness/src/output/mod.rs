@@ -15,6 +15,18 @@ use anyhow::{Context, Result};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+/// The distinct values of `items` in the order they first appear (the datasets, methods or
+/// families of a results file, for tables and plots).
+pub fn distinct<'a>(items: impl IntoIterator<Item = &'a str>) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for item in items {
+        if !out.iter().any(|o| o == item) {
+            out.push(item.to_owned());
+        }
+    }
+    out
+}
+
 /// Writes `bytes` to `path` atomically (creating its folder): [`cloud::io::atomic`].
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path
@@ -61,6 +73,12 @@ mod tests {
     use serde::Deserialize;
 
     use super::*;
+
+    #[test]
+    fn distinct_keeps_first_appearance_order() {
+        assert_eq!(distinct(["b", "a", "b", "c", "a"]), ["b", "a", "c"]);
+        assert!(distinct([]).is_empty());
+    }
 
     #[derive(Debug, Serialize, Deserialize, PartialEq)]
     struct Row {

@@ -50,7 +50,7 @@ use super::{Context, Experiment, markdown_table};
 mod srn_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{Panel, compose};
-use crate::output::{read_csv, write_atomic, write_csv};
+use crate::output::{distinct, read_csv, write_atomic, write_csv};
 use crate::progress;
 pub use srn_table::SrnRow;
 
@@ -462,17 +462,6 @@ impl Experiment for LodExperiment {
     }
 }
 
-/// The methods of `rows`, in the order they first appear.
-fn methods_of(rows: &[Row]) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for r in rows {
-        if !out.contains(&r.method) {
-            out.push(r.method.clone());
-        }
-    }
-    out
-}
-
 /// Means over views of (points, seconds, psnr, ssim, holes) per (dataset, distance, method,
 /// params), in the order the settings first appear.
 type Mean = (String, f64, f64, f64, f64, f64);
@@ -519,16 +508,11 @@ fn render_outputs(
     srn: &[SrnRow],
     repeats: u64,
 ) -> Result<()> {
-    let mut datasets: Vec<&str> = Vec::new();
-    for r in rows {
-        if !datasets.contains(&r.dataset.as_str()) {
-            datasets.push(&r.dataset);
-        }
-    }
+    let datasets = distinct(rows.iter().map(|r| r.dataset.as_str()));
     let mut distances: Vec<f64> = rows.iter().map(|r| r.distance).collect();
     distances.sort_by(f64::total_cmp);
     distances.dedup();
-    let methods = methods_of(rows);
+    let methods = distinct(rows.iter().map(|r| r.method.as_str()));
     let mut summary = String::from("# Level of detail\n\n");
     summary.push_str(
         "Each method's splats rendered with `splat::render` and compared with the full-cloud \

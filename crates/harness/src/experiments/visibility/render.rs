@@ -15,18 +15,12 @@ use crate::datasets;
 use crate::experiments::markdown_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
-use crate::output::write_atomic;
+use crate::output::{distinct, write_atomic};
 use crate::score::Score;
 
 /// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for r in rows {
-        if !out.contains(&r.family) {
-            out.push(r.family.clone());
-        }
-    }
-    out
+    distinct(rows.iter().map(|r| r.family.as_str()))
 }
 
 /// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
@@ -153,10 +147,7 @@ fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> Strin
                 continue;
             };
             let theirs = by_view(fam, &best);
-            let paired: Vec<((f64, f64), (f64, f64))> = theirs
-                .iter()
-                .filter_map(|(v, t)| Some((*t, *ours.get(v)?)))
-                .collect();
+            let paired = crate::stats::pair(&theirs, &ours);
             if paired.is_empty() {
                 continue;
             }
@@ -402,12 +393,7 @@ pub(super) fn render(
     defaults: &BTreeMap<String, String>,
     render_ds: Option<&str>,
 ) -> Result<()> {
-    let all_datasets: Vec<String> = rows.iter().fold(Vec::new(), |mut acc, r| {
-        if !acc.contains(&r.dataset) {
-            acc.push(r.dataset.clone());
-        }
-        acc
-    });
+    let all_datasets = distinct(rows.iter().map(|r| r.dataset.as_str()));
     // Datasets without a ground truth (no mesh) have NaN F1: they get the agreement table.
     let (datasets, unscored): (Vec<String>, Vec<String>) = all_datasets
         .into_iter()
@@ -649,12 +635,7 @@ pub(super) fn render(
 
     // Image-space figures of the per-pixel families at their best setting.
     let mut pixel_table = Vec::new();
-    let pixel_families: Vec<String> = pixels.iter().fold(Vec::new(), |mut acc, p| {
-        if !acc.contains(&p.family) {
-            acc.push(p.family.clone());
-        }
-        acc
-    });
+    let pixel_families = distinct(pixels.iter().map(|p| p.family.as_str()));
     for d in &datasets {
         for fam in &pixel_families {
             let Some((params, _)) = best_setting(rows, d, fam) else {
