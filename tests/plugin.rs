@@ -252,6 +252,25 @@ fn shards_merged_give_the_unsharded_csvs() {
         .unwrap();
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("shard(s) 3/3 missing"));
+    // A shard count from an edited metadata file is not a size to allocate by.
+    let meta_path = shard_dirs[0].join("visibility/metadata.json");
+    let text = std::fs::read_to_string(&meta_path).expect("metadata");
+    let huge = text.replace("\"n\": 3", "\"n\": 1000000000000000000");
+    assert_ne!(text, huge);
+    let lone = root.join("lone/visibility");
+    std::fs::create_dir_all(&lone).expect("folder");
+    for f in std::fs::read_dir(shard_dirs[0].join("visibility")).expect("shard") {
+        let f = f.expect("entry").path();
+        std::fs::copy(&f, lone.join(f.file_name().expect("name"))).expect("copy");
+    }
+    std::fs::write(lone.join("metadata.json"), huge).expect("write");
+    let out = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+        .args(["merge", "--out", root.join("bad2").to_str().expect("utf-8")])
+        .arg(root.join("lone"))
+        .output()
+        .expect("pointsight runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("and 999999999999999989 more missing"), "{err}");
     // The settings are typed data: labels read back.
     let s = Setting::parse("gamma=3;kernel=linear;perturb=0.00001");
     assert_eq!(s.number("perturb"), Some(1e-5));
@@ -264,6 +283,7 @@ fn bad_shard_and_config_are_errors() {
         (vec!["--shard", "0/2"], "1 <= K <= N"),
         (vec!["--shard", "3/2"], "1 <= K <= N"),
         (vec!["--shard", "x"], "K/N"),
+        (vec!["--repeats", "1001"], "1..=1000"),
         (vec!["--config", "/nonexistent.toml"], "nonexistent.toml"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_pointsight"))

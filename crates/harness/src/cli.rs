@@ -141,8 +141,9 @@ pub enum Command {
         /// Also score the visible set against the reference (printed before each contract line).
         #[arg(long)]
         score: bool,
-        /// Runs per view; `seconds` is their median and a line before it gives the spread.
-        #[arg(long, default_value_t = 1)]
+        /// Runs per view, 1 to 1000; `seconds` is their median and a line before it gives the
+        /// spread.
+        #[arg(long, default_value_t = 1, value_parser = repeat_count)]
         repeat: usize,
         /// Many views: answer them in parallel (`yes`), one after another (`no`), or as the
         /// method prefers (`auto`: in parallel for hpr, reference and exact, whose single view
@@ -288,10 +289,21 @@ pub struct SweepFlags {
     /// names; `pointsight sweeps` prints the built-in one to start from.
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Timed runs per call (default: the sweeps file's `repeats`, else 3).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
+    /// Timed runs per call, 1 to 1000 (default: the sweeps file's `repeats`, else 3).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeats: Option<u32>,
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<crate::experiments::Shard>,
+}
+
+/// A run count of 1 to 1000 (`--repeat`): every run's time is kept, so the count sizes memory.
+fn repeat_count(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=registry::sweep::MAX_REPEATS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected a whole number from 1 to {}, got {s:?}",
+            registry::sweep::MAX_REPEATS
+        )),
+    }
 }

@@ -40,6 +40,13 @@ use crate::params::Params;
 /// The built-in grids (`sweeps.toml`).
 pub const BUILTIN: &str = include_str!("sweeps.toml");
 
+/// The most timed runs per call a sweep may ask for (each run's time is kept).
+pub const MAX_REPEATS: usize = 1_000;
+
+/// The most settings one block may expand to (its lists' product is checked before any is
+/// made: a file of a few lines can ask for billions).
+pub const MAX_SETTINGS: usize = 100_000;
+
 /// A parameter value.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Value {
@@ -246,6 +253,17 @@ impl MethodSweep {
 
 /// The settings of one block: the product of its lists, first key slowest.
 fn expand(block: &toml::Table, where_: &str) -> Result<Vec<Setting>> {
+    let count = block.values().try_fold(1usize, |n, v| match v {
+        toml::Value::Array(items) => n.checked_mul(items.len().max(1)),
+        _ => Some(n),
+    });
+    if count.is_none_or(|n| n > MAX_SETTINGS) {
+        return Err(Error::Sweep(format!(
+            "{where_}: the block's lists multiply to {} settings, more than the {MAX_SETTINGS} \
+             one block may hold; split it or shorten its lists",
+            count.map_or("over 2^64".to_owned(), |n| n.to_string())
+        )));
+    }
     let mut settings = vec![Setting::default()];
     for (key, value) in block {
         let here = format!("{where_}.{key}");
@@ -306,12 +324,12 @@ impl Sweeps {
         let mut out = Self::default();
         for (key, value) in &table {
             match (key.as_str(), value) {
-                ("repeats", toml::Value::Integer(r)) if *r >= 1 => {
+                ("repeats", toml::Value::Integer(r)) if (1..=MAX_REPEATS as i64).contains(r) => {
                     out.repeats = Some(*r as usize);
                 }
                 ("repeats", _) => {
                     return Err(Error::Sweep(format!(
-                        "{origin}: repeats must be an integer of at least 1"
+                        "{origin}: repeats must be an integer from 1 to {MAX_REPEATS}"
                     )));
                 }
                 (name, toml::Value::Table(t)) => {
@@ -448,6 +466,13 @@ mod tests {
             ("[m]\n[[m.grid]]\ng = [[1]]", "m.grid[0].g"),
             ("[m]\nwhat = 1", "what"),
             ("repeats = 0", "repeats"),
+            ("repeats = 1000000000000", "repeats"),
+            (
+                "[m]\n[[m.grid]]\na = [1,2,3,4,5,6,7,8,9,10]\nb = [1,2,3,4,5,6,7,8,9,10]\n\
+                 c = [1,2,3,4,5,6,7,8,9,10]\nd = [1,2,3,4,5,6,7,8,9,10]\ne = [1,2,3,4,5,6,7,8,9,10]\n\
+                 f = [1,2,3,4,5,6,7,8,9,10]",
+                "1000000 settings",
+            ),
             ("m = 3", "m must be a table"),
             ("[m]\n[[m.grid]]\nw = 1\ns = [{w = 2}]", "w is set twice"),
         ] {

@@ -65,6 +65,9 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
         let s = m
             .shard
             .with_context(|| format!("{}: not a shard's output", dir.display()))?;
+        if s.k == 0 || s.k > s.n {
+            bail!("{name}: {} says shard {}/{}", dir.display(), s.k, s.n);
+        }
         if s.n != shard.n {
             bail!(
                 "{name}: {} is shard {}/{} but {} is of {} shards",
@@ -87,12 +90,23 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
         }
     }
     if exp.shardable() {
+        // Named up to ten (N comes from a file: it is not a count to allocate by).
         let missing: Vec<String> = (1..=shard.n)
             .filter(|k| !seen.contains(k))
+            .take(10)
             .map(|k| format!("{k}/{}", shard.n))
             .collect();
         if !missing.is_empty() {
-            bail!("{name}: shard(s) {} missing", missing.join(", "));
+            let more = shard.n - seen.len() - missing.len();
+            bail!(
+                "{name}: shard(s) {}{} missing",
+                missing.join(", "),
+                if more > 0 {
+                    format!(" and {more} more")
+                } else {
+                    String::new()
+                }
+            );
         }
     } else if parts.len() > 1 {
         bail!(
