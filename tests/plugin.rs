@@ -270,7 +270,10 @@ fn shards_merged_give_the_unsharded_csvs() {
         .output()
         .expect("pointsight runs");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("and 999999999999999989 more missing"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("and 999999999999999989 more missing"),
+        "{err}"
+    );
     // The settings are typed data: labels read back.
     let s = Setting::parse("gamma=3;kernel=linear;perturb=0.00001");
     assert_eq!(s.number("perturb"), Some(1e-5));
