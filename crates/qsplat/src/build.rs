@@ -161,49 +161,148 @@ fn split(items: &mut [Item]) -> usize {
 /// or more points).
 fn groups(items: &mut [Item]) -> Vec<&mut [Item]> {
     let k = split(items);
+    let large = items.len() >= 4 * PARALLEL;
     let (a, b) = items.split_at_mut(k);
-    let mut groups: Vec<&mut [Item]> = Vec::with_capacity(4);
-    for half in [a, b] {
+    let halve = |half: &mut [Item]| {
         if half.len() >= 2 {
-            let k2 = split(half);
-            let (c, d) = half.split_at_mut(k2);
-            groups.push(c);
-            groups.push(d);
+            split(half)
         } else {
-            groups.push(half);
+            half.len()
+        }
+    };
+    // The two halves are split side by side when large.
+    let (ka, kb) = if large {
+        rayon::join(|| halve(a), || halve(b))
+    } else {
+        (halve(a), halve(b))
+    };
+    let mut groups: Vec<&mut [Item]> = Vec::with_capacity(4);
+    for (half, k2) in [(a, ka), (b, kb)] {
+        let (c, d) = half.split_at_mut(k2);
+        groups.push(c);
+        if !d.is_empty() {
+            groups.push(d);
         }
     }
     groups
 }
 
-/// Builds the subtree of `items` in parallel; the returned arena ends with the subtree's root.
-fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
+/// The upper tree of a parallel build: subtrees small enough for one thread, and the parents
+/// above them.
+enum Piece<'a> {
+    /// A subtree of fewer than [`PARALLEL`] points, built by [`build_into`].
+    Sub(&'a mut [Item]),
+    /// A parent of two to four pieces.
+    Parent(Vec<Piece<'a>>),
+}
+
+/// Splits `items` (in parallel) down to subtrees of fewer than [`PARALLEL`] points.
+fn plan(items: &mut [Item]) -> Piece<'_> {
     if items.len() < PARALLEL {
-        let mut nodes = Vec::with_capacity(2 * items.len());
-        build_into(input, items, &mut nodes);
-        return nodes;
+        return Piece::Sub(items);
     }
     use rayon::prelude::*;
-    let subtrees: Vec<Vec<Node>> = groups(items)
-        .into_par_iter()
-        .map(|g| build_sub(input, g))
-        .collect();
-    let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
-    let mut children = Vec::with_capacity(subtrees.len());
-    for sub in subtrees {
-        let offset = nodes.len() as u32;
-        let n = sub.len() as u32;
-        nodes.extend(sub.into_iter().map(|mut node| {
-            for c in &mut node.kids[..node.n_children as usize] {
-                *c += offset;
+    Piece::Parent(groups(items).into_par_iter().map(plan).collect())
+}
+
+/// One step of the arena's post order: the next small subtree, or a parent of the last `n`
+/// roots.
+enum Step {
+    Sub,
+    Parent(usize),
+}
+
+fn flatten<'a>(piece: Piece<'a>, subs: &mut Vec<&'a mut [Item]>, steps: &mut Vec<Step>) {
+    match piece {
+        Piece::Sub(items) => {
+            subs.push(items);
+            steps.push(Step::Sub);
+        }
+        Piece::Parent(kids) => {
+            let n = kids.len();
+            for k in kids {
+                flatten(k, subs, steps);
             }
-            node
-        }));
-        children.push(offset + n - 1);
+            steps.push(Step::Parent(n));
+        }
     }
-    let parent = parent_of(&nodes, &children);
-    nodes.push(parent);
-    nodes
+}
+
+/// Builds the tree of `items`: the upper levels are split in parallel, the small subtrees are
+/// built in parallel each into its own vector, the parents above them are made from the
+/// subtrees' roots, and everything is moved once into the arena (in parallel, in place).
+fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
+    use rayon::prelude::*;
+    let mut subs = Vec::new();
+    let mut steps = Vec::new();
+    flatten(plan(items), &mut subs, &mut steps);
+    let built: Vec<Vec<Node>> = subs
+        .into_par_iter()
+        .map(|items| {
+            let mut nodes = Vec::with_capacity(2 * items.len());
+            build_into(input, items, &mut nodes);
+            nodes
+        })
+        .collect();
+    // Arena positions: every piece's first index (subtrees and parents in post order).
+    let mut starts = Vec::with_capacity(steps.len() + 1);
+    let mut parents = Vec::new();
+    // The roots not yet given a parent (copies: a few hundred at most).
+    let mut roots: Vec<(u32, Node)> = Vec::new();
+    let (mut len, mut k) = (0usize, 0usize);
+    for step in &steps {
+        starts.push(len);
+        match *step {
+            Step::Sub => {
+                len += built[k].len();
+                roots.push(((len - 1) as u32, built[k][built[k].len() - 1].clone()));
+                k += 1;
+            }
+            Step::Parent(n) => {
+                let kids = roots.split_off(roots.len() - n);
+                let ids: Vec<u32> = kids.iter().map(|k| k.0).collect();
+                let refs: Vec<&Node> = kids.iter().map(|k| &k.1).collect();
+                let parent = parent_from(&refs, &ids);
+                roots.push((len as u32, parent.clone()));
+                parents.push(parent);
+                len += 1;
+            }
+        }
+    }
+    starts.push(len);
+    // A piece is a subtree (its nodes' children shifted by its start) or one parent.
+    let mut which = Vec::with_capacity(steps.len());
+    let (mut k, mut p) = (0usize, 0usize);
+    for step in &steps {
+        match step {
+            Step::Sub => {
+                which.push((true, k));
+                k += 1;
+            }
+            Step::Parent(_) => {
+                which.push((false, p));
+                p += 1;
+            }
+        }
+    }
+    (0..len)
+        .into_par_iter()
+        .with_min_len(4_096)
+        .map(|i| {
+            let piece = starts.partition_point(|&s| s <= i) - 1;
+            match which[piece] {
+                (true, k) => {
+                    let mut node = built[k][i - starts[piece]].clone();
+                    let offset = starts[piece] as u32;
+                    for c in &mut node.kids[..node.n_children as usize] {
+                        *c += offset;
+                    }
+                    node
+                }
+                (false, p) => parents[p].clone(),
+            }
+        })
+        .collect()
 }
 
 /// Appends the subtree of `items` to `nodes` (children first); returns its root's index.
@@ -225,7 +324,16 @@ fn build_into(input: &Input<'_>, items: &mut [Item], nodes: &mut Vec<Node>) -> u
 
 /// The parent of `children` (arena indices into `nodes`).
 fn parent_of(nodes: &[Node], children: &[u32]) -> Node {
-    let kids = || children.iter().map(|&c| &nodes[c as usize]);
+    let mut kids = [&nodes[children[0] as usize]; 4];
+    for (k, &c) in kids.iter_mut().zip(children) {
+        *k = &nodes[c as usize];
+    }
+    parent_from(&kids[..children.len()], children)
+}
+
+/// The parent of the nodes `kids`, whose arena indices are `children`.
+fn parent_from(nodes: &[&Node], children: &[u32]) -> Node {
+    let kids = || nodes.iter().copied();
     let (lo, hi) = kids().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), k| {
         (
             lo.min(k.center - DVec3::splat(k.radius)),
@@ -240,7 +348,7 @@ fn parent_of(nodes: &[Node], children: &[u32]) -> Node {
         * (1.0 + 1e-9);
     let leaves: u32 = kids().map(|k| k.leaves).sum();
     let sum: DVec3 = kids().map(|k| k.normal * k.leaves as f64).sum();
-    let normal = sum.normalize_or(nodes[children[0] as usize].normal);
+    let normal = sum.normalize_or(nodes[0].normal);
     let cone = kids()
         .map(|k| normal.dot(k.normal).clamp(-1.0, 1.0).acos() + k.cone)
         .fold(0.0, f64::max)

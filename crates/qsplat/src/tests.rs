@@ -112,6 +112,50 @@ fn bytes_per_point_is_about_six_without_colour() {
     assert!((7.0..11.0).contains(&per_point), "{per_point}");
 }
 
+/// FNV-1a, 64 bits.
+fn fnv1a(bytes: &[u8]) -> u64 {
+    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    })
+}
+
+/// The file bytes of a seeded 150,000-point torus (parallel build and encode paths, colours
+/// from positions) are those the first, serial-BFS encoder wrote: speed-ups must not change a
+/// byte. (The hash depends on libm's acos, atan and sin, as the bytes do.)
+#[test]
+fn file_bytes_are_unchanged_by_speed_ups() {
+    let mut cloud = cloud::synth::torus_scene(150_000, 7).unwrap().cloud;
+    let colors = cloud
+        .positions
+        .iter()
+        .map(|p| {
+            let c = (p.abs() * 97.0).fract() * 255.0;
+            [c.x as u8, c.y as u8, c.z as u8]
+        })
+        .collect();
+    cloud.colors = Some(colors);
+    let plain = PointCloud {
+        colors: None,
+        ..cloud.clone()
+    };
+    let colored = file::to_bytes(&build_tree(&cloud, 0.004).unwrap());
+    let uncolored = file::to_bytes(&build_tree(&plain, 0.004).unwrap());
+    assert_eq!(
+        (
+            colored.len(),
+            fnv1a(&colored),
+            uncolored.len(),
+            fnv1a(&uncolored)
+        ),
+        (
+            1_528_540,
+            8_479_932_785_771_492_576,
+            1_019_048,
+            10_145_279_929_842_933_578
+        )
+    );
+}
+
 #[test]
 fn file_round_trip() {
     for colored in [false, true] {

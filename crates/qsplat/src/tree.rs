@@ -14,6 +14,8 @@
 
 use cloud::glam::DVec3;
 
+use rayon::prelude::*;
+
 use crate::build::Hierarchy;
 use crate::quant;
 
@@ -94,14 +96,19 @@ fn word_of(h: &Hierarchy, id: usize, sphere: u16) -> Word {
     let n = &h.nodes[id];
     let normal = quant::encode_normal(n.normal);
     // Widen the cone by how far quantisation moved the normal.
-    let moved = quant::decode_normal(normal)
-        .dot(n.normal)
-        .clamp(-1.0, 1.0)
-        .acos();
+    let cos_moved = quant::decode_normal(normal).dot(n.normal).clamp(-1.0, 1.0);
+    // PERF: a narrow cone moved a little is code 0 (half-angle below 0.06 rad, whose
+    // ⌊4·√sin⌋ is 0); cos(0.055) < 0.9985 leaves room for rounding. Most nodes are leaves
+    // (cone 0) whose normal moves less than 0.03 rad, and skip the acos and sin.
+    let cone = if n.cone <= 0.005 && cos_moved >= 0.9985 {
+        0
+    } else {
+        quant::encode_cone(n.cone + cos_moved.acos())
+    };
     Word {
         sphere,
         normal,
-        cone: quant::encode_cone(n.cone + moved),
+        cone,
         children: n.children().len() as u8,
         grandchildren: n
             .children()
@@ -148,7 +155,6 @@ fn encode_children(
         (dec, wor, s) = (d_tail, w_tail, c + 1);
     }
     if id - start >= PARALLEL {
-        use rayon::prelude::*;
         tasks
             .into_par_iter()
             .for_each(|(s, c, d, w, own)| encode_children(h, s, c, d, w, own));
@@ -185,55 +191,90 @@ impl QTree {
             root_sphere,
         );
 
-        // Breadth-first list of sibling groups, by parent id.
-        let mut groups: Vec<usize> = Vec::new();
+        // Sibling groups breadth first, one level at a time (in parallel: rayon's collect
+        // keeps the order): the next level's groups are, in order, the children that have
+        // children of this level's groups.
+        let has_kids = |c: u32| !h.nodes[c as usize].children().is_empty();
+        let mut levels: Vec<Vec<u32>> = Vec::new();
         if !h.nodes[root].children().is_empty() {
-            groups.push(root);
+            levels.push(vec![root as u32]);
         }
-        let mut k = 0;
-        while k < groups.len() {
-            for &c in h.nodes[groups[k]].children() {
-                if !h.nodes[c as usize].children().is_empty() {
-                    groups.push(c as usize);
-                }
+        while let Some(last) = levels.last() {
+            let next: Vec<u32> = last
+                .par_iter()
+                .flat_map_iter(|&p| {
+                    h.nodes[p as usize]
+                        .children()
+                        .iter()
+                        .copied()
+                        .filter(move |&c| has_kids(c))
+                })
+                .collect();
+            if next.is_empty() {
+                break;
             }
-            k += 1;
+            levels.push(next);
         }
-        // Positions: a group with children needs an offset word.
-        let has_grand = |p: usize| {
-            h.nodes[p]
-                .children()
-                .iter()
-                .any(|&c| !h.nodes[c as usize].children().is_empty())
+        // Per group: its words (an offset word when some child has children, then one per
+        // child) and how many of its children start groups of the next level.
+        let shape = |p: u32| {
+            let kids = h.nodes[p as usize].children();
+            let grand = kids.iter().filter(|&&c| has_kids(c)).count();
+            (kids.len() + usize::from(grand > 0), grand)
         };
-        let mut pos = Vec::with_capacity(groups.len());
-        let mut group_of_parent = vec![u32::MAX; n];
+        let shapes: Vec<Vec<(usize, usize)>> = levels
+            .iter()
+            .map(|l| l.par_iter().map(|&p| shape(p)).collect())
+            .collect();
+        // Word position of every group, and the index of the first group of every level.
+        let mut pos: Vec<Vec<usize>> = Vec::with_capacity(levels.len());
         let mut total = 0usize;
-        for (g, &p) in groups.iter().enumerate() {
-            pos.push(total);
-            group_of_parent[p] = g as u32;
-            total += usize::from(has_grand(p)) + h.nodes[p].children().len();
+        for level in &shapes {
+            let mut at = Vec::with_capacity(level.len());
+            for &(len, _) in level {
+                at.push(total);
+                total += len;
+            }
+            pos.push(at);
         }
-        let mut words = vec![0u32; total];
-        let mut cols = colors.then(|| vec![0u16; total]);
-        for (g, &p) in groups.iter().enumerate() {
-            let kids = h.nodes[p].children();
-            let mut at = pos[g];
-            if has_grand(p) {
-                let first = kids
+        // A group's offset word: the position of the group of its first child with children,
+        // which is the next level's group numbered by the grandparents counted before it.
+        let mut offsets: Vec<Vec<u32>> = Vec::with_capacity(levels.len());
+        for (l, level) in shapes.iter().enumerate() {
+            let mut seen = 0usize;
+            offsets.push(
+                level
                     .iter()
-                    .find(|&&c| !h.nodes[c as usize].children().is_empty());
-                words[at] = first.map_or(0, |&f| pos[group_of_parent[f as usize] as usize] as u32);
-                at += 1;
-            }
-            for &id in kids {
-                words[at] = node_words[id as usize];
-                if let Some(c) = cols.as_mut() {
-                    c[at] = color_of(h, id as usize);
-                }
-                at += 1;
-            }
+                    .map(|&(_, grand)| {
+                        let o = if grand > 0 {
+                            pos[l + 1][seen] as u32
+                        } else {
+                            0
+                        };
+                        seen += grand;
+                        o
+                    })
+                    .collect(),
+            );
         }
+        let group_words = |l: usize, g: usize| {
+            let p = levels[l][g] as usize;
+            let offset = (shapes[l][g].1 > 0).then_some((offsets[l][g], 0u16));
+            offset
+                .into_iter()
+                .chain(h.nodes[p].children().iter().map(|&c| {
+                    let c = c as usize;
+                    (node_words[c], if colors { color_of(h, c) } else { 0 })
+                }))
+        };
+        let (words, cols): (Vec<u32>, Vec<u16>) = (0..levels.len())
+            .flat_map(|l| (0..levels[l].len()).map(move |g| (l, g)))
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .flat_map_iter(|(l, g)| group_words(l, g))
+            .unzip();
+        debug_assert_eq!(words.len(), total);
+        let cols = colors.then_some(cols);
         let tree = Self {
             n_points: u64::from(h.nodes[root].leaves),
             root_center: root_sphere.0,
@@ -257,6 +298,16 @@ impl QTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_narrow_cone_shortcut_is_what_encode_cone_gives() {
+        for cone in [0.0, 0.001, 0.005] {
+            for k in 0..=100_000 {
+                let cos = 0.9985 + 0.0015 * f64::from(k) / 100_000.0;
+                assert_eq!(quant::encode_cone(cone + cos.acos()), 0, "{cone} {cos}");
+            }
+        }
+    }
 
     #[test]
     fn word_packing_round_trip() {

@@ -223,6 +223,11 @@ impl SequentialList {
 
     /// Appends the entries of the cut (ascending) to `out`; scans in parallel for long
     /// prefixes.
+    ///
+    /// `out` is first grown by the number of entries in the prefix (an upper bound of the
+    /// selection; its capacity is kept from call to call, so a reused vector allocates
+    /// nothing), each chunk of groups writes its selection into its own part of it, and the
+    /// parts are then moved together.
     pub fn cut_into(&self, root: &QBox, eye: Vec3, eps2: f32, out: &mut Vec<u32>) -> CutStats {
         let n = self.prefix(root, eye, eps2);
         let groups = &self.groups[..n];
@@ -232,43 +237,72 @@ impl SequentialList {
             entries,
             ..CutStats::default()
         };
-        if n <= CHUNK_GROUPS {
-            stats.tested = self.scan(groups, eye, eps2, out);
-        } else {
-            let parts: Vec<(Vec<u32>, usize)> = groups
-                .par_chunks(CHUNK_GROUPS)
-                .map(|chunk| {
-                    let mut part = Vec::new();
-                    let tested = self.scan(chunk, eye, eps2, &mut part);
-                    (part, tested)
-                })
-                .collect();
-            out.reserve(parts.iter().map(|p| p.0.len()).sum());
-            for (part, tested) in parts {
-                out.extend_from_slice(&part);
-                stats.tested += tested;
-            }
+        let base = out.len();
+        out.resize(base + entries, 0);
+        let chunks: Vec<&[Group]> = groups.chunks(CHUNK_GROUPS).collect();
+        let mut parts = Vec::with_capacity(chunks.len());
+        let mut rest = &mut out[base..];
+        for c in &chunks {
+            let len = c.last().map_or(0, |g| g.end) - c.first().map_or(0, |g| g.start);
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(len as usize);
+            parts.push((*c, part));
+            rest = tail;
         }
-        stats.selected = out.len();
+        let counts: Vec<(usize, usize, usize)> = if parts.len() == 1 {
+            parts
+                .into_iter()
+                .map(|(c, p)| self.scan(c, eye, eps2, p))
+                .collect()
+        } else {
+            parts
+                .into_par_iter()
+                .map(|(c, p)| self.scan(c, eye, eps2, p))
+                .collect()
+        };
+        let (mut len, mut at) = (base, base);
+        for (selected, tested, scanned) in counts {
+            out.copy_within(at..at + selected, len);
+            len += selected;
+            at += scanned;
+            stats.tested += tested;
+        }
+        out.truncate(len);
+        stats.selected = len;
         stats
     }
 
-    /// The sequential scan of some groups; returns the number of entries tested.
-    fn scan(&self, groups: &[Group], eye: Vec3, eps2: f32, out: &mut Vec<u32>) -> usize {
-        let mut tested = 0;
+    /// The sequential scan of some consecutive groups into `buf` (one slot per entry of the
+    /// groups); returns the entries selected (at the front of `buf`), tested and scanned.
+    ///
+    /// Branch-free per entry: within a group whose parent is refined, each entry's index is
+    /// written at the selection's end and the end moves on only when the entry is not refined
+    /// itself. Groups whose parent is not refined are skipped with a branch: measured on the
+    /// dragon (view 0), reading their entries too was 15 % slower for a 4 px cut and the branch
+    /// per entry of the first version 27 % slower for a 1 px cut.
+    fn scan(
+        &self,
+        groups: &[Group],
+        eye: Vec3,
+        eps2: f32,
+        buf: &mut [u32],
+    ) -> (usize, usize, usize) {
+        let (Some(first), Some(last)) = (groups.first(), groups.last()) else {
+            return (0, 0, 0);
+        };
+        let (first, last) = (first.start as usize, last.end as usize);
+        let entries = &self.entries[first..last];
+        let (mut len, mut tested) = (0usize, 0usize);
         for g in groups {
             if !refined(&g.b, g.e2, eye, eps2) {
                 continue;
             }
             let (s, e) = (g.start as usize, g.end as usize);
             tested += e - s;
-            out.reserve(e - s);
-            for (i, entry) in self.entries[s..e].iter().enumerate() {
-                if !refined(&entry.b, entry.e2, eye, eps2) {
-                    out.push((s + i) as u32);
-                }
+            for (i, entry) in entries[s - first..e - first].iter().enumerate() {
+                buf[len] = (s + i) as u32;
+                len += usize::from(!refined(&entry.b, entry.e2, eye, eps2));
             }
         }
-        tested
+        (len, tested, last - first)
     }
 }
