@@ -111,10 +111,9 @@ fn colmap_views_through_the_command_line() {
             "visible",
             "--dataset",
             "sphere-20000",
+            // A views file without --view: every camera in it.
             "--views",
             colmap.to_str().unwrap(),
-            "--view",
-            "all",
             "--method",
             "reference",
             "--out",

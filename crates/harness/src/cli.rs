@@ -122,9 +122,10 @@ pub enum Command {
         /// Image height (default 720; with `--eye`, else the view's own).
         #[arg(long, requires = "eye")]
         height: Option<u32>,
-        /// View index, `all`, or a comma-separated list of indices.
-        #[arg(long, default_value = "0")]
-        view: String,
+        /// View index, `all`, or a comma-separated list of indices (default: 0, or `all`
+        /// with `--views`).
+        #[arg(long)]
+        view: Option<String>,
         /// A views file (JSON lines, or a COLMAP text model: its folder or images.txt) instead
         /// of the dataset's own views.
         #[arg(long)]

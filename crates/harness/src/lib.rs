@@ -129,7 +129,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                     width,
                     height,
                 },
-                view,
+                // A views file alone means every camera in it.
+                view: view.unwrap_or_else(|| if views.is_some() { "all" } else { "0" }.into()),
                 views,
                 method,
                 set,
