@@ -143,12 +143,18 @@ fn split(items: &mut [Item]) -> usize {
         2
     };
     let mid = 0.5 * (lo[axis] + hi[axis]);
+    // Lomuto's partition, branch-free with the very permutation of the branching one (a
+    // swap of j and k when the point goes left, nothing otherwise): the sources are chosen
+    // by index, the loads and stores always happen. (The order decides coincident points'
+    // halving, so it must not change.)
     let mut k = 0;
     for j in 0..items.len() {
-        if items[j].p[axis] < mid {
-            items.swap(j, k);
-            k += 1;
-        }
+        let left = items[j].p[axis] < mid;
+        let (to_k, to_j) = if left { (j, k) } else { (k, j) };
+        let (a, b) = (items[to_k], items[to_j]);
+        items[k] = a;
+        items[j] = b;
+        k += usize::from(left);
     }
     if k == 0 || k == items.len() {
         items.len() / 2
