@@ -108,6 +108,36 @@ impl RayCaster {
                 let y0 = band as u32 * TILE;
                 let rows = out.len() as u32 / w;
                 for x0 in (0..w).step_by(TILE as usize) {
+                    if params.traversal == Traversal::Exact {
+                        // 2 × 2 pixels per packet.
+                        for dy in (0..rows).step_by(2) {
+                            for x in (x0..(x0 + TILE).min(w)).step_by(2) {
+                                let mut at = [0usize; traverse::PACKET];
+                                let mut packet = [Ray::new([0.0; 3], [1.0; 3]); traverse::PACKET];
+                                let mut m = 0;
+                                for (ddy, ddx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                                    if dy + ddy >= rows || x + ddx >= w {
+                                        continue;
+                                    }
+                                    let k = ((y0 + dy + ddy) * w + x + ddx) as usize;
+                                    let (o, d) = rays.aim(camera, k);
+                                    packet[m] = Ray::new(o, d);
+                                    at[m] = ((dy + ddy) * w + x + ddx) as usize;
+                                    m += 1;
+                                }
+                                let hits = traverse::cast_exact_packet(
+                                    &self.tree,
+                                    &packet[..m],
+                                    params.radius,
+                                    scratch,
+                                );
+                                for i in 0..m {
+                                    out[at[i]] = hits[i].map_or(NONE, |h| h.1);
+                                }
+                            }
+                        }
+                        continue;
+                    }
                     for dy in 0..rows {
                         for x in x0..(x0 + TILE).min(w) {
                             let k = ((y0 + dy) * w + x) as usize;

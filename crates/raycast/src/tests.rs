@@ -10,7 +10,7 @@ use proptest::prelude::*;
 use super::*;
 use crate::brute::cast_brute;
 use crate::hit::{entry, hits};
-use crate::traverse::{cast_exact, cast_seed};
+use crate::traverse::{cast_exact, cast_exact_packet, cast_seed};
 
 fn rng(seed: u64) -> impl FnMut() -> f64 {
     let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
@@ -48,6 +48,29 @@ fn check_ray(
     }
 }
 
+/// Packets of one to four of `rays` give each ray the brute force's answer.
+fn check_packets(points: &[DVec3], tree: &KdTree, rays: &[Ray], radius: f64) {
+    let mut scratch = Scratch::default();
+    let mut at = 0;
+    let mut size = 1;
+    while at < rays.len() {
+        let packet = &rays[at..(at + size).min(rays.len())];
+        let got = cast_exact_packet(tree, packet, radius, &mut scratch);
+        for (i, ray) in packet.iter().enumerate() {
+            assert_eq!(
+                got[i],
+                cast_brute(points, ray.o, ray.d, radius),
+                "ray {:?} -> {:?} in a packet of {}",
+                ray.o,
+                ray.d,
+                packet.len()
+            );
+        }
+        at += size;
+        size = size % 4 + 1;
+    }
+}
+
 #[test]
 fn random_clouds_and_rays_equal_brute_force() {
     for seed in 0..10 {
@@ -57,11 +80,18 @@ fn random_clouds_and_rays_equal_brute_force() {
             .collect();
         let tree = KdTree::build(&points);
         let mut scratch = Scratch::default();
+        let mut rays = Vec::new();
         for _ in 0..400 {
             let o = [6.0 * r() - 3.0, 6.0 * r() - 3.0, 6.0 * r() - 3.0];
             let d = [2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0];
             check_ray(&points, &tree, o, d, 0.02 + 0.2 * r(), &mut scratch);
+            rays.push(Ray::new(o, d));
         }
+        // Packets: unrelated origins and directions, then a shared origin (a pinhole's).
+        check_packets(&points, &tree, &rays, 0.1);
+        let eye = rays[0].o;
+        let fan: Vec<Ray> = rays.iter().map(|r| Ray::new(eye, r.d)).collect();
+        check_packets(&points, &tree, &fan, 0.05);
     }
 }
 
@@ -96,6 +126,11 @@ fn rays_on_splitting_planes_and_points_with_equal_coordinates() {
     for ox in -5..=5 {
         for oy in -5..=5 {
             for oz in [-5, -1, 0, 2, 5] {
+                for radius in [0.1, 0.5, 1.0] {
+                    let o = [ox as f64, oy as f64, oz as f64];
+                    let fan: Vec<Ray> = dirs.iter().map(|&d| Ray::new(o, d)).collect();
+                    check_packets(&points, &tree, &fan, radius);
+                }
                 for d in dirs {
                     for radius in [0.1, 0.5, 1.0] {
                         check_ray(

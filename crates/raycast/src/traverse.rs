@@ -69,6 +69,7 @@ impl Ray {
 pub struct Scratch {
     stack: Vec<u32>,
     frames: Vec<Frame>,
+    packet: Vec<(u32, u8)>,
 }
 
 /// Entry parameter of the ray into the node's bounds enlarged by `pad`, or `None` on a miss.
@@ -144,6 +145,86 @@ pub fn cast_exact(
         }
     }
     (best != NONE).then_some((best_t, best))
+}
+
+/// Rays in a packet of [`cast_exact_packet`].
+pub const PACKET: usize = 4;
+
+/// [`cast_exact`] for up to [`PACKET`] rays at once (neighbouring pixels): one walk of the
+/// tree, each node fetched and each stack step taken once for the packet, each ray testing
+/// only the nodes whose enlarged bounds it enters before its own best hit (a mask carried
+/// down the stack: bounds are nested, so a ray pruned at a node stays pruned below it).
+///
+/// Every ray gets exactly what [`cast_exact`] gives it: its answer is the smallest (entry
+/// parameter, index) over the points it hits, and its own pruning is the same sound test;
+/// the packet only changes the order in which nodes are visited (the first ray's near-first
+/// order), which the minimum does not depend on.
+pub fn cast_exact_packet(
+    tree: &KdTree,
+    rays: &[Ray],
+    radius: f64,
+    scratch: &mut Scratch,
+) -> [Option<(f64, u32)>; PACKET] {
+    let mut out = [None; PACKET];
+    let nodes = &tree.nodes;
+    let m = rays.len().min(PACKET);
+    if nodes.is_empty() || m == 0 {
+        return out;
+    }
+    let r2 = radius * radius;
+    let mut pad = [0.0; PACKET];
+    for (p, ray) in pad.iter_mut().zip(rays) {
+        *p = radius * (1.0 + 1e-9)
+            + 1e-12 * (1.0 + ray.o.iter().fold(0.0f64, |m, c| m.max(c.abs())));
+    }
+    let mut best_t = [f64::INFINITY; PACKET];
+    let mut best = [NONE; PACKET];
+    let stack = &mut scratch.packet;
+    stack.clear();
+    stack.push((0, (1u8 << m) - 1));
+    let lead = &rays[0];
+    while let Some((at, mask)) = stack.pop() {
+        let n = &nodes[at as usize];
+        let mut live = 0u8;
+        for i in 0..m {
+            if mask & (1 << i) == 0 {
+                continue;
+            }
+            let ray = &rays[i];
+            match box_entry(ray, n, pad[i]) {
+                Some(t) if t <= best_t[i] => {}
+                _ => continue,
+            }
+            live |= 1 << i;
+            if let Some(t) = entry(&ray.o, &ray.d, &n.p, r2)
+                && (t < best_t[i] || (t == best_t[i] && n.index < best[i]))
+            {
+                best_t[i] = t;
+                best[i] = n.index;
+            }
+        }
+        if live == 0 {
+            continue;
+        }
+        let left = n.left(at);
+        let right = n.right;
+        let a = n.axis();
+        let (near, far) = if lead.o[a] < n.split() || (lead.o[a] == n.split() && lead.d[a] < 0.0) {
+            (left, right)
+        } else {
+            (right, left)
+        };
+        if far != NONE {
+            stack.push((far, live));
+        }
+        if near != NONE {
+            stack.push((near, live));
+        }
+    }
+    for i in 0..m {
+        out[i] = (best[i] != NONE).then_some((best_t[i], best[i]));
+    }
+    out
 }
 
 #[derive(Debug, Clone, Copy)]
