@@ -10,7 +10,12 @@
 //! side); its normal is the normalised sum of its children's normals weighted by their leaf
 //! counts; its normal-cone half-angle the largest, over children, of the angle between the
 //! child's normal and the parent's plus the child's own half-angle; its colour the leaf-count
-//! weighted mean. Large subtrees are built in parallel.
+//! weighted mean.
+//!
+//! Parallel build (the same tree, node for node, as the sequential recursion): the upper
+//! levels are split in parallel down to subtrees of fewer than [`PARALLEL`] points, those are
+//! built side by side each into its own vector, the few parents above them are made from their
+//! roots, and everything is moved once, in parallel, into the post-order arena.
 
 use cloud::glam::{DVec3, Vec3};
 
@@ -73,6 +78,7 @@ pub struct Input<'a> {
     pub leaf_radius: f64,
 }
 
+/// Subtrees smaller than this are built by one thread.
 const PARALLEL: usize = 16_384;
 
 /// Builds the hierarchy over all points.
