@@ -13,7 +13,7 @@
 //! weighted mean.
 //!
 //! Parallel build (the same tree, node for node, as the sequential recursion): the upper
-//! levels are split in parallel down to subtrees of fewer than [`PARALLEL`] points, those are
+//! levels are split in parallel down to subtrees of fewer than 16,384 points, those are
 //! built side by side each into its own vector, the few parents above them are made from their
 //! roots, and everything is moved once, in parallel, into the post-order arena.
 
