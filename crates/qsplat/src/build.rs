@@ -224,6 +224,7 @@ enum Step {
     Parent(usize),
 }
 
+/// Lists the pieces in post order: the subtrees in `subs`, every piece's kind in `steps`.
 fn flatten<'a>(piece: Piece<'a>, subs: &mut Vec<&'a mut [Item]>, steps: &mut Vec<Step>) {
     match piece {
         Piece::Sub(items) => {
@@ -256,8 +257,10 @@ fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
             nodes
         })
         .collect();
-    // Arena positions: every piece's first index (subtrees and parents in post order).
+    // Arena positions: every piece's first index (subtrees and parents in post order), and
+    // what the piece is: subtree k (its nodes' children shifted by its start) or parent p.
     let mut starts = Vec::with_capacity(steps.len() + 1);
+    let mut which = Vec::with_capacity(steps.len());
     let mut parents = Vec::new();
     // The roots not yet given a parent (copies: a few hundred at most).
     let mut roots: Vec<(u32, Node)> = Vec::new();
@@ -266,6 +269,7 @@ fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
         starts.push(len);
         match *step {
             Step::Sub => {
+                which.push((true, k));
                 len += built[k].len();
                 roots.push(((len - 1) as u32, built[k][built[k].len() - 1].clone()));
                 k += 1;
@@ -275,6 +279,7 @@ fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
                 let ids: Vec<u32> = kids.iter().map(|k| k.0).collect();
                 let refs: Vec<&Node> = kids.iter().map(|k| &k.1).collect();
                 let parent = parent_from(&refs, &ids);
+                which.push((false, parents.len()));
                 roots.push((len as u32, parent.clone()));
                 parents.push(parent);
                 len += 1;
@@ -282,21 +287,6 @@ fn build_sub(input: &Input<'_>, items: &mut [Item]) -> Vec<Node> {
         }
     }
     starts.push(len);
-    // A piece is a subtree (its nodes' children shifted by its start) or one parent.
-    let mut which = Vec::with_capacity(steps.len());
-    let (mut k, mut p) = (0usize, 0usize);
-    for step in &steps {
-        match step {
-            Step::Sub => {
-                which.push((true, k));
-                k += 1;
-            }
-            Step::Parent(_) => {
-                which.push((false, p));
-                p += 1;
-            }
-        }
-    }
     (0..len)
         .into_par_iter()
         .with_min_len(4_096)

@@ -228,7 +228,7 @@ impl QTree {
             .iter()
             .map(|l| l.par_iter().map(|&p| shape(p)).collect())
             .collect();
-        // Word position of every group, and the index of the first group of every level.
+        // Word position of every group, level by level.
         let mut pos: Vec<Vec<usize>> = Vec::with_capacity(levels.len());
         let mut total = 0usize;
         for level in &shapes {

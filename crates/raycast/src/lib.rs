@@ -109,33 +109,15 @@ impl RayCaster {
                 let rows = out.len() as u32 / w;
                 for x0 in (0..w).step_by(TILE as usize) {
                     if params.traversal == Traversal::Exact {
-                        // 2 × 2 pixels per packet.
-                        for dy in (0..rows).step_by(2) {
-                            for x in (x0..(x0 + TILE).min(w)).step_by(2) {
-                                let mut at = [0usize; traverse::PACKET];
-                                let mut packet = [Ray::new([0.0; 3], [1.0; 3]); traverse::PACKET];
-                                let mut m = 0;
-                                for (ddy, ddx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                                    if dy + ddy >= rows || x + ddx >= w {
-                                        continue;
-                                    }
-                                    let k = ((y0 + dy + ddy) * w + x + ddx) as usize;
-                                    let (o, d) = rays.aim(camera, k);
-                                    packet[m] = Ray::new(o, d);
-                                    at[m] = ((dy + ddy) * w + x + ddx) as usize;
-                                    m += 1;
-                                }
-                                let hits = traverse::cast_exact_packet(
-                                    &self.tree,
-                                    &packet[..m],
-                                    params.radius,
-                                    scratch,
-                                );
-                                for i in 0..m {
-                                    out[at[i]] = hits[i].map_or(NONE, |h| h.1);
-                                }
-                            }
-                        }
+                        let xs = x0..(x0 + TILE).min(w);
+                        self.cast_packets(
+                            rays,
+                            camera,
+                            params.radius,
+                            (xs, y0, rows),
+                            out,
+                            scratch,
+                        );
                         continue;
                     }
                     for dy in 0..rows {
@@ -162,6 +144,43 @@ impl RayCaster {
             visible,
             rays: rays.len() as u64,
         })
+    }
+}
+
+impl RayCaster {
+    /// The exact traversal over the pixels `xs` × `y0..y0 + rows` in 2 × 2 pixel packets
+    /// ([`traverse::cast_exact_packet`]); `out` holds the band's rows from `y0`.
+    fn cast_packets(
+        &self,
+        rays: &RayList,
+        camera: &Camera,
+        radius: f64,
+        (xs, y0, rows): (std::ops::Range<u32>, u32, u32),
+        out: &mut [u32],
+        scratch: &mut Scratch,
+    ) {
+        let w = rays.width;
+        for dy in (0..rows).step_by(2) {
+            for x in xs.clone().step_by(2) {
+                let mut at = [0usize; traverse::PACKET];
+                let mut packet = [Ray::new([0.0; 3], [1.0; 3]); traverse::PACKET];
+                let mut m = 0;
+                for (ddy, ddx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+                    if dy + ddy >= rows || x + ddx >= xs.end {
+                        continue;
+                    }
+                    let k = ((y0 + dy + ddy) * w + x + ddx) as usize;
+                    let (o, d) = rays.aim(camera, k);
+                    packet[m] = Ray::new(o, d);
+                    at[m] = ((dy + ddy) * w + x + ddx) as usize;
+                    m += 1;
+                }
+                let hits = traverse::cast_exact_packet(&self.tree, &packet[..m], radius, scratch);
+                for i in 0..m {
+                    out[at[i]] = hits[i].map_or(NONE, |h| h.1);
+                }
+            }
+        }
     }
 }
 

@@ -153,14 +153,19 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
     let scene = cloud::synth::sphere_plane_scene(600, 900, 4).0;
     let points = &scene.cloud.positions;
     let caster = RayCaster::new(points).unwrap();
-    for eye in [DVec3::new(0.3, -0.4, 5.0), DVec3::new(4.0, 1.0, 0.6)] {
+    // Odd sizes too: partial tiles and partial 2 × 2 packets at the right and bottom edges.
+    for (eye, (width, height)) in [
+        (DVec3::new(0.3, -0.4, 5.0), (40, 30)),
+        (DVec3::new(4.0, 1.0, 0.6), (40, 30)),
+        (DVec3::new(0.3, -0.4, 5.0), (37, 29)),
+    ] {
         let cam = Camera::new(
             eye,
             DVec3::new(0.0, 0.0, 0.5),
             DVec3::Z.cross(DVec3::X).normalize() + DVec3::Z * 0.1,
             45.0,
-            40,
-            30,
+            width,
+            height,
         )
         .unwrap();
         let rays = RayList::new(&cam).unwrap();
@@ -178,7 +183,7 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
             assert_eq!(frame.pixel_point[k], expected, "pixel {k}");
         }
         assert_eq!(frame.visible, visible_set(&frame.pixel_point, points.len()));
-        assert_eq!(frame.rays, 1200);
+        assert_eq!(frame.rays, u64::from(width * height));
     }
 }
 
