@@ -64,6 +64,18 @@ impl Ray {
     }
 }
 
+/// Node `at`'s children for `ray`, nearest first: the child on the origin's side of the
+/// splitting plane (an origin on the plane takes the side its direction points to).
+#[inline(always)]
+fn near_far(ray: &Ray, n: &Node, at: u32) -> (u32, u32) {
+    let (a, s) = (n.axis(), n.split());
+    if ray.o[a] < s || (ray.o[a] == s && ray.d[a] < 0.0) {
+        (n.left(at), n.right)
+    } else {
+        (n.right, n.left(at))
+    }
+}
+
 /// Reusable traversal scratch (one per thread).
 #[derive(Debug, Default)]
 pub struct Scratch {
@@ -128,15 +140,8 @@ pub fn cast_exact(
             best_t = t;
             best = n.index;
         }
-        let left = n.left(at);
-        let right = n.right;
-        let a = n.axis();
         // Near child last on the stack, so it is popped first.
-        let (near, far) = if ray.o[a] < n.split() || (ray.o[a] == n.split() && ray.d[a] < 0.0) {
-            (left, right)
-        } else {
-            (right, left)
-        };
+        let (near, far) = near_far(ray, n, at);
         if far != NONE {
             stack.push(far);
         }
@@ -206,14 +211,7 @@ pub fn cast_exact_packet(
         if live == 0 {
             continue;
         }
-        let left = n.left(at);
-        let right = n.right;
-        let a = n.axis();
-        let (near, far) = if lead.o[a] < n.split() || (lead.o[a] == n.split() && lead.d[a] < 0.0) {
-            (left, right)
-        } else {
-            (right, left)
-        };
+        let (near, far) = near_far(lead, n, at);
         if far != NONE {
             stack.push((far, live));
         }
@@ -264,11 +262,7 @@ pub fn cast_seed(tree: &KdTree, ray: &Ray, radius: f64, scratch: &mut Scratch) -
                 top.stage = 1;
                 // S2: the child closest to the origin, or the child with points on the plane.
                 let child = if !on_plane {
-                    if ray.o[a] < s || (ray.o[a] == s && ray.d[a] < 0.0) {
-                        n.left(at)
-                    } else {
-                        n.right
-                    }
+                    near_far(ray, n, at).0
                 } else if n.equal_in_back() {
                     n.left(at)
                 } else if n.equal_in_front() {
@@ -299,11 +293,7 @@ pub fn cast_seed(tree: &KdTree, ray: &Ray, radius: f64, scratch: &mut Scratch) -
                 }
                 // S6: a ray in the plane has nothing more to see; otherwise, does it meet the
                 // plane within the node's (radius-enlarged) range, ahead of the origin?
-                let far = if ray.o[a] < s || (ray.o[a] == s && ray.d[a] < 0.0) {
-                    n.right
-                } else {
-                    n.left(at)
-                };
+                let far = near_far(ray, n, at).1;
                 if top.on_plane || far == NONE || !crosses_plane_in_range(ray, n, radius) {
                     // S9.
                     found = None;
