@@ -16,6 +16,7 @@
 
 pub mod bbox;
 pub mod camera;
+pub mod compact;
 pub mod degrade;
 pub mod double_buffer;
 pub mod error;

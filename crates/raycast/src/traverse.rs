@@ -64,6 +64,14 @@ impl Ray {
     }
 }
 
+/// How far the exact traversal enlarges node bounds for `ray`: the radius plus a relative
+/// margin, so that rounding in the slab test never makes a subtree look farther than a sphere
+/// inside it.
+#[inline(always)]
+fn bounds_pad(ray: &Ray, radius: f64) -> f64 {
+    radius * (1.0 + 1e-9) + 1e-12 * (1.0 + ray.o.iter().fold(0.0f64, |m, c| m.max(c.abs())))
+}
+
 /// Node `at`'s children for `ray`, nearest first: the child on the origin's side of the
 /// splitting plane (an origin on the plane takes the side its direction points to).
 #[inline(always)]
@@ -119,10 +127,7 @@ pub fn cast_exact(
         return None;
     }
     let r2 = radius * radius;
-    // Bounds are enlarged by the radius plus a relative margin, so that rounding in the slab
-    // test never makes a subtree look farther than a sphere inside it.
-    let pad =
-        radius * (1.0 + 1e-9) + 1e-12 * (1.0 + ray.o.iter().fold(0.0f64, |m, c| m.max(c.abs())));
+    let pad = bounds_pad(ray, radius);
     let mut best_t = f64::INFINITY;
     let mut best = NONE;
     let stack = &mut scratch.stack;
@@ -179,8 +184,7 @@ pub fn cast_exact_packet(
     let r2 = radius * radius;
     let mut pad = [0.0; PACKET];
     for (p, ray) in pad.iter_mut().zip(rays) {
-        *p = radius * (1.0 + 1e-9)
-            + 1e-12 * (1.0 + ray.o.iter().fold(0.0f64, |m, c| m.max(c.abs())));
+        *p = bounds_pad(ray, radius);
     }
     let mut best_t = [f64::INFINITY; PACKET];
     let mut best = [NONE; PACKET];

@@ -259,15 +259,8 @@ impl SequentialList {
                 .map(|(c, p)| self.scan(c, eye, eps2, p))
                 .collect()
         };
-        let (mut len, mut at) = (base, base);
-        for (selected, tested, scanned) in counts {
-            out.copy_within(at..at + selected, len);
-            len += selected;
-            at += scanned;
-            stats.tested += tested;
-        }
-        out.truncate(len);
-        stats.selected = len;
+        stats.tested = counts.iter().map(|c| c.1).sum();
+        stats.selected = cloud::compact::join_parts(out, base, counts.iter().map(|c| (c.0, c.2)));
         stats
     }
 

@@ -174,12 +174,7 @@ impl Srn {
                 len
             })
             .collect();
-        let mut len = 0;
-        for (c, kept) in counts.into_iter().enumerate() {
-            out.copy_within(c * CHUNK..c * CHUNK + kept, len);
-            len += kept;
-        }
-        out.truncate(len);
+        cloud::compact::join_parts(out, 0, counts.into_iter().map(|kept| (kept, CHUNK)));
         Ok(())
     }
 
