@@ -20,7 +20,8 @@
 //! does; a hull reports one index of each such group (the lowest, with `own`), and the mapping
 //! step adds the others ([`with_duplicates`]): every copy of a visible point is visible, as
 //! Katz's criterion (p̂ on the hull) says. (With a perturbation the copies are moved apart and
-//! each is classified on its own.)
+//! each is classified on its own.) A hull that knows its input has no coincident points
+//! ([`ConvexHull::vertices_distinct`]: `own` does) spares that step.
 //!
 //! Seed 000 §5's front/back buffer with an auxiliary thread is the reusable
 //! [`cloud::double_buffer::DoubleBuffer`] (the ray caster uses it too); [`background`] runs HPR
@@ -137,7 +138,23 @@ pub fn visible(
         .iter()
         .chain(std::iter::once(&eye))
         .flat_map(|p| p.to_array());
-    if let Some((f1, f2)) = hull::exact_rescale(coords)? {
+    let max = {
+        use rayon::prelude::*;
+        let abs_max = |p: &DVec3| p.abs().max_element();
+        points
+            .par_iter()
+            .map(abs_max)
+            .reduce(|| 0.0, f64::max)
+            .max(abs_max(&eye))
+    };
+    // One parallel pass decides the common case (every magnitude in range, or a non-finite
+    // one, which the transform reports); the sequential check runs only when rescaling.
+    let in_range = !max.is_finite() || (2f64.powi(-100)..=2f64.powi(100)).contains(&max);
+    if let Some((f1, f2)) = (!in_range)
+        .then(|| hull::exact_rescale(coords))
+        .transpose()?
+        .flatten()
+    {
         let scale = |v: DVec3| v * f1 * f2;
         let scaled: Vec<DVec3> = points.iter().map(|&p| scale(p)).collect();
         let kernel = match params.kernel {
@@ -161,12 +178,14 @@ pub fn visible(
     };
     let t_transform = start.elapsed().as_secs_f64();
     let start = Instant::now();
-    let vertices = hull.vertices(&transformed.points)?;
+    let (vertices, distinct) = hull.vertices_distinct(&transformed.points)?;
     let t_hull = start.elapsed().as_secs_f64();
     let start = Instant::now();
     let eye_index = points.len() as u32;
     let visible: Vec<u32> = vertices.into_iter().filter(|&v| v != eye_index).collect();
-    let visible = if params.perturb > 0.0 {
+    // Coincident input points flip to coincident points: when the hull knows the flipped set
+    // has none, there are no copies to add.
+    let visible = if params.perturb > 0.0 || distinct {
         visible
     } else {
         with_duplicates(points, visible)
@@ -216,6 +235,35 @@ mod tests {
 
     fn own() -> Box<dyn ConvexHull> {
         hull::by_name("own").unwrap()
+    }
+
+    /// `own` that does not say whether the input is distinct (the trait's default), so that
+    /// HPR always looks for copies.
+    struct Unsure;
+    impl ConvexHull for Unsure {
+        fn name(&self) -> &'static str {
+            "unsure"
+        }
+        fn vertices(&self, points: &[[f64; 3]]) -> Result<Vec<u32>, HullError> {
+            hull::own::hull_vertices(points).map(|h| h.vertices)
+        }
+    }
+
+    #[test]
+    fn skipping_the_copy_search_on_distinct_clouds_changes_nothing() {
+        let scene = sphere_scene(4_000);
+        let mut points = scene.cloud.positions.clone();
+        let eye = DVec3::new(0.3, 0.2, 3.0);
+        for copies in [false, true] {
+            if copies {
+                let extra: Vec<DVec3> = points.iter().step_by(5).copied().collect();
+                points.extend(extra);
+            }
+            let fast = visible(&points, eye, &HprParams::default(), own().as_ref()).unwrap();
+            let slow = visible(&points, eye, &HprParams::default(), &Unsure).unwrap();
+            assert_eq!(fast.visible, slow.visible, "copies: {copies}");
+            assert!(fast.visible.len() > 500);
+        }
     }
 
     #[test]

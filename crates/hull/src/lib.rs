@@ -76,6 +76,12 @@ pub trait ConvexHull: Send + Sync {
     fn name(&self) -> &'static str;
     /// Indices of the hull's vertices, ascending, no repeats.
     fn vertices(&self, points: &[P3]) -> Result<Vec<u32>, HullError>;
+    /// [`ConvexHull::vertices`], and whether the input is known to hold no coincident points
+    /// (`false`: it may; the default, for implementations that do not know). HPR uses it to
+    /// skip looking for copies of visible points.
+    fn vertices_distinct(&self, points: &[P3]) -> Result<(Vec<u32>, bool), HullError> {
+        Ok((self.vertices(points)?, false))
+    }
 }
 
 /// Names of the implementations, in listing order.
@@ -130,6 +136,20 @@ pub fn exact_rescale(
     Ok(Some((f1, f2)))
 }
 
+/// [`exact_rescale`] of every coordinate of `points`; the common case (the largest magnitude
+/// in range) is decided by one parallel pass.
+pub fn exact_rescale_points(points: &[P3]) -> Result<Option<(f64, f64)>, HullError> {
+    use rayon::prelude::*;
+    let max = points
+        .par_iter()
+        .map(|p| p[0].abs().max(p[1].abs()).max(p[2].abs()))
+        .reduce(|| 0.0, f64::max);
+    if max.is_finite() && (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
+        return Ok(None);
+    }
+    exact_rescale(points.iter().flatten().copied())
+}
+
 /// Checks what every implementation needs: at least 4 points, all coordinates finite.
 pub fn validate(points: &[P3]) -> Result<(), HullError> {
     if points.len() < 4 {
@@ -138,7 +158,11 @@ pub fn validate(points: &[P3]) -> Result<(), HullError> {
     if points.len() >= u32::MAX as usize {
         return Err(HullError::Degenerate("more than 2^32 - 1 points".into()));
     }
-    match points.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+    use rayon::prelude::*;
+    match points
+        .par_iter()
+        .position_first(|p| !p.iter().all(|c| c.is_finite()))
+    {
         Some(i) => Err(HullError::NonFinite(i)),
         None => Ok(()),
     }

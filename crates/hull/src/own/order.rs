@@ -32,6 +32,9 @@ pub struct Order {
     pub indices: Vec<u32>,
     /// Start offsets of the rounds in `indices` (ascending, the first is 0).
     pub rounds: Vec<usize>,
+    /// True when no two points (those in `skip` included) coincide: coincident points share a
+    /// sort key, so only points with equal keys are compared.
+    pub distinct: bool,
 }
 
 impl Order {
@@ -59,10 +62,11 @@ pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
             0.0
         }
     });
+    // Every point is keyed, `skip` included, so that the duplicate check below sees them all;
+    // the skipped ones are left out of the order afterwards.
     let mut keyed: Vec<(u64, u32)> = points
         .par_iter()
         .enumerate()
-        .filter(|(i, _)| !skip.contains(&(*i as u32)))
         .map(|(i, p)| {
             let q: [u32; 3] = std::array::from_fn(|k| ((p[k] - lo[k]) * scale[k]) as u32);
             let level = (hash(p).trailing_zeros()).min(LEVELS - 1) as u64;
@@ -72,6 +76,16 @@ pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
         })
         .collect();
     keyed.par_sort_unstable();
+    // Coincident points hash alike and quantise alike: they share a key, and sit in one run
+    // of equal keys. Runs longer than one are rare and short: compare their points.
+    let distinct = (0..keyed.len().saturating_sub(1)).into_par_iter().all(|k| {
+        let (key, i) = keyed[k];
+        keyed[k + 1..]
+            .iter()
+            .take_while(|w| w.0 == key)
+            .all(|&(_, j)| points[i as usize] != points[j as usize])
+    });
+    keyed.retain(|&(_, i)| !skip.contains(&i));
     let mut rounds = Vec::new();
     for (k, w) in keyed.iter().enumerate() {
         if k == 0 || w.0 >> 60 != keyed[k - 1].0 >> 60 {
@@ -81,6 +95,7 @@ pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
     Order {
         indices: keyed.into_iter().map(|(_, i)| i).collect(),
         rounds,
+        distinct,
     }
 }
 
@@ -145,6 +160,8 @@ mod tests {
             .collect();
         pts.push(pts[3]);
         let order = insertion_order(&pts, &[0, 1]);
+        // The lattice repeats itself: coincident points, so not known distinct.
+        assert!(!order.distinct);
         assert_eq!(order.round_slices().map(<[u32]>::len).sum::<usize>(), 999);
         let order = order.indices;
         let mut sorted = order.clone();
@@ -159,5 +176,20 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn distinct_is_true_only_without_coincident_points() {
+        let mut pts: Vec<P3> = (0..500)
+            .map(|i| {
+                let t = f64::from(i);
+                [t.sin(), (1.7 * t).cos(), 0.01 * t]
+            })
+            .collect();
+        assert!(insertion_order(&pts, &[]).distinct);
+        // A copy of a skipped point still counts.
+        pts.push(pts[7]);
+        assert!(!insertion_order(&pts, &[7]).distinct);
+        assert!(!insertion_order(&pts, &[]).distinct);
     }
 }

@@ -5,6 +5,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::ConvexHull;
 use crate::check::{extreme_points_brute_force, verify};
 
 fn rng(seed: u64) -> impl FnMut() -> f64 {
@@ -106,6 +107,29 @@ fn duplicates_report_the_lowest_index() {
 }
 
 #[test]
+fn vertices_only_hull_and_its_distinct_flag() {
+    let mut r = rng(11);
+    let mut pts: Vec<P3> = (0..3_000).map(|_| [r(), r(), r()]).collect();
+    let full = hull(&pts).unwrap();
+    let only = hull_vertices(&pts).unwrap();
+    assert_eq!(only.vertices, full.vertices);
+    assert!(only.facets.is_empty() && !full.facets.is_empty());
+    assert!(full.distinct && only.distinct);
+    // One copy of an interior point, then of a vertex: either makes the set not distinct.
+    let interior = (0..pts.len())
+        .find(|i| full.vertices.binary_search(&(*i as u32)).is_err())
+        .unwrap();
+    pts.push(pts[interior]);
+    assert!(!hull_vertices(&pts).unwrap().distinct);
+    pts.pop();
+    pts.push(pts[full.vertices[3] as usize]);
+    let h = hull_vertices(&pts).unwrap();
+    assert!(!h.distinct);
+    assert_eq!(h.vertices, full.vertices, "the copy is not reported");
+    assert_eq!(Own.vertices_distinct(&pts).unwrap(), (h.vertices, false));
+}
+
+#[test]
 fn degenerate_inputs_are_errors() {
     let plane: Vec<P3> = (0..20)
         .map(|i| [i as f64, (i * i % 7) as f64, 0.0])
@@ -164,7 +188,7 @@ fn hpr_shells_pass_the_certificate_and_agree_with_qhull_where_it_is_sure() {
             h.vertices.contains(&(pts.len() as u32 - 1)),
             "the eye is a vertex"
         );
-        let q = crate::ConvexHull::vertices(
+        let q = ConvexHull::vertices(
             &crate::qhull_impl::Qhull::new(crate::qhull_impl::QhullOption::Qt),
             &pts,
         )
