@@ -147,10 +147,9 @@ pub fn visible(
             .reduce(|| 0.0, f64::max)
             .max(abs_max(&eye))
     };
-    // One parallel pass decides the common case (every magnitude in range, or a non-finite
-    // one, which the transform reports); the sequential check runs only when rescaling.
-    let in_range = !max.is_finite() || (2f64.powi(-100)..=2f64.powi(100)).contains(&max);
-    if let Some((f1, f2)) = (!in_range)
+    // One parallel pass decides the common case; the sequential check runs only when
+    // rescaling (a non-finite coordinate is left to the transform, which reports it).
+    if let Some((f1, f2)) = hull::rescale_needed(max)
         .then(|| hull::exact_rescale(coords))
         .transpose()?
         .flatten()

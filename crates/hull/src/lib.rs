@@ -116,7 +116,7 @@ pub fn exact_rescale(
     coords: impl Iterator<Item = f64> + Clone,
 ) -> Result<Option<(f64, f64)>, HullError> {
     let max = coords.clone().fold(0.0f64, |m, c| m.max(c.abs()));
-    if !max.is_finite() || max == 0.0 || (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
+    if !rescale_needed(max) {
         return Ok(None);
     }
     let exponent = max.log2().floor() as i32 + 1;
@@ -136,15 +136,21 @@ pub fn exact_rescale(
     Ok(Some((f1, f2)))
 }
 
-/// [`exact_rescale`] of every coordinate of `points`; the common case (the largest magnitude
-/// in range) is decided by one parallel pass.
+/// Whether coordinates whose largest magnitude is `max_abs` call for [`exact_rescale`]: finite,
+/// non-zero and outside [2^-100, 2^100].
+pub fn rescale_needed(max_abs: f64) -> bool {
+    max_abs.is_finite() && max_abs != 0.0 && !(2f64.powi(-100)..=2f64.powi(100)).contains(&max_abs)
+}
+
+/// [`exact_rescale`] of every coordinate of `points`; the common case (no rescaling) is decided
+/// by one parallel pass.
 pub fn exact_rescale_points(points: &[P3]) -> Result<Option<(f64, f64)>, HullError> {
     use rayon::prelude::*;
     let max = points
         .par_iter()
         .map(|p| p[0].abs().max(p[1].abs()).max(p[2].abs()))
         .reduce(|| 0.0, f64::max);
-    if max.is_finite() && (2f64.powi(-100)..=2f64.powi(100)).contains(&max) {
+    if !rescale_needed(max) {
         return Ok(None);
     }
     exact_rescale(points.iter().flatten().copied())

@@ -25,6 +25,9 @@ const LEVELS: u32 = 12;
 /// Bits per axis of the quantised coordinates (the Morton key uses the top 20).
 const BITS: u32 = 21;
 
+/// Longest run of equal sort keys whose points are compared for coincidence.
+const RUN_LIMIT: usize = 64;
+
 /// An insertion order: the indices, and where each round starts.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Order {
@@ -77,13 +80,16 @@ pub fn insertion_order(points: &[P3], skip: &[u32]) -> Order {
         .collect();
     keyed.par_sort_unstable();
     // Coincident points hash alike and quantise alike: they share a key, and sit in one run
-    // of equal keys. Runs longer than one are rare and short: compare their points.
+    // of equal keys. Runs longer than one are rare and short: compare their points. A run
+    // longer than RUN_LIMIT (a dense cluster far from the rest of the cloud) would make this
+    // quadratic: the answer is then "not known distinct".
     let distinct = (0..keyed.len().saturating_sub(1)).into_par_iter().all(|k| {
         let (key, i) = keyed[k];
-        keyed[k + 1..]
-            .iter()
-            .take_while(|w| w.0 == key)
+        let mut run = keyed[k + 1..].iter().take_while(|w| w.0 == key);
+        run.by_ref()
+            .take(RUN_LIMIT)
             .all(|&(_, j)| points[i as usize] != points[j as usize])
+            && run.next().is_none()
     });
     keyed.retain(|&(_, i)| !skip.contains(&i));
     let mut rounds = Vec::new();
@@ -191,5 +197,13 @@ mod tests {
         pts.push(pts[7]);
         assert!(!insertion_order(&pts, &[7]).distinct);
         assert!(!insertion_order(&pts, &[]).distinct);
+        // A dense cluster far from one other point: 1,000 distinct points share one key, too
+        // many to compare, so the answer is the safe one.
+        let mut cluster: Vec<P3> = (0..1000)
+            .map(|i| [1.0 + f64::from(i) * 1e-12, 1.0, 1.0])
+            .collect();
+        cluster.push([1e6, 1e6, 1e6]);
+        assert!(!insertion_order(&cluster, &[]).distinct);
+        assert!(insertion_order(&cluster[..60], &[]).distinct);
     }
 }
