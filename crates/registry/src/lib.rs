@@ -18,6 +18,7 @@ pub mod hpr;
 pub mod image_score;
 pub mod lod;
 pub mod params;
+mod plugins;
 pub mod raycast;
 mod reference;
 pub mod score;
@@ -123,22 +124,13 @@ pub trait Method: Sync {
 
 /// Methods registered at run time: external ones ([`register_external`]) and any a program
 /// embedding this crate adds ([`register`]).
-static EXTRA: std::sync::RwLock<Vec<&'static dyn Method>> = std::sync::RwLock::new(Vec::new());
+static EXTRA: plugins::Plugins<dyn Method> = plugins::Plugins::new();
 
 /// Adds `method` for every later lookup in this process (a program embedding the registry, or
-/// a test, plugs its own method in here: one adapter, one call). Its name must be new.
+/// a test, plugs its own method in here: one adapter, one call). Its name must be new among
+/// visibility and LOD methods alike (one sweeps file names both).
 pub fn register(method: &'static dyn Method) -> Result<()> {
-    if all().iter().any(|m| m.name() == method.name()) {
-        return Err(Error::Unsupported(format!(
-            "a method named {} is already registered",
-            method.name()
-        )));
-    }
-    EXTRA
-        .write()
-        .map_err(|_| Error::Unsupported("the method registry is poisoned".into()))?
-        .push(method);
-    Ok(())
+    EXTRA.add(method.name(), method)
 }
 
 /// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup.
@@ -164,8 +156,7 @@ pub fn register_external(dir: &std::path::Path) -> Result<()> {
 
 /// Every method: built-in, then those registered at run time.
 pub fn all() -> Vec<&'static dyn Method> {
-    let extra = EXTRA.read().map(|e| e.clone()).unwrap_or_default();
-    METHODS.iter().copied().chain(extra).collect()
+    EXTRA.after(METHODS)
 }
 
 /// Every method, in listing order.

@@ -430,28 +430,17 @@ impl LodSelector for RandomSel<'_> {
 /// The built-in LOD methods, in listing order.
 pub static LOD_METHODS: &[&dyn LodMethod] = &[&QsplatMethod, &SptMethod, &SrnMethod, &RandomMethod];
 
-static EXTRA: std::sync::RwLock<Vec<&'static dyn LodMethod>> = std::sync::RwLock::new(Vec::new());
+static EXTRA: crate::plugins::Plugins<dyn LodMethod> = crate::plugins::Plugins::new();
 
 /// Adds an LOD method for every later lookup in this process; its name must be new (among
 /// visibility and LOD methods alike: one sweeps file names both).
 pub fn register_lod(method: &'static dyn LodMethod) -> Result<()> {
-    if all().iter().any(|m| m.name() == method.name()) || crate::method(method.name()).is_ok() {
-        return Err(Error::Unsupported(format!(
-            "a method named {} is already registered",
-            method.name()
-        )));
-    }
-    EXTRA
-        .write()
-        .map_err(|_| Error::Unsupported("the LOD registry is poisoned".into()))?
-        .push(method);
-    Ok(())
+    EXTRA.add(method.name(), method)
 }
 
 /// Every LOD method: built-in, then registered.
 pub fn all() -> Vec<&'static dyn LodMethod> {
-    let extra = EXTRA.read().map(|e| e.clone()).unwrap_or_default();
-    LOD_METHODS.iter().copied().chain(extra).collect()
+    EXTRA.after(LOD_METHODS)
 }
 
 /// Looks an LOD method up by name.
