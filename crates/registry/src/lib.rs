@@ -134,12 +134,16 @@ pub fn register(method: &'static dyn Method) -> Result<()> {
 }
 
 /// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup.
-/// Names must not shadow built-in methods; a method already loaded under the same name is kept
-/// (loading the same folder twice is harmless).
+/// Names must not shadow built-in methods (visibility or LOD: one namespace); a method already
+/// loaded under the same name is kept (loading the same folder twice is harmless).
 pub fn register_external(dir: &std::path::Path) -> Result<()> {
     let loaded = external::ExternalMethod::load_dir(dir)?;
     for m in loaded {
-        if METHODS.iter().any(|b| b.name() == m.name()) {
+        let builtin = METHODS.iter().map(|b| b.name());
+        if builtin
+            .chain(lod::LOD_METHODS.iter().map(|b| b.name()))
+            .any(|b| b == m.name())
+        {
             return Err(Error::Unsupported(format!(
                 "external method {} in {} shadows a built-in method",
                 m.name(),

@@ -97,4 +97,19 @@ mod tests {
         assert!(crate::lod::method("plugins-test-lod").is_some());
         assert!(crate::register(&Named("plugins-test-lod")).is_err());
     }
+
+    #[test]
+    fn an_external_method_may_not_take_a_built_in_lod_name() {
+        let dir = std::env::temp_dir().join(format!("pointsight-plugins-{}", std::process::id()));
+        let folder = dir.join("spt");
+        std::fs::create_dir_all(&folder).unwrap();
+        std::fs::write(
+            folder.join("method.toml"),
+            "protocol = 1\nsummary = \"test\"\ncommand = [\"true\"]\n",
+        )
+        .unwrap();
+        let err = crate::register_external(&dir).unwrap_err().to_string();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(err.contains("shadows a built-in method"), "{err}");
+    }
 }
