@@ -67,6 +67,10 @@ pub struct Output {
     pub reported_seconds: Option<f64>,
     /// What a rule chose for this view (`gamma=2.87` for HPR's `gamma=auto`), `k=v` pairs.
     pub detail: Vec<(String, String)>,
+    /// For methods whose visible set is a threshold of a per-point score (a visibility
+    /// confidence): the score of every point of the cloud, indexed like the cloud, higher
+    /// meaning more visible; `None` for methods that give none.
+    pub score: Option<Vec<f32>>,
 }
 
 /// The point each pixel of a per-pixel method shows.
@@ -84,6 +88,13 @@ pub struct PixelChoice {
 pub trait Prepared: Sync {
     /// The visible points from `camera`.
     fn visible(&self, camera: &Camera) -> Result<Output>;
+    /// The visible points from view `view` of the dataset (its index among the dataset's
+    /// views), whose camera is `camera`. Methods that care which view it is (an external
+    /// program told the view's index) override this; the default ignores the index.
+    fn visible_at(&self, view: usize, camera: &Camera) -> Result<Output> {
+        let _ = view;
+        self.visible(camera)
+    }
 }
 
 /// A visibility method.
