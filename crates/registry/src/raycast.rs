@@ -82,6 +82,7 @@ impl Prepared for Prep {
             }),
             reported_seconds: None,
             detail: Vec::new(),
+            score: None,
         })
     }
 }
