@@ -26,7 +26,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "lod/results.csv",
-        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction",
+        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction,status",
     ),
 ];
 

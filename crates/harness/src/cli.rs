@@ -165,6 +165,9 @@ pub enum Command {
         /// Points.
         #[arg(long)]
         n: u64,
+        /// The method's setting (a `registry::Setting` label; empty: its defaults).
+        #[arg(long, default_value = "")]
+        setting: String,
     },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
     /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).

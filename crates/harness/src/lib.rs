@@ -59,8 +59,14 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Export { dataset, out } => {
             export(&dataset, &out, &data_dir)?;
         }
-        Command::ScaleCell { dataset, method, n } => {
-            let out = experiments::scale::cell(&dataset, &method, n, &data_dir)?;
+        Command::ScaleCell {
+            dataset,
+            method,
+            n,
+            setting,
+        } => {
+            let setting = registry::Setting::parse(&setting);
+            let out = experiments::scale::cell(&dataset, &method, &setting, n, &data_dir)?;
             println!("{}", serde_json::to_string(&out)?);
         }
         Command::Inspect {
@@ -221,18 +227,14 @@ pub fn views_csv(views: &[cloud::Camera]) -> Result<String> {
 }
 
 /// The sweeps (built-in, external methods', `--config`'s) and repeats of `flags`.
-fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, usize)> {
+fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<usize>)> {
     let user = flags
         .config
         .as_deref()
         .map(registry::Sweeps::read)
         .transpose()?;
     let sweeps = registry::Sweeps::resolve(user)?;
-    let repeats = flags
-        .repeats
-        .map(|r| r as usize)
-        .or(sweeps.repeats)
-        .unwrap_or(experiments::REPEATS);
+    let repeats = flags.repeats.map(|r| r as usize).or(sweeps.repeats);
     Ok((sweeps, repeats))
 }
 
@@ -412,7 +414,8 @@ fn run_experiment(
     let ctx = experiments::Context {
         views,
         sweeps,
-        repeats,
+        repeats: repeats.unwrap_or(experiments::REPEATS),
+        repeats_given: repeats.is_some(),
         shard: sweep.shard,
         ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
     };
@@ -451,7 +454,8 @@ fn bench(
         };
         let ctx = experiments::Context {
             sweeps: sweeps.clone(),
-            repeats,
+            repeats: repeats.unwrap_or(experiments::REPEATS),
+            repeats_given: repeats.is_some(),
             shard: sweep.shard,
             ..experiments::Context::new(
                 data_dir.to_path_buf(),

@@ -11,11 +11,10 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
 use cloud::glam::DVec3;
-use rayon::prelude::*;
 
 use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
-use crate::methods::{self, Output, Params};
+use crate::methods::{self, Output, Params, kernel};
 use crate::output;
 use crate::score::Score;
 
@@ -261,12 +260,27 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     if !many {
         // The single-view contract: a file, `prepare_seconds`, then the contract line.
         let k: usize = req.view.parse()?;
-        let camera = *ds.view(k)?;
-        let start = Instant::now();
-        let prepared = methods::prepare(method, ds.input(), &params)?;
-        let prepare_seconds = start.elapsed().as_secs_f64();
-        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)?;
-        // An external program's timing is its own reported compute time (`registry::timed`).
+        let views = [kernel::View {
+            index: k,
+            camera: *ds.view(k)?,
+        }];
+        let camera = views[0].camera;
+        let cell = kernel::Cell {
+            method,
+            params,
+            views: &views,
+            repeats: req.repeat,
+            parallel: false,
+        };
+        let (prepared, answers) = kernel::collect(&cell, ds.input());
+        let prepare_seconds = prepared?;
+        let kernel::Answer { output, timing } = answers
+            .into_iter()
+            .next()
+            .context("the kernel answered no view")?
+            .1
+            .map_err(anyhow::Error::msg)?;
+        // An external program's timing is its own reported compute time (`registry::kernel`).
         let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
         println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
@@ -284,31 +298,43 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     }
 
     let chosen = parse_views(&req.view, ds.views.len())?;
-    let cameras: Vec<(usize, Camera)> = chosen.iter().map(|&k| (k, ds.views[k])).collect();
-    let start = Instant::now();
-    let prepared = methods::prepare(method, ds.input(), &params)?;
-    let prepare_seconds = start.elapsed().as_secs_f64();
+    let views: Vec<kernel::View> = chosen
+        .iter()
+        .map(|&index| kernel::View {
+            index,
+            camera: ds.views[index],
+        })
+        .collect();
     let parallel = match req.parallel_views {
         ParallelViews::Auto => method.parallel_views(),
         ParallelViews::Yes => true,
         ParallelViews::No => false,
     };
+    let cell = kernel::Cell {
+        method,
+        params,
+        views: &views,
+        repeats: req.repeat,
+        parallel,
+    };
+    let start = Instant::now();
+    let mut results: Vec<(usize, Output, f64)> = Vec::with_capacity(views.len());
+    let mut failure = None;
+    let prepared = kernel::run(&cell, ds.input(), |view, answer| match answer {
+        Ok(a) => results.push((view.index, a.output, a.timing.median)),
+        Err(e) if failure.is_none() => failure = Some(format!("view {}: {e}", view.index)),
+        Err(_) => {}
+    });
+    let prepare_seconds = prepared?;
+    if let Some(f) = failure {
+        bail!(f);
+    }
     println!(
         "prepare_seconds={prepare_seconds:.6} views={} parallel_views={parallel}",
-        cameras.len(),
+        views.len(),
     );
-    let start = Instant::now();
-    let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
-        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)
-            .with_context(|| format!("view {k}"))?;
-        Ok((k, output, timing.median))
-    };
-    let results: Vec<(usize, Output, f64)> = if parallel {
-        cameras.par_iter().map(run_one).collect::<Result<_>>()?
-    } else {
-        cameras.iter().map(run_one).collect::<Result<_>>()?
-    };
-    let wall = start.elapsed().as_secs_f64();
+    // The views' wall time, the per-dataset preparation excluded.
+    let wall = start.elapsed().as_secs_f64() - prepare_seconds;
     std::fs::create_dir_all(&req.out)
         .with_context(|| format!("cannot create {}", req.out.display()))?;
     for (k, output, seconds) in &results {

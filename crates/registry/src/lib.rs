@@ -4,9 +4,10 @@
 //! A method is a [`Method`] (name, typed parameters, and `prepare`, which builds whatever it
 //! keeps per cloud: a BVH, a k-d tree) returning a [`Prepared`] that answers one view at a
 //! time. Adding a method is one adapter module and one line in [`METHODS`]. Methods return
-//! indices; callers, not methods, score them (ann-benchmarks' rule). `seconds` in every report
-//! is the time of [`Prepared::visible`] alone, measured by [`timing`]: loading and per-cloud
-//! preparation are excluded.
+//! indices; callers, not methods, score them (ann-benchmarks' rule). Every caller measures a
+//! method through [`kernel`], the one code path that prepares, times and runs one; `seconds`
+//! in every report is the time of [`Prepared::visible_at`] alone, measured by [`timing`]:
+//! loading and per-cloud preparation are excluded.
 //!
 //! This crate knows nothing of the command line, datasets, plots or reports: its input is a
 //! cloud and, for the ground truth, a mesh ([`Input`]).
@@ -16,6 +17,7 @@ mod exact;
 pub mod external;
 pub mod hpr;
 pub mod image_score;
+pub mod kernel;
 pub mod lod;
 pub mod params;
 mod plugins;
@@ -131,6 +133,29 @@ pub trait Method: Sync {
     fn is_external(&self) -> bool {
         false
     }
+    /// How the scale experiment may run it on large clouds (default: its memory is not known,
+    /// so it is not run above [`Scale::UNKNOWN_LIMIT`] points).
+    fn scale(&self) -> Scale {
+        Scale::Unknown
+    }
+}
+
+/// What the scale experiment may know of a method's memory, so that its guard can refuse a
+/// cell that cannot fit before it starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Scale {
+    /// Bytes per point the method needs beyond the sampled cloud's own 48 (its peak measured at
+    /// 10^7 points, with a margin).
+    PerPoint(u64),
+    /// Not known: not run above [`Scale::UNKNOWN_LIMIT`] points.
+    Unknown,
+    /// The method takes no part in the scale experiment, for this reason (the report prints it).
+    OptOut(String),
+}
+
+impl Scale {
+    /// The most points a method of unknown memory is run on.
+    pub const UNKNOWN_LIMIT: u64 = 1_000_000;
 }
 
 /// Methods registered at run time: external ones ([`register_external`]) and any a program
@@ -196,39 +221,6 @@ pub fn method(name: &str) -> Result<&'static dyn Method> {
                 .collect::<Vec<_>>()
                 .join(", "),
         })
-}
-
-/// Prepares `method` on `input`, rejecting parameters it does not read.
-pub fn prepare<'a>(
-    method: &dyn Method,
-    input: Input<'a>,
-    params: &Params,
-) -> Result<Box<dyn Prepared + 'a>> {
-    let prepared = method.prepare(input, params)?;
-    params.check_all_read(method.name(), method.params())?;
-    Ok(prepared)
-}
-
-/// Runs one view `repeats` times (at least once) and times it with the one timing helper:
-/// the last output and the timing (median, spread). A method that reports its own compute
-/// seconds on every run (an external program, whose wall time includes the protocol) is timed
-/// by those.
-pub fn timed(
-    prepared: &dyn Prepared,
-    camera: &Camera,
-    repeats: usize,
-) -> Result<(Output, timing::Timing)> {
-    let mut reported = Vec::new();
-    let (out, wall) = timing::measure(repeats, || {
-        let out = prepared.visible(camera)?;
-        reported.push(out.reported_seconds);
-        Ok::<_, Error>(out)
-    })?;
-    let own: Option<Vec<f64>> = reported.into_iter().collect();
-    Ok(match own {
-        Some(own) if !own.is_empty() => (out, timing::Timing::of(&own)),
-        _ => (out, wall),
-    })
 }
 
 /// Indices of the true entries of `flags`.

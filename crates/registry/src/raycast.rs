@@ -107,6 +107,10 @@ pub fn radius(points: &[cloud::glam::DVec3], params: &Params) -> Result<f64> {
 }
 
 impl Method for RaycastMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+        crate::Scale::PerPoint(155)
+    }
     fn name(&self) -> &'static str {
         "raycast"
     }

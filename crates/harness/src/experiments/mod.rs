@@ -40,8 +40,13 @@ pub struct Context {
     pub sweeps: registry::Sweeps,
     /// Timed runs per call (`--repeats`, or the sweeps file's `repeats`; default [`REPEATS`]).
     pub repeats: usize,
+    /// True when the user set `repeats` (`--repeats` or the sweeps file): experiments that
+    /// measure accuracy rather than speed (`robustness`) time one run per call otherwise.
+    pub repeats_given: bool,
     /// The part of the cells this process runs (`--shard K/N`); `None`: all.
     pub shard: Option<Shard>,
+    /// `scale`: the largest cloud size (default 10^6 quick, 10^8 full).
+    pub max_points: Option<u64>,
 }
 
 impl Context {
@@ -56,7 +61,9 @@ impl Context {
             files: Default::default(),
             sweeps: registry::Sweeps::builtin(),
             repeats: REPEATS,
+            repeats_given: false,
             shard: None,
+            max_points: None,
         }
     }
 
@@ -64,6 +71,39 @@ impl Context {
     /// its output and the timing (median and spread).
     pub fn timed<T>(&self, f: impl FnMut() -> Result<T>) -> Result<(T, registry::timing::Timing)> {
         registry::timing::measure(self.repeats, f)
+    }
+
+    /// Timed runs per call of an experiment that measures accuracy: [`Context::repeats`] when
+    /// the user set it, else one.
+    pub fn accuracy_repeats(&self) -> usize {
+        if self.repeats_given { self.repeats } else { 1 }
+    }
+
+    /// Every registered visibility method with a non-empty sweep, in registry order, that can
+    /// run here; the others (an external method whose environment is missing) listed with why.
+    pub fn methods_to_run(
+        &self,
+    ) -> (
+        Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+        Vec<String>,
+    ) {
+        let mut not_run = Vec::new();
+        let mut out = Vec::new();
+        for m in registry::all() {
+            let Some(sweep) = self
+                .sweeps
+                .methods
+                .get(m.name())
+                .filter(|s| !s.settings(self.quick).is_empty())
+            else {
+                continue;
+            };
+            match m.availability() {
+                Ok(()) => out.push((m, sweep.clone())),
+                Err(why) => not_run.push(format!("{}: {why}", m.name())),
+            }
+        }
+        (out, not_run)
     }
 
     /// True when this process runs view `view` of the `dataset`-th dataset (of an experiment

@@ -28,7 +28,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
-use registry::Setting;
+use registry::{Setting, kernel};
 use serde::{Deserialize, Serialize};
 use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
@@ -173,33 +173,6 @@ struct Run {
     visible: Vec<u32>,
 }
 
-/// Every registered method with a non-empty sweep, in registry order, that can run here; the
-/// others (an external method whose environment is missing) are listed with why.
-fn methods_to_run(
-    ctx: &Context,
-) -> (
-    Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
-    Vec<String>,
-) {
-    let mut not_run = Vec::new();
-    let mut out = Vec::new();
-    for m in registry::all() {
-        let Some(sweep) = ctx
-            .sweeps
-            .methods
-            .get(m.name())
-            .filter(|s| !s.settings(ctx.quick).is_empty())
-        else {
-            continue;
-        };
-        match m.availability() {
-            Ok(()) => out.push((m, sweep.clone())),
-            Err(why) => not_run.push(format!("{}: {why}", m.name())),
-        }
-    }
-    (out, not_run)
-}
-
 /// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
 /// first dataset (a fixed choice, so every shard agrees on it).
 fn render_dataset(datasets: &[String]) -> Option<&str> {
@@ -239,7 +212,7 @@ impl Experiment for VisibilityExperiment {
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let n_views = if ctx.quick { 2 } else { 8 };
-        let (methods, mut not_run) = methods_to_run(ctx);
+        let (methods, mut not_run) = ctx.methods_to_run();
         // The setting that stands for each method (agreement on clouds without a mesh).
         let defaults: BTreeMap<String, String> = methods
             .iter()
@@ -266,6 +239,13 @@ impl Experiment for VisibilityExperiment {
             }
             let ds = ctx.dataset(name)?;
             let views: Vec<usize> = owned.into_iter().filter(|&v| v < ds.views.len()).collect();
+            let kviews: Vec<kernel::View> = views
+                .iter()
+                .map(|&index| kernel::View {
+                    index,
+                    camera: ds.views[index],
+                })
+                .collect();
             let points = &ds.cloud.positions;
             // No mesh, no ground truth: rows keep speed and counts, F1 is NaN, and the methods'
             // agreement is recorded instead.
@@ -307,10 +287,12 @@ impl Experiment for VisibilityExperiment {
                 for setting in sweep.settings(ctx.quick) {
                     let label = setting.label();
                     let family = m.family(setting);
-                    // One preparation per setting, every view; a failure is a row per view.
-                    let prepared = registry::prepare(*m, ds.input(), &setting.params());
-                    for &view in &views {
-                        let cam = *ds.view(view)?;
+                    // One cell per setting (one preparation, every view through the kernel); a
+                    // failure is a row per view.
+                    let cell = kernel::Cell::new(*m, setting, &kviews, ctx.repeats);
+                    let (_, answers) = kernel::collect(&cell, ds.input());
+                    for (v, outcome) in answers {
+                        let (view, cam) = (v.index, v.camera);
                         let truth = truths.get(&view).and_then(Option::as_deref);
                         let mut row = Row {
                             dataset: name.clone(),
@@ -332,13 +314,11 @@ impl Experiment for VisibilityExperiment {
                             samples: 0,
                             status: ok_status(),
                         };
-                        let outcome = match &prepared {
-                            Ok(p) => registry::timed(p.as_ref(), &cam, ctx.repeats)
-                                .map_err(|e| e.to_string()),
-                            Err(e) => Err(e.to_string()),
-                        };
                         match outcome {
-                            Ok((out, t)) => {
+                            Ok(kernel::Answer {
+                                output: out,
+                                timing: t,
+                            }) => {
                                 if let Some(t) = truth {
                                     let s = Score::of_on_surface(&out.visible, t, off_flags);
                                     (row.precision, row.recall, row.f1) =
