@@ -54,6 +54,16 @@ fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
+/// The registry's errors with Python's framing: a parameter is a keyword argument of `method`.
+fn registry_err(method: &str, e: registry::Error) -> String {
+    match e {
+        registry::Error::BadValue { key, value, reason } => {
+            format!("{method}: keyword argument {key}={value:?}: {reason}")
+        }
+        other => other.to_string(),
+    }
+}
+
 /// An (N, 3) float64 array as points (copied).
 fn points_of(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
     let v = a.as_array();
@@ -291,8 +301,13 @@ fn visible<'py>(
             cloud: &cloud,
             mesh: mesh.as_ref(),
         };
-        let prepared = registry::prepare(m, input, &p).map_err(err)?;
-        let one = |c: &cloud::Camera| prepared.visible(c).map(|o| o.visible).map_err(err);
+        let prepared = registry::prepare(m, input, &p).map_err(|e| registry_err(&method, e))?;
+        let one = |c: &cloud::Camera| {
+            prepared
+                .visible(c)
+                .map(|o| o.visible)
+                .map_err(|e| registry_err(&method, e))
+        };
         if m.parallel_views() && cams.len() > 1 {
             cams.par_iter().map(one).collect::<Result<Vec<_>, _>>()
         } else {
