@@ -58,11 +58,38 @@ fn names_in(dir: &Path) -> Vec<String> {
     names
 }
 
+/// One or two settings per built-in visibility method.
+const SMALL: &str = r#"
+[hpr]
+[[hpr.grid]]
+gamma = [3.0, "auto"]
+[raycast]
+[[raycast.grid]]
+radius = "auto"
+size = [{width = 320, height = 180}]
+[splat]
+[[splat.grid]]
+radius_px = [2.0]
+"#;
+
 /// Issue 22's case as a new user tried it: two shards written with `run ... --out DIR`, merged.
 #[test]
 fn merge_takes_the_folders_run_shard_out_writes() {
     let root = tmp("merge");
-    let run = ["run", "visibility", "--quick", "--datasets", "sphere-20000"];
+    // Small grids keep the test fast; the layout is the case's.
+    let config = root.join("small.toml");
+    std::fs::write(&config, SMALL).unwrap();
+    let run = [
+        "run",
+        "visibility",
+        "--quick",
+        "--datasets",
+        "sphere-20000",
+        "--config",
+        config.to_str().unwrap(),
+        "--repeats",
+        "1",
+    ];
     let whole = root.join("whole");
     ok(&[&run[..], &["--out", whole.to_str().unwrap()]].concat());
     let shards: Vec<PathBuf> = (1..=2).map(|k| root.join(format!("s{k}"))).collect();
