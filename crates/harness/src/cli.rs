@@ -227,7 +227,8 @@ pub enum Command {
         /// The merged reports folder.
         #[arg(long)]
         out: PathBuf,
-        /// The shards' reports folders (each holds EXPERIMENT/ folders).
+        /// The shards' folders: each what `run EXPERIMENT --shard K/N --out DIR` wrote (DIR
+        /// holds metadata.json) or `bench --shard K/N --reports DIR` (DIR/EXPERIMENT/).
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
@@ -286,6 +287,32 @@ pub fn parse_vec3(text: &str) -> Result<[f64; 3], String> {
     Ok(out)
 }
 
+/// `--set`'s framing of the registry's parameter errors (which speak of parameter names and
+/// values): `--set KEY=VALUE: why` for a value, `--set PAIR: why` for a pair that is not one.
+/// Every other error, and the context around the registry's, is left as it is.
+pub fn frame_set(err: anyhow::Error) -> anyhow::Error {
+    let mut framed = false;
+    let parts: Vec<String> = err
+        .chain()
+        .map(|cause| match cause.downcast_ref::<registry::Error>() {
+            Some(registry::Error::BadValue { key, value, reason }) => {
+                framed = true;
+                format!("--set {key}={value}: {reason}")
+            }
+            Some(registry::Error::BadPair { pair, reason }) => {
+                framed = true;
+                format!("--set {pair}: {reason}")
+            }
+            _ => cause.to_string(),
+        })
+        .collect();
+    if framed {
+        anyhow::anyhow!(parts.join(": "))
+    } else {
+        err
+    }
+}
+
 /// What the experiments sweep, how often they time, and which part of the cells to run.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SweepFlags {
@@ -298,7 +325,7 @@ pub struct SweepFlags {
     pub repeats: Option<u32>,
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
-    pub shard: Option<crate::experiments::Shard>,
+    pub shard: Option<crate::shard::Shard>,
 }
 
 /// A run count of 1 to 1000 (`--repeat`): every run's time is kept, so the count sizes memory.

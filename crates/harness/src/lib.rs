@@ -1,6 +1,7 @@
 //! The pointsight harness: the thin layer between the method crates and a researcher.
 //!
-//! - [`datasets`]: the dataset registry; [`fetch`]: the real meshes;
+//! - [`datasets`]: the datasets (built-in table, user files, manifests); [`fetch`]: the real
+//!   meshes;
 //! - [`methods`]: the method registry (one adapter per method), `--set` parameters;
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
@@ -15,9 +16,9 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
-pub mod manifest;
 pub mod output;
 pub mod progress;
+pub mod shard;
 pub mod stats;
 pub mod visible;
 
@@ -37,7 +38,9 @@ use crate::cli::{Cli, Command};
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     let data_dir = cli.data_dir;
-    datasets::use_manifest(manifest::Manifest::discover(cli.manifest.as_deref())?);
+    datasets::use_manifest(datasets::manifest::Manifest::discover(
+        cli.manifest.as_deref(),
+    )?);
     registry::register_external(&cli.methods_dir)?;
     match cli.command {
         Command::Fetch => {
@@ -146,7 +149,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 repeat,
             },
             &data_dir,
-        )?,
+        )
+        .map_err(cli::frame_set)?,
         Command::Run {
             experiment,
             datasets,
@@ -169,13 +173,13 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             for name in experiments::merge::merge(&out, &shards)? {
                 println!("{name}: merged into {}", out.join(&name).display());
             }
-            output::report::assemble(&out)?;
+            assemble_report(&out)?;
         }
         Command::Sweeps => {
             print!("{}", registry::sweep::BUILTIN);
         }
         Command::Report { reports } => {
-            output::report::assemble(&reports)?;
+            assemble_report(&reports)?;
             println!("wrote {}", reports.join("README.md").display());
         }
         Command::Tables { reports } => {
@@ -238,7 +242,19 @@ fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<u
     Ok((sweeps, repeats))
 }
 
-fn shard_text(shard: Option<experiments::Shard>) -> String {
+/// Writes the report page of `reports` over the experiment registry.
+fn assemble_report(reports: &Path) -> Result<()> {
+    let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
+        .iter()
+        .map(|e| output::report::Section {
+            name: e.name(),
+            summary: e.summary(),
+        })
+        .collect();
+    output::report::assemble(reports, &sections)
+}
+
+fn shard_text(shard: Option<shard::Shard>) -> String {
     shard.map_or_else(|| "-".into(), |s| format!("{}/{}", s.k, s.n))
 }
 
@@ -247,7 +263,7 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
     for d in datasets::REGISTRY {
         let ready = match d.mesh_file() {
             None => "generated",
-            Some(m) if datasets::mesh_path(data_dir, &m).exists() => "ready",
+            Some(m) if fetch::mesh_path(data_dir, &m).exists() => "ready",
             Some(_) => "needs-fetch",
         };
         println!(
@@ -255,7 +271,7 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
             d.name, d.n_points, ready, d.description
         );
     }
-    if let Some(m) = manifest::Manifest::discover(manifest)? {
+    if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
         for (name, e) in &m.datasets {
             let ready = [&e.cloud, &e.mesh]
                 .into_iter()
@@ -425,7 +441,7 @@ fn run_experiment(
     }
     println!("{}: results in {}", exp.name(), out_dir.display());
     if default_out && sweep.shard.is_none() {
-        output::report::assemble(Path::new("reports"))?;
+        assemble_report(Path::new("reports"))?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -474,7 +490,7 @@ fn bench(
     }
     match sweep.shard {
         None => {
-            output::report::assemble(reports)?;
+            assemble_report(reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",
                 experiments::EXPERIMENTS.len(),
@@ -510,7 +526,7 @@ fn tables(reports: &Path) -> Result<()> {
             reports.display()
         );
     }
-    output::report::assemble(reports)?;
+    assemble_report(reports)?;
     println!(
         "redrew {rendered} experiment(s); wrote {}",
         reports.join("README.md").display()

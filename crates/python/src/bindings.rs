@@ -53,6 +53,16 @@ fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
 }
 
+/// The registry's errors with Python's framing: a parameter is a keyword argument of `method`.
+fn registry_err(method: &str, e: registry::Error) -> String {
+    match e {
+        registry::Error::BadValue { key, value, reason } => {
+            format!("{method}: keyword argument {key}={value:?}: {reason}")
+        }
+        other => other.to_string(),
+    }
+}
+
 /// An (N, 3) float64 array as points (copied).
 fn points_of(a: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<DVec3>> {
     let v = a.as_array();
@@ -301,7 +311,7 @@ fn visible<'py>(
             parallel: m.parallel_views() && views.len() > 1,
         };
         let (prepared, answers) = registry::kernel::collect(&cell, input);
-        prepared.map_err(err)?;
+        prepared.map_err(|e| registry_err(&method, e))?;
         answers
             .into_iter()
             .map(|(_, a)| a.map(|a| a.output.visible))

@@ -64,15 +64,17 @@ pub fn hpr_params(params: &Params) -> Result<(HprParams, String)> {
         "exp" => {
             if radius.is_some() {
                 return Err(Error::Unsupported(
-                    "--set radius applies to the linear kernel only".into(),
+                    "parameter radius applies to the linear kernel only (kernel=exp)".into(),
                 ));
             }
             Kernel::Exponential(gamma.unwrap_or(DEFAULT_EXP_GAMMA))
         }
         other => {
-            return Err(Error::Unsupported(format!(
-                "--set kernel={other}: expected linear or exp"
-            )));
+            return Err(Error::BadValue {
+                key: "kernel".into(),
+                value: other.to_owned(),
+                reason: "expected linear or exp".into(),
+            });
         }
     };
     let hull: String = params.get("hull", "own".to_owned())?;

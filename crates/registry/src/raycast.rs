@@ -95,7 +95,8 @@ pub fn radius(points: &[cloud::glam::DVec3], params: &Params) -> Result<f64> {
         Some("auto") => {
             if params.get_opt::<f64>("radius_factor")?.is_some() {
                 return Err(Error::Unsupported(
-                    "--set radius=auto is raycast::auto's radius factor; drop radius_factor".into(),
+                    "parameter radius=auto is raycast::auto's radius factor; drop radius_factor"
+                        .into(),
                 ));
             }
             raycast::auto::RADIUS_FACTOR
@@ -128,9 +129,11 @@ impl Method for RaycastMethod {
             "exact" => Traversal::Exact,
             "seed" => Traversal::Seed,
             other => {
-                return Err(Error::Unsupported(format!(
-                    "--set traversal={other}: expected exact or seed"
-                )));
+                return Err(Error::BadValue {
+                    key: "traversal".into(),
+                    value: other.to_owned(),
+                    reason: "expected exact or seed".into(),
+                });
             }
         };
         Ok(Box::new(Prep {

@@ -20,6 +20,7 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 
 use crate::output::meta::RunMeta;
+use crate::shard::Shard;
 
 /// Where and how an experiment runs.
 #[derive(Debug, Clone)]
@@ -115,43 +116,6 @@ impl Context {
     }
 }
 
-/// `--shard K/N`: the K-th of N parts (1-based) of an experiment's cells.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Shard {
-    /// This part, 1..=n.
-    pub k: usize,
-    /// Number of parts.
-    pub n: usize,
-}
-
-impl Shard {
-    /// True when cell number `cell` (0-based) belongs to this part.
-    pub fn owns(&self, cell: usize) -> bool {
-        cell % self.n == self.k - 1
-    }
-}
-
-impl std::str::FromStr for Shard {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let (k, n) = s
-            .split_once('/')
-            .ok_or_else(|| format!("--shard expects K/N (for example 2/8), got {s:?}"))?;
-        let (k, n): (usize, usize) = (
-            k.trim()
-                .parse()
-                .map_err(|_| format!("--shard {s}: K is not a whole number"))?,
-            n.trim()
-                .parse()
-                .map_err(|_| format!("--shard {s}: N is not a whole number"))?,
-        );
-        if n == 0 || k == 0 || k > n {
-            return Err(format!("--shard {s}: expects 1 <= K <= N"));
-        }
-        Ok(Self { k, n })
-    }
-}
-
 impl Context {
     /// Loads dataset `name`, with the views of `--views` when given.
     pub fn dataset(&self, name: &str) -> Result<crate::datasets::Dataset> {
@@ -228,7 +192,8 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
 ///
 /// Everything is written into a staging folder beside the output folder
 /// (`.NAME.partial`), which replaces the output folder only when the experiment has finished:
-/// an interrupted run leaves the previous results as they were.
+/// an interrupted run leaves the previous results as they were, and a run that fails (an
+/// error anywhere after the staging folder was made) removes its staging folder too.
 pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     if let Some(shard) = ctx.shard
         && !exp.shardable()
@@ -242,7 +207,7 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
         }
     }
     let start = Instant::now();
-    let mut meta = RunMeta::now(
+    let meta = RunMeta::now(
         exp.name(),
         ctx.quick,
         &ctx.datasets,
@@ -264,31 +229,58 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     }
     std::fs::create_dir_all(&staging)
         .with_context(|| format!("cannot create {}", staging.display()))?;
+    let result =
+        stage(exp, ctx, meta, start, &staging).and_then(|()| swap_in(&staging, out, &previous));
+    if result.is_err() {
+        // A failed run leaves nothing behind: the previous results stay as they were. (Best
+        // effort: the error that stopped the run is the one to report.)
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    result.map(|()| true)
+}
+
+/// Measures, writes the metadata and renders into `staging`.
+fn stage(
+    exp: &dyn Experiment,
+    ctx: &Context,
+    mut meta: RunMeta,
+    start: Instant,
+    staging: &Path,
+) -> Result<()> {
     let staged = Context {
-        out_dir: staging.clone(),
+        out_dir: staging.to_owned(),
         ..ctx.clone()
     };
     meta.shard = ctx.shard;
     meta.parameters = exp.measure(&staged)?;
     meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
     meta.seconds = start.elapsed().as_secs_f64();
-    meta.write(&staging)?;
+    meta.write(staging)?;
     // A shard's output is drawn once merged (`pointsight merge`); a shard alone may hold too
     // few cells for some plots.
     if ctx.shard.is_none() {
-        exp.render(&staging)?;
+        exp.render(staging)?;
     }
+    Ok(())
+}
+
+/// Replaces `out` by `staging`, through `previous`; puts `out` back if the swap fails.
+fn swap_in(staging: &Path, out: &Path, previous: &Path) -> Result<()> {
     if out.exists() {
-        std::fs::rename(out, &previous)
+        std::fs::rename(out, previous)
             .with_context(|| format!("cannot move {} aside", out.display()))?;
     }
-    std::fs::rename(&staging, out)
-        .with_context(|| format!("cannot move {} into place", out.display()))?;
+    if let Err(e) = std::fs::rename(staging, out) {
+        if previous.exists() {
+            let _ = std::fs::rename(previous, out);
+        }
+        return Err(e).with_context(|| format!("cannot move {} into place", out.display()));
+    }
     if previous.exists() {
-        std::fs::remove_dir_all(&previous)
+        std::fs::remove_dir_all(previous)
             .with_context(|| format!("cannot remove {}", previous.display()))?;
     }
-    Ok(true)
+    Ok(())
 }
 
 /// Markdown table from a header and rows.
@@ -306,3 +298,60 @@ pub fn markdown_table(header: &[&str], rows: &[Vec<String>]) -> String {
 
 /// Runs per timed call in the experiments by default: enough for a median and a spread.
 pub const REPEATS: usize = 3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Writes a result into its output folder, then fails in `measure` or in `render`.
+    struct Failing {
+        in_render: bool,
+    }
+
+    impl Experiment for Failing {
+        fn name(&self) -> &'static str {
+            "failing"
+        }
+        fn summary(&self) -> &'static str {
+            "fails after writing"
+        }
+        fn default_datasets(&self, _quick: bool) -> &'static [&'static str] {
+            &[]
+        }
+        fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
+            std::fs::write(ctx.out_dir.join("results.csv"), "a\n1\n")?;
+            if self.in_render {
+                Ok(serde_json::Value::Null)
+            } else {
+                anyhow::bail!("injected failure in measure")
+            }
+        }
+        fn render(&self, _dir: &Path) -> Result<()> {
+            anyhow::bail!("injected failure in render")
+        }
+    }
+
+    #[test]
+    fn a_failed_run_removes_its_staging_folder_and_keeps_the_previous_results() {
+        for in_render in [false, true] {
+            let dir = tempfile::tempdir().unwrap();
+            let out = dir.path().join("failing");
+            std::fs::create_dir_all(&out).unwrap();
+            std::fs::write(out.join("results.csv"), "previous").unwrap();
+            let ctx = Context::new(dir.path().into(), out.clone(), true, Vec::new());
+            let err = run(&Failing { in_render }, &ctx).unwrap_err().to_string();
+            let stage = if in_render { "render" } else { "measure" };
+            assert_eq!(err, format!("injected failure in {stage}"));
+            let left: Vec<String> = std::fs::read_dir(dir.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(left, vec!["failing".to_owned()], "{stage}");
+            assert_eq!(
+                std::fs::read_to_string(out.join("results.csv")).unwrap(),
+                "previous"
+            );
+            assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+        }
+    }
+}

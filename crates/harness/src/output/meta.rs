@@ -42,7 +42,7 @@ pub struct RunMeta {
     pub seconds: f64,
     /// For one shard's run (`--shard K/N`): which part.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub shard: Option<crate::experiments::Shard>,
+    pub shard: Option<crate::shard::Shard>,
     /// For a merged run (`pointsight merge`): each shard's own metadata (its machine, revision,
     /// date and seconds).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]

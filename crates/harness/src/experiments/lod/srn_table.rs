@@ -106,7 +106,7 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
     for m in SRN_MODELS {
         let info = datasets::info(m.dataset)?;
         if let Some(mesh) = info.mesh_file()
-            && !datasets::mesh_path(&ctx.data_dir, &mesh).exists()
+            && !crate::fetch::mesh_path(&ctx.data_dir, &mesh).exists()
         {
             eprintln!(
                 "lod: {} is not fetched; the SRN table leaves out the {} row (run `pointsight fetch`)",
