@@ -8,7 +8,7 @@ use cloud::glam::DVec3;
 use cloud::synth::{SpherePlane, sphere_point_visible};
 use cloud::{Camera, Model};
 use harness::datasets::{self, Dataset};
-use harness::methods::{self, Params};
+use harness::methods::{self, Output, Params, kernel};
 use harness::score::Score;
 
 fn load(name: &str) -> Dataset {
@@ -17,11 +17,31 @@ fn load(name: &str) -> Dataset {
 
 /// F1 of `method` (with `set`) from `camera` against the flags `truth`.
 fn f1(ds: &Dataset, method: &str, set: &[&str], camera: &Camera, truth: &[bool]) -> f64 {
-    let m = methods::method(method).expect("a registered method");
-    let params = Params::parse(set).expect("valid parameters");
-    let p = methods::prepare(m, ds.input(), &params).expect("prepared");
-    let out = p.visible(camera).expect("a visible set");
+    let out = answer(ds, method, set, camera).expect("a visible set");
     Score::of(&out.visible, truth).f1()
+}
+
+/// `method` (with `set`) from `camera`, through the measurement kernel.
+fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<Output, String> {
+    let views = [kernel::View {
+        index: 0,
+        camera: *camera,
+    }];
+    let cell = kernel::Cell {
+        method: methods::method(method).expect("a registered method"),
+        params: Params::parse(set).expect("valid parameters"),
+        views: &views,
+        repeats: 1,
+        parallel: false,
+    };
+    let (prepared, answers) = kernel::collect(&cell, ds.input());
+    prepared.expect("prepared");
+    answers
+        .into_iter()
+        .next()
+        .expect("one view")
+        .1
+        .map(|a| a.output)
 }
 
 #[test]
@@ -92,13 +112,7 @@ fn an_orthographic_view_of_the_sphere() {
     assert!(reference >= 0.98 && exact >= 0.98, "{reference} {exact}");
     assert!(raycast >= 0.9, "{raycast}");
     // HPR needs a centre of projection.
-    let hpr = methods::prepare(
-        methods::method("hpr").unwrap(),
-        ds.input(),
-        &Params::parse::<&str>(&[]).unwrap(),
-    )
-    .unwrap();
-    let err = hpr.visible(&camera).unwrap_err().to_string();
+    let err = answer(&ds, "hpr", &[], &camera).unwrap_err();
     assert!(err.contains("orthographic"), "{err}");
 }
 

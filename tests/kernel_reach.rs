@@ -276,7 +276,7 @@ fn main() -> ExitCode {
     };
     registry::register_external(&methods).expect("the external folder loads");
     if let Some(code) =
-        harness::experiments::scale::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
+        experiments::scale::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
     {
         return code;
     }
