@@ -160,16 +160,7 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "truth",
         "scores against the ground truth",
     ),
-    (
-        "experiments/robustness.rs",
-        "splat",
-        "renders LOD under noise (splat::render)",
-    ),
-    (
-        "experiments/robustness.rs",
-        "srn",
-        "SRN's texture coordinates for LOD under noise",
-    ),
+
     (
         "visible.rs",
         "truth",
@@ -223,9 +214,14 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "renders every LOD method's splats (splat::render)",
     ),
     (
-        "experiments/lod/mod.rs",
+        "experiments/lod/noise.rs",
+        "splat",
+        "renders LOD under noise (splat::render)",
+    ),
+    (
+        "experiments/lod/noise.rs",
         "srn",
-        "SRN's textures and texture coordinates",
+        "the clean source's texture coordinates for LOD under noise",
     ),
     // Scale's cells.
     (
@@ -238,21 +234,7 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "hpr",
         "scale's hull-* cells: HPR's flip before the hull",
     ),
-    (
-        "experiments/scale.rs",
-        "qsplat",
-        "scale's LOD cells (to go through the registry, issue 22)",
-    ),
-    (
-        "experiments/scale.rs",
-        "spt",
-        "scale's LOD cells (to go through the registry, issue 22)",
-    ),
-    (
-        "experiments/scale.rs",
-        "srn",
-        "scale's LOD cells (to go through the registry, issue 22)",
-    ),
+
 ];
 
 /// A source file's text with comments, string and character literals blanked (newlines kept),

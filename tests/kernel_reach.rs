@@ -177,7 +177,7 @@ fn external_folder(root: &Path) -> PathBuf {
     let toml = std::fs::read_to_string(example.join("method.toml")).expect("the example's toml");
     std::fs::write(
         folder.join("method.toml"),
-        format!("{toml}\ndefault = {{scale = 1.0}}\n[[grid]]\nscale = 1.0\n"),
+        format!("default = {{scale = 1.0}}\n{toml}\n[[grid]]\nscale = 1.0\n"),
     )
     .expect("a method.toml");
     methods
