@@ -219,7 +219,7 @@ fn bad_cameras_and_parameters_on_the_command_line_are_refused() {
         ),
         (
             &["--view", "0", "--method", "hpr", "--set", "kernel=box"],
-            "error: --set kernel=box: expected linear or exp\n",
+            "error: --set kernel=box: expected linear, exp, log or expdecay\n",
         ),
         (
             &["--view", "0", "--method", "hpr", "--set", "gamma"],

@@ -80,6 +80,20 @@ fn a_spherical_scanner_above_the_ball_and_square() {
     assert!(hpr >= 0.95, "hpr F1 {hpr}");
     assert!(raycast >= 0.95, "raycast F1 {raycast}");
     assert!(splat >= 0.9, "splat F1 {splat}");
+    // The HPR family beyond seed 000 takes the spherical camera too (it needs only the eye):
+    // approximate HPR at one sector per pixel is within a little of exact HPR, and the
+    // confidence score thresholded over γ 1.5..3.5 is an HPR-like answer.
+    let approx = f1(&ds, "hpr-approx", &["gamma=2.5"], &camera, &truth);
+    let confidence = f1(
+        &ds,
+        "hpr-confidence",
+        &["from=1.5", "to=3.5", "steps=5", "threshold=0.6"],
+        &camera,
+        &truth,
+    );
+    eprintln!("spherical: hpr-approx {approx:.4} hpr-confidence {confidence:.4}");
+    assert!(approx >= hpr - 0.02, "hpr-approx F1 {approx}");
+    assert!(confidence >= 0.9, "hpr-confidence F1 {confidence}");
 }
 
 #[test]
@@ -114,6 +128,16 @@ fn an_orthographic_view_of_the_sphere() {
     // HPR needs a centre of projection.
     let err = answer(&ds, "hpr", &[], &camera).unwrap_err();
     assert!(err.contains("orthographic"), "{err}");
+    for name in ["hpr-approx", "hpr-confidence"] {
+        let p = methods::prepare(
+            methods::method(name).unwrap(),
+            ds.input(),
+            &Params::parse::<&str>(&[]).unwrap(),
+        )
+        .unwrap();
+        let err = p.visible(&camera).unwrap_err().to_string();
+        assert!(err.contains("orthographic") && err.contains(name), "{err}");
+    }
 }
 
 #[test]

@@ -2,8 +2,8 @@
 //! `lod` and `robustness` results equal goldens committed from revision 5c38c1a's output
 //! (`tests/data/golden/`, written by that revision's `pointsight run EXPERIMENT --quick`).
 //!
-//! Only the methods the goldens have are compared (methods added since, built-in or external,
-//! add rows); columns added since are ignored; a setting's label is compared as a set of
+//! Only the methods (and families) the goldens have are compared (methods added since,
+//! built-in or external, add rows); columns added since are ignored; a setting's label is compared as a set of
 //! `key=value` pairs (robustness wrote its pairs in its own order then, the registry's sorted
 //! label now). Runs when `POINTSIGHT_REAL_DATA=1` (set by `just test`, which fetches the
 //! meshes first); otherwise it says why it did nothing.
@@ -72,9 +72,14 @@ fn check(name: &str, produced: &Path) {
         .collect();
     let want = rows(&golden, &columns);
     let mut got = rows(produced, &columns);
-    if let Some(m) = columns.iter().position(|c| c == "method") {
-        let methods: BTreeSet<&String> = want.iter().map(|r| &r[m]).collect();
-        got.retain(|r| methods.contains(&r[m]));
+    // The golden's methods (and families: a method may have gained settings of a new family,
+    // as HPR its log and expdecay kernels).
+    let at = |c: &str| columns.iter().position(|x| x == c);
+    if let Some(m) = at("method") {
+        let family = at("family");
+        let key = |r: &Vec<String>| (r[m].clone(), family.map(|f| r[f].clone()));
+        let methods: BTreeSet<(String, Option<String>)> = want.iter().map(key).collect();
+        got.retain(|r| methods.contains(&key(r)));
     }
     assert_eq!(
         got.len(),

@@ -16,6 +16,8 @@ pub mod error;
 mod exact;
 pub mod external;
 pub mod hpr;
+pub mod hpr_approx;
+pub mod hpr_confidence;
 pub mod image_score;
 pub mod kernel;
 pub mod lod;
@@ -204,6 +206,8 @@ pub static METHODS: &[&dyn Method] = &[
     &reference::ReferenceMethod,
     &exact::ExactMethod,
     &hpr::HprMethod,
+    &hpr_confidence::HprConfidenceMethod,
+    &hpr_approx::HprApproxMethod,
     &raycast::RaycastMethod,
     &splat::SplatMethod,
 ];

@@ -494,7 +494,7 @@ fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool
 /// perturbation.
 fn is_peer_partner(method: &str, setting: &Setting) -> bool {
     method == "hpr"
-        && setting.text("kernel").as_deref() != Some("exp")
+        && setting.text("kernel").is_none_or(|k| k == "linear")
         && setting.number("perturb").unwrap_or(0.0) == 0.0
         && setting.number("gamma").is_some()
 }
