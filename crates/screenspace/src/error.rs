@@ -27,7 +27,9 @@ pub enum Error {
     },
     /// No point of the cloud projects into the image (all behind the camera or outside the
     /// frustum): there is nothing to decide.
-    #[error("no point of the {points}-point cloud projects into the {model} image (all behind the camera or outside the view)")]
+    #[error(
+        "no point of the {points}-point cloud projects into the {model} image (all behind the camera or outside the view)"
+    )]
     NothingInView {
         /// Points in the cloud.
         points: usize,

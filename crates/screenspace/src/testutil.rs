@@ -24,15 +24,7 @@ pub fn camera(model: &str, width: u32, height: u32) -> Camera {
     } else {
         DVec3::new(0.3, -0.2, 4.0)
     };
-    Camera::look_at(
-        eye,
-        DVec3::ZERO,
-        DVec3::Y,
-        m,
-        width,
-        height,
-    )
-    .expect("camera")
+    Camera::look_at(eye, DVec3::ZERO, DVec3::Y, m, width, height).expect("camera")
 }
 
 /// Two noisy layers (z ≈ 0 and z ≈ −1) of `n` points each in [−1.2, 1.2]², seeded: a

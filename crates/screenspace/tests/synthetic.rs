@@ -55,20 +55,36 @@ fn scene() -> (Vec<DVec3>, SpherePlane) {
     (s.cloud.positions, g)
 }
 
-/// (model, eye, width, height): an oblique view for the frustum models, a scanner beside the
-/// ball for the spherical image (the mobile-LiDAR case).
-fn views() -> Vec<(&'static str, DVec3, u32, u32)> {
+/// (model, eye, width, height, F1 bound of screenspace, F1 bound of biasutti): an oblique
+/// view for the frustum models, a scanner beside the ball for the spherical image (the
+/// mobile-LiDAR case). Measured when written: pinhole 0.985 / 0.939, orthographic 0.988 /
+/// 0.967, spherical 0.977 / 0.826.
+fn views() -> Vec<(&'static str, DVec3, u32, u32, f64, f64)> {
     vec![
-        ("pinhole", DVec3::new(1.5, -2.5, 4.0), 200, 150),
-        ("orthographic", DVec3::new(1.5, -2.5, 4.0), 200, 150),
-        ("spherical", DVec3::new(1.2, -1.4, 1.6), 720, 360),
+        ("pinhole", DVec3::new(1.5, -2.5, 4.0), 200, 150, 0.95, 0.90),
+        (
+            "orthographic",
+            DVec3::new(1.5, -2.5, 4.0),
+            200,
+            150,
+            0.95,
+            0.90,
+        ),
+        (
+            "spherical",
+            DVec3::new(1.2, -1.4, 1.6),
+            720,
+            360,
+            0.95,
+            0.80,
+        ),
     ]
 }
 
 #[test]
 fn both_operators_beat_their_f1_bounds_on_the_ball_before_the_square() {
     let (points, g) = scene();
-    for (model, eye, w, h) in views() {
+    for (model, eye, w, h, bound_p, bound_b) in views() {
         let cam = camera(model, eye, w, h);
         let p = pintus::visible(
             &points,
@@ -90,8 +106,8 @@ fn both_operators_beat_their_f1_bounds_on_the_ball_before_the_square() {
         .expect("biasutti");
         let (fp, fb) = (f1(&points, &g, &cam, &p), f1(&points, &g, &cam, &b));
         eprintln!("{model}: F1 pintus {fp:.3}, biasutti {fb:.3}");
-        assert!(fp > 0.80, "{model}: pintus F1 {fp}");
-        assert!(fb > 0.80, "{model}: biasutti F1 {fb}");
+        assert!(fp > bound_p, "{model}: pintus F1 {fp} <= {bound_p}");
+        assert!(fb > bound_b, "{model}: biasutti F1 {fb} <= {bound_b}");
     }
 }
 
@@ -113,8 +129,7 @@ fn degenerate_clouds_and_views_are_errors() {
         Err(Error::Cloud(_))
     ));
     let huge = cam.with_resolution(100_000, 100_000).expect("camera");
-    let e = biasutti::visible(&[DVec3::ZERO], &huge, &BiasuttiParams::default())
-        .expect_err("huge");
+    let e = biasutti::visible(&[DVec3::ZERO], &huge, &BiasuttiParams::default()).expect_err("huge");
     assert!(matches!(e, Error::ImageTooLarge { .. }), "{e}");
 }
 

@@ -137,7 +137,16 @@ fn a_point_behind_a_ring_of_nearer_points_is_hidden_and_they_are_not() {
     let centre = cam.eye + cam.forward() * 3.0;
     let px = 3.0 / 21.0;
     let mut pts = vec![centre];
-    for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
+    for (dx, dy) in [
+        (-1, -1),
+        (0, -1),
+        (1, -1),
+        (-1, 0),
+        (1, 0),
+        (-1, 1),
+        (0, 1),
+        (1, 1),
+    ] {
         pts.push(
             cam.eye
                 + cam.forward() * 1.0
