@@ -40,8 +40,19 @@ fn dependencies() -> BTreeMap<String, Vec<String>> {
 }
 
 const LOCAL: &[&str] = &[
-    "cloud", "truth", "splat", "hull", "hpr", "raycast", "qsplat", "spt", "srn", "registry",
-    "harness", "python",
+    "cloud",
+    "truth",
+    "splat",
+    "hull",
+    "hpr",
+    "raycast",
+    "qsplat",
+    "spt",
+    "srn",
+    "screenspace",
+    "registry",
+    "harness",
+    "python",
 ];
 
 #[test]
@@ -54,7 +65,7 @@ fn the_dependency_graph_points_one_way() {
             .cloned()
             .collect()
     };
-    for method in ["raycast", "qsplat", "spt", "srn", "splat"] {
+    for method in ["raycast", "qsplat", "spt", "srn", "splat", "screenspace"] {
         assert_eq!(local(method), vec!["cloud".to_owned()], "{method}");
     }
     let mut hpr = local("hpr");

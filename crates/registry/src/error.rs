@@ -65,6 +65,9 @@ pub enum Error {
     /// The splat baseline.
     #[error(transparent)]
     Splat(#[from] splat::Error),
+    /// The screen-space operators.
+    #[error(transparent)]
+    Screenspace(#[from] screenspace::Error),
     /// The ground truth.
     #[error(transparent)]
     Truth(#[from] truth::Error),

@@ -26,9 +26,11 @@ mod plugins;
 pub mod raycast;
 mod reference;
 pub mod score;
+mod screenspace;
 mod splat;
 pub mod sweep;
 pub mod timing;
+mod vardensity;
 
 use cloud::{Camera, PointCloud, TriMesh};
 
@@ -210,6 +212,8 @@ pub static METHODS: &[&dyn Method] = &[
     &hpr_approx::HprApproxMethod,
     &raycast::RaycastMethod,
     &splat::SplatMethod,
+    &screenspace::ScreenspaceMethod,
+    &vardensity::VardensityMethod,
 ];
 
 /// Looks a method up by name.
