@@ -129,10 +129,7 @@ pub fn estimate_noise(points: &[DVec3], k: usize, sample: usize, seed: u64) -> R
                 .query(&entries[i])
                 .nearest_n::<SquaredEuclidean<f64>>(n)
                 .execute();
-            let nbrs: Vec<DVec3> = nn
-                .iter()
-                .map(|x| points[x.item as usize])
-                .collect();
+            let nbrs: Vec<DVec3> = nn.iter().map(|x| points[x.item as usize]).collect();
             smallest_eigenvalue(covariance(&nbrs))
         })
         .collect();
@@ -290,7 +287,15 @@ mod tests {
         assert!((c.radius - (0.06 - 0.008) * 9.0 / 1e-4).abs() < 1e-6);
         assert!(c.r_noise < c.radius && c.radius < c.r_concavity && !c.clamped);
         // Noise as deep as the concavities: the sag keeps a quarter.
-        let noisy = auto(&CloudScale { noise: 0.1, ..scale }, &rule, eye, 4.0);
+        let noisy = auto(
+            &CloudScale {
+                noise: 0.1,
+                ..scale
+            },
+            &rule,
+            eye,
+            4.0,
+        );
         assert!((noisy.radius - 0.25 * c.r_concavity).abs() < 1e-6);
         // A near eye: clamped above the farthest point.
         let near = auto(&scale, &rule, DVec3::new(0.0, 0.0, 0.01), 1e6);

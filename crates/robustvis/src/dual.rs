@@ -132,10 +132,7 @@ impl Dual {
             .map(|t| {
                 let mut a = [NONE; 3];
                 for e in 0..3 {
-                    a[e] = edges
-                        .get(&(t[(e + 1) % 3], t[e]))
-                        .copied()
-                        .unwrap_or(NONE);
+                    a[e] = edges.get(&(t[(e + 1) % 3], t[e])).copied().unwrap_or(NONE);
                 }
                 a
             })
@@ -344,7 +341,10 @@ mod tests {
                 assert_eq!(g, 0.0);
                 assert!(brute.abs() < 1e-9, "vertex {i}: {brute}");
             } else {
-                assert!((g - brute).abs() < 1e-9, "point {i}: walk {g}, brute {brute}");
+                assert!(
+                    (g - brute).abs() < 1e-9,
+                    "point {i}: walk {g}, brute {brute}"
+                );
                 assert!(g >= -1e-9, "point {i} above the hull: {g}");
                 checked += 1;
             }

@@ -139,7 +139,10 @@ pub(crate) mod tests {
             visible(&pts, DVec3::new(f64::INFINITY, 0.0, 0.0), 10.0, 0.0),
             Err(RobustError::NonFinite(None))
         );
-        assert_eq!(visible(&pts, pts[7], 10.0, 0.0), Err(RobustError::EyeOnPoint(7)));
+        assert_eq!(
+            visible(&pts, pts[7], 10.0, 0.0),
+            Err(RobustError::EyeOnPoint(7))
+        );
         assert!(matches!(
             visible(&pts, eye, 2.0, 0.0),
             Err(RobustError::RadiusTooSmall { .. })
@@ -151,7 +154,10 @@ pub(crate) mod tests {
         for bad in [-0.1, f64::NAN, f64::INFINITY] {
             assert!(matches!(
                 visible(&pts, eye, 10.0, bad),
-                Err(RobustError::InvalidParameter { name: "tolerance", .. })
+                Err(RobustError::InvalidParameter {
+                    name: "tolerance",
+                    ..
+                })
             ));
         }
         // Coincident points; coplanar points with the eye in their plane.

@@ -41,12 +41,7 @@ pub struct Visibility {
 }
 
 /// The robust operator with radius `radius` and band `tolerance` (τ ≥ 0, a length).
-pub fn visible(
-    points: &[DVec3],
-    eye: DVec3,
-    radius: f64,
-    tolerance: f64,
-) -> Result<Visibility> {
+pub fn visible(points: &[DVec3], eye: DVec3, radius: f64, tolerance: f64) -> Result<Visibility> {
     if !(tolerance >= 0.0) || !tolerance.is_finite() {
         return Err(RobustError::InvalidParameter {
             name: "tolerance",
@@ -61,10 +56,14 @@ pub fn visible(
     }
     // Copies of a vertex flip onto it: visible, as in HPR.
     let key = |p: DVec3| [p.x.to_bits(), p.y.to_bits(), p.z.to_bits()];
-    let at_vertices: FxHashSet<[u64; 3]> =
-        dual.vertices.iter().map(|&v| key(points[v as usize])).collect();
+    let at_vertices: FxHashSet<[u64; 3]> = dual
+        .vertices
+        .iter()
+        .map(|&v| key(points[v as usize]))
+        .collect();
     for (i, p) in points.iter().enumerate() {
-        if !flags[i] && ((tolerance > 0.0 && gaps[i] <= tolerance) || at_vertices.contains(&key(*p)))
+        if !flags[i]
+            && ((tolerance > 0.0 && gaps[i] <= tolerance) || at_vertices.contains(&key(*p)))
         {
             flags[i] = true;
         }

@@ -47,14 +47,20 @@ fn hpr_f1(points: &[DVec3], eye: DVec3, gamma: f64, truth: &[bool]) -> f64 {
 
 fn hpr_auto_gamma(points: &[DVec3], eye: DVec3) -> f64 {
     let scale = hpr::auto::CloudScale::of(points).expect("scale");
-    let m = points.iter().map(|p| (*p - eye).length()).fold(0.0, f64::max);
+    let m = points
+        .iter()
+        .map(|p| (*p - eye).length())
+        .fold(0.0, f64::max);
     hpr::auto::auto_gamma(&scale, eye, m)
 }
 
 /// The robust operator with the automatic rule (band in noise deviations).
 fn robust_f1(points: &[DVec3], eye: DVec3, band: f64, truth: &[bool]) -> (f64, f64) {
     let scale = robustvis::bounds::CloudScale::of(points, 0).expect("scale");
-    let m = points.iter().map(|p| (*p - eye).length()).fold(0.0, f64::max);
+    let m = points
+        .iter()
+        .map(|p| (*p - eye).length())
+        .fold(0.0, f64::max);
     let rule = robustvis::bounds::AutoRule { band, noise: None };
     let tau = robustvis::bounds::auto(&scale, &rule, eye, m).tolerance;
     let choice = robustvis::bounds::auto(
@@ -78,7 +84,12 @@ struct Row {
     hpr_best: f64,
 }
 
-fn measure(clean: &PointCloud, visible: &dyn Fn(DVec3, DVec3) -> bool, eyes: &[DVec3], sigma: f64) -> Vec<Row> {
+fn measure(
+    clean: &PointCloud,
+    visible: &dyn Fn(DVec3, DVec3) -> bool,
+    eyes: &[DVec3],
+    sigma: f64,
+) -> Vec<Row> {
     let mut rows = Vec::new();
     for (k, &eye) in eyes.iter().enumerate() {
         let clean_truth: Vec<bool> = clean.positions.iter().map(|&p| visible(p, eye)).collect();
@@ -123,10 +134,15 @@ const EYES: [DVec3; 3] = [
     DVec3::new(-0.3, 0.2, 4.0),
 ];
 
+/// Measured (20,000 points, 3 views, band 3σ̂, both with their automatic rules): mean F1 at
+/// σ = 0.5 spacings robust 0.9233, HPR (`hpr::auto`'s γ) 0.8655 (+0.058); at σ = 1 robust
+/// 0.8542, HPR 0.7440 (+0.110); robust better on every view. HPR at its best γ of the grid
+/// 1.5..5.5 *chosen on the noisy data against the truth* (an oracle no user has) is better
+/// still: 0.9547 and 0.9253; the rule's R (γ 2.0-2.3) is smaller than that oracle's.
 #[test]
 fn under_normal_noise_the_robust_operator_beats_hpr_on_the_ball_and_square() {
     let (clean, g) = sphere_plane();
-    for sigma in [0.5, 1.0] {
+    for (sigma, margin) in [(0.5, 0.04), (1.0, 0.08)] {
         let rows = measure(&clean, &|p, e| g.visible(p, e), &EYES, sigma);
         let (r, a, b) = (
             mean(&rows, |r| r.robust),
@@ -134,9 +150,19 @@ fn under_normal_noise_the_robust_operator_beats_hpr_on_the_ball_and_square() {
             mean(&rows, |r| r.hpr_best),
         );
         eprintln!("sigma {sigma}: mean robust {r:.4} hpr-auto {a:.4} hpr-best {b:.4}");
+        assert!(r >= a + margin, "sigma {sigma}: robust {r} hpr-auto {a}");
+        assert!(
+            rows.iter().all(|row| row.robust > row.hpr_auto),
+            "sigma {sigma}"
+        );
+        // The oracle-tuned HPR stays ahead by less than 0.1 (measured 0.031, 0.071).
+        assert!(r >= b - 0.1, "sigma {sigma}: robust {r} hpr-best {b}");
     }
 }
 
+/// Measured: clean, the noise estimate is near 0, so τ ≈ 0 and the rule's γ is HPR's: mean F1
+/// 0.9746 for both, 0.9846 for HPR at its oracle-best γ. The unit sphere at σ = 1 spacing
+/// (6,000 points, eye at distance 3): robust 0.689, HPR (auto) 0.618 (HPR's oracle best 0.887).
 #[test]
 fn noise_free_the_robust_operator_is_not_much_worse_than_hpr() {
     let (clean, g) = sphere_plane();
@@ -147,6 +173,10 @@ fn noise_free_the_robust_operator_is_not_much_worse_than_hpr() {
         mean(&rows, |r| r.hpr_best),
     );
     eprintln!("clean: mean robust {r:.4} hpr-auto {a:.4} hpr-best {b:.4}");
+    assert!(
+        r >= a - 0.005 && r >= b - 0.02,
+        "clean: robust {r} hpr {a} best {b}"
+    );
     let sphere = sphere_scene(6_000).cloud;
     let rows = measure(
         &sphere,
@@ -154,5 +184,9 @@ fn noise_free_the_robust_operator_is_not_much_worse_than_hpr() {
         &[DVec3::new(0.0, 0.0, 3.0)],
         1.0,
     );
-    eprintln!("sphere sigma 1: robust {:.4} hpr-auto {:.4}", rows[0].robust, rows[0].hpr_auto);
+    eprintln!(
+        "sphere sigma 1: robust {:.4} hpr-auto {:.4}",
+        rows[0].robust, rows[0].hpr_auto
+    );
+    assert!(rows[0].robust >= rows[0].hpr_auto + 0.04, "sphere");
 }
