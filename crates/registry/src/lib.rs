@@ -21,6 +21,7 @@ pub mod params;
 mod plugins;
 pub mod raycast;
 mod reference;
+pub mod robust;
 pub mod score;
 mod splat;
 pub mod sweep;
@@ -179,6 +180,7 @@ pub static METHODS: &[&dyn Method] = &[
     &reference::ReferenceMethod,
     &exact::ExactMethod,
     &hpr::HprMethod,
+    &robust::RobustMethod,
     &raycast::RaycastMethod,
     &splat::SplatMethod,
 ];
