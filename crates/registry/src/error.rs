@@ -56,6 +56,9 @@ pub enum Error {
     /// HPR.
     #[error(transparent)]
     Hpr(#[from] hpr::HprError),
+    /// The robust operator (Mehra et al. 2010).
+    #[error(transparent)]
+    Robust(#[from] robustvis::RobustError),
     /// A hull implementation.
     #[error(transparent)]
     Hull(#[from] hull::HullError),

@@ -25,6 +25,7 @@ pub mod params;
 mod plugins;
 pub mod raycast;
 mod reference;
+pub mod robust;
 pub mod score;
 mod screenspace;
 mod splat;
@@ -210,6 +211,7 @@ pub static METHODS: &[&dyn Method] = &[
     &hpr::HprMethod,
     &hpr_confidence::HprConfidenceMethod,
     &hpr_approx::HprApproxMethod,
+    &robust::RobustMethod,
     &raycast::RaycastMethod,
     &splat::SplatMethod,
     &screenspace::ScreenspaceMethod,

@@ -486,7 +486,9 @@ mod tests {
             }
             assert!(sweep.default_setting().is_some());
         }
-        for name in ["hpr", "raycast", "splat", "qsplat", "spt", "srn", "random"] {
+        for name in [
+            "hpr", "robust", "raycast", "splat", "qsplat", "spt", "srn", "random",
+        ] {
             assert!(s.methods.contains_key(name), "{name}");
         }
     }
