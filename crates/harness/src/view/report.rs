@@ -167,3 +167,51 @@ pub fn section(reports: &Path) -> Result<String> {
     }
     Ok(s)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_section_links_every_page_and_says_when_subsampled() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(section(dir.path()).unwrap(), "");
+        let entries = vec![
+            Entry {
+                dataset: "dragon-871414".into(),
+                view: 0,
+                file: "dragon-871414.html".into(),
+                points: 871_414,
+                shown: 500_000,
+                methods: vec!["hpr".into(), "raycast".into()],
+                bytes: 5_000_000,
+            },
+            Entry {
+                dataset: "bunny".into(),
+                view: 0,
+                file: "bunny.html".into(),
+                points: 37_706,
+                shown: 37_706,
+                methods: vec!["hpr".into()],
+                bytes: 900_000,
+            },
+        ];
+        write_atomic(
+            &dir.path().join("viewer/pages.json"),
+            serde_json::to_string(&entries).unwrap().as_bytes(),
+        )
+        .unwrap();
+        let s = section(dir.path()).unwrap();
+        assert!(
+            s.contains("[dragon-871414, view 0](viewer/dragon-871414.html)"),
+            "{s}"
+        );
+        assert!(
+            s.contains("a uniform subsample of 500000 of 871414 points"),
+            "{s}"
+        );
+        assert!(s.contains("all 37706 points"), "{s}");
+        // No results: no real dataset to draw.
+        assert!(real_datasets(dir.path()).unwrap().is_empty());
+    }
+}
