@@ -92,13 +92,16 @@ test('sphere-20000: the silhouette matches the static render (IoU >= 0.95)', { s
   await page.close();
 });
 
+// The issue's limit; VIEWER_FIRST_FRAME_LIMIT_MS overrides it on a machine known to be slower.
+const FIRST_FRAME_LIMIT_MS = Number(process.env.VIEWER_FIRST_FRAME_LIMIT_MS || 3000);
+
 test('bunny: the first frame within 3 s', { skip }, async () => {
   const out = join(dir, 'bunny.html');
   pointsight(['view', '--dataset', 'bunny', '--view', '0', '--out', out]);
   const { page } = await openPage(browser, out, '', { width: 1280, height: 720 });
   const s = await page.evaluate(() => window.pointsight.state);
   console.log(`bunny: first frame ${s.firstFrameMs.toFixed(0)} ms, complete ${s.completeMs.toFixed(0)} ms, decode ${s.decodeMs.toFixed(0)} ms`);
-  assert.ok(s.firstFrameMs < 3000, `first frame at ${s.firstFrameMs} ms`);
+  assert.ok(s.firstFrameMs < FIRST_FRAME_LIMIT_MS, `first frame at ${s.firstFrameMs} ms (limit ${FIRST_FRAME_LIMIT_MS} ms)`);
   await page.screenshot({ path: join(dir, 'bunny.png') });
   await page.close();
 });
