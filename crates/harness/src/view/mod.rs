@@ -100,13 +100,13 @@ pub fn default_methods() -> Result<Vec<(&'static dyn Method, String)>> {
         .collect())
 }
 
+/// A chosen method, its parameters and their label (`k=v` pairs joined by `;`).
+pub type Chosen = (&'static dyn Method, Params, String);
+
 /// The chosen methods with their parameters: each method's default setting (its sweep's, else
 /// none), then the `--set` pairs that are its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every
 /// chosen method that has KEY). A pair no chosen method takes is an error.
-pub fn choose(
-    names: Option<&[String]>,
-    set: &[String],
-) -> Result<Vec<(&'static dyn Method, Params, String)>> {
+pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     let sweeps = registry::Sweeps::resolve(None)?;
     let base: Vec<(&'static dyn Method, String)> = match names {
         None => default_methods()?,
@@ -268,7 +268,7 @@ mod tests {
         assert!(!names.contains(&"reference"), "{names:?}");
     }
 
-    fn error_of(r: Result<Vec<(&'static dyn Method, Params, String)>>) -> String {
+    fn error_of(r: Result<Vec<Chosen>>) -> String {
         match r {
             Ok(_) => panic!("expected an error"),
             Err(e) => e.to_string(),
