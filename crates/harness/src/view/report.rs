@@ -54,9 +54,12 @@ pub fn real_datasets(reports: &Path) -> Result<Vec<String>> {
         .collect())
 }
 
-/// Writes the page of each of `names` (view 0) and `viewer/pages.json`; a dataset whose files
-/// are missing is left out with a line on standard error.
+/// Writes the page of each of `names` (view 0) and `viewer/pages.json` (nothing when `names`
+/// is empty); a dataset whose files are missing is left out with a line on standard error.
 pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
     let script = page::bundle()?;
     let mut entries = Vec::new();
     for name in names {
