@@ -6,8 +6,8 @@
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
-//! - [`visible`]: one method on one view or many; [`cli`] and [`run`]: the `pointsight`
-//!   command.
+//! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
+//!   every method's visible set; [`cli`] and [`run`]: the `pointsight` command.
 //!
 //! Only this crate does command-line parsing, plotting and report I/O; the method crates
 //! return values and typed errors.
@@ -20,6 +20,7 @@ pub mod output;
 pub mod progress;
 pub mod shard;
 pub mod stats;
+pub mod view;
 pub mod visible;
 
 /// The method registry (its own crate, shared with the Python package).
@@ -96,61 +97,56 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             }
         }
         Command::Visible {
-            dataset,
-            cloud,
-            mesh,
-            format,
-            classes,
-            scan,
-            merge_scans,
-            surface_tolerance,
-            eye,
-            target,
-            up,
-            fov_y,
-            width,
-            height,
+            source,
             view,
-            views,
             method,
             set,
             out,
             score,
             parallel_views,
             repeat,
-        } => visible::run(
-            &visible::Request {
-                dataset,
-                cloud,
-                mesh,
-                read: cloud::io::ReadOptions {
-                    format: parse_format(format)?,
-                    classes,
-                    scan,
+        } => {
+            // A views file alone means every camera in it.
+            let view =
+                view.unwrap_or_else(|| if source.views.is_some() { "all" } else { "0" }.into());
+            visible::run(
+                &visible::Request {
+                    source: source_of(source)?,
+                    view,
+                    method,
+                    set,
+                    out,
+                    score,
+                    parallel_views,
+                    repeat,
                 },
-                merge_scans,
-                surface_tolerance,
-                camera: visible::CameraFlags {
-                    eye,
-                    target,
-                    up,
-                    fov_y_deg: fov_y,
-                    width,
-                    height,
+                &data_dir,
+            )
+            .map_err(cli::frame_set)?
+        }
+        Command::View {
+            source,
+            view,
+            methods,
+            set,
+            max_points,
+            png,
+            out,
+        } => {
+            let page = view::run(
+                &view::Request {
+                    source: source_of(source)?,
+                    view,
+                    methods,
+                    set,
+                    max_points,
+                    png,
+                    out,
                 },
-                // A views file alone means every camera in it.
-                view: view.unwrap_or_else(|| if views.is_some() { "all" } else { "0" }.into()),
-                views,
-                method,
-                set,
-                out,
-                score,
-                parallel_views,
-                repeat,
-            },
-            &data_dir,
-        )
-        .map_err(cli::frame_set)?,
+                &data_dir,
+            )?;
+            println!("{}", page.line());
+        }
         Command::Run {
             experiment,
             datasets,
@@ -179,6 +175,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             print!("{}", registry::sweep::BUILTIN);
         }
         Command::Report { reports } => {
+            let names = view::report::real_datasets(&reports)?;
+            view::report::write_pages(&reports, &names, &data_dir)?;
             assemble_report(&reports)?;
             println!("wrote {}", reports.join("README.md").display());
         }
@@ -187,6 +185,31 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The source flags of `visible` and `view` as a [`visible::Source`].
+fn source_of(a: cli::SourceArgs) -> Result<visible::Source> {
+    Ok(visible::Source {
+        dataset: a.dataset,
+        cloud: a.cloud,
+        mesh: a.mesh,
+        read: cloud::io::ReadOptions {
+            format: parse_format(a.format)?,
+            classes: a.classes,
+            scan: a.scan,
+        },
+        merge_scans: a.merge_scans,
+        surface_tolerance: a.surface_tolerance,
+        camera: visible::CameraFlags {
+            eye: a.eye,
+            target: a.target,
+            up: a.up,
+            fov_y_deg: a.fov_y,
+            width: a.width,
+            height: a.height,
+        },
+        views: a.views,
+    })
 }
 
 /// A `--format` name as a reader format, or an error listing the known ones.
@@ -459,6 +482,22 @@ fn bench(
     for name in chosen.iter().flatten() {
         datasets::check(name)?;
     }
+    // The report's viewer pages need the viewer's script: say so before measuring for hours.
+    let visibility_datasets: Vec<String> = match &chosen {
+        Some(list) => list.clone(),
+        None => experiments::experiment("visibility")?
+            .default_datasets(quick)
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+    };
+    if sweep.shard.is_none()
+        && visibility_datasets
+            .iter()
+            .any(|d| datasets::info(d).is_ok_and(|i| i.needs_fetch()))
+    {
+        view::page::bundle()?;
+    }
     for exp in experiments::EXPERIMENTS {
         let datasets = match &chosen {
             Some(list) => list.clone(),
@@ -490,6 +529,8 @@ fn bench(
     }
     match sweep.shard {
         None => {
+            let names = view::report::real_datasets(reports)?;
+            view::report::write_pages(reports, &names, data_dir)?;
             assemble_report(reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",

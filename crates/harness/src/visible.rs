@@ -79,9 +79,10 @@ impl CameraFlags {
     }
 }
 
-/// What `visible` was asked.
+/// Where the points, the mesh and the views come from: a dataset, or a user's files and camera
+/// (shared by `visible` and `view`).
 #[derive(Debug, Clone)]
-pub struct Request {
+pub struct Source {
     /// Dataset name (ignored with `cloud`).
     pub dataset: Option<String>,
     /// A point file instead of a dataset.
@@ -96,10 +97,17 @@ pub struct Request {
     pub surface_tolerance: Option<f64>,
     /// A camera from flags.
     pub camera: CameraFlags,
-    /// `K`, `all` or `K1,K2,...`.
-    pub view: String,
     /// A views file replacing the dataset's views.
     pub views: Option<PathBuf>,
+}
+
+/// What `visible` was asked.
+#[derive(Debug, Clone)]
+pub struct Request {
+    /// The points, mesh and views.
+    pub source: Source,
+    /// `K`, `all` or `K1,K2,...`.
+    pub view: String,
     /// Method name.
     pub method: String,
     /// `--set` pairs.
@@ -195,15 +203,14 @@ fn score_line(
     ))
 }
 
-/// Runs the request; prints the contract lines.
-pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
-    let params = Params::parse(&req.set)?;
-    let method = methods::method(&req.method)?;
-    let mut ds = match (&req.cloud, &req.dataset) {
+/// The dataset `src` names, its views replaced by the views file or the camera flags when
+/// given; the errors `visible` gives for bad input.
+pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
+    let mut ds = match (&src.cloud, &src.dataset) {
         (Some(path), _) => {
-            let is_e57 = req.read.format.or_else(|| cloud::io::Format::of_path(path))
+            let is_e57 = src.read.format.or_else(|| cloud::io::Format::of_path(path))
                 == Some(cloud::io::Format::E57);
-            if is_e57 && req.read.scan.is_none() && !req.merge_scans {
+            if is_e57 && src.read.scan.is_none() && !src.merge_scans {
                 let n = cloud::io::e57::scan_count(path)?;
                 if n > 1 {
                     bail!(
@@ -221,35 +228,43 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
                 description: format!("{}", path.display()),
                 cloud: Some(path.clone()),
                 sample: None,
-                mesh: req.mesh.clone(),
-                read: req.read.clone(),
+                mesh: src.mesh.clone(),
+                read: src.read.clone(),
                 views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
-                surface_tolerance: req.surface_tolerance,
+                surface_tolerance: src.surface_tolerance,
                 degrade: (Vec::new(), 1),
             })?
         }
         (None, Some(name)) => {
-            if req.mesh.is_some() {
+            if src.mesh.is_some() {
                 bail!("--mesh goes with --cloud; a dataset has its own mesh");
             }
             datasets::load(name, data_dir)?
         }
         (None, None) => bail!("give --dataset NAME or --cloud FILE"),
     };
-    let many = req.views.is_some() || req.view.parse::<usize>().is_err();
-    if let Some(path) = &req.views {
+    if let Some(path) = &src.views {
         ds.views = cloud::io::views::read_views(path)?
             .iter()
             .map(|c| ds.camera_from_world(c))
             .collect();
-    } else if req.camera.eye.is_some() {
+    } else if src.camera.eye.is_some() {
         let world = ds.world_positions();
-        ds.views = vec![ds.camera_from_world(&req.camera.camera(&world)?)];
-    } else if req.cloud.is_some() {
+        ds.views = vec![ds.camera_from_world(&src.camera.camera(&world)?)];
+    } else if src.cloud.is_some() {
         bail!(
             "with --cloud, give a camera: --eye X,Y,Z (and optionally --target, --up, --fov-y, --width, --height) or --views FILE"
         );
     }
+    Ok(ds)
+}
+
+/// Runs the request; prints the contract lines.
+pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
+    let params = Params::parse(&req.set)?;
+    let method = methods::method(&req.method)?;
+    let ds = load_source(&req.source, data_dir)?;
+    let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {
         Some(truth::Reference::new(ds.mesh("--score")?)?)
     } else {

@@ -148,8 +148,13 @@ pub fn assemble(reports_dir: &Path, experiments: &[Section<'_>]) -> Result<()> {
             )),
         }
     }
+    let viewer = crate::view::report::section(reports_dir)?;
+    if !viewer.is_empty() {
+        contents.push_str("- [viewer](#viewer): interactive 3D pages of the visible sets\n");
+    }
     page.push_str(&contents);
     page.push_str(&sections);
+    page.push_str(&viewer);
     write_atomic(&reports_dir.join("README.md"), page.as_bytes())
 }
 
