@@ -3,6 +3,7 @@
 //! - [`datasets`]: the dataset registry; [`fetch`]: the real meshes;
 //! - [`methods`]: the method registry (one adapter per method), `--set` parameters;
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
+//! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
 //! - [`visible`]: one method on one view or many; [`cli`] and [`run`]: the `pointsight`
@@ -15,6 +16,7 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
+pub mod lod_build;
 pub mod manifest;
 pub mod output;
 pub mod progress;
@@ -62,6 +64,33 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::ScaleCell { dataset, method, n } => {
             let out = experiments::scale::cell(&dataset, &method, n, &data_dir)?;
             println!("{}", serde_json::to_string(&out)?);
+        }
+        Command::LodBuild {
+            cloud,
+            method,
+            memory_limit,
+            out,
+            in_memory,
+        } => {
+            let built = if in_memory {
+                lod_build::build_in_memory(&cloud, &out)?
+            } else {
+                let limit = lod_build::parse_size(&memory_limit)?;
+                let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+                lod_build::build(&cloud, &method, limit, &out, tty)?
+            };
+            println!(
+                "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
+                 top_levels={} leaf_radius={:e} file_bytes={}",
+                built.points,
+                built.seconds,
+                built.points as f64 / built.seconds.max(1e-9),
+                built.peak_rss_bytes,
+                built.chunks,
+                built.top_levels,
+                built.leaf_radius,
+                built.file_bytes
+            );
         }
         Command::Inspect {
             file,
