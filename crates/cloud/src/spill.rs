@@ -257,7 +257,9 @@ mod tests {
     #[test]
     fn an_injected_full_disk_fails_the_write() {
         let dir = tempfile::tempdir().unwrap();
-        let scratch = Scratch::beside(&dir.path().join("x")).unwrap().fail_after(8);
+        let scratch = Scratch::beside(&dir.path().join("x"))
+            .unwrap()
+            .fail_after(8);
         let mut w = scratch.create(4).unwrap();
         w.push(&[0; 4]).unwrap();
         w.push(&[0; 4]).unwrap();

@@ -344,7 +344,9 @@ pub fn build_file(
     let centroid = sum / n as f64;
     let mut spacing_d = Vec::new();
     let picks = match opts.radius {
-        Radius::DensitySpacing { k, sample, seed, .. } => {
+        Radius::DensitySpacing {
+            k, sample, seed, ..
+        } => {
             if n as usize <= k {
                 return Err(Error::Cloud(cloud::Error::InvalidParameter {
                     name: "k",
@@ -828,8 +830,8 @@ impl Builder<'_> {
                         .execute();
                     let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
                     let d = d2.sqrt();
-                    let inside = !overlap
-                        && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d);
+                    let inside =
+                        !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d);
                     if inside { 0.0 } else { d2 }
                 })
                 .reduce(|| 0.0, f64::max);
@@ -839,10 +841,7 @@ impl Builder<'_> {
         for t in 0..self.top.len() {
             self.top[t].halo2 = match &self.top[t].kind {
                 TopKind::Chunk(c) => slack(halo2[*c]),
-                TopKind::Inner(kids) => kids
-                    .iter()
-                    .map(|&k| self.top[k].halo2)
-                    .fold(0.0, f64::max),
+                TopKind::Inner(kids) => kids.iter().map(|&k| self.top[k].halo2).fold(0.0, f64::max),
             };
         }
         // (b) One pass sending every point to the halos it lies in.
@@ -1115,15 +1114,15 @@ impl Builder<'_> {
         let children = |e: Entry| -> Vec<Entry> {
             match e {
                 Entry::Top(p) => match &self.top[p].kind {
-                    TopKind::Inner(kids) => kids
-                        .iter()
-                        .filter_map(|&k| match self.top[k].kind {
-                            TopKind::Inner(_) => Some(Entry::Top(k)),
-                            TopKind::Chunk(c) => {
-                                (chunk_levels(&self.chunks[c]) > 0).then_some(Entry::Chunk(c, 0))
-                            }
-                        })
-                        .collect(),
+                    TopKind::Inner(kids) => {
+                        kids.iter()
+                            .filter_map(|&k| match self.top[k].kind {
+                                TopKind::Inner(_) => Some(Entry::Top(k)),
+                                TopKind::Chunk(c) => (chunk_levels(&self.chunks[c]) > 0)
+                                    .then_some(Entry::Chunk(c, 0)),
+                            })
+                            .collect()
+                    }
                     TopKind::Chunk(_) => Vec::new(),
                 },
                 Entry::Chunk(c, d) => {
@@ -1403,7 +1402,11 @@ mod tests {
                 assert_eq!(s.chunks, 1);
             }
             let got = std::fs::read(&out).unwrap();
-            assert_eq!(got.len(), want.len(), "{normals:?} {radius:?} chunk {chunk}");
+            assert_eq!(
+                got.len(),
+                want.len(),
+                "{normals:?} {radius:?} chunk {chunk}"
+            );
             let first = got.iter().zip(&want).position(|(a, b)| a != b);
             assert_eq!(first, None, "{normals:?} {radius:?} chunk {chunk}: {s:?}");
             // Only the output is left beside it.
@@ -1471,7 +1474,13 @@ mod tests {
         };
         let e = out_of_core(&cloud(100, 3), &small, &out).unwrap_err();
         assert!(
-            matches!(e, Error::InvalidParameter { name: "memory_limit", .. }),
+            matches!(
+                e,
+                Error::InvalidParameter {
+                    name: "memory_limit",
+                    ..
+                }
+            ),
             "{e}"
         );
         assert!(e.to_string().contains("below what"), "{e}");

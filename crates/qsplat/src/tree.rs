@@ -126,7 +126,11 @@ pub(crate) fn word_for(n: &Node, sphere: u16, grandchildren: bool) -> Word {
 
 /// The sphere index of a node `(center, radius)` inside the decoded parent `(pc, pr)`, and its
 /// own decoded sphere.
-pub(crate) fn child_sphere(center: DVec3, radius: f64, parent: (DVec3, f64)) -> (u16, (DVec3, f64)) {
+pub(crate) fn child_sphere(
+    center: DVec3,
+    radius: f64,
+    parent: (DVec3, f64),
+) -> (u16, (DVec3, f64)) {
     let (pc, pr) = parent;
     // The child is inside the (outward-rounded) parent: an entry always exists; the
     // parent's own cube (size 13) is the fallback.

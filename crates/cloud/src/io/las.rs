@@ -302,7 +302,7 @@ impl LasStream {
         if raw.compressed {
             check_laz(path, &raw, len)?;
         }
-        let mut reader = Reader::from_path(path).map_err(|e| {
+        let reader = Reader::from_path(path).map_err(|e| {
             ReadError::new(
                 path,
                 Location::File,
@@ -390,7 +390,8 @@ impl LasStream {
                 )),
             )
         };
-        let got = self.reader
+        let got = self
+            .reader
             .fill_points(CHUNK.min(announced - read), &mut self.chunk)
             .map_err(malformed)?;
         if got == 0 {
