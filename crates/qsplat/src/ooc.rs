@@ -283,11 +283,11 @@ pub fn build_file(
             }
             bbox = (bbox.0.min(p.position), bbox.1.max(p.position));
             sum += p.position;
-            if n % stride == 0 {
+            if n.is_multiple_of(stride) {
                 sample.push((p.position, n));
                 if sample.len() >= 2 * SAMPLE {
                     stride *= 2;
-                    sample.retain(|s| s.1 % stride == 0);
+                    sample.retain(|s| s.1.is_multiple_of(stride));
                 }
             }
             pack(p, n, &mut rec);
