@@ -158,6 +158,28 @@ pub enum Command {
         #[arg(long, default_value = "")]
         setting: String,
     },
+    /// Build an LOD method's file from a point file (LAS, LAZ, PLY, E57, ...) within a memory
+    /// limit: out of core when the cloud does not fit (scratch files in a hidden folder beside
+    /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints
+    /// one line: `points=N seconds=T points_per_second=R peak_rss_bytes=B chunks=C
+    /// top_levels=L leaf_radius=X file_bytes=F`.
+    LodBuild {
+        /// The point file.
+        #[arg(long)]
+        cloud: PathBuf,
+        /// The LOD method (qsplat).
+        #[arg(long, default_value = "qsplat")]
+        method: String,
+        /// Peak memory of the build, like 512MiB or 4GiB.
+        #[arg(long, default_value = "1GiB")]
+        memory_limit: String,
+        /// The output file.
+        #[arg(long)]
+        out: PathBuf,
+        /// Build in memory (the reference the out-of-core build equals).
+        #[arg(long)]
+        in_memory: bool,
+    },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
     /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).
     Inspect {

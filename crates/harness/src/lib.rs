@@ -4,6 +4,7 @@
 //!   meshes;
 //! - [`methods`]: the method registry (one adapter per method), `--set` parameters;
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
+//! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
 //! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
@@ -16,6 +17,7 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
+pub mod lod_build;
 pub mod output;
 pub mod progress;
 pub mod shard;
@@ -72,6 +74,33 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             let setting = registry::Setting::parse(&setting);
             let out = experiments::scale::cell(&dataset, &method, &setting, n, &data_dir)?;
             println!("{}", serde_json::to_string(&out)?);
+        }
+        Command::LodBuild {
+            cloud,
+            method,
+            memory_limit,
+            out,
+            in_memory,
+        } => {
+            let built = if in_memory {
+                lod_build::build_in_memory(&cloud, &out)?
+            } else {
+                let limit = lod_build::parse_size(&memory_limit)?;
+                let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+                lod_build::build(&cloud, &method, limit, &out, tty)?
+            };
+            println!(
+                "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
+                 top_levels={} leaf_radius={:e} file_bytes={}",
+                built.points,
+                built.seconds,
+                built.points as f64 / built.seconds.max(1e-9),
+                built.peak_rss_bytes,
+                built.chunks,
+                built.top_levels,
+                built.leaf_radius,
+                built.file_bytes
+            );
         }
         Command::Inspect {
             file,

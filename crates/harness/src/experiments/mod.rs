@@ -7,7 +7,7 @@
 
 mod background;
 mod hull;
-mod lod;
+pub(crate) mod lod;
 pub mod merge;
 mod reference;
 mod robustness;
