@@ -176,7 +176,6 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "truth",
         "scores against the ground truth",
     ),
-
     (
         "visible.rs",
         "truth",
@@ -250,7 +249,6 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "hpr",
         "scale's hull-* cells: HPR's flip before the hull",
     ),
-
 ];
 
 /// A source file's text with comments, string and character literals blanked (newlines kept),

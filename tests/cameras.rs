@@ -129,13 +129,7 @@ fn an_orthographic_view_of_the_sphere() {
     let err = answer(&ds, "hpr", &[], &camera).unwrap_err();
     assert!(err.contains("orthographic"), "{err}");
     for name in ["hpr-approx", "hpr-confidence"] {
-        let p = methods::prepare(
-            methods::method(name).unwrap(),
-            ds.input(),
-            &Params::parse::<&str>(&[]).unwrap(),
-        )
-        .unwrap();
-        let err = p.visible(&camera).unwrap_err().to_string();
+        let err = answer(&ds, name, &[], &camera).unwrap_err();
         assert!(err.contains("orthographic") && err.contains(name), "{err}");
     }
 }

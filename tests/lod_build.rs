@@ -43,13 +43,18 @@ fn write_cloud(path: &Path, n: usize) {
         colors: Some(colors),
         ..cloud::PointCloud::default()
     };
-    cloud::io::las::write_las(path, &c).unwrap();
+    cloud::io::las::write_las(path, &c).expect("the LAZ is written");
 }
 
 fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .expect("a readable folder")
+        .map(|e| {
+            e.expect("an entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
         .collect();
     v.sort();
     v
@@ -75,7 +80,8 @@ fn out_of_core_equals_in_memory_within_the_limit() {
         String::from_utf8_lossy(&run.stderr)
     );
     let want = std::fs::read(&mem).unwrap();
-    for limit_mib in [80u64] {
+    {
+        let limit_mib = 80u64;
         let out = dir.path().join(format!("ooc{limit_mib}.qsplat"));
         let run = pointsight(&[
             "lod-build",

@@ -71,7 +71,7 @@ pub fn parse_size(text: &str) -> Result<u64> {
         other => bail!("size {text:?}: unknown unit {other:?} (B, KiB, MiB, GiB, TiB)"),
     };
     let bytes = value * (1u64 << shift) as f64;
-    if !bytes.is_finite() || bytes < 1.0 || bytes > 1e18 {
+    if !bytes.is_finite() || !(1.0..=1e18).contains(&bytes) {
         bail!("size {text:?} is out of range");
     }
     Ok(bytes as u64)

@@ -23,6 +23,7 @@
 //! - [`Family::Log`]: f(d) = ln(R/d), R = max‖p‖·10^γ, γ > 0, γ* = +∞ (ratio − 1 ∝ 1/γ, a slower
 //!   approach than the linear kernel's ∝ 10^−γ);
 //! - [`Family::ExpDecay`]: f(d) = exp(−γ·d/max‖p‖), γ > 0, γ* = 0⁺ (ratio − 1 ≤ e^γ − 1).
+//!
 //! Both are scale invariant (they depend on d/max‖p‖ only), like the exponential kernel.
 
 use crate::transform::{EXP_DECAY_MAX, Kernel, Radius, log_magnitude};

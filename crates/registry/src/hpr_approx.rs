@@ -161,7 +161,7 @@ mod tests {
             mesh: None,
         };
         let params = Params::parse(set)?;
-        let p = crate::prepare(&HprApproxMethod, input, &params)?;
+        let p = crate::kernel::prepare(&HprApproxMethod, input, &params)?;
         p.visible(camera)
     }
 
@@ -188,7 +188,7 @@ mod tests {
             cloud: &scene.cloud,
             mesh: None,
         };
-        let exact = crate::prepare(
+        let exact = crate::kernel::prepare(
             &crate::hpr::HprMethod,
             input,
             &Params::parse(&["gamma=2"]).unwrap(),

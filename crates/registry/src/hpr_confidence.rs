@@ -193,7 +193,7 @@ mod tests {
             mesh: None,
         };
         let params = Params::parse(set)?;
-        let p = crate::prepare(&HprConfidenceMethod, input, &params)?;
+        let p = crate::kernel::prepare(&HprConfidenceMethod, input, &params)?;
         p.visible(camera)
     }
 

@@ -139,7 +139,7 @@ pub fn run<'a>(
 }
 
 /// Prepares `method` on `input`, rejecting parameters it does not read.
-fn prepare<'a>(
+pub(crate) fn prepare<'a>(
     method: &dyn Method,
     input: Input<'a>,
     params: &Params,
@@ -246,15 +246,12 @@ pub fn run_lod(
     })
 }
 
+/// Each view of a cell with its answer or its error's message.
+pub type Answers = Vec<(View, std::result::Result<Answer, String>)>;
+
 /// [`run`], with the answers collected: each view with its answer or its error's message, and
 /// the preparation's seconds or its error.
-pub fn collect(
-    cell: &Cell<'_>,
-    input: Input<'_>,
-) -> (
-    Result<f64>,
-    Vec<(View, std::result::Result<Answer, String>)>,
-) {
+pub fn collect(cell: &Cell<'_>, input: Input<'_>) -> (Result<f64>, Answers) {
     let mut answers = Vec::with_capacity(cell.views.len());
     let prepared = run(cell, input, |view, answer| {
         answers.push((*view, answer.map_err(|e| e.to_string())));

@@ -157,7 +157,7 @@ mod tests {
                 cloud: &scene.cloud,
                 mesh: None,
             };
-            let prepared = crate::prepare(m, input, &params).expect("prepare");
+            let prepared = crate::kernel::prepare(m, input, &params).expect("prepare");
             for cam in cameras() {
                 let out = prepared.visible(&cam).expect("visible");
                 let px = out.pixels.as_ref().expect("per-pixel");
@@ -191,13 +191,15 @@ mod tests {
                 ("width", "0"),
             ] {
                 let params = Params::from_pairs(&[(k, v.into())]);
-                let e = crate::prepare(m, input, &params).err().expect("an error");
+                let e = crate::kernel::prepare(m, input, &params)
+                    .err()
+                    .expect("an error");
                 assert!(
                     matches!(e, Error::Screenspace(_) | Error::BadValue { .. }),
                     "{name} {k}={v}: {e}"
                 );
             }
-            let e = crate::prepare(
+            let e = crate::kernel::prepare(
                 m,
                 Input {
                     cloud: &empty,
