@@ -1,13 +1,15 @@
 //! One measurement path: a throwaway visibility method and a throwaway LOD method, registered
 //! once each, and an external method folder, reach every experiment with no other edit. The
 //! visibility and external methods appear in the results of `visibility`, `robustness` and
-//! `scale`; the LOD method in `lod`, robustness's LOD results and `scale`.
+//! `scale`; the LOD method in `lod`, robustness's LOD results and `scale`. The robustness run
+//! takes its grids from a sweeps file (`--config`), and HPR is tuned over that file's grid.
 //!
 //! A program of its own (`harness = false`), as a program embedding the registry is: it
 //! registers its methods first thing in `main`, and forwards a scale cell to
 //! `harness::experiments::scale::cell_entry`, because the scale experiment runs each cell by
 //! re-running the current executable (this test binary) as a child process.
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -225,6 +227,20 @@ fn every_experiment(root: &Path) {
         assert_eq!(rows.len(), 14 * 2 * 3, "robustness: {m}");
         assert!(rows.iter().all(|r| r.ends_with(",ok")), "{m}: {rows:?}");
     }
+    // `--config`'s grids: HPR tuned over the file's robustness grid only (γ 2 and 3; the
+    // built-in one has six values), and every best row keeps the setting tuned on the clean
+    // cloud.
+    let hpr_best = lines_with(&rob.join("results.csv"), ",hpr,best,");
+    assert_eq!(hpr_best.len(), 14 * 3, "{hpr_best:?}");
+    let tuned: BTreeSet<&str> = hpr_best
+        .iter()
+        .map(|r| r.split(',').nth(6).expect("a params column"))
+        .collect();
+    assert_eq!(tuned.len(), 1, "one tuned setting: {tuned:?}");
+    assert!(
+        tuned.iter().all(|p| *p == "gamma=2" || *p == "gamma=3"),
+        "the file's grid: {tuned:?}"
+    );
     let rob_lod = lines_with(&rob.join("lod.csv"), ",kernel-test-stride,");
     // 5 noise levels × the pinhole views.
     assert!(rob_lod.len() >= 5, "robustness LOD: {rob_lod:?}");

@@ -28,6 +28,8 @@
 //! check = [".venv/bin/python", "-c", "import open3d"]   # exits 0 when installed
 //! install = "just peers"                     # said when the check fails
 //! timeout_seconds = 120
+//! memory_bytes_per_point = 200               # for the scale experiment's memory guard
+//!                                            # (undeclared: not run above 10^6 points)
 //! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
 //! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
 //! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
@@ -83,6 +85,7 @@ struct Manifest {
     quick_grid: Option<toml::Value>,
     default: Option<toml::Value>,
     family: Option<String>,
+    memory_bytes_per_point: Option<u64>,
 }
 
 /// An external method (leaked once per process: the registry's methods live for it).
@@ -99,6 +102,7 @@ pub struct ExternalMethod {
     params: &'static [ParamSpec],
     sweep: Option<MethodSweep>,
     family: Option<String>,
+    memory_bytes_per_point: Option<u64>,
 }
 
 fn leak(s: String) -> &'static str {
@@ -186,6 +190,7 @@ impl ExternalMethod {
             params: Box::leak(params.into_boxed_slice()),
             sweep,
             family: m.family,
+            memory_bytes_per_point: m.memory_bytes_per_point,
         })
     }
 
@@ -269,6 +274,12 @@ impl Method for ExternalMethod {
 
     fn is_external(&self) -> bool {
         true
+    }
+    fn scale(&self) -> crate::Scale {
+        // What the program and this process together need per point beyond the cloud, as the
+        // method.toml declares it; undeclared: not run above Scale::UNKNOWN_LIMIT points.
+        self.memory_bytes_per_point
+            .map_or(crate::Scale::Unknown, crate::Scale::PerPoint)
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
