@@ -238,6 +238,16 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "srn",
         "the clean source's texture coordinates for LOD under noise",
     ),
+    (
+        "view/page.rs",
+        "truth",
+        "the viewer colours every method's points against the ground truth",
+    ),
+    (
+        "lod_build.rs",
+        "qsplat",
+        "pointsight lod-build writes QSplat files out of core (qsplat::ooc)",
+    ),
     // Scale's cells.
     (
         "experiments/scale.rs",

@@ -303,7 +303,7 @@ fn assemble_report(reports: &Path) -> Result<()> {
             summary: e.summary(),
         })
         .collect();
-    output::report::assemble(reports, &sections)
+    output::report::assemble(reports, &sections, &view::report::section(reports)?)
 }
 
 fn shard_text(shard: Option<shard::Shard>) -> String {
