@@ -61,6 +61,29 @@ struct Prep<'a> {
 }
 
 /// The registry's output of a screen-space verdict.
+/// The checks both screen-space adapters make before preparing: finite, non-empty points, and
+/// the `width`/`height` they read (none: the view's), at least one pixel each.
+pub(crate) fn checked_frame(
+    input: Input<'_>,
+    params: &Params,
+) -> Result<(Option<u32>, Option<u32>)> {
+    cloud::points::check_finite(&input.cloud.positions)?;
+    if input.cloud.positions.is_empty() {
+        return Err(cloud::Error::EmptyCloud.into());
+    }
+    let (width, height) = (params.get_opt("width")?, params.get_opt("height")?);
+    for (name, v) in [("width", width), ("height", height)] {
+        if v == Some(0) {
+            return Err(screenspace::Error::InvalidParameter {
+                name,
+                reason: "0: must be at least 1 pixel".into(),
+            }
+            .into());
+        }
+    }
+    Ok((width, height))
+}
+
 pub(crate) fn output(v: screenspace::Verdict) -> Output {
     Output {
         visible: v.visible,
@@ -110,20 +133,7 @@ impl Method for ScreenspaceMethod {
             depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
         };
         p.validate()?;
-        cloud::points::check_finite(&input.cloud.positions)?;
-        if input.cloud.positions.is_empty() {
-            return Err(cloud::Error::EmptyCloud.into());
-        }
-        let (width, height) = (params.get_opt("width")?, params.get_opt("height")?);
-        for (name, v) in [("width", width), ("height", height)] {
-            if v == Some(0) {
-                return Err(screenspace::Error::InvalidParameter {
-                    name,
-                    reason: "0: must be at least 1 pixel".into(),
-                }
-                .into());
-            }
-        }
+        let (width, height) = checked_frame(input, params)?;
         Ok(Box::new(Prep {
             points: &input.cloud.positions,
             params: p,

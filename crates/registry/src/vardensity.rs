@@ -10,7 +10,7 @@ use cloud::Camera;
 use screenspace::BiasuttiParams;
 
 use crate::error::Result;
-use crate::screenspace::output;
+use crate::screenspace::{checked_frame, output};
 use crate::{Input, Method, Output, ParamSpec, Params, Prepared, camera_with_resolution};
 
 /// Biasutti et al.'s variable-density visibility.
@@ -89,20 +89,7 @@ impl Method for VardensityMethod {
             depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
         };
         p.validate()?;
-        cloud::points::check_finite(&input.cloud.positions)?;
-        if input.cloud.positions.is_empty() {
-            return Err(cloud::Error::EmptyCloud.into());
-        }
-        let (width, height) = (params.get_opt("width")?, params.get_opt("height")?);
-        for (name, v) in [("width", width), ("height", height)] {
-            if v == Some(0) {
-                return Err(screenspace::Error::InvalidParameter {
-                    name,
-                    reason: "0: must be at least 1 pixel".into(),
-                }
-                .into());
-            }
-        }
+        let (width, height) = checked_frame(input, params)?;
         Ok(Box::new(Prep {
             points: &input.cloud.positions,
             params: p,
