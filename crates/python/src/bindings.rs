@@ -54,7 +54,7 @@ fn err(e: impl std::fmt::Display) -> String {
 }
 
 /// The registry's errors with Python's framing: a parameter is a keyword argument of `method`.
-fn registry_err(method: &str, e: registry::Error) -> String {
+fn registry_err(method: &str, e: &registry::Error) -> String {
     match e {
         registry::Error::BadValue { key, value, reason } => {
             format!("{method}: keyword argument {key}={value:?}: {reason}")
@@ -311,7 +311,7 @@ fn visible<'py>(
             parallel: m.parallel_views() && views.len() > 1,
         };
         let (prepared, answers) = registry::kernel::collect(&cell, input);
-        prepared.map_err(|e| registry_err(&method, e))?;
+        prepared.map_err(|e| registry_err(&method, &e))?;
         answers
             .into_iter()
             .map(|(_, a)| a.map(|a| a.output.visible))
@@ -480,155 +480,221 @@ fn splats_dict<'py>(
     Ok(d)
 }
 
-fn lod_cloud(
-    points: &PyReadonlyArray2<'_, f64>,
-    normals: &PyReadonlyArray2<'_, f64>,
-    colors: Option<&PyReadonlyArray2<'_, f64>>,
-) -> PyResult<PointCloud> {
-    let positions = points_of(points)?;
-    let n: Vec<Vec3> = points_of(normals)?.iter().map(|v| v.as_vec3()).collect();
-    let colors = colors
-        .map(|c| {
-            points_of(c).map(|rows| {
-                rows.iter()
-                    .map(|v| {
-                        let q = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
-                        [q(v.x), q(v.y), q(v.z)]
-                    })
-                    .collect::<Vec<_>>()
-            })
-        })
-        .transpose()?;
-    let cloud = PointCloud {
-        positions,
-        normals: Some(n),
-        colors,
-        ..PointCloud::default()
-    };
-    cloud
-        .validate()
-        .map_err(|e| PyValueError::new_err(e.to_string()))?;
-    if cloud.is_empty() {
-        return Err(PyValueError::new_err("the point array is empty"));
-    }
-    Ok(cloud)
+/// A level-of-detail method of the registry (`qsplat`, `spt`, `srn`, `random` or one registered
+/// at run time), built once on a cloud through the measurement kernel, selected per view.
+#[pyclass(module = "pointsight._native", frozen)]
+pub struct Lod {
+    method: &'static dyn registry::lod::LodMethod,
+    data: registry::lod::LodData,
+    built: Box<dyn registry::lod::LodBuilt>,
+    build: registry::kernel::Built,
 }
 
-/// QSplat's bounding-sphere hierarchy (seed 002 §5.2), built once, selected per view.
-#[pyclass(module = "pointsight._native", frozen)]
-pub struct QSplat {
-    tree: qsplat::QTree,
+/// Colours (N, 3) in [0, 1] as 8-bit colours.
+fn colors_of(c: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<[u8; 3]>> {
+    let q = |x: f64| (x.clamp(0.0, 1.0) * 255.0).round() as u8;
+    Ok(points_of(c)?
+        .iter()
+        .map(|v| [q(v.x), q(v.y), q(v.z)])
+        .collect())
+}
+
+/// An (H, W, 3) uint8 image as a texture.
+fn texture_of(image: &PyReadonlyArray3<'_, u8>) -> PyResult<srn::Texture> {
+    let img = image.as_array();
+    let shape = img.shape().to_vec();
+    if shape.len() != 3 || shape[2] != 3 {
+        return Err(PyValueError::new_err(format!(
+            "texture: expected an (H, W, 3) uint8 array, got shape {shape:?}"
+        )));
+    }
+    let rgb: Vec<[u8; 3]> = img.rows().into_iter().map(|p| [p[0], p[1], p[2]]).collect();
+    srn::Texture::new(shape[1], shape[0], rgb).map_err(|e| PyValueError::new_err(e.to_string()))
+}
+
+/// (N, 2) texture coordinates.
+fn uvs_of(uvs: &PyReadonlyArray2<'_, f64>) -> PyResult<Vec<Vec2>> {
+    let u = uvs.as_array();
+    if u.ncols() != 2 {
+        return Err(PyValueError::new_err(format!(
+            "uvs: expected an (N, 2) array, got shape {:?}",
+            u.shape()
+        )));
+    }
+    Ok(u.rows()
+        .into_iter()
+        .map(|r| Vec2::new(r[0] as f32, r[1] as f32))
+        .collect())
 }
 
 #[pymethods]
-impl QSplat {
-    /// Builds the tree of points (N, 3), unit normals (N, 3), optional colours (N, 3) in
-    /// [0, 1], leaves of `leaf_radius`.
+impl Lod {
+    /// Builds `method` on points (N, 3) with optional unit normals (N, 3; else k-nearest-
+    /// neighbour estimates), colours (N, 3) in [0, 1], texture coordinates (N, 2) and a
+    /// texture (H, W, 3) uint8 (colours then come from it; SRN needs it), full-detail splats of
+    /// `radius` (else `radius_spacings` density spacings), every random choice from `seed`.
     #[new]
-    #[pyo3(signature = (points, normals, leaf_radius, colors=None))]
+    #[pyo3(signature = (method, points, normals=None, colors=None, uvs=None, texture=None, radius=None, radius_spacings=1.0, seed=0))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
+        method: &str,
         points: PyReadonlyArray2<'_, f64>,
-        normals: PyReadonlyArray2<'_, f64>,
-        leaf_radius: f64,
+        normals: Option<PyReadonlyArray2<'_, f64>>,
         colors: Option<PyReadonlyArray2<'_, f64>>,
+        uvs: Option<PyReadonlyArray2<'_, f64>>,
+        texture: Option<PyReadonlyArray3<'_, u8>>,
+        radius: Option<f64>,
+        radius_spacings: f64,
+        seed: u64,
     ) -> PyResult<Self> {
-        let cloud = lod_cloud(&points, &normals, colors.as_ref())?;
-        let tree = run(py, move || {
-            qsplat::build_tree(&cloud, leaf_radius).map_err(err)
+        let m = registry::lod::method(method).ok_or_else(|| {
+            let known: Vec<&str> = registry::lod::all().iter().map(|m| m.name()).collect();
+            PyValueError::new_err(format!(
+                "unknown level-of-detail method {method:?}; known: {}",
+                known.join(", ")
+            ))
         })?;
-        Ok(Self { tree })
+        if colors.is_some() && texture.is_some() {
+            return Err(PyValueError::new_err(
+                "give colors or a texture, not both (with a texture the colours come from it)",
+            ));
+        }
+        let size_ok = |x: f64| x.is_finite() && x > 0.0;
+        if let Some(r) = radius.filter(|&r| !size_ok(r)) {
+            return Err(PyValueError::new_err(format!(
+                "radius must be a positive number, got {r}"
+            )));
+        }
+        if !size_ok(radius_spacings) {
+            return Err(PyValueError::new_err(format!(
+                "radius_spacings must be a positive number, got {radius_spacings}"
+            )));
+        }
+        let cloud = PointCloud {
+            positions: points_of(&points)?,
+            normals: normals
+                .map(|n| points_of(&n).map(|v| v.iter().map(|x| x.as_vec3()).collect()))
+                .transpose()?,
+            colors: colors.map(|c| colors_of(&c)).transpose()?,
+            uvs: uvs.map(|u| uvs_of(&u)).transpose()?,
+            ..PointCloud::default()
+        };
+        let texture = texture.map(|t| texture_of(&t)).transpose()?;
+        let (data, built, build) = run(py, move || {
+            if cloud.is_empty() {
+                return Err("the point array is empty".into());
+            }
+            cloud.validate().map_err(err)?;
+            let mut data = registry::lod::LodData::prepare(cloud, texture, radius_spacings, seed)
+                .map_err(|e| registry_err(m.name(), &e))?;
+            if let Some(r) = radius {
+                data.radius = r;
+            }
+            let (built, build) = registry::kernel::build_lod(m, &data.input(), 1)
+                .map_err(|e| registry_err(m.name(), &e))?;
+            Ok((data, built, build))
+        })?;
+        Ok(Self {
+            method: m,
+            data,
+            built,
+            build,
+        })
     }
 
-    /// The splats the traversal draws for `camera` (pinhole) at `threshold_px`: a dict of
-    /// `centers`, `radii`, `normals`, `colors` arrays.
+    /// The splats drawn for each camera at one setting (`params`: the registry's KEY=VALUE
+    /// pairs): per camera a dict of `centers`, `radii`, `normals`, `colors` arrays and the
+    /// selection's `seconds` (median of `repeats` timed selections).
+    #[pyo3(signature = (cameras, params, repeats=1))]
     fn select<'py>(
         &self,
         py: Python<'py>,
-        camera: &Camera,
-        threshold_px: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        camera
-            .inner
-            .require("QSplat's traversal", &["pinhole"])
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        if !(threshold_px > 0.0) {
-            return Err(PyValueError::new_err(format!(
-                "threshold_px must be positive, got {threshold_px}"
-            )));
-        }
-        let params = qsplat::TraverseParams {
-            threshold_px,
-            ..Default::default()
-        };
-        let s = qsplat::traverse(&self.tree, &camera.inner, &params);
-        splats_dict(
-            py,
-            s.iter().map(|s| s.center.to_array()).collect(),
-            s.iter().map(|s| s.radius).collect(),
-            s.iter().map(|s| s.normal.to_array()).collect(),
-            s.iter()
-                .map(|s| s.color.map(|c| f64::from(c) / 255.0))
+        cameras: Vec<Camera>,
+        params: Vec<(String, String)>,
+        repeats: usize,
+    ) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let cams: Vec<cloud::Camera> = cameras.iter().map(|c| c.inner).collect();
+        let setting = registry::Setting(
+            params
+                .iter()
+                .map(|(k, v)| (k.clone(), registry::sweep::Value::parse(v)))
                 .collect(),
-        )
-    }
-}
-
-/// A sequential point tree (seed 002 §5.3), built once, cut per eye.
-#[pyclass(module = "pointsight._native", frozen)]
-pub struct SequentialPointTree {
-    spt: spt::Spt,
-}
-
-#[pymethods]
-impl SequentialPointTree {
-    /// Builds the tree of points (N, 3) and unit normals (N, 3), leaf discs of `leaf_diameter`.
-    #[new]
-    #[pyo3(signature = (points, normals, leaf_diameter, colors=None))]
-    fn new(
-        py: Python<'_>,
-        points: PyReadonlyArray2<'_, f64>,
-        normals: PyReadonlyArray2<'_, f64>,
-        leaf_diameter: f64,
-        colors: Option<PyReadonlyArray2<'_, f64>>,
-    ) -> PyResult<Self> {
-        let cloud = lod_cloud(&points, &normals, colors.as_ref())?;
-        let spt = run(py, move || spt::build(&cloud, leaf_diameter).map_err(err))?;
-        Ok(Self { spt })
-    }
-
-    /// The splats of the cut for `eye` at error `epsilon` (world units per unit distance; see
-    /// `epsilon_for_pixels`): a dict of `centers`, `radii`, `normals`, `colors`.
-    fn cut<'py>(
-        &self,
-        py: Python<'py>,
-        eye: [f64; 3],
-        epsilon: f64,
-    ) -> PyResult<Bound<'py, PyDict>> {
-        let (entries, _) = self
-            .spt
-            .cut(DVec3::from_array(eye), epsilon)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
-        let s = self.spt.splats(&entries);
-        splats_dict(
-            py,
-            s.iter().map(|s| s.center.to_array()).collect(),
-            s.iter().map(|s| s.radius).collect(),
-            s.iter().map(|s| s.normal.as_dvec3().to_array()).collect(),
-            s.iter().map(|s| s.color.as_dvec3().to_array()).collect(),
-        )
+        );
+        let selections = run(py, || {
+            let views = registry::kernel::View::all(&cams);
+            let settings = [setting];
+            let cell = registry::kernel::LodCell {
+                method: self.method,
+                settings: &settings,
+                views: &views,
+                repeats: repeats.max(1),
+                build_repeats: 1,
+            };
+            let mut out = Vec::with_capacity(views.len());
+            let input = self.data.input();
+            registry::kernel::select_lod(&cell, self.built.as_ref(), &input, |_, _, s| {
+                out.push(s.map_err(|e| registry_err(self.method.name(), e)));
+            });
+            out.into_iter().collect::<Result<Vec<_>, String>>()
+        })?;
+        selections
+            .into_iter()
+            .map(|s| {
+                let d = splats_dict(
+                    py,
+                    s.splats.iter().map(|s| s.center.to_array()).collect(),
+                    s.splats.iter().map(|s| f64::from(s.radius)).collect(),
+                    s.splats
+                        .iter()
+                        .map(|s| s.normal.as_dvec3().to_array())
+                        .collect(),
+                    s.splats
+                        .iter()
+                        .map(|s| s.albedo.as_dvec3().to_array())
+                        .collect(),
+                )?;
+                d.set_item("seconds", s.timing.median)?;
+                Ok(d)
+            })
+            .collect()
     }
 
-    /// ε for a tolerance of `px` pixels seen through `camera`.
-    #[staticmethod]
-    fn epsilon_for_pixels(camera: &Camera, px: f64) -> f64 {
-        spt::epsilon_for_pixels(&camera.inner, px)
+    /// The method's name.
+    #[getter]
+    fn method(&self) -> &'static str {
+        self.method.name()
     }
 
-    /// Number of entries of the sequential list.
+    /// Nodes or entries of the built structure.
     fn __len__(&self) -> usize {
-        self.spt.len()
+        self.build.size.nodes
     }
+
+    /// Bytes of the built structure (0 when not meaningful).
+    #[getter]
+    fn bytes(&self) -> f64 {
+        self.build.size.bytes
+    }
+
+    /// Seconds the build took.
+    #[getter]
+    fn build_seconds(&self) -> f64 {
+        self.build.timing.median
+    }
+
+    /// The full-detail splat radius, world units.
+    #[getter]
+    fn radius(&self) -> f64 {
+        self.data.radius
+    }
+}
+
+/// ε (world units per unit distance) for a screen-space error of `px` pixels through `camera`
+/// (what `spt`'s `epsilon_px` means).
+#[pyfunction]
+fn spt_epsilon_for_pixels(camera: &Camera, px: f64) -> f64 {
+    spt::epsilon_for_pixels(&camera.inner, px)
 }
 
 /// Kept indices and their radius factors.
@@ -649,29 +715,9 @@ fn srn_select<'py>(
     scale: f32,
     seed: u64,
 ) -> PyResult<IndicesAndFactors<'py>> {
-    let u = uvs.as_array();
-    if u.ncols() != 2 {
-        return Err(PyValueError::new_err(format!(
-            "uvs: expected an (N, 2) array, got shape {:?}",
-            u.shape()
-        )));
-    }
-    let uv: Vec<Vec2> = u
-        .rows()
-        .into_iter()
-        .map(|r| Vec2::new(r[0] as f32, r[1] as f32))
-        .collect();
-    let img = image.as_array();
-    let shape = img.shape().to_vec();
-    if shape.len() != 3 || shape[2] != 3 {
-        return Err(PyValueError::new_err(format!(
-            "image: expected an (H, W, 3) uint8 array, got shape {shape:?}"
-        )));
-    }
-    let rgb: Vec<[u8; 3]> = img.rows().into_iter().map(|p| [p[0], p[1], p[2]]).collect();
-    let (h, w) = (shape[0], shape[1]);
+    let uv = uvs_of(&uvs)?;
+    let texture = texture_of(&image)?;
     let (kept, factors) = run(py, move || {
-        let texture = srn::Texture::new(w, h, rgb).map_err(err)?;
         let map = srn::masking_map(&texture, &srn::MaskingParams::default()).map_err(err)?;
         let s = srn::Srn::new(&uv, &map, seed).map_err(err)?;
         let params = srn::SrnParams {
@@ -713,12 +759,33 @@ fn methods() -> Vec<MethodListing> {
         .collect()
 }
 
+/// Loads the external methods under `dir` (`NAME/method.toml` each; see the repository's
+/// `methods/README.md`) for every later call in this process; returns their names.
+#[pyfunction]
+fn load_methods(dir: PathBuf) -> PyResult<Vec<String>> {
+    if !dir.is_dir() {
+        return Err(PyValueError::new_err(format!(
+            "methods folder {} does not exist",
+            dir.display()
+        )));
+    }
+    let before: Vec<&str> = registry::all().iter().map(|m| m.name()).collect();
+    registry::register_external(&dir).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    Ok(registry::all()
+        .iter()
+        .map(|m| m.name())
+        .filter(|n| !before.contains(n))
+        .map(str::to_owned)
+        .collect())
+}
+
 /// The module.
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Camera>()?;
-    m.add_class::<QSplat>()?;
-    m.add_class::<SequentialPointTree>()?;
+    m.add_class::<Lod>()?;
+    m.add_function(wrap_pyfunction!(spt_epsilon_for_pixels, m)?)?;
+    m.add_function(wrap_pyfunction!(load_methods, m)?)?;
     m.add_function(wrap_pyfunction!(visible, m)?)?;
     m.add_function(wrap_pyfunction!(score, m)?)?;
     m.add_function(wrap_pyfunction!(convex_hull_vertices, m)?)?;

@@ -137,9 +137,10 @@ def test_hull_and_lod():
     assert len(coarse["radii"]) < len(fine["radii"]) <= 5000
     assert fine["centers"].shape == (len(fine["radii"]), 3)
     spt = ps.SequentialPointTree(p, normals, 0.06)
-    eps = ps.SequentialPointTree.epsilon_for_pixels(cam, 2.0)
-    cut = spt.cut([0, 0, 4], eps)
+    assert ps.SequentialPointTree.epsilon_for_pixels(cam, 2.0) > 0
+    cut = spt.select(cam, 2.0)
     assert 0 < len(cut["radii"]) < len(spt)
+    assert len(spt.select(cam, epsilon_px=8.0)["radii"]) < len(cut["radii"])
     uv = rng.random((5000, 2))
     image = np.full((256, 256, 3), 128, np.uint8)
     image[:, 128:] = rng.integers(0, 255, size=(256, 128, 3), dtype=np.uint8)
@@ -150,6 +151,85 @@ def test_hull_and_lod():
     assert (~busy).sum() > 0.7 * (uv[:, 0] < 0.5).sum()
     assert busy.sum() < 0.2 * (uv[:, 0] >= 0.5).sum()
     assert np.all(factors >= 1.0)
+
+
+def test_every_lod_method_through_the_registry():
+    """`Lod` builds any LOD method of the registry by name and selects with the registry's
+    keys, as the `lod` experiment does; errors speak of keyword arguments."""
+    rng = np.random.default_rng(5)
+    p = rng.normal(size=(4000, 3))
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    uv = rng.random((4000, 2))
+    image = rng.integers(0, 255, size=(64, 64, 3), dtype=np.uint8)
+    cam = ps.Camera.look_at("pinhole", [0, 0, 4], [0, 0, 0], [0, 1, 0], 320, 240, fov_y_deg=40)
+    lod_names = {"qsplat", "spt", "srn", "random"}
+    assert lod_names <= {m[0] for m in ps.methods()}
+    for name in sorted(lod_names):
+        # No normals: estimated (16 neighbours), as the lod experiment does for scans.
+        lod = ps.Lod(name, p, uvs=uv, texture=image, seed=1)
+        assert lod.method == name and lod.radius > 0 and lod.build_seconds >= 0
+        s = lod.select(cam)  # the method's defaults
+        k = len(s["radii"])
+        assert 0 < k <= 4000, name
+        assert s["centers"].shape == (k, 3) and s["colors"].shape == (k, 3)
+        assert np.all((s["colors"] >= 0) & (s["colors"] <= 1)) and s["seconds"] >= 0
+        np.testing.assert_allclose(np.linalg.norm(s["normals"], axis=1), 1.0, atol=1e-3)
+    # The random baseline keeps about `fraction` of the points, splats grown by 1/sqrt(f).
+    r = ps.Lod("random", p, p, seed=2)
+    quarter = r.select(cam, fraction=0.25)
+    assert abs(len(quarter["radii"]) - 1000) < 120
+    np.testing.assert_allclose(quarter["radii"], 2.0 * r.radius, rtol=1e-6)
+    # A list of cameras: one selection each, the structure built once.
+    both = ps.Lod("qsplat", p, p).select([cam, cam], threshold_px=4)
+    assert len(both) == 2 and len(both[0]["radii"]) == len(both[1]["radii"])
+    with pytest.raises(ValueError, match="srn needs a texture"):
+        ps.Lod("srn", p, p)
+    with pytest.raises(ValueError, match="unknown level-of-detail method .*qsplat"):
+        ps.Lod("octree", p, p)
+    with pytest.raises(ValueError, match="fraction"):
+        r.select(cam, fraction=3.0)
+    with pytest.raises(ValueError, match="threshold_py"):
+        ps.Lod("qsplat", p, p).select(cam, threshold_py=2)
+    with pytest.raises(ValueError, match="colors or a texture"):
+        ps.Lod("qsplat", p, p, colors=np.zeros((4000, 3)), texture=image)
+    with pytest.raises(ValueError, match="point 7"):
+        bad = p.copy()
+        bad[7, 1] = np.nan
+        ps.Lod("qsplat", bad, p)
+
+
+def test_an_external_method_loaded_from_python(tmp_path):
+    """`load_methods` registers a method folder (any language, methods/README.md); `visible`
+    then runs it by name through the kernel. The example is a point z-buffer, so its answer is
+    computed here with numpy from the camera's own projection."""
+    folder = tmp_path / "methods" / "py-test-zbuffer"
+    folder.mkdir(parents=True)
+    example = ROOT / "methods" / "example-zbuffer"
+    shutil.copy(example / "zbuffer.py", folder / "zbuffer.py")
+    shutil.copy(example / "method.toml", folder / "method.toml")
+    assert ps.load_methods(tmp_path / "methods") == ["py-test-zbuffer"]
+    assert ps.load_methods(tmp_path / "methods") == []  # loading twice is harmless
+    assert "py-test-zbuffer" in {m[0] for m in ps.methods()}
+    rng = np.random.default_rng(6)
+    p = rng.normal(size=(3000, 3))
+    cam = ps.Camera.look_at("pinhole", [0, 0, 6], [0, 0, 0], [0, 1, 0], 40, 30, fov_y_deg=40)
+    got = ps.visible("py-test-zbuffer", p, cam)
+    q = cam.project(p)
+    inside = np.isfinite(q[:, 2]) & (q[:, 0] >= 0) & (q[:, 0] < 40) & (q[:, 1] >= 0) & (q[:, 1] < 30)
+    nearest = {}
+    for k in np.flatnonzero(inside):
+        px = (int(q[k, 0]), int(q[k, 1]))
+        if px not in nearest or q[k, 2] < q[nearest[px], 2]:
+            nearest[px] = k
+    np.testing.assert_array_equal(got, np.sort(list(nearest.values())))
+    assert 100 < len(got) < 1200
+    # Two cameras: one answer each; a setting with the registry's key.
+    many = ps.visible("py-test-zbuffer", p, [cam, cam], scale=2)
+    assert len(many) == 2 and len(many[0]) >= len(got)
+    with pytest.raises(ValueError, match="unknown method"):
+        ps.visible("no-such-method", p, cam)
+    with pytest.raises(ValueError, match="no-such-dir|No such file|not found|does not exist"):
+        ps.load_methods(tmp_path / "no-such-dir")
 
 
 def test_readers_on_files_of_other_tools():

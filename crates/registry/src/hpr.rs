@@ -147,28 +147,57 @@ pub fn auto_gamma_for(
     hpr::auto::auto_gamma(scale, eye, max_distance)
 }
 
+/// The kernel of one HPR-type run: as the parameters give it, or, for `gamma=auto`, the linear
+/// kernel with `hpr::auto`'s γ for each view (the cloud's scale measured once).
+pub enum KernelRule {
+    /// The kernel the parameters name.
+    Fixed(Kernel),
+    /// `gamma=auto`.
+    Auto(hpr::auto::CloudScale),
+}
+
+impl KernelRule {
+    /// Reads `kernel`, `gamma`, `radius` (see [`kernel_from`], [`wants_auto_gamma`]).
+    pub fn read(params: &Params, points: &[cloud::glam::DVec3]) -> Result<Self> {
+        Ok(if wants_auto_gamma(params)? {
+            Self::Auto(hpr::auto::CloudScale::of(points)?)
+        } else {
+            Self::Fixed(kernel_from(params)?)
+        })
+    }
+
+    /// The kernel for a view from `eye`; an automatic γ is added to `detail` as `gamma_value`.
+    pub fn for_view(
+        &self,
+        points: &[cloud::glam::DVec3],
+        eye: cloud::glam::DVec3,
+        detail: &mut Vec<(String, String)>,
+    ) -> Kernel {
+        match self {
+            Self::Fixed(k) => *k,
+            Self::Auto(scale) => {
+                let gamma = auto_gamma_for(scale, points, eye);
+                detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
+                Kernel::Linear(Radius::Gamma(gamma))
+            }
+        }
+    }
+}
+
 struct Prep<'a> {
     points: &'a [cloud::glam::DVec3],
     params: HprParams,
     hull: Box<dyn ConvexHull>,
-    /// For `gamma=auto`: the cloud's scale, measured once.
-    auto: Option<hpr::auto::CloudScale>,
+    kernel: KernelRule,
 }
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         refuse_orthographic("hpr", camera)?;
         let mut detail = Vec::new();
-        let params = match &self.auto {
-            Some(scale) => {
-                let gamma = auto_gamma_for(scale, self.points, camera.eye);
-                detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
-                HprParams {
-                    kernel: Kernel::Linear(Radius::Gamma(gamma)),
-                    ..self.params
-                }
-            }
-            None => self.params,
+        let params = HprParams {
+            kernel: self.kernel.for_view(self.points, camera.eye, &mut detail),
+            ..self.params
         };
         let v = hpr::visible(self.points, camera.eye, &params, self.hull.as_ref())?;
         Ok(Output {
@@ -210,18 +239,13 @@ impl Method for HprMethod {
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
-        let auto = wants_auto_gamma(params)?;
+        let kernel = KernelRule::read(params, &input.cloud.positions)?;
         let (params, hull) = hpr_params(params)?;
-        let auto = if auto {
-            Some(hpr::auto::CloudScale::of(&input.cloud.positions)?)
-        } else {
-            None
-        };
         Ok(Box::new(Prep {
             points: &input.cloud.positions,
             params,
             hull: hull::by_name(&hull)?,
-            auto,
+            kernel,
         }))
     }
 }

@@ -9,11 +9,10 @@
 
 use cloud::Camera;
 use hpr::approx::{ApproxParams, visible};
-use hpr::{Kernel, Radius};
 use hull::ConvexHull;
 
 use crate::error::{Error, Result};
-use crate::hpr::{auto_gamma_for, kernel_from, refuse_orthographic, wants_auto_gamma};
+use crate::hpr::{KernelRule, refuse_orthographic};
 use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
 
 /// Approximate HPR.
@@ -57,25 +56,17 @@ pub fn auto_sectors(camera: &Camera) -> u64 {
 
 struct Prep<'a> {
     points: &'a [cloud::glam::DVec3],
-    kernel: Kernel,
+    kernel: KernelRule,
     /// `None`: auto.
     sectors: Option<u64>,
     hull: Box<dyn ConvexHull>,
-    auto_gamma: Option<hpr::auto::CloudScale>,
 }
 
 impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         refuse_orthographic("hpr-approx", camera)?;
         let mut detail = Vec::new();
-        let kernel = match &self.auto_gamma {
-            Some(scale) => {
-                let gamma = auto_gamma_for(scale, self.points, camera.eye);
-                detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
-                Kernel::Linear(Radius::Gamma(gamma))
-            }
-            None => self.kernel,
-        };
+        let kernel = self.kernel.for_view(self.points, camera.eye, &mut detail);
         let sectors = self.sectors.unwrap_or_else(|| auto_sectors(camera));
         let v = visible(
             self.points,
@@ -115,8 +106,7 @@ impl Method for HprApproxMethod {
     }
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
-        let auto = wants_auto_gamma(params)?;
-        let kernel = kernel_from(params)?;
+        let kernel = KernelRule::read(params, &input.cloud.positions)?;
         let sectors: Option<String> = params.get_opt("sectors")?;
         let sectors = match sectors.as_deref() {
             None | Some("auto") => None,
@@ -131,17 +121,11 @@ impl Method for HprApproxMethod {
             }
         };
         let hull: String = params.get("hull", "own".to_owned())?;
-        let auto_gamma = if auto {
-            Some(hpr::auto::CloudScale::of(&input.cloud.positions)?)
-        } else {
-            None
-        };
         Ok(Box::new(Prep {
             points: &input.cloud.positions,
             kernel,
             sectors,
             hull: hull::by_name(&hull)?,
-            auto_gamma,
         }))
     }
 }

@@ -23,7 +23,7 @@ use cloud::Camera;
 use splat::render::Splat;
 
 use crate::error::{Error, Result};
-use crate::lod::{LodInput, LodMethod, LodSize};
+use crate::lod::{LodBuilt, LodInput, LodMethod, LodSize};
 use crate::params::Params;
 use crate::sweep::Setting;
 use crate::timing::{self, Timing};
@@ -207,10 +207,33 @@ pub struct Selection {
 pub fn run_lod(
     cell: &LodCell<'_>,
     input: &LodInput<'_>,
-    mut each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
+    each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
 ) -> Result<Built> {
-    let (built, build_timing) = timing::measure(cell.build_repeats, || cell.method.build(input))?;
+    let (built, timing) = build_lod(cell.method, input, cell.build_repeats)?;
+    select_lod(cell, built.as_ref(), input, each);
+    Ok(timing)
+}
+
+/// The build half of [`run_lod`], for a caller that keeps the structure and selects later
+/// (Python's `Lod`): `repeats` timed builds, the last one returned with the timing and size.
+pub fn build_lod(
+    method: &dyn LodMethod,
+    input: &LodInput<'_>,
+    repeats: usize,
+) -> Result<(Box<dyn LodBuilt>, Built)> {
+    let (built, timing) = timing::measure(repeats, || method.build(input))?;
     let size = built.size();
+    Ok((built, Built { timing, size }))
+}
+
+/// The selection half of [`run_lod`] on a structure `built` from `input` by `cell.method`
+/// (`cell.build_repeats` is not used).
+pub fn select_lod(
+    cell: &LodCell<'_>,
+    built: &dyn LodBuilt,
+    input: &LodInput<'_>,
+    mut each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
+) {
     for (k, setting) in cell.settings.iter().enumerate() {
         let params = setting.params();
         let selector = built.selector(input, &params).and_then(|s| {
@@ -240,10 +263,6 @@ pub fn run_lod(
             }
         }
     }
-    Ok(Built {
-        timing: build_timing,
-        size,
-    })
 }
 
 /// Each view of a cell with its answer or its error's message.

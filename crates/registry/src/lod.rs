@@ -36,8 +36,9 @@ pub struct LodInput<'a> {
     pub albedo: &'a [Vec3],
     /// Texture coordinates per point.
     pub uvs: &'a [Vec2],
-    /// The texture the colours come from (SRN's masking importance is computed on it).
-    pub texture: &'a Texture,
+    /// The texture the colours come from, if any (SRN's masking importance is computed on it,
+    /// so SRN needs one).
+    pub texture: Option<&'a Texture>,
     /// Radius of a full-detail splat, world units.
     pub radius: f64,
     /// Seed of every random choice.
@@ -90,15 +91,7 @@ pub trait LodMethod: Sync {
 /// spherical parameterisation of `srn::param` about the bounding box's centre, so colour
 /// detail counts in an image comparison); returns the coordinates used.
 pub fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
-    let uvs = match &cloud.uvs {
-        Some(uvs) => uvs.clone(),
-        None => {
-            let center = cloud::Aabb::from_points(&cloud.positions)
-                .map(|b| b.center())
-                .unwrap_or_default();
-            srn::param::spherical_uvs(&cloud.positions, center)
-        }
-    };
+    let uvs = texture_coords(cloud);
     cloud.colors = Some(
         uvs.iter()
             .map(|&uv| {
@@ -110,9 +103,21 @@ pub fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
     uvs
 }
 
-/// The owned data an LOD method builds on, made from a cloud once: a colour per point from
-/// `texture` through the cloud's texture coordinates (else the spherical parameterisation of
-/// `srn::param` about the bounding box's centre), a unit normal per point (the cloud's, else
+/// The cloud's texture coordinates, else the spherical parameterisation of `srn::param` about
+/// the bounding box's centre.
+fn texture_coords(cloud: &PointCloud) -> Vec<Vec2> {
+    cloud.uvs.clone().unwrap_or_else(|| {
+        let center = cloud::Aabb::from_points(&cloud.positions)
+            .map(|b| b.center())
+            .unwrap_or_default();
+        srn::param::spherical_uvs(&cloud.positions, center)
+    })
+}
+
+/// The owned data an LOD method builds on, made from a cloud once: with a texture, a colour per
+/// point from it through the cloud's texture coordinates (else the spherical parameterisation
+/// of `srn::param` about the bounding box's centre; without one, the cloud's own colours, else
+/// a grey of 200/255, and those coordinates), a unit normal per point (the cloud's, else
 /// k-nearest-neighbour estimates: 16 neighbours, oriented away from the centroid, as a scan
 /// file often has none), and the full-detail splat radius `radius_spacings` density spacings
 /// (`cloud::spacing::density_spacing`, k = 8, 20,000 samples).
@@ -125,8 +130,8 @@ pub struct LodData {
     pub albedo: Vec<Vec3>,
     /// Texture coordinates per point.
     pub uvs: Vec<Vec2>,
-    /// The texture.
-    pub texture: Texture,
+    /// The texture, if any.
+    pub texture: Option<Texture>,
     /// Full-detail splat radius, world units.
     pub radius: f64,
     /// Seed of every random choice.
@@ -137,20 +142,31 @@ impl LodData {
     /// Prepares `cloud` (see the type's documentation).
     pub fn prepare(
         mut cloud: PointCloud,
-        texture: Texture,
+        texture: Option<Texture>,
         radius_spacings: f64,
         seed: u64,
     ) -> Result<Self> {
-        let uvs = colorize(&mut cloud, &texture);
-        let albedo = cloud.colors.iter().flatten().map(|&c| albedo(c)).collect();
+        let uvs = match &texture {
+            Some(t) => colorize(&mut cloud, t),
+            None => texture_coords(&cloud),
+        };
+        let albedo = match &cloud.colors {
+            Some(c) => c.iter().map(|&c| albedo(c)).collect(),
+            None => vec![albedo([200; 3]); cloud.len()],
+        };
         let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1)?;
         let normals = match cloud.normals.clone() {
             Some(n) => n,
-            None => cloud::normals::estimate_normals(
-                &cloud.positions,
-                16.min(cloud.len()),
-                cloud::normals::Orientation::AwayFromCentroid,
-            )?,
+            None => {
+                let n = cloud::normals::estimate_normals(
+                    &cloud.positions,
+                    16.min(cloud.len()),
+                    cloud::normals::Orientation::AwayFromCentroid,
+                )?;
+                // The methods that read the cloud's own normals (QSplat, SPT) get these too.
+                cloud.normals = Some(n.clone());
+                n
+            }
         };
         Ok(Self {
             cloud,
@@ -170,7 +186,7 @@ impl LodData {
             normals: &self.normals,
             albedo: &self.albedo,
             uvs: &self.uvs,
-            texture: &self.texture,
+            texture: self.texture.as_ref(),
             radius: self.radius,
             seed: self.seed,
         }
@@ -414,7 +430,12 @@ impl LodMethod for SrnMethod {
     }
     fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>> {
         let err = |e: srn::Error| Error::Unsupported(format!("srn: {e}"));
-        let map = masking_map(input.texture, &MaskingParams::default()).map_err(err)?;
+        let texture = input.texture.ok_or_else(|| {
+            Error::Unsupported(
+                "srn needs a texture: its importance is the texture's visual masking".into(),
+            )
+        })?;
+        let map = masking_map(texture, &MaskingParams::default()).map_err(err)?;
         Ok(Box::new(SrnBuilt(
             Srn::new(input.uvs, &map, input.seed).map_err(err)?,
         )))
@@ -574,4 +595,105 @@ pub fn all() -> Vec<&'static dyn LodMethod> {
 /// Looks an LOD method up by name.
 pub fn method(name: &str) -> Option<&'static dyn LodMethod> {
     all().into_iter().find(|m| m.name() == name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kernel::{self, LodCell, View};
+    use crate::sweep::Setting;
+
+    /// A unit sphere of `n` points with no normals and no colours, as a scan file gives.
+    fn bare_sphere(n: usize) -> PointCloud {
+        PointCloud::from_positions(cloud::synth::fibonacci_sphere(n)).expect("a cloud")
+    }
+
+    fn camera() -> Camera {
+        Camera::new(
+            cloud::glam::DVec3::new(0.0, 0.0, 4.0),
+            cloud::glam::DVec3::ZERO,
+            cloud::glam::DVec3::Y,
+            40.0,
+            320,
+            240,
+        )
+        .expect("a camera")
+    }
+
+    #[test]
+    fn every_builtin_method_builds_on_a_cloud_without_normals_or_texture() {
+        let data = LodData::prepare(bare_sphere(3000), None, 1.0, 7).expect("prepared");
+        let n = data
+            .cloud
+            .normals
+            .as_ref()
+            .expect("estimated normals in the cloud");
+        assert_eq!(n, &data.normals);
+        // Oriented away from the centroid: outward on a sphere.
+        assert!(
+            data.cloud
+                .positions
+                .iter()
+                .zip(n)
+                .all(|(p, n)| p.as_vec3().dot(*n) > 0.5)
+        );
+        let views = View::all(&[camera()]);
+        for m in LOD_METHODS {
+            let settings = [Setting::default()];
+            let cell = LodCell {
+                method: *m,
+                settings: &settings,
+                views: &views,
+                repeats: 1,
+                build_repeats: 1,
+            };
+            let mut got = Vec::new();
+            let built = kernel::run_lod(&cell, &data.input(), |_, _, s| {
+                got.push(s.map(|s| s.splats.len()).map_err(|e| e.to_string()))
+            });
+            if m.name() == "srn" {
+                let e = built.err().map(|e| e.to_string()).unwrap_or_default();
+                assert!(e.contains("srn needs a texture"), "{e}");
+                continue;
+            }
+            assert!(built.is_ok(), "{}: {:?}", m.name(), built.err());
+            assert_eq!(got.len(), 1);
+            let k = got[0].clone().expect("a selection");
+            assert!(k > 0 && k <= 3000, "{}: {k}", m.name());
+        }
+    }
+
+    #[test]
+    fn the_split_kernel_selects_as_run_lod_does() {
+        let texture = Texture::new(2, 2, vec![[10, 200, 30], [0, 0, 0], [255; 3], [90; 3]])
+            .expect("a texture");
+        let data = LodData::prepare(bare_sphere(2000), Some(texture), 1.0, 3).expect("prepared");
+        let input = data.input();
+        let views = View::all(&[camera()]);
+        let settings = [
+            Setting::parse("threshold_px=1"),
+            Setting::parse("threshold_px=60"),
+        ];
+        let m = method("qsplat").expect("qsplat");
+        let cell = LodCell {
+            method: m,
+            settings: &settings,
+            views: &views,
+            repeats: 1,
+            build_repeats: 1,
+        };
+        let mut whole = Vec::new();
+        kernel::run_lod(&cell, &input, |_, _, s| {
+            whole.push(s.expect("selected").splats.len())
+        })
+        .expect("built");
+        let (built, b) = kernel::build_lod(m, &input, 1).expect("built");
+        assert!(b.size.nodes > 2000);
+        let mut split = Vec::new();
+        kernel::select_lod(&cell, built.as_ref(), &input, |_, _, s| {
+            split.push(s.expect("selected").splats.len())
+        });
+        assert_eq!(whole, split);
+        assert!(whole[1] < whole[0], "{whole:?}");
+    }
 }

@@ -53,11 +53,40 @@ const PARAMS: &[ParamSpec] = &[
     },
 ];
 
-struct Prep<'a> {
+/// A prepared screen-space method: its checked parameters, the image size and the crate's
+/// function that answers a view.
+pub(crate) struct Prep<'a, P> {
     points: &'a [cloud::glam::DVec3],
-    params: PintusParams,
+    params: P,
     width: Option<u32>,
     height: Option<u32>,
+    answer: ScreenFn<P>,
+}
+
+/// A screen-space method crate's entry point (`screenspace::pintus::visible`, ...).
+pub(crate) type ScreenFn<P> =
+    fn(&[cloud::glam::DVec3], &Camera, &P) -> screenspace::Result<screenspace::Verdict>;
+
+impl<'a, P: Sync> Prep<'a, P> {
+    /// Checks the frame (see [`checked_frame`]) and prepares.
+    pub(crate) fn boxed(
+        input: Input<'a>,
+        params: &Params,
+        method: P,
+        answer: ScreenFn<P>,
+    ) -> Result<Box<dyn Prepared + 'a>>
+    where
+        P: 'a,
+    {
+        let (width, height) = checked_frame(input, params)?;
+        Ok(Box::new(Prep {
+            points: &input.cloud.positions,
+            params: method,
+            width,
+            height,
+            answer,
+        }))
+    }
 }
 
 /// The registry's output of a screen-space verdict.
@@ -84,7 +113,7 @@ pub(crate) fn checked_frame(
     Ok((width, height))
 }
 
-pub(crate) fn output(v: screenspace::Verdict) -> Output {
+fn output(v: screenspace::Verdict) -> Output {
     Output {
         visible: v.visible,
         rays: 0,
@@ -99,14 +128,10 @@ pub(crate) fn output(v: screenspace::Verdict) -> Output {
     }
 }
 
-impl Prepared for Prep<'_> {
+impl<P: Sync> Prepared for Prep<'_, P> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         let camera = camera_with_resolution(camera, self.width, self.height)?;
-        Ok(output(screenspace::pintus::visible(
-            self.points,
-            &camera,
-            &self.params,
-        )?))
+        Ok(output((self.answer)(self.points, &camera, &self.params)?))
     }
 }
 
@@ -133,12 +158,6 @@ impl Method for ScreenspaceMethod {
             depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
         };
         p.validate()?;
-        let (width, height) = checked_frame(input, params)?;
-        Ok(Box::new(Prep {
-            points: &input.cloud.positions,
-            params: p,
-            width,
-            height,
-        }))
+        Prep::boxed(input, params, p, screenspace::pintus::visible)
     }
 }

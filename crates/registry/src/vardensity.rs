@@ -6,12 +6,11 @@
 //! adapts to the projected density by itself); see the method crate's doc on what of the
 //! paper could be read.
 
-use cloud::Camera;
 use screenspace::BiasuttiParams;
 
 use crate::error::Result;
-use crate::screenspace::{checked_frame, output};
-use crate::{Input, Method, Output, ParamSpec, Params, Prepared, camera_with_resolution};
+use crate::screenspace::Prep;
+use crate::{Input, Method, ParamSpec, Params, Prepared};
 
 /// Biasutti et al.'s variable-density visibility.
 pub struct VardensityMethod;
@@ -49,24 +48,6 @@ const PARAMS: &[ParamSpec] = &[
     },
 ];
 
-struct Prep<'a> {
-    points: &'a [cloud::glam::DVec3],
-    params: BiasuttiParams,
-    width: Option<u32>,
-    height: Option<u32>,
-}
-
-impl Prepared for Prep<'_> {
-    fn visible(&self, camera: &Camera) -> Result<Output> {
-        let camera = camera_with_resolution(camera, self.width, self.height)?;
-        Ok(output(screenspace::biasutti::visible(
-            self.points,
-            &camera,
-            &self.params,
-        )?))
-    }
-}
-
 impl Method for VardensityMethod {
     fn name(&self) -> &'static str {
         "vardensity"
@@ -89,13 +70,7 @@ impl Method for VardensityMethod {
             depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
         };
         p.validate()?;
-        let (width, height) = checked_frame(input, params)?;
-        Ok(Box::new(Prep {
-            points: &input.cloud.positions,
-            params: p,
-            width,
-            height,
-        }))
+        Prep::boxed(input, params, p, screenspace::biasutti::visible)
     }
 }
 

@@ -41,6 +41,7 @@ use truth::{Reference, ReferenceParams};
 
 use super::lod::noise::{self, LOD_NOISE, LodRow};
 use super::{Context, Experiment, markdown_table};
+use crate::datasets::{self, Degraded};
 use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -84,13 +85,11 @@ struct Row {
 /// One curve of a plot: dataset, degradation, method, setting.
 type Curve = (String, String, String, String);
 
-/// A cloud to score: points, per-point truth source positions, outlier flags.
+/// A cloud to score: the degraded cloud with its truth positions and outlier flags.
 struct Case {
     degradation: &'static str,
     level: f64,
-    cloud: cloud::PointCloud,
-    truth_positions: Vec<DVec3>,
-    outliers: Vec<bool>,
+    d: Degraded,
 }
 
 fn degraded(
@@ -99,15 +98,10 @@ fn degraded(
     level: f64,
     step: Degradation,
 ) -> Result<Case> {
-    let d = cloud::degrade::apply(clean, &[step], SEED)?;
-    let truth_positions = d.truth_positions(&clean.positions);
-    let outliers = d.outliers();
     Ok(Case {
         degradation,
         level,
-        cloud: d.cloud,
-        truth_positions,
-        outliers,
+        d: datasets::degrade(clean, &[step], SEED)?,
     })
 }
 
@@ -124,9 +118,9 @@ fn run_views(
     setting: &Setting,
     repeats: usize,
 ) -> Vec<Row> {
-    let n_out = case.outliers.iter().filter(|&&o| o).count();
+    let n_out = case.d.outliers.iter().filter(|&&o| o).count();
     let input = registry::Input {
-        cloud: &case.cloud,
+        cloud: &case.d.cloud,
         mesh: None,
     };
     let (_, answers) = kernel::collect(&kernel::Cell::new(method, setting, views, repeats), input);
@@ -136,10 +130,10 @@ fn run_views(
             let (score, outliers_visible, seconds, status) = match answer {
                 Ok(a) => {
                     let visible = &a.output.visible;
-                    let s = Score::of_on_surface(visible, &truths[v.index], Some(&case.outliers));
+                    let s = Score::of_on_surface(visible, &truths[v.index], Some(&case.d.outliers));
                     let ov = visible
                         .iter()
-                        .filter(|&&i| case.outliers[i as usize])
+                        .filter(|&&i| case.d.outliers[i as usize])
                         .count();
                     (Some(s), ov, a.timing.median, "ok".to_owned())
                 }
@@ -149,7 +143,7 @@ fn run_views(
                 dataset: name.to_owned(),
                 degradation: case.degradation.to_owned(),
                 level: case.level,
-                n_points: case.cloud.len(),
+                n_points: case.d.cloud.len(),
                 method: method.name().to_owned(),
                 setting: kind.to_owned(),
                 params: setting.label(),
@@ -218,12 +212,14 @@ impl Experiment for RobustnessExperiment {
             let clean = Case {
                 degradation: if scanned { "scan" } else { "clean" },
                 level: 0.0,
-                cloud: ds.cloud.clone(),
-                truth_positions: ds.truth_points().to_vec(),
-                outliers: ds
-                    .outliers
-                    .clone()
-                    .unwrap_or_else(|| vec![false; ds.cloud.len()]),
+                d: Degraded {
+                    cloud: ds.cloud.clone(),
+                    truth_positions: ds.truth_points().to_vec(),
+                    outliers: ds
+                        .outliers
+                        .clone()
+                        .unwrap_or_else(|| vec![false; ds.cloud.len()]),
+                },
             };
             cases.push(clean);
             if !scanned {
@@ -280,7 +276,7 @@ impl Experiment for RobustnessExperiment {
                     .iter()
                     .map(|cam| {
                         Ok(reference
-                            .visibility(&case.truth_positions, cam, &ReferenceParams::default())?
+                            .visibility(&case.d.truth_positions, cam, &ReferenceParams::default())?
                             .visible)
                     })
                     .collect::<Result<_>>()?;

@@ -3,7 +3,10 @@
 The methods of the pointsight benchmark (https://github.com/... see the repository's README),
 called in-process from Python: Hidden Point Removal (Katz et al. 2007) with an exact convex
 hull, ray-cast point filtering (Jensen 2012), a z-buffer splat baseline, the mesh ground truth
-(``reference``), and the level-of-detail methods QSplat, Sequential Point Trees and SRN.
+(``reference``), the methods published since (robust HPR, screen-space operators, HPR
+confidence, approximate HPR), external methods of any language (``load_methods``), and the
+level-of-detail methods QSplat, Sequential Point Trees, SRN and the random baseline (``Lod``).
+Every call goes through the registry and its measurement kernel, as the command line's do.
 
 Keyword arguments are the keys of the command line's ``--set KEY=VALUE`` (one parameter
 vocabulary). Points are (N, 3) arrays of float64 or float32 (anything else is converted once,
@@ -22,12 +25,15 @@ from typing import Any, Iterable, Optional, Sequence, Union
 import numpy as np
 
 from . import _native
-from ._native import Camera, QSplat, SequentialPointTree
+from ._native import Camera
 
 __all__ = [
     "Camera",
+    "Lod",
     "QSplat",
     "SequentialPointTree",
+    "visible",
+    "load_methods",
     "hpr",
     "hpr_many",
     "hidden_point_removal",
@@ -178,6 +184,49 @@ def _camera(camera: Union[Camera, str, dict]) -> Camera:
     raise TypeError(f"camera: expected a pointsight.Camera, its JSON or a dict, got {type(camera).__name__}")
 
 
+def _cameras(camera: Any) -> list:
+    """One camera (a Camera, its JSON or a dict) or a list of them, as a list."""
+    if isinstance(camera, (list, tuple)):
+        return [_camera(c) for c in camera]
+    return [_camera(camera)]
+
+
+def visible(
+    method: str,
+    points: ArrayLike,
+    camera: Any,
+    *,
+    vertices: Optional[ArrayLike] = None,
+    faces: Optional[ArrayLike] = None,
+    as_mask: bool = False,
+    **params: Any,
+) -> Union[np.ndarray, list]:
+    """The points `method` (any name of `methods()`: built-in, registered, or loaded with
+    `load_methods`) finds visible from `camera`, at the setting `params` (the registry's keys,
+    as the command line's ``--set``). A list of cameras gives one result per camera (the
+    method prepared once; the position in the list is the view index). `vertices`/`faces`: the
+    mesh, for methods that need one (``reference``)."""
+    p = _points(points)
+    cams = _cameras(camera)
+    mesh: tuple = ()
+    if (vertices is None) != (faces is None):
+        raise ValueError("give vertices and faces together")
+    if vertices is not None:
+        f = np.asarray(faces)
+        if not np.issubdtype(f.dtype, np.integer):
+            raise TypeError(f"faces: expected an (F, 3) integer array, got dtype {f.dtype}")
+        mesh = (_points(vertices, "vertices"), np.ascontiguousarray(f, dtype=np.int64))
+    out = _native.visible(str(method), p, cams, _params(**params), *mesh)
+    res = [_result(v, len(p), as_mask) for v in out]
+    return res if isinstance(camera, (list, tuple)) else res[0]
+
+
+def load_methods(folder: str) -> list:
+    """Loads the external methods under `folder` (one ``NAME/method.toml`` each, the protocol
+    of the repository's ``methods/README.md``) for every later call; returns their names."""
+    return _native.load_methods(str(folder))
+
+
 def raycast(
     points: ArrayLike,
     camera: Union[Camera, str, dict],
@@ -282,6 +331,112 @@ def read_mesh(path: str) -> tuple:
     return d["positions"], d["faces"]
 
 
+def _colors(colors: Optional[ArrayLike]) -> Optional[np.ndarray]:
+    if colors is None:
+        return None
+    c = np.asarray(colors)
+    if c.dtype == np.uint8:
+        c = c.astype(np.float64) / 255.0
+    return _points(c, "colors")
+
+
+class Lod:
+    """A level-of-detail method of the registry (`qsplat`, `spt`, `srn`, `random`, or one
+    registered at run time), built once on `points` through the measurement kernel, then
+    selected per camera with the registry's parameters (as the ``lod`` experiment does).
+
+    `normals` (N, 3) unit (else k-nearest-neighbour estimates, 16 neighbours), `colors` (N, 3)
+    in [0, 1] or uint8, `uvs` (N, 2) texture coordinates and `texture` (H, W, 3) uint8 (the
+    colours then come from it; SRN's importance is its visual masking, so SRN needs one),
+    full-detail splats of `radius` world units (else `radius_spacings` density spacings),
+    every random choice from `seed`.
+    """
+
+    def __init__(
+        self,
+        method: str,
+        points: ArrayLike,
+        normals: Optional[ArrayLike] = None,
+        *,
+        colors: Optional[ArrayLike] = None,
+        uvs: Optional[ArrayLike] = None,
+        texture: Optional[ArrayLike] = None,
+        radius: Optional[float] = None,
+        radius_spacings: float = 1.0,
+        seed: int = 0,
+    ) -> None:
+        p = _points(points)
+        n = None if normals is None else _points(normals, "normals")
+        u = None if uvs is None else np.ascontiguousarray(uvs, dtype=np.float64)
+        t = None
+        if texture is not None:
+            t = np.asarray(texture)
+            if t.dtype != np.uint8:
+                raise TypeError(f"texture: expected uint8 (H, W, 3), got {t.dtype}")
+            t = np.ascontiguousarray(t)
+        self._native = _native.Lod(
+            str(method), p, n, _colors(colors), u, t,
+            None if radius is None else float(radius), float(radius_spacings), int(seed),
+        )
+
+    def select(self, camera: Any, *, repeats: int = 1, **params: Any) -> Union[dict, list]:
+        """The splats drawn for `camera` (or each of a list of cameras) at the setting `params`
+        (e.g. ``threshold_px=2`` for qsplat, ``epsilon_px=1`` for spt): a dict of `centers`,
+        `radii`, `normals`, `colors` arrays and the selection's `seconds`."""
+        out = self._native.select(_cameras(camera), _params(**params), int(repeats))
+        return out if isinstance(camera, (list, tuple)) else out[0]
+
+    @property
+    def method(self) -> str:
+        return self._native.method
+
+    @property
+    def radius(self) -> float:
+        """The full-detail splat radius, world units."""
+        return self._native.radius
+
+    @property
+    def bytes(self) -> float:
+        """Bytes of the built structure (0 when not meaningful)."""
+        return self._native.bytes
+
+    @property
+    def build_seconds(self) -> float:
+        return self._native.build_seconds
+
+    def __len__(self) -> int:
+        """Nodes or entries of the built structure."""
+        return len(self._native)
+
+
+class QSplat(Lod):
+    """QSplat (Rusinkiewicz & Levoy 2000, seed 002): the registry's `qsplat`, leaves of
+    `leaf_radius`; `select(camera, threshold_px)`."""
+
+    def __init__(self, points: ArrayLike, normals: Optional[ArrayLike], leaf_radius: float, colors: Optional[ArrayLike] = None) -> None:
+        super().__init__("qsplat", points, normals, colors=colors, radius=leaf_radius)
+
+    def select(self, camera: Any, threshold_px: float = 2.0, **kw: Any) -> Union[dict, list]:
+        return super().select(camera, threshold_px=threshold_px, **kw)
+
+
+class SequentialPointTree(Lod):
+    """Sequential Point Trees (Dachsbacher et al. 2003, seed 002): the registry's `spt`, leaf
+    discs of `leaf_diameter`; `select(camera, epsilon_px)` cuts at a screen-space error of
+    `epsilon_px` pixels (`epsilon_for_pixels` gives the world-space ε it means)."""
+
+    def __init__(self, points: ArrayLike, normals: Optional[ArrayLike], leaf_diameter: float, colors: Optional[ArrayLike] = None) -> None:
+        super().__init__("spt", points, normals, colors=colors, radius=leaf_diameter / 2.0)
+
+    def select(self, camera: Any, epsilon_px: float = 1.0, **kw: Any) -> Union[dict, list]:
+        return super().select(camera, epsilon_px=epsilon_px, **kw)
+
+    @staticmethod
+    def epsilon_for_pixels(camera: Camera, px: float) -> float:
+        """ε (world units per unit distance) for `px` pixels of error through `camera`."""
+        return _native.spt_epsilon_for_pixels(camera, float(px))
+
+
 def srn_select(uvs: ArrayLike, image: ArrayLike, *, scale: float = 1.0, seed: int = 0) -> tuple:
     """SRN (Qu et al. 2006): the points kept at density `scale` with the JPEG2000 masking
     importance of `image` ((H, W, 3) uint8) at texture coordinates `uvs` ((N, 2) in [0, 1]):
@@ -301,6 +456,6 @@ def set_num_threads(n: int) -> None:
 
 
 def methods() -> list:
-    """Every method of the registry, visibility then level of detail: (name, summary,
-    [(key, default, help), ...])."""
+    """Every method of the registry (built-in, registered, loaded with `load_methods`),
+    visibility then level of detail: (name, summary, [(key, default, help), ...])."""
     return _native.methods()

@@ -1,6 +1,6 @@
 """Type stubs of the native module (the Rust half of pointsight; see __init__.py)."""
 
-from typing import Optional, Sequence
+from typing import Any, Optional, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -37,29 +37,34 @@ class Camera:
     @property
     def height(self) -> int: ...
 
-class QSplat:
+class Lod:
     def __init__(
         self,
+        method: str,
         points: npt.NDArray[np.float64],
-        normals: npt.NDArray[np.float64],
-        leaf_radius: float,
+        normals: Optional[npt.NDArray[np.float64]] = None,
         colors: Optional[npt.NDArray[np.float64]] = None,
+        uvs: Optional[npt.NDArray[np.float64]] = None,
+        texture: Optional[npt.NDArray[np.uint8]] = None,
+        radius: Optional[float] = None,
+        radius_spacings: float = 1.0,
+        seed: int = 0,
     ) -> None: ...
-    def select(self, camera: Camera, threshold_px: float) -> dict[str, np.ndarray]: ...
-
-class SequentialPointTree:
-    def __init__(
-        self,
-        points: npt.NDArray[np.float64],
-        normals: npt.NDArray[np.float64],
-        leaf_diameter: float,
-        colors: Optional[npt.NDArray[np.float64]] = None,
-    ) -> None: ...
-    def cut(self, eye: Sequence[float], epsilon: float) -> dict[str, np.ndarray]: ...
-    @staticmethod
-    def epsilon_for_pixels(camera: Camera, px: float) -> float: ...
+    def select(
+        self, cameras: list[Camera], params: list[tuple[str, str]], repeats: int = 1
+    ) -> list[dict[str, Any]]: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def bytes(self) -> float: ...
+    @property
+    def build_seconds(self) -> float: ...
+    @property
+    def radius(self) -> float: ...
     def __len__(self) -> int: ...
 
+def spt_epsilon_for_pixels(camera: Camera, px: float) -> float: ...
+def load_methods(dir: str) -> list[str]: ...
 def visible(
     method: str,
     points: npt.NDArray[np.float64],

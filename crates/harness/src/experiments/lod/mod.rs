@@ -122,7 +122,7 @@ pub struct BuildRow {
 pub fn lod_data(cloud: PointCloud) -> Result<LodData> {
     Ok(LodData::prepare(
         cloud,
-        srn_table::marble_texture(),
+        Some(srn_table::marble_texture()),
         REF_RADIUS,
         SEED,
     )?)
