@@ -52,7 +52,6 @@ use std::path::Path;
 use cloud::glam::{DVec3, Vec3};
 use cloud::kiddo::{ImmutableKdTree, SquaredEuclidean};
 use cloud::spill::{Scratch, SpillFile, SpillReader, SpillWriter};
-use rayon::prelude::*;
 
 use crate::build::{self, Node};
 use crate::error::{Error, Result};
@@ -819,22 +818,21 @@ impl Builder<'_> {
                 .transpose()?;
             let bbox = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
             let overlap = set.overlap;
-            *r2 = l
-                .positions
-                .par_iter()
-                .map(|&p| {
-                    let tree = own.as_ref().unwrap_or(&sample_tree);
-                    let nn = tree
-                        .query(&p.to_array())
-                        .nearest_n::<SquaredEuclidean<f64>>(kk)
-                        .execute();
-                    let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
-                    let d = d2.sqrt();
-                    let inside =
-                        !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d);
-                    if inside { 0.0 } else { d2 }
-                })
-                .reduce(|| 0.0, f64::max);
+            *r2 = cloud::normals::per_point_in_spatial_order(&l.positions, |i| {
+                let p = l.positions[i];
+                let tree = own.as_ref().unwrap_or(&sample_tree);
+                let nn = tree
+                    .query(&p.to_array())
+                    .nearest_n::<SquaredEuclidean<f64>>(kk)
+                    .execute();
+                let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
+                let d = d2.sqrt();
+                let inside =
+                    !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d);
+                if inside { 0.0 } else { d2 }
+            })
+            .into_iter()
+            .fold(0.0, f64::max);
         }
         // Slack for the rounding of box distances against point distances.
         let slack = |r2: f64| r2 * (1.0 + 1e-9) + f64::MIN_POSITIVE;
@@ -924,17 +922,16 @@ impl Builder<'_> {
             drop(entries);
             if let Some(k) = estimate {
                 let k = NonZero::new(k).unwrap_or(kk);
-                l.normals = l.positions[..m]
-                    .par_iter()
-                    .map(|&p| {
-                        let nb =
-                            cloud::normals::canonical_knn(&tree, p, k, |item| index[item as usize]);
-                        let n = cloud::normals::covariance_normal(
-                            nb.iter().map(|x| positions[x.1 as usize]),
-                        );
-                        cloud::normals::orient(n, p - centroid)
-                    })
-                    .collect();
+                let chunk = &l.positions[..m];
+                l.normals = cloud::normals::per_point_in_spatial_order(chunk, |i| {
+                    let p = chunk[i];
+                    let nb =
+                        cloud::normals::canonical_knn(&tree, p, k, |item| index[item as usize]);
+                    let n = cloud::normals::covariance_normal(
+                        nb.iter().map(|x| positions[x.1 as usize]),
+                    );
+                    cloud::normals::orient(n, p - centroid)
+                });
             }
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
