@@ -265,7 +265,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         let start = Instant::now();
         let prepared = methods::prepare(method, ds.input(), &params)?;
         let prepare_seconds = start.elapsed().as_secs_f64();
-        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)?;
+        let (output, timing) = methods::timed_at(prepared.as_ref(), k, &camera, req.repeat)?;
         // An external program's timing is its own reported compute time (`registry::timed`).
         let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
@@ -299,7 +299,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     );
     let start = Instant::now();
     let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
-        let (output, timing) = methods::timed(prepared.as_ref(), &camera, req.repeat)
+        let (output, timing) = methods::timed_at(prepared.as_ref(), k, &camera, req.repeat)
             .with_context(|| format!("view {k}"))?;
         Ok((k, output, timing.median))
     };

@@ -131,6 +131,17 @@ pub trait Method: Sync {
     fn is_external(&self) -> bool {
         false
     }
+    /// For a peer (another project's tool measured beside ours): the family of ours it pairs
+    /// with (`hpr`, `raycast`, `splat`, `hull`, `voxel`, `lod`...), from its `method.toml`'s
+    /// `peer_of`; `None` for our own methods and for external methods that pair with none.
+    fn peer_of(&self) -> Option<&'static str> {
+        None
+    }
+    /// The version of the program behind the method, for run metadata (an external method's
+    /// `version` command, run once); `None`: our own (the build's version says it).
+    fn version(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Methods registered at run time: external ones ([`register_external`]) and any a program
@@ -144,12 +155,14 @@ pub fn register(method: &'static dyn Method) -> Result<()> {
     EXTRA.add(method.name(), method)
 }
 
-/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup.
+/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup:
+/// visibility methods with [`register`], those of `kind = "lod"` with [`lod::register_lod`].
 /// Names must not shadow built-in methods (visibility or LOD: one namespace); a method already
 /// loaded under the same name is kept (loading the same folder twice is harmless).
 pub fn register_external(dir: &std::path::Path) -> Result<()> {
     let loaded = external::ExternalMethod::load_dir(dir)?;
     for m in loaded {
+        let lod_kind = m.kind() == external::Kind::Lod;
         let builtin = METHODS.iter().map(|b| b.name());
         if builtin
             .chain(lod::LOD_METHODS.iter().map(|b| b.name()))
@@ -161,10 +174,18 @@ pub fn register_external(dir: &std::path::Path) -> Result<()> {
                 dir.display()
             )));
         }
-        if all().iter().any(|b| b.name() == m.name()) {
+        if all().iter().any(|b| b.name() == m.name())
+            || lod::all().iter().any(|b| b.name() == m.name())
+        {
             continue;
         }
-        register(Box::leak(Box::new(m)))?;
+        let m: &'static external::ExternalMethod = Box::leak(Box::new(m));
+        if lod_kind {
+            // The LOD form: a level-of-detail method, which the lod experiment runs.
+            lod::register_lod(m)?;
+        } else {
+            register(m)?;
+        }
     }
     Ok(())
 }
@@ -218,9 +239,32 @@ pub fn timed(
     camera: &Camera,
     repeats: usize,
 ) -> Result<(Output, timing::Timing)> {
+    timed_view(prepared, None, camera, repeats)
+}
+
+/// [`timed`] for view `view` of the dataset ([`Prepared::visible_at`]: an external program is
+/// told the view's index, the same on every repeat).
+pub fn timed_at(
+    prepared: &dyn Prepared,
+    view: usize,
+    camera: &Camera,
+    repeats: usize,
+) -> Result<(Output, timing::Timing)> {
+    timed_view(prepared, Some(view), camera, repeats)
+}
+
+fn timed_view(
+    prepared: &dyn Prepared,
+    view: Option<usize>,
+    camera: &Camera,
+    repeats: usize,
+) -> Result<(Output, timing::Timing)> {
     let mut reported = Vec::new();
     let (out, wall) = timing::measure(repeats, || {
-        let out = prepared.visible(camera)?;
+        let out = match view {
+            Some(k) => prepared.visible_at(k, camera)?,
+            None => prepared.visible(camera)?,
+        };
         reported.push(out.reported_seconds);
         Ok::<_, Error>(out)
     })?;
