@@ -364,8 +364,14 @@ fn floods_are_refused_with_bounded_memory() {
     let out = d.join("v.txt");
     for (name, needle) in [
         ("flood-line", "longer than 1528576 bytes"),
-        ("flood-file", "is 4294967296 bytes, more than the 1528576 bytes"),
-        ("too-many", "it answered 20001 indices, more than the cloud's 20000 points"),
+        (
+            "flood-file",
+            "is 4294967296 bytes, more than the 1528576 bytes",
+        ),
+        (
+            "too-many",
+            "it answered 20001 indices, more than the cloud's 20000 points",
+        ),
         ("too-many-file", "index 0 is repeated"),
         ("negative", "index -1 is outside 0..20000"),
     ] {
@@ -373,7 +379,10 @@ fn floods_are_refused_with_bounded_memory() {
         let err = String::from_utf8_lossy(&run.stderr);
         assert!(!run.status.success(), "{name} should fail");
         assert!(err.contains(needle), "{name}: {err}");
-        assert!(err.contains(&format!("external method {name}")), "{name}: {err}");
+        assert!(
+            err.contains(&format!("external method {name}")),
+            "{name}: {err}"
+        );
         assert!(!out.exists(), "{name}: no output file on error");
     }
 }
@@ -410,7 +419,8 @@ fn manifest_keys_are_checked() {
     .unwrap();
     let run = pointsight(d, &["methods"]);
     assert!(
-        String::from_utf8_lossy(&run.stderr).contains("protocol 3 (this pointsight speaks 1 and 2)"),
+        String::from_utf8_lossy(&run.stderr)
+            .contains("protocol 3 (this pointsight speaks 1 and 2)"),
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );

@@ -74,7 +74,10 @@ fn jaccard(a: &[u32], b: &[u32]) -> f64 {
 
 #[test]
 fn cgal_hpr_is_our_hpr() {
-    for (dataset, views) in [("sphere-20000", [0, 5, 11]), ("sphere-plane-24000", [0, 3, 9])] {
+    for (dataset, views) in [
+        ("sphere-20000", [0, 5, 11]),
+        ("sphere-plane-24000", [0, 3, 9]),
+    ] {
         for view in views {
             for gamma in ["2", "3"] {
                 let set = format!("gamma={gamma}");
@@ -142,7 +145,9 @@ fn vtk_zbuffer_agrees_with_our_splat_offscreen() {
         eprintln!("skipped: peer vtk-zbuffer is not installed (`just peers`): {window:?}");
         return;
     }
-    let class = String::from_utf8_lossy(&window.expect("ran").stdout).trim().to_owned();
+    let class = String::from_utf8_lossy(&window.expect("ran").stdout)
+        .trim()
+        .to_owned();
     assert!(
         ["vtkEGLRenderWindow", "vtkOSOpenGLRenderWindow"].contains(&class.as_str()),
         "VTK opened {class:?}, not an offscreen EGL or OSMesa window"

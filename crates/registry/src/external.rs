@@ -391,7 +391,14 @@ impl ExternalMethod {
             Ok(Err(e)) => return Err(format!("cannot read its output: {e}")),
             Err(_) => return Err("no answer within 30 s".into()),
         };
-        let line: String = text.lines().next().unwrap_or("").trim().chars().take(200).collect();
+        let line: String = text
+            .lines()
+            .next()
+            .unwrap_or("")
+            .trim()
+            .chars()
+            .take(200)
+            .collect();
         if line.is_empty() {
             return Err(format!("it printed nothing ({status})"));
         }
@@ -939,13 +946,15 @@ impl ExternalPrepared {
         }
         let request = format!("{{\"view\":{view},\"camera\":{}}}", camera.to_json());
         let answer = Mutex::new(None);
-        let wall = self.session.ask(&format!("view {view}"), Some(&request), &|line| {
-            let v = Session::json(line)?;
-            let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
-            let visible = self.session.indices(&v)?;
-            *answer.lock().map_err(|_| "lock")? = Some((visible, seconds));
-            Ok(())
-        })?;
+        let wall = self
+            .session
+            .ask(&format!("view {view}"), Some(&request), &|line| {
+                let v = Session::json(line)?;
+                let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
+                let visible = self.session.indices(&v)?;
+                *answer.lock().map_err(|_| "lock")? = Some((visible, seconds));
+                Ok(())
+            })?;
         let (visible, seconds) = answer
             .into_inner()
             .ok()
@@ -1158,10 +1167,7 @@ impl ExternalLodSel<'_> {
 }
 
 /// The answer's `visible` list in its own order (checked already by [`Session::indices`]).
-fn answer_order(
-    v: &serde_json::Value,
-    session: &Session,
-) -> std::result::Result<Vec<u32>, String> {
+fn answer_order(v: &serde_json::Value, session: &Session) -> std::result::Result<Vec<u32>, String> {
     match v.get("visible").and_then(serde_json::Value::as_array) {
         Some(list) => Ok(list
             .iter()
@@ -1212,8 +1218,14 @@ mod tests {
     #[test]
     fn a_bounded_line_is_read_and_a_flood_refused_unread() {
         let mut ok = std::io::Cursor::new(b"abc\ndef".to_vec());
-        assert_eq!(read_line_bounded(&mut ok, 3).unwrap().as_deref(), Some("abc"));
-        assert_eq!(read_line_bounded(&mut ok, 3).unwrap().as_deref(), Some("def"));
+        assert_eq!(
+            read_line_bounded(&mut ok, 3).unwrap().as_deref(),
+            Some("abc")
+        );
+        assert_eq!(
+            read_line_bounded(&mut ok, 3).unwrap().as_deref(),
+            Some("def")
+        );
         assert_eq!(read_line_bounded(&mut ok, 3).unwrap(), None);
         // A reader of endless bytes without a newline: refused after the limit.
         let mut flood = BufReader::new(std::io::repeat(b'1'));
@@ -1240,7 +1252,10 @@ mod tests {
         assert_eq!(m.version().as_deref(), Some("tool 5"));
         assert_eq!(m.version().as_deref(), Some("tool 5"));
         // Run once: the program appended one mark.
-        assert_eq!(std::fs::read_to_string(dir.path().join("count")).unwrap(), "x");
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join("count")).unwrap(),
+            "x"
+        );
         let none = folder("protocol = 1\ncommand = [\"true\"]\n", "");
         let m = ExternalMethod::load(none.path()).unwrap();
         assert_eq!((m.version(), Method::peer_of(&m)), (None, None));
@@ -1249,7 +1264,11 @@ mod tests {
             "",
         );
         let m = ExternalMethod::load(failing.path()).unwrap();
-        assert!(m.version().unwrap().starts_with("unknown (it printed nothing"));
+        assert!(
+            m.version()
+                .unwrap()
+                .starts_with("unknown (it printed nothing")
+        );
     }
 
     #[test]
@@ -1298,7 +1317,13 @@ for line in sys.stdin:
         };
         let built = LodMethod::build(&m, &input).unwrap();
         assert_eq!(built.reported_build_seconds(), Some(0.125));
-        assert_eq!(built.size(), LodSize { nodes: 7, bytes: 64.0 });
+        assert_eq!(
+            built.size(),
+            LodSize {
+                nodes: 7,
+                bytes: 64.0
+            }
+        );
         let mut params = Params::parse(&["keep=3".to_owned()]).unwrap();
         let mut sel = built.selector(&input, &params).unwrap();
         let camera = Camera::new(
@@ -1319,9 +1344,16 @@ for line in sys.stdin:
         assert_eq!(splats[1].center, cloud.positions[1]);
         // A visibility caller is refused.
         params = Params::parse::<&str>(&[]).unwrap();
-        let err = Method::prepare(&m, Input { cloud: &cloud, mesh: None }, &params)
-            .err()
-            .unwrap();
+        let err = Method::prepare(
+            &m,
+            Input {
+                cloud: &cloud,
+                mesh: None,
+            },
+            &params,
+        )
+        .err()
+        .unwrap();
         assert!(err.to_string().contains("level-of-detail"), "{err}");
     }
 
