@@ -89,7 +89,9 @@ def main():
             w, h = width or cam["width"], height or cam["height"]
             o, d = pixel_rays(cam, w, h)
             t0 = time.perf_counter()
-            _, pid = isect.intersect_rays(o, d)
+            # point-cloud-utils 0.3x returns (point ids, distances), whatever its docstring says.
+            a, b = isect.intersect_rays(o, d)
+            pid = np.asarray(a if np.issubdtype(np.asarray(a).dtype, np.integer) else b)
             visible = np.unique(pid[pid >= 0])
             seconds = time.perf_counter() - t0
             print(json.dumps({"visible": visible.tolist(), "seconds": seconds}), flush=True)
