@@ -14,10 +14,27 @@ setup:
 fetch: setup
     cargo run -q -p harness -- fetch
 
-# Run every test, the real-data checks included, then the Python package's tests.
-test: fetch python
+# Run every test, the real-data checks included, then the Python package's tests and the
+# viewer's tests in headless Chromium.
+test: fetch python web browser
     POINTSIGHT_REAL_DATA=1 cargo test --workspace
     .venv/bin/pytest -q crates/python/tests
+    cargo build -q -p harness --bin pointsight
+    cd web && node --test --test-concurrency=1 test/viewer.test.js
+
+# Build the viewer's script web/dist/viewer.js (three.js bundled by esbuild; npm ci when
+# needed), which `pointsight view` embeds; safe to re-run.
+web:
+    scripts/web.sh
+
+# Install Debian's chromium and chromium-driver for the viewer's browser tests (when missing).
+browser:
+    scripts/browser.sh
+
+# The viewer's tests alone: pages from `pointsight view`, opened from disk in headless Chromium.
+test-browser: web browser
+    cargo build -q -p harness --bin pointsight
+    cd web && node --test --test-concurrency=1 test/viewer.test.js
 
 # Build the Python package into .venv for development (maturin develop, release profile,
 # the workspace's target folder).
@@ -35,7 +52,7 @@ build: setup
     cargo build --release -p harness
 
 # Run every experiment in full and write reports/ (add --quick for the short version).
-bench *args: build
+bench *args: build web
     target/release/pointsight fetch
     target/release/pointsight bench {{args}}
 

@@ -212,6 +212,19 @@ fn bad_cameras_and_parameters_on_the_command_line_are_refused() {
             &["--view", "0", "--method", "hpr", "--set", "bogus=1"],
             "unknown parameter bogus",
         ),
+        // The registry's parameter errors, in `--set` words.
+        (
+            &["--view", "0", "--method", "hpr", "--set", "gamma=x"],
+            "error: --set gamma=x: invalid float literal\n",
+        ),
+        (
+            &["--view", "0", "--method", "hpr", "--set", "kernel=box"],
+            "error: --set kernel=box: expected linear, exp, log or expdecay\n",
+        ),
+        (
+            &["--view", "0", "--method", "hpr", "--set", "gamma"],
+            "error: --set gamma: expected NAME=VALUE\n",
+        ),
         (&["--view", "99", "--method", "hpr"], "view 99"),
         // Image options without an eye would be silently ignored: refused instead.
         (

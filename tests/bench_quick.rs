@@ -26,7 +26,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "lod/results.csv",
-        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction",
+        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction,status",
     ),
 ];
 
@@ -91,7 +91,7 @@ fn quick_bench_writes_a_complete_report() {
     for row in vis.lines().skip(1) {
         assert!(row.ends_with(",ok"), "{row}");
     }
-    for family in ["hpr-linear", "hpr-exp", "raycast", "splat"] {
+    for family in ["hpr-linear", "hpr-exp", "robust", "raycast", "splat"] {
         assert!(vis.contains(&format!(",{family},")), "{family}");
     }
     // Every experiment left its summary and metadata.

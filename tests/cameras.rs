@@ -8,7 +8,7 @@ use cloud::glam::DVec3;
 use cloud::synth::{SpherePlane, sphere_point_visible};
 use cloud::{Camera, Model};
 use harness::datasets::{self, Dataset};
-use harness::methods::{self, Params};
+use harness::methods::{self, Output, Params, kernel};
 use harness::score::Score;
 
 fn load(name: &str) -> Dataset {
@@ -17,11 +17,31 @@ fn load(name: &str) -> Dataset {
 
 /// F1 of `method` (with `set`) from `camera` against the flags `truth`.
 fn f1(ds: &Dataset, method: &str, set: &[&str], camera: &Camera, truth: &[bool]) -> f64 {
-    let m = methods::method(method).expect("a registered method");
-    let params = Params::parse(set).expect("valid parameters");
-    let p = methods::prepare(m, ds.input(), &params).expect("prepared");
-    let out = p.visible(camera).expect("a visible set");
+    let out = answer(ds, method, set, camera).expect("a visible set");
     Score::of(&out.visible, truth).f1()
+}
+
+/// `method` (with `set`) from `camera`, through the measurement kernel.
+fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<Output, String> {
+    let views = [kernel::View {
+        index: 0,
+        camera: *camera,
+    }];
+    let cell = kernel::Cell {
+        method: methods::method(method).expect("a registered method"),
+        params: Params::parse(set).expect("valid parameters"),
+        views: &views,
+        repeats: 1,
+        parallel: false,
+    };
+    let (prepared, answers) = kernel::collect(&cell, ds.input());
+    prepared.expect("prepared");
+    answers
+        .into_iter()
+        .next()
+        .expect("one view")
+        .1
+        .map(|a| a.output)
 }
 
 #[test]
@@ -60,6 +80,20 @@ fn a_spherical_scanner_above_the_ball_and_square() {
     assert!(hpr >= 0.95, "hpr F1 {hpr}");
     assert!(raycast >= 0.95, "raycast F1 {raycast}");
     assert!(splat >= 0.9, "splat F1 {splat}");
+    // The HPR family beyond seed 000 takes the spherical camera too (it needs only the eye):
+    // approximate HPR at one sector per pixel is within a little of exact HPR, and the
+    // confidence score thresholded over γ 1.5..3.5 is an HPR-like answer.
+    let approx = f1(&ds, "hpr-approx", &["gamma=2.5"], &camera, &truth);
+    let confidence = f1(
+        &ds,
+        "hpr-confidence",
+        &["from=1.5", "to=3.5", "steps=5", "threshold=0.6"],
+        &camera,
+        &truth,
+    );
+    eprintln!("spherical: hpr-approx {approx:.4} hpr-confidence {confidence:.4}");
+    assert!(approx >= hpr - 0.02, "hpr-approx F1 {approx}");
+    assert!(confidence >= 0.9, "hpr-confidence F1 {confidence}");
 }
 
 #[test]
@@ -92,14 +126,12 @@ fn an_orthographic_view_of_the_sphere() {
     assert!(reference >= 0.98 && exact >= 0.98, "{reference} {exact}");
     assert!(raycast >= 0.9, "{raycast}");
     // HPR needs a centre of projection.
-    let hpr = methods::prepare(
-        methods::method("hpr").unwrap(),
-        ds.input(),
-        &Params::parse::<&str>(&[]).unwrap(),
-    )
-    .unwrap();
-    let err = hpr.visible(&camera).unwrap_err().to_string();
+    let err = answer(&ds, "hpr", &[], &camera).unwrap_err();
     assert!(err.contains("orthographic"), "{err}");
+    for name in ["hpr-approx", "hpr-confidence"] {
+        let err = answer(&ds, name, &[], &camera).unwrap_err();
+        assert!(err.contains("orthographic") && err.contains(name), "{err}");
+    }
 }
 
 #[test]

@@ -246,7 +246,7 @@ fn visible(d: &Path, name: &str, view: &str, out: &Path) -> Output {
             "--method",
             name,
             "--out",
-            out.to_str().unwrap(),
+            out.to_str().expect("utf-8 path"),
         ],
     )
 }

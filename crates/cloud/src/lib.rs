@@ -10,7 +10,8 @@
 //! - the memory guard for allocations sized by user input ([`memory`]);
 //! - lossless recentring of georeferenced clouds ([`recentre`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
-//! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]).
+//! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]);
+//! - scratch files for out-of-core builds ([`spill`]).
 //!
 //! This crate knows nothing of any method, of experiments, plots or the command line.
 
@@ -29,6 +30,7 @@ pub mod recentre;
 pub mod rng;
 pub mod sample;
 pub mod spacing;
+pub mod spill;
 pub mod synth;
 pub mod views;
 
@@ -36,6 +38,7 @@ pub use bbox::Aabb;
 pub use camera::{Camera, Model, Projection};
 pub use error::{Error, Location, ReadError, ReadErrorKind, Result};
 pub use glam;
+pub use kiddo;
 pub use mesh::TriMesh;
 pub use points::{PointCloud, SurfaceSample};
 pub use views::ViewSpec;

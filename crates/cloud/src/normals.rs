@@ -72,38 +72,92 @@ pub fn estimate_normals(
         name: "k",
         reason: "k must be positive".into(),
     })?;
-    let centroid = positions.iter().copied().sum::<DVec3>() / positions.len() as f64;
+    let centroid = centroid(positions);
     let normals = positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
-            let neighbours = tree
-                .query(&p.to_array())
-                .nearest_n::<SquaredEuclidean<f64>>(k_nz)
-                .execute();
-            let mean = neighbours
-                .iter()
-                .map(|nb| positions[nb.item as usize])
-                .sum::<DVec3>()
-                / neighbours.len() as f64;
-            let mut cov = DMat3::ZERO;
-            for nb in &neighbours {
-                let d = positions[nb.item as usize] - mean;
-                cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-            }
-            let mut n = smallest_eigenvector(cov);
+            let neighbours = canonical_knn(&tree, *p, k_nz, |item| item);
+            let n = covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize]));
             let reference = match orientation {
                 Orientation::AwayFromCentroid => *p - centroid,
                 Orientation::TowardsViewpoint(v) => v - *p,
                 Orientation::Reference(r) => r[i].as_dvec3(),
             };
-            if n.dot(reference) < 0.0 {
-                n = -n;
-            }
-            n.as_vec3()
+            orient(n, reference)
         })
         .collect();
     Ok(normals)
+}
+
+/// The cloud's centroid as [`Orientation::AwayFromCentroid`] uses it: the positions summed in
+/// order, divided by their count.
+pub fn centroid(positions: &[DVec3]) -> DVec3 {
+    positions.iter().copied().sum::<DVec3>() / positions.len() as f64
+}
+
+/// `n` flipped so that `n · reference ≥ 0`.
+pub fn orient(n: DVec3, reference: DVec3) -> Vec3 {
+    if n.dot(reference) < 0.0 {
+        (-n).as_vec3()
+    } else {
+        n.as_vec3()
+    }
+}
+
+/// The unit normal of the neighbours `points` (in order: the sums follow it): the eigenvector
+/// of the smallest eigenvalue of their covariance (eq. 2.1), unoriented.
+pub fn covariance_normal(points: impl Iterator<Item = DVec3> + Clone) -> DVec3 {
+    let (sum, count) = points
+        .clone()
+        .fold((DVec3::ZERO, 0usize), |(s, c), p| (s + p, c + 1));
+    let mean = sum / count.max(1) as f64;
+    let mut cov = DMat3::ZERO;
+    for p in points {
+        let d = p - mean;
+        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+    }
+    smallest_eigenvector(cov)
+}
+
+/// The `k` nearest neighbours of `p` in `tree` (the point itself included when it is in the
+/// tree) as (squared distance, item), in a canonical order that does not depend on how the
+/// tree was built: by distance, equal distances by `global(item)` (the point's index in the
+/// whole cloud), and when several points tie at the k-th distance, those of smallest global
+/// index. So the same neighbourhood, summed in the same order, comes out of any tree holding
+/// the point's true neighbours (an out-of-core build's chunk and its halo).
+pub fn canonical_knn(
+    tree: &ImmutableKdTree<f64, 3>,
+    p: DVec3,
+    k: NonZero<usize>,
+    global: impl Fn(u64) -> u64,
+) -> Vec<(f64, u64)> {
+    let q = p.to_array();
+    let size = tree.size();
+    let mut want = k.get().saturating_add(1).min(size.max(1));
+    loop {
+        let got = tree
+            .query(&q)
+            .nearest_n::<SquaredEuclidean<f64>>(NonZero::new(want).unwrap_or(k))
+            .execute();
+        let kth = got.get(k.get() - 1).map(|nb| nb.distance);
+        // Complete when every point at the k-th distance is in the answer: the answer holds
+        // every point of the tree, or its last is farther than the k-th.
+        let complete = got.len() < want
+            || want >= size
+            || kth.is_none_or(|d| got.last().is_some_and(|l| l.distance > d));
+        if complete {
+            let mut nb: Vec<(f64, u64)> = got
+                .iter()
+                .filter(|nb| kth.is_none_or(|d| nb.distance <= d))
+                .map(|nb| (nb.distance, u64::from(nb.item)))
+                .collect();
+            nb.sort_by(|a, b| a.0.total_cmp(&b.0).then(global(a.1).cmp(&global(b.1))));
+            nb.truncate(k.get());
+            return nb;
+        }
+        want = want.saturating_mul(2).min(size);
+    }
 }
 
 /// Unit eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi).

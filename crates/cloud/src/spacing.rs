@@ -35,8 +35,33 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
             reason: format!("need 0 < k < {} points, got {k}", points.len()),
         });
     }
-    let r_k = kth_neighbour_median(points, k, sample, seed, "density-spacing")?;
-    Ok(r_k * (std::f64::consts::PI / k as f64).sqrt())
+    let r_k = kth_neighbour_median(points, k, sample, seed, DENSITY_PURPOSE)?;
+    Ok(density_from_kth(r_k, k))
+}
+
+/// The random stream [`density_spacing`] draws its sample from.
+pub const DENSITY_PURPOSE: &str = "density-spacing";
+
+/// The spacing [`density_spacing`] gives for a median k-th neighbour distance `r_k`.
+pub fn density_from_kth(r_k: f64, k: usize) -> f64 {
+    r_k * (std::f64::consts::PI / k as f64).sqrt()
+}
+
+/// The points (indices, with repetition) the spacing rules measure, for a cloud of `len`
+/// points: all when `len <= sample`, else `sample` drawn from the stream (`seed`, `purpose`).
+pub fn sample_picks(len: usize, sample: usize, seed: u64, purpose: &str) -> Vec<usize> {
+    let mut rng = seeded(seed, purpose);
+    if len <= sample {
+        (0..len).collect()
+    } else {
+        (0..sample).map(|_| rng.random_range(0..len)).collect()
+    }
+}
+
+/// The median of k-th neighbour distances as [`density_spacing`] takes it (sorts `d`).
+pub fn median_of(d: &mut [f64]) -> Option<f64> {
+    d.sort_by(f64::total_cmp);
+    d.get(d.len() / 2).copied()
 }
 
 /// Median distance to the k-th nearest neighbour (the point itself not counted) over up to
@@ -55,14 +80,7 @@ fn kth_neighbour_median(
             reason: format!("cannot build a k-d tree: {e:?}"),
         }
     })?;
-    let mut rng = seeded(seed, purpose);
-    let picks: Vec<usize> = if points.len() <= sample {
-        (0..points.len()).collect()
-    } else {
-        (0..sample)
-            .map(|_| rng.random_range(0..points.len()))
-            .collect()
-    };
+    let picks = sample_picks(points.len(), sample, seed, purpose);
     let n = NonZero::new(k + 1).ok_or(Error::InvalidParameter {
         name: "k",
         reason: "overflow".into(),
@@ -79,8 +97,10 @@ fn kth_neighbour_median(
             nn.last().map_or(0.0, |x| x.distance.sqrt())
         })
         .collect();
-    d.sort_by(f64::total_cmp);
-    Ok(d[d.len() / 2])
+    median_of(&mut d).ok_or(Error::InvalidParameter {
+        name: "sample",
+        reason: "no point to measure".into(),
+    })
 }
 
 #[cfg(test)]

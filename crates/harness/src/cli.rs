@@ -80,56 +80,13 @@ pub enum Command {
     /// seconds=T` per view, then `views=V points=N seconds=T views_per_second=R` (T: wall time
     /// of all views; per-dataset preparation is done once and excluded).
     Visible {
-        /// Dataset name (built-in or from the manifest).
-        #[arg(long, required_unless_present = "cloud", conflicts_with = "cloud")]
-        dataset: Option<String>,
-        /// A point file instead of a dataset (ply, off, obj, xyz, las, laz, e57, pcd).
-        #[arg(long)]
-        cloud: Option<PathBuf>,
-        /// A mesh file for the ground truth (`--score`), with `--cloud`.
-        #[arg(long, requires = "cloud")]
-        mesh: Option<PathBuf>,
-        /// The cloud file's format when its extension does not say.
-        #[arg(long)]
-        format: Option<String>,
-        /// LAS/LAZ: keep only these classification codes (comma-separated).
-        #[arg(long, value_delimiter = ',')]
-        classes: Option<Vec<u8>>,
-        /// E57: read only this scan (0-based).
-        #[arg(long, conflicts_with = "merge_scans")]
-        scan: Option<usize>,
-        /// E57: merge every scan into one cloud (each point keeps its scan).
-        #[arg(long)]
-        merge_scans: bool,
-        /// Off-surface tolerance for `--score` (world units; default: one density spacing).
-        #[arg(long)]
-        surface_tolerance: Option<f64>,
-        /// Eye, world coordinates: X,Y,Z.
-        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-        eye: Option<[f64; 3]>,
-        /// Target (default: the centre of the cloud's bounding box).
-        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
-        target: Option<[f64; 3]>,
-        /// Up vector (default +z, or +y when looking along z).
-        #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
-        up: Option<[f64; 3]>,
-        /// Vertical field of view in degrees (default: fits the cloud).
-        #[arg(long = "fov-y", requires = "eye", allow_hyphen_values = true)]
-        fov_y: Option<f64>,
-        /// Image width (default 1280; with `--eye`, else the view's own).
-        #[arg(long, requires = "eye")]
-        width: Option<u32>,
-        /// Image height (default 720; with `--eye`, else the view's own).
-        #[arg(long, requires = "eye")]
-        height: Option<u32>,
+        /// The points, mesh and camera.
+        #[command(flatten)]
+        source: SourceArgs,
         /// View index, `all`, or a comma-separated list of indices (default: 0, or `all`
         /// with `--views`).
         #[arg(long)]
         view: Option<String>,
-        /// A views file (JSON lines, or a COLMAP text model: its folder or images.txt) instead
-        /// of the dataset's own views.
-        #[arg(long)]
-        views: Option<PathBuf>,
         /// Method name (see `pointsight methods`).
         #[arg(long)]
         method: String,
@@ -152,6 +109,38 @@ pub enum Command {
         #[arg(long, value_enum, default_value_t = ParallelViews::Auto)]
         parallel_views: ParallelViews,
     },
+    /// Write an interactive 3D page (one self-contained HTML file, no server) of every chosen
+    /// method's visible set from one view, coloured against the reference as in renders.png.
+    ///
+    /// Prints `page=FILE points=N shown=M methods=K bytes=B` (M < N when `--max-points`
+    /// subsampled the page).
+    View {
+        /// The points, mesh and camera.
+        #[command(flatten)]
+        source: SourceArgs,
+        /// View index (default 0).
+        #[arg(long, default_value_t = 0)]
+        view: usize,
+        /// Comma-separated method names (default: every registered method with a sweep that
+        /// can run here, external ones and peers included, at its sweep's default setting).
+        #[arg(long, value_delimiter = ',')]
+        methods: Option<Vec<String>>,
+        /// Method parameter, KEY=VALUE or METHOD.KEY=VALUE (repeatable): over the default
+        /// setting of every chosen method that has KEY (or of METHOD alone).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        set: Vec<String>,
+        /// At most this many points on the page (a uniform subsample; the scores stay those of
+        /// the whole cloud).
+        #[arg(long)]
+        max_points: Option<usize>,
+        /// Also write the harness's static render of the view (the reference's classes, as the
+        /// first panel of renders.png, uncropped) to this PNG.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// The page (HTML).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// One cell of the `scale` experiment, in its own process (internal): prints one JSON line
     /// with the seconds and the process's peak RSS.
     #[command(hide = true)]
@@ -165,6 +154,31 @@ pub enum Command {
         /// Points.
         #[arg(long)]
         n: u64,
+        /// The method's setting (a `registry::Setting` label; empty: its defaults).
+        #[arg(long, default_value = "")]
+        setting: String,
+    },
+    /// Build an LOD method's file from a point file (LAS, LAZ, PLY, E57, ...) within a memory
+    /// limit: out of core when the cloud does not fit (scratch files in a hidden folder beside
+    /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints
+    /// one line: `points=N seconds=T points_per_second=R peak_rss_bytes=B chunks=C
+    /// top_levels=L leaf_radius=X file_bytes=F`.
+    LodBuild {
+        /// The point file.
+        #[arg(long)]
+        cloud: PathBuf,
+        /// The LOD method (qsplat).
+        #[arg(long, default_value = "qsplat")]
+        method: String,
+        /// Peak memory of the build, like 512MiB or 4GiB.
+        #[arg(long, default_value = "1GiB")]
+        memory_limit: String,
+        /// The output file.
+        #[arg(long)]
+        out: PathBuf,
+        /// Build in memory (the reference the out-of-core build equals).
+        #[arg(long)]
+        in_memory: bool,
     },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
     /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).
@@ -224,13 +238,15 @@ pub enum Command {
         /// The merged reports folder.
         #[arg(long)]
         out: PathBuf,
-        /// The shards' reports folders (each holds EXPERIMENT/ folders).
+        /// The shards' folders: each what `run EXPERIMENT --shard K/N --out DIR` wrote (DIR
+        /// holds metadata.json) or `bench --shard K/N --reports DIR` (DIR/EXPERIMENT/).
         #[arg(required = true)]
         shards: Vec<PathBuf>,
     },
     /// Print the built-in sweeps (every method's grid), a starting point for `--config`.
     Sweeps,
-    /// Assemble reports/README.md from the experiments' results.
+    /// Write the viewer pages of the visibility experiment's real datasets (reports/viewer/,
+    /// each at most 5 MiB) and assemble reports/README.md from the experiments' results.
     Report {
         /// Reports folder.
         #[arg(long, default_value = "reports")]
@@ -242,6 +258,58 @@ pub enum Command {
         #[arg(long, default_value = "reports")]
         reports: PathBuf,
     },
+}
+
+/// Where the points, the mesh and the cameras come from (`visible` and `view`): a dataset, or
+/// a user's files and camera.
+#[derive(Debug, Clone, clap::Args)]
+pub struct SourceArgs {
+    /// Dataset name (built-in or from the manifest).
+    #[arg(long, required_unless_present = "cloud", conflicts_with = "cloud")]
+    pub dataset: Option<String>,
+    /// A point file instead of a dataset (ply, off, obj, xyz, las, laz, e57, pcd).
+    #[arg(long)]
+    pub cloud: Option<PathBuf>,
+    /// A mesh file for the ground truth (`visible --score`, `view`), with `--cloud`.
+    #[arg(long, requires = "cloud")]
+    pub mesh: Option<PathBuf>,
+    /// The cloud file's format when its extension does not say.
+    #[arg(long)]
+    pub format: Option<String>,
+    /// LAS/LAZ: keep only these classification codes (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub classes: Option<Vec<u8>>,
+    /// E57: read only this scan (0-based).
+    #[arg(long, conflicts_with = "merge_scans")]
+    pub scan: Option<usize>,
+    /// E57: merge every scan into one cloud (each point keeps its scan).
+    #[arg(long)]
+    pub merge_scans: bool,
+    /// Off-surface tolerance for scoring (world units; default: one density spacing).
+    #[arg(long)]
+    pub surface_tolerance: Option<f64>,
+    /// Eye, world coordinates: X,Y,Z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<[f64; 3]>,
+    /// Target (default: the centre of the cloud's bounding box).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
+    pub target: Option<[f64; 3]>,
+    /// Up vector (default +z, or +y when looking along z).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, requires = "eye")]
+    pub up: Option<[f64; 3]>,
+    /// Vertical field of view in degrees (default: fits the cloud).
+    #[arg(long = "fov-y", requires = "eye", allow_hyphen_values = true)]
+    pub fov_y: Option<f64>,
+    /// Image width (default 1280; with `--eye`, else the view's own).
+    #[arg(long, requires = "eye")]
+    pub width: Option<u32>,
+    /// Image height (default 720; with `--eye`, else the view's own).
+    #[arg(long, requires = "eye")]
+    pub height: Option<u32>,
+    /// A views file (JSON lines, or a COLMAP text model: its folder or images.txt) instead
+    /// of the dataset's own views.
+    #[arg(long)]
+    pub views: Option<PathBuf>,
 }
 
 /// Output format of `views`.
@@ -283,6 +351,32 @@ pub fn parse_vec3(text: &str) -> Result<[f64; 3], String> {
     Ok(out)
 }
 
+/// `--set`'s framing of the registry's parameter errors (which speak of parameter names and
+/// values): `--set KEY=VALUE: why` for a value, `--set PAIR: why` for a pair that is not one.
+/// Every other error, and the context around the registry's, is left as it is.
+pub fn frame_set(err: anyhow::Error) -> anyhow::Error {
+    let mut framed = false;
+    let parts: Vec<String> = err
+        .chain()
+        .map(|cause| match cause.downcast_ref::<registry::Error>() {
+            Some(registry::Error::BadValue { key, value, reason }) => {
+                framed = true;
+                format!("--set {key}={value}: {reason}")
+            }
+            Some(registry::Error::BadPair { pair, reason }) => {
+                framed = true;
+                format!("--set {pair}: {reason}")
+            }
+            _ => cause.to_string(),
+        })
+        .collect();
+    if framed {
+        anyhow::anyhow!(parts.join(": "))
+    } else {
+        err
+    }
+}
+
 /// What the experiments sweep, how often they time, and which part of the cells to run.
 #[derive(Debug, Clone, clap::Args)]
 pub struct SweepFlags {
@@ -295,7 +389,7 @@ pub struct SweepFlags {
     pub repeats: Option<u32>,
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
-    pub shard: Option<crate::experiments::Shard>,
+    pub shard: Option<crate::shard::Shard>,
 }
 
 /// A run count of 1 to 1000 (`--repeat`): every run's time is kept, so the count sizes memory.

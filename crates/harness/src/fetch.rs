@@ -1,5 +1,8 @@
 //! `pointsight fetch`: the real meshes, from Debian's `libcgal-demo` package, checksummed.
 //!
+//! The catalogue of those meshes ([`MESH_FILES`]: file, path in the package, SHA-256) is here;
+//! the built-in datasets made of them are [`crate::datasets::builtin`]'s.
+//!
 //! Steps, each skipped when its result is already there (the command is idempotent):
 //! 1. every mesh in [`MESH_FILES`] present under `bench-data/meshes/` with the right SHA-256:
 //!    nothing to do;
@@ -20,7 +23,46 @@ use std::process::{Command, Stdio};
 use anyhow::{Context, Result, bail};
 use sha2::{Digest, Sha256};
 
-use crate::datasets::{MESH_FILES, MeshFile, mesh_path};
+/// A mesh file of the fetched data set.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MeshFile {
+    /// File name under `bench-data/meshes/`.
+    pub file: &'static str,
+    /// Path inside `data.tar.gz` of `libcgal-demo`.
+    pub archive_path: &'static str,
+    /// SHA-256 of the file.
+    pub sha256: &'static str,
+}
+
+/// The Stanford Bunny as CGAL ships it (37,706 vertices, 75,408 triangles, closed).
+pub const BUNNY_MESH: MeshFile = MeshFile {
+    file: "bunny00.off",
+    archive_path: "data/meshes/bunny00.off",
+    sha256: "ab651cb04955c161efaeb079035a1e5e1f0e0d1f816a2df67beaea68f393ff2b",
+};
+
+/// The Chinese Dragon as CGAL ships it (10,000 vertices, 19,994 triangles).
+pub const DRAGON_MESH: MeshFile = MeshFile {
+    file: "ChineseDragon-10kv.off",
+    archive_path: "data/meshes/ChineseDragon-10kv.off",
+    sha256: "f633bdfaac7a0f99e0fab668c34862f0c26f341cfdb4665bab282d79b788db02",
+};
+
+/// The Armadillo as CGAL ships it (26,002 vertices, 52,000 triangles): the real mesh standing
+/// in for seed 003's gargoyle.
+pub const ARMADILLO_MESH: MeshFile = MeshFile {
+    file: "armadillo.off",
+    archive_path: "data/meshes/armadillo.off",
+    sha256: "6f7f3ca1abc506569466b72f2f59d49493a284e7376d7a7e23c08115ec8cec4e",
+};
+
+/// Every mesh `pointsight fetch` provides.
+pub const MESH_FILES: &[MeshFile] = &[BUNNY_MESH, DRAGON_MESH, ARMADILLO_MESH];
+
+/// Path of a fetched mesh under `data_dir`.
+pub fn mesh_path(data_dir: &Path, mesh: &MeshFile) -> PathBuf {
+    data_dir.join("meshes").join(mesh.file)
+}
 
 const PACKAGE: &str = "libcgal-demo";
 const DATA_ARCHIVE: &str = "usr/share/doc/libcgal-dev/data.tar.gz";

@@ -1,12 +1,14 @@
 //! The pointsight harness: the thin layer between the method crates and a researcher.
 //!
-//! - [`datasets`]: the dataset registry; [`fetch`]: the real meshes;
+//! - [`datasets`]: the datasets (built-in table, user files, manifests); [`fetch`]: the real
+//!   meshes;
 //! - [`methods`]: the method registry (one adapter per method), `--set` parameters;
 //! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
+//! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
-//! - [`visible`]: one method on one view or many; [`cli`] and [`run`]: the `pointsight`
-//!   command.
+//! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
+//!   every method's visible set; [`cli`] and [`run`]: the `pointsight` command.
 //!
 //! Only this crate does command-line parsing, plotting and report I/O; the method crates
 //! return values and typed errors.
@@ -15,10 +17,12 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
-pub mod manifest;
+pub mod lod_build;
 pub mod output;
 pub mod progress;
+pub mod shard;
 pub mod stats;
+pub mod view;
 pub mod visible;
 
 /// The method registry (its own crate, shared with the Python package).
@@ -37,7 +41,9 @@ use crate::cli::{Cli, Command};
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     let data_dir = cli.data_dir;
-    datasets::use_manifest(manifest::Manifest::discover(cli.manifest.as_deref())?);
+    datasets::use_manifest(datasets::manifest::Manifest::discover(
+        cli.manifest.as_deref(),
+    )?);
     registry::register_external(&cli.methods_dir)?;
     match cli.command {
         Command::Fetch => {
@@ -59,9 +65,42 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Export { dataset, out } => {
             export(&dataset, &out, &data_dir)?;
         }
-        Command::ScaleCell { dataset, method, n } => {
-            let out = experiments::scale::cell(&dataset, &method, n, &data_dir)?;
+        Command::ScaleCell {
+            dataset,
+            method,
+            n,
+            setting,
+        } => {
+            let setting = registry::Setting::parse(&setting);
+            let out = experiments::scale::cell(&dataset, &method, &setting, n, &data_dir)?;
             println!("{}", serde_json::to_string(&out)?);
+        }
+        Command::LodBuild {
+            cloud,
+            method,
+            memory_limit,
+            out,
+            in_memory,
+        } => {
+            let built = if in_memory {
+                lod_build::build_in_memory(&cloud, &out)?
+            } else {
+                let limit = lod_build::parse_size(&memory_limit)?;
+                let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+                lod_build::build(&cloud, &method, limit, &out, tty)?
+            };
+            println!(
+                "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
+                 top_levels={} leaf_radius={:e} file_bytes={}",
+                built.points,
+                built.seconds,
+                built.points as f64 / built.seconds.max(1e-9),
+                built.peak_rss_bytes,
+                built.chunks,
+                built.top_levels,
+                built.leaf_radius,
+                built.file_bytes
+            );
         }
         Command::Inspect {
             file,
@@ -87,60 +126,56 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             }
         }
         Command::Visible {
-            dataset,
-            cloud,
-            mesh,
-            format,
-            classes,
-            scan,
-            merge_scans,
-            surface_tolerance,
-            eye,
-            target,
-            up,
-            fov_y,
-            width,
-            height,
+            source,
             view,
-            views,
             method,
             set,
             out,
             score,
             parallel_views,
             repeat,
-        } => visible::run(
-            &visible::Request {
-                dataset,
-                cloud,
-                mesh,
-                read: cloud::io::ReadOptions {
-                    format: parse_format(format)?,
-                    classes,
-                    scan,
+        } => {
+            // A views file alone means every camera in it.
+            let view =
+                view.unwrap_or_else(|| if source.views.is_some() { "all" } else { "0" }.into());
+            visible::run(
+                &visible::Request {
+                    source: source_of(source)?,
+                    view,
+                    method,
+                    set,
+                    out,
+                    score,
+                    parallel_views,
+                    repeat,
                 },
-                merge_scans,
-                surface_tolerance,
-                camera: visible::CameraFlags {
-                    eye,
-                    target,
-                    up,
-                    fov_y_deg: fov_y,
-                    width,
-                    height,
+                &data_dir,
+            )
+            .map_err(cli::frame_set)?
+        }
+        Command::View {
+            source,
+            view,
+            methods,
+            set,
+            max_points,
+            png,
+            out,
+        } => {
+            let page = view::run(
+                &view::Request {
+                    source: source_of(source)?,
+                    view,
+                    methods,
+                    set,
+                    max_points,
+                    png,
+                    out,
                 },
-                // A views file alone means every camera in it.
-                view: view.unwrap_or_else(|| if views.is_some() { "all" } else { "0" }.into()),
-                views,
-                method,
-                set,
-                out,
-                score,
-                parallel_views,
-                repeat,
-            },
-            &data_dir,
-        )?,
+                &data_dir,
+            )?;
+            println!("{}", page.line());
+        }
         Command::Run {
             experiment,
             datasets,
@@ -163,13 +198,15 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             for name in experiments::merge::merge(&out, &shards)? {
                 println!("{name}: merged into {}", out.join(&name).display());
             }
-            output::report::assemble(&out)?;
+            assemble_report(&out)?;
         }
         Command::Sweeps => {
             print!("{}", registry::sweep::BUILTIN);
         }
         Command::Report { reports } => {
-            output::report::assemble(&reports)?;
+            let names = view::report::real_datasets(&reports)?;
+            view::report::write_pages(&reports, &names, &data_dir)?;
+            assemble_report(&reports)?;
             println!("wrote {}", reports.join("README.md").display());
         }
         Command::Tables { reports } => {
@@ -177,6 +214,31 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The source flags of `visible` and `view` as a [`visible::Source`].
+fn source_of(a: cli::SourceArgs) -> Result<visible::Source> {
+    Ok(visible::Source {
+        dataset: a.dataset,
+        cloud: a.cloud,
+        mesh: a.mesh,
+        read: cloud::io::ReadOptions {
+            format: parse_format(a.format)?,
+            classes: a.classes,
+            scan: a.scan,
+        },
+        merge_scans: a.merge_scans,
+        surface_tolerance: a.surface_tolerance,
+        camera: visible::CameraFlags {
+            eye: a.eye,
+            target: a.target,
+            up: a.up,
+            fov_y_deg: a.fov_y,
+            width: a.width,
+            height: a.height,
+        },
+        views: a.views,
+    })
 }
 
 /// A `--format` name as a reader format, or an error listing the known ones.
@@ -221,22 +283,30 @@ pub fn views_csv(views: &[cloud::Camera]) -> Result<String> {
 }
 
 /// The sweeps (built-in, external methods', `--config`'s) and repeats of `flags`.
-fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, usize)> {
+fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<usize>)> {
     let user = flags
         .config
         .as_deref()
         .map(registry::Sweeps::read)
         .transpose()?;
     let sweeps = registry::Sweeps::resolve(user)?;
-    let repeats = flags
-        .repeats
-        .map(|r| r as usize)
-        .or(sweeps.repeats)
-        .unwrap_or(experiments::REPEATS);
+    let repeats = flags.repeats.map(|r| r as usize).or(sweeps.repeats);
     Ok((sweeps, repeats))
 }
 
-fn shard_text(shard: Option<experiments::Shard>) -> String {
+/// Writes the report page of `reports` over the experiment registry.
+fn assemble_report(reports: &Path) -> Result<()> {
+    let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
+        .iter()
+        .map(|e| output::report::Section {
+            name: e.name(),
+            summary: e.summary(),
+        })
+        .collect();
+    output::report::assemble(reports, &sections, &view::report::section(reports)?)
+}
+
+fn shard_text(shard: Option<shard::Shard>) -> String {
     shard.map_or_else(|| "-".into(), |s| format!("{}/{}", s.k, s.n))
 }
 
@@ -245,7 +315,7 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
     for d in datasets::REGISTRY {
         let ready = match d.mesh_file() {
             None => "generated",
-            Some(m) if datasets::mesh_path(data_dir, &m).exists() => "ready",
+            Some(m) if fetch::mesh_path(data_dir, &m).exists() => "ready",
             Some(_) => "needs-fetch",
         };
         println!(
@@ -253,7 +323,7 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
             d.name, d.n_points, ready, d.description
         );
     }
-    if let Some(m) = manifest::Manifest::discover(manifest)? {
+    if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
         for (name, e) in &m.datasets {
             let ready = [&e.cloud, &e.mesh]
                 .into_iter()
@@ -415,7 +485,8 @@ fn run_experiment(
     let ctx = experiments::Context {
         views,
         sweeps,
-        repeats,
+        repeats: repeats.unwrap_or(experiments::REPEATS),
+        repeats_given: repeats.is_some(),
         shard: sweep.shard,
         ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
     };
@@ -425,7 +496,7 @@ fn run_experiment(
     }
     println!("{}: results in {}", exp.name(), out_dir.display());
     if default_out && sweep.shard.is_none() {
-        output::report::assemble(Path::new("reports"))?;
+        assemble_report(Path::new("reports"))?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -443,6 +514,22 @@ fn bench(
     for name in chosen.iter().flatten() {
         datasets::check(name)?;
     }
+    // The report's viewer pages need the viewer's script: say so before measuring for hours.
+    let visibility_datasets: Vec<String> = match &chosen {
+        Some(list) => list.clone(),
+        None => experiments::experiment("visibility")?
+            .default_datasets(quick)
+            .iter()
+            .map(|s| s.to_string())
+            .collect(),
+    };
+    if sweep.shard.is_none()
+        && visibility_datasets
+            .iter()
+            .any(|d| datasets::info(d).is_ok_and(|i| i.needs_fetch()))
+    {
+        view::page::bundle()?;
+    }
     for exp in experiments::EXPERIMENTS {
         let datasets = match &chosen {
             Some(list) => list.clone(),
@@ -454,7 +541,8 @@ fn bench(
         };
         let ctx = experiments::Context {
             sweeps: sweeps.clone(),
-            repeats,
+            repeats: repeats.unwrap_or(experiments::REPEATS),
+            repeats_given: repeats.is_some(),
             shard: sweep.shard,
             ..experiments::Context::new(
                 data_dir.to_path_buf(),
@@ -473,7 +561,9 @@ fn bench(
     }
     match sweep.shard {
         None => {
-            output::report::assemble(reports)?;
+            let names = view::report::real_datasets(reports)?;
+            view::report::write_pages(reports, &names, data_dir)?;
+            assemble_report(reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",
                 experiments::EXPERIMENTS.len(),
@@ -509,7 +599,7 @@ fn tables(reports: &Path) -> Result<()> {
             reports.display()
         );
     }
-    output::report::assemble(reports)?;
+    assemble_report(reports)?;
     println!(
         "redrew {rendered} experiment(s); wrote {}",
         reports.join("README.md").display()

@@ -11,11 +11,10 @@ use std::time::Instant;
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
 use cloud::glam::DVec3;
-use rayon::prelude::*;
 
 use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
-use crate::methods::{self, Output, Params};
+use crate::methods::{self, Output, Params, kernel};
 use crate::output;
 use crate::score::Score;
 
@@ -80,9 +79,10 @@ impl CameraFlags {
     }
 }
 
-/// What `visible` was asked.
+/// Where the points, the mesh and the views come from: a dataset, or a user's files and camera
+/// (shared by `visible` and `view`).
 #[derive(Debug, Clone)]
-pub struct Request {
+pub struct Source {
     /// Dataset name (ignored with `cloud`).
     pub dataset: Option<String>,
     /// A point file instead of a dataset.
@@ -97,10 +97,17 @@ pub struct Request {
     pub surface_tolerance: Option<f64>,
     /// A camera from flags.
     pub camera: CameraFlags,
-    /// `K`, `all` or `K1,K2,...`.
-    pub view: String,
     /// A views file replacing the dataset's views.
     pub views: Option<PathBuf>,
+}
+
+/// What `visible` was asked.
+#[derive(Debug, Clone)]
+pub struct Request {
+    /// The points, mesh and views.
+    pub source: Source,
+    /// `K`, `all` or `K1,K2,...`.
+    pub view: String,
     /// Method name.
     pub method: String,
     /// `--set` pairs.
@@ -196,15 +203,14 @@ fn score_line(
     ))
 }
 
-/// Runs the request; prints the contract lines.
-pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
-    let params = Params::parse(&req.set)?;
-    let method = methods::method(&req.method)?;
-    let mut ds = match (&req.cloud, &req.dataset) {
+/// The dataset `src` names, its views replaced by the views file or the camera flags when
+/// given; the errors `visible` gives for bad input.
+pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
+    let mut ds = match (&src.cloud, &src.dataset) {
         (Some(path), _) => {
-            let is_e57 = req.read.format.or_else(|| cloud::io::Format::of_path(path))
+            let is_e57 = src.read.format.or_else(|| cloud::io::Format::of_path(path))
                 == Some(cloud::io::Format::E57);
-            if is_e57 && req.read.scan.is_none() && !req.merge_scans {
+            if is_e57 && src.read.scan.is_none() && !src.merge_scans {
                 let n = cloud::io::e57::scan_count(path)?;
                 if n > 1 {
                     bail!(
@@ -222,35 +228,43 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
                 description: format!("{}", path.display()),
                 cloud: Some(path.clone()),
                 sample: None,
-                mesh: req.mesh.clone(),
-                read: req.read.clone(),
+                mesh: src.mesh.clone(),
+                read: src.read.clone(),
                 views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
-                surface_tolerance: req.surface_tolerance,
+                surface_tolerance: src.surface_tolerance,
                 degrade: (Vec::new(), 1),
             })?
         }
         (None, Some(name)) => {
-            if req.mesh.is_some() {
+            if src.mesh.is_some() {
                 bail!("--mesh goes with --cloud; a dataset has its own mesh");
             }
             datasets::load(name, data_dir)?
         }
         (None, None) => bail!("give --dataset NAME or --cloud FILE"),
     };
-    let many = req.views.is_some() || req.view.parse::<usize>().is_err();
-    if let Some(path) = &req.views {
+    if let Some(path) = &src.views {
         ds.views = cloud::io::views::read_views(path)?
             .iter()
             .map(|c| ds.camera_from_world(c))
             .collect();
-    } else if req.camera.eye.is_some() {
+    } else if src.camera.eye.is_some() {
         let world = ds.world_positions();
-        ds.views = vec![ds.camera_from_world(&req.camera.camera(&world)?)];
-    } else if req.cloud.is_some() {
+        ds.views = vec![ds.camera_from_world(&src.camera.camera(&world)?)];
+    } else if src.cloud.is_some() {
         bail!(
             "with --cloud, give a camera: --eye X,Y,Z (and optionally --target, --up, --fov-y, --width, --height) or --views FILE"
         );
     }
+    Ok(ds)
+}
+
+/// Runs the request; prints the contract lines.
+pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
+    let params = Params::parse(&req.set)?;
+    let method = methods::method(&req.method)?;
+    let ds = load_source(&req.source, data_dir)?;
+    let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {
         Some(truth::Reference::new(ds.mesh("--score")?)?)
     } else {
@@ -261,12 +275,27 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     if !many {
         // The single-view contract: a file, `prepare_seconds`, then the contract line.
         let k: usize = req.view.parse()?;
-        let camera = *ds.view(k)?;
-        let start = Instant::now();
-        let prepared = methods::prepare(method, ds.input(), &params)?;
-        let prepare_seconds = start.elapsed().as_secs_f64();
-        let (output, timing) = methods::timed_at(prepared.as_ref(), k, &camera, req.repeat)?;
-        // An external program's timing is its own reported compute time (`registry::timed`).
+        let views = [kernel::View {
+            index: k,
+            camera: *ds.view(k)?,
+        }];
+        let camera = views[0].camera;
+        let cell = kernel::Cell {
+            method,
+            params,
+            views: &views,
+            repeats: req.repeat,
+            parallel: false,
+        };
+        let (prepared, answers) = kernel::collect(&cell, ds.input());
+        let prepare_seconds = prepared?;
+        let kernel::Answer { output, timing } = answers
+            .into_iter()
+            .next()
+            .context("the kernel answered no view")?
+            .1
+            .map_err(anyhow::Error::msg)?;
+        // An external program's timing is its own reported compute time (`registry::kernel`).
         let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
         println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
@@ -284,31 +313,43 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     }
 
     let chosen = parse_views(&req.view, ds.views.len())?;
-    let cameras: Vec<(usize, Camera)> = chosen.iter().map(|&k| (k, ds.views[k])).collect();
-    let start = Instant::now();
-    let prepared = methods::prepare(method, ds.input(), &params)?;
-    let prepare_seconds = start.elapsed().as_secs_f64();
+    let views: Vec<kernel::View> = chosen
+        .iter()
+        .map(|&index| kernel::View {
+            index,
+            camera: ds.views[index],
+        })
+        .collect();
     let parallel = match req.parallel_views {
         ParallelViews::Auto => method.parallel_views(),
         ParallelViews::Yes => true,
         ParallelViews::No => false,
     };
+    let cell = kernel::Cell {
+        method,
+        params,
+        views: &views,
+        repeats: req.repeat,
+        parallel,
+    };
+    let start = Instant::now();
+    let mut results: Vec<(usize, Output, f64)> = Vec::with_capacity(views.len());
+    let mut failure = None;
+    let prepared = kernel::run(&cell, ds.input(), |view, answer| match answer {
+        Ok(a) => results.push((view.index, a.output, a.timing.median)),
+        Err(e) if failure.is_none() => failure = Some(format!("view {}: {e}", view.index)),
+        Err(_) => {}
+    });
+    let prepare_seconds = prepared?;
+    if let Some(f) = failure {
+        bail!(f);
+    }
     println!(
         "prepare_seconds={prepare_seconds:.6} views={} parallel_views={parallel}",
-        cameras.len(),
+        views.len(),
     );
-    let start = Instant::now();
-    let run_one = |&(k, camera): &(usize, Camera)| -> Result<(usize, Output, f64)> {
-        let (output, timing) = methods::timed_at(prepared.as_ref(), k, &camera, req.repeat)
-            .with_context(|| format!("view {k}"))?;
-        Ok((k, output, timing.median))
-    };
-    let results: Vec<(usize, Output, f64)> = if parallel {
-        cameras.par_iter().map(run_one).collect::<Result<_>>()?
-    } else {
-        cameras.iter().map(run_one).collect::<Result<_>>()?
-    };
-    let wall = start.elapsed().as_secs_f64();
+    // The views' wall time, the per-dataset preparation excluded.
+    let wall = start.elapsed().as_secs_f64() - prepare_seconds;
     std::fs::create_dir_all(&req.out)
         .with_context(|| format!("cannot create {}", req.out.display()))?;
     for (k, output, seconds) in &results {

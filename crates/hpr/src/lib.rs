@@ -23,12 +23,19 @@
 //! each is classified on its own.) A hull that knows its input has no coincident points
 //! ([`ConvexHull::vertices_distinct`]: `own` does) spares that step.
 //!
+//! Beyond seed 000: [`properties`] (Katz and Tal 2015's three properties of a kernel, two
+//! more kernels that have them), [`confidence`] (their visibility-confidence score) and
+//! [`approx`] (HPR over an approximate hull, Machado e Silva et al. 2012/2014).
+//!
 //! Seed 000 §5's front/back buffer with an auxiliary thread is the reusable
 //! [`cloud::double_buffer::DoubleBuffer`] (the ray caster uses it too); [`background`] runs HPR
 //! in it.
 
+pub mod approx;
 pub mod auto;
 pub mod background;
+pub mod confidence;
+pub mod properties;
 pub mod transform;
 
 use std::time::Instant;
@@ -130,38 +137,9 @@ pub fn visible(
     params: &HprParams,
     hull: &dyn ConvexHull,
 ) -> Result<Visibility, HprError> {
-    // Coordinates far outside [2^-100, 2^100] would overflow the flip's norms (squares) or
-    // underflow them: run on an exact power-of-two copy instead. Flipping commutes with such a
-    // scaling (the radius scales with the cloud; an absolute radius is scaled too; the
-    // exponential kernel's result is scaled uniformly), so the visible set is unchanged.
-    let coords = points
-        .iter()
-        .chain(std::iter::once(&eye))
-        .flat_map(|p| p.to_array());
-    let max = {
-        use rayon::prelude::*;
-        let abs_max = |p: &DVec3| p.abs().max_element();
-        points
-            .par_iter()
-            .map(abs_max)
-            .reduce(|| 0.0, f64::max)
-            .max(abs_max(&eye))
-    };
-    // One parallel pass decides the common case; the sequential check runs only when
-    // rescaling (a non-finite coordinate is left to the transform, which reports it).
-    if let Some((f1, f2)) = hull::rescale_needed(max)
-        .then(|| hull::exact_rescale(coords))
-        .transpose()?
-        .flatten()
-    {
-        let scale = |v: DVec3| v * f1 * f2;
-        let scaled: Vec<DVec3> = points.iter().map(|&p| scale(p)).collect();
-        let kernel = match params.kernel {
-            Kernel::Linear(Radius::Absolute(r)) => Kernel::Linear(Radius::Absolute(r * f1 * f2)),
-            k => k,
-        };
+    if let Some((scaled, eye, kernel)) = rescaled(points, eye, params.kernel)? {
         let p = HprParams { kernel, ..*params };
-        return visible(&scaled, scale(eye), &p, hull);
+        return visible(&scaled, eye, &p, hull);
     }
     let start = Instant::now();
     let transformed = transform::transform(points, eye, params.kernel)?;
@@ -199,6 +177,47 @@ pub fn visible(
             map: t_map,
         },
     })
+}
+
+/// Coordinates far outside [2^-100, 2^100] would overflow the flip's norms (squares) or
+/// underflow them: such a cloud is run on an exact power-of-two copy instead, returned here
+/// with the eye and the kernel scaled alike (`None`: no rescaling needed). Flipping commutes
+/// with such a scaling (the radius scales with the cloud; an absolute radius is scaled too;
+/// the other kernels' results are scaled uniformly), so the visible set is unchanged.
+pub(crate) fn rescaled(
+    points: &[DVec3],
+    eye: DVec3,
+    kernel: Kernel,
+) -> Result<Option<(Vec<DVec3>, DVec3, Kernel)>, HprError> {
+    let coords = points
+        .iter()
+        .chain(std::iter::once(&eye))
+        .flat_map(|p| p.to_array());
+    let max = {
+        use rayon::prelude::*;
+        let abs_max = |p: &DVec3| p.abs().max_element();
+        points
+            .par_iter()
+            .map(abs_max)
+            .reduce(|| 0.0, f64::max)
+            .max(abs_max(&eye))
+    };
+    // One parallel pass decides the common case; the sequential check runs only when
+    // rescaling (a non-finite coordinate is left to the transform, which reports it).
+    let Some((f1, f2)) = hull::rescale_needed(max)
+        .then(|| hull::exact_rescale(coords))
+        .transpose()?
+        .flatten()
+    else {
+        return Ok(None);
+    };
+    let scale = |v: DVec3| v * f1 * f2;
+    let scaled: Vec<DVec3> = points.iter().map(|&p| scale(p)).collect();
+    let kernel = match kernel {
+        Kernel::Linear(Radius::Absolute(r)) => Kernel::Linear(Radius::Absolute(r * f1 * f2)),
+        k => k,
+    };
+    Ok(Some((scaled, scale(eye), kernel)))
 }
 
 /// `visible` (ascending indices into `points`) with every point that coincides with one of

@@ -4,7 +4,12 @@
 //! translation) to magnitude f(‖p‖), f decreasing:
 //! - linear (spherical flipping, Katz et al. 2007 §3, seed 000 §3.1): f(d) = 2R − d, which is
 //!   p̂ = p + 2(R − ‖p‖)·p/‖p‖. R > max‖p‖ is required;
-//! - exponential (Katz and Tal 2015): f(d) = d^γ with γ < 0; scale invariant.
+//! - exponential (Katz and Tal 2015): f(d) = d^γ with γ < 0; scale invariant;
+//! - logarithmic (ours, a member of Katz and Tal's family, [`crate::properties`]):
+//!   f(d) = ln(R/d) with R = max‖p‖·10^γ, γ > 0; scale invariant;
+//! - exponential decay (ours, likewise): f(d) = exp(−γ·d/max‖p‖), γ > 0; scale invariant.
+//!
+//! [`crate::properties`] checks all four against Katz and Tal's three properties.
 //!
 //! The output keeps the input order and appends the viewpoint (the origin) last.
 
@@ -30,7 +35,14 @@ pub enum Kernel {
     Linear(Radius),
     /// Exponential kernel with exponent γ < 0.
     Exponential(f64),
+    /// Logarithmic kernel f(d) = ln(R/d), R = max‖p‖ · 10^γ, γ > 0 (limit γ → ∞).
+    Log(f64),
+    /// Exponential-decay kernel f(d) = exp(−γ·d/max‖p‖), 0 < γ < 700 (limit γ → 0).
+    ExpDecay(f64),
 }
+
+/// The largest γ of [`Kernel::ExpDecay`]: beyond it exp(−γ) nears the smallest normal double.
+pub const EXP_DECAY_MAX: f64 = 700.0;
 
 /// Transformed points: input order, the viewpoint (origin) appended last.
 #[derive(Debug, Clone, PartialEq)]
@@ -120,11 +132,33 @@ pub fn transform(points: &[DVec3], eye: DVec3, kernel: Kernel) -> Result<Transfo
             }
             flip_all(points, eye, |d| d.powf(g))
         }
+        Kernel::Log(g) => {
+            if !(g > 0.0) || !g.is_finite() {
+                return Err(HprError::InvalidParameter {
+                    name: "gamma",
+                    reason: format!("the log kernel needs gamma > 0, got {g}"),
+                });
+            }
+            flip_all(points, eye, |d| log_magnitude(g, d, max_distance))
+        }
+        Kernel::ExpDecay(g) => {
+            if !(g > 0.0 && g < EXP_DECAY_MAX) {
+                return Err(HprError::InvalidParameter {
+                    name: "gamma",
+                    reason: format!(
+                        "the expdecay kernel needs 0 < gamma < {EXP_DECAY_MAX}, got {g}"
+                    ),
+                });
+            }
+            flip_all(points, eye, |d| (-g * d / max_distance).exp())
+        }
     };
     let scale = match kernel {
         Kernel::Linear(Radius::Absolute(r)) => r,
         Kernel::Linear(Radius::Gamma(g)) => max_distance * 10f64.powf(g),
         Kernel::Exponential(g) => min_distance.powf(g),
+        Kernel::Log(g) => log_magnitude(g, min_distance, max_distance),
+        Kernel::ExpDecay(g) => (-g * min_distance / max_distance).exp(),
     };
     out.push([0.0; 3]);
     Ok(Transformed {
@@ -132,6 +166,11 @@ pub fn transform(points: &[DVec3], eye: DVec3, kernel: Kernel) -> Result<Transfo
         scale,
         max_distance,
     })
+}
+
+/// ln(R/d) with R = m·10^γ, written as γ·ln 10 + ln(m/d) so that no 10^γ overflows.
+pub(crate) fn log_magnitude(gamma: f64, d: f64, max_distance: f64) -> f64 {
+    gamma * std::f64::consts::LN_10 + (max_distance / d).ln()
 }
 
 /// Moves every point to magnitude `f(‖p − eye‖)` along its ray from the eye.
@@ -201,6 +240,29 @@ mod tests {
         assert_eq!(e.points[1], [0.0, 0.25, 0.0]);
         assert_eq!(e.scale, 0.5);
         assert!(transform(&pts, DVec3::ZERO, Kernel::Exponential(0.5)).is_err());
+        // Log: ln(4·10/d): d = 2 → ln 20, d = 4 → ln 10.
+        let l = transform(&pts, DVec3::ZERO, Kernel::Log(1.0)).unwrap();
+        assert!((l.points[0][2] - 20f64.ln()).abs() < 1e-12);
+        assert!((l.points[1][1] - 10f64.ln()).abs() < 1e-12);
+        // Exp-decay: exp(−2·d/4): d = 2 → e^−1, d = 4 → e^−2.
+        let x = transform(&pts, DVec3::ZERO, Kernel::ExpDecay(2.0)).unwrap();
+        assert!((x.points[0][2] - (-1f64).exp()).abs() < 1e-15);
+        assert!((x.points[1][1] - (-2f64).exp()).abs() < 1e-15);
+        for bad in [
+            Kernel::Log(0.0),
+            Kernel::Log(f64::NAN),
+            Kernel::ExpDecay(0.0),
+            Kernel::ExpDecay(EXP_DECAY_MAX),
+            Kernel::ExpDecay(f64::NAN),
+        ] {
+            assert!(
+                matches!(
+                    transform(&pts, DVec3::ZERO, bad),
+                    Err(HprError::InvalidParameter { name: "gamma", .. })
+                ),
+                "{bad:?}"
+            );
+        }
     }
 
     #[test]

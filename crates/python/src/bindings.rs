@@ -13,7 +13,6 @@ use numpy::{
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rayon::prelude::*;
 
 /// The thread pool every call runs in (`set_num_threads`); rayon's global pool by default.
 static POOL: OnceLock<Mutex<Option<std::sync::Arc<rayon::ThreadPool>>>> = OnceLock::new();
@@ -52,6 +51,16 @@ fn run<T: Send>(py: Python<'_>, f: impl FnOnce() -> Result<T, String> + Send) ->
 
 fn err(e: impl std::fmt::Display) -> String {
     e.to_string()
+}
+
+/// The registry's errors with Python's framing: a parameter is a keyword argument of `method`.
+fn registry_err(method: &str, e: registry::Error) -> String {
+    match e {
+        registry::Error::BadValue { key, value, reason } => {
+            format!("{method}: keyword argument {key}={value:?}: {reason}")
+        }
+        other => other.to_string(),
+    }
 }
 
 /// An (N, 3) float64 array as points (copied).
@@ -291,13 +300,22 @@ fn visible<'py>(
             cloud: &cloud,
             mesh: mesh.as_ref(),
         };
-        let prepared = registry::prepare(m, input, &p).map_err(err)?;
-        let one = |c: &cloud::Camera| prepared.visible(c).map(|o| o.visible).map_err(err);
-        if m.parallel_views() && cams.len() > 1 {
-            cams.par_iter().map(one).collect::<Result<Vec<_>, _>>()
-        } else {
-            cams.iter().map(one).collect::<Result<Vec<_>, _>>()
-        }
+        // One cell of the measurement kernel: prepared once, every camera (its position in
+        // the list is its view index).
+        let views = registry::kernel::View::all(&cams);
+        let cell = registry::kernel::Cell {
+            method: m,
+            params: p,
+            views: &views,
+            repeats: 1,
+            parallel: m.parallel_views() && views.len() > 1,
+        };
+        let (prepared, answers) = registry::kernel::collect(&cell, input);
+        prepared.map_err(|e| registry_err(&method, e))?;
+        answers
+            .into_iter()
+            .map(|(_, a)| a.map(|a| a.output.visible))
+            .collect::<Result<Vec<_>, _>>()
     })?;
     Ok(results.into_iter().map(|v| indices_array(py, v)).collect())
 }
@@ -670,21 +688,28 @@ fn srn_select<'py>(
     Ok((indices_array(py, kept), factors.into_pyarray(py)))
 }
 
-/// The registry's methods: name, one-line summary, and their parameters (key, default, help).
+/// Every method of the registry, visibility (built-in and registered) then level of detail:
+/// name, one-line summary, and its parameters (key, default, help).
 #[pyfunction]
 fn methods() -> Vec<MethodListing> {
-    registry::METHODS
+    let listing = |name: &str, summary: &str, params: &[registry::ParamSpec]| {
+        (
+            name.to_owned(),
+            summary.to_owned(),
+            params
+                .iter()
+                .map(|p| (p.key.to_owned(), p.default.to_owned(), p.help.to_owned()))
+                .collect(),
+        )
+    };
+    registry::all()
         .iter()
-        .map(|m| {
-            (
-                m.name().to_owned(),
-                m.summary().to_owned(),
-                m.params()
-                    .iter()
-                    .map(|p| (p.key.to_owned(), p.default.to_owned(), p.help.to_owned()))
-                    .collect(),
-            )
-        })
+        .map(|m| listing(m.name(), m.summary(), m.params()))
+        .chain(
+            registry::lod::all()
+                .iter()
+                .map(|m| listing(m.name(), m.summary(), m.params())),
+        )
         .collect()
 }
 

@@ -237,6 +237,10 @@ def test_two_threads_at_once_and_a_thread_count():
 def test_methods_listing_matches_the_cli_vocabulary():
     names = {m[0] for m in ps.methods()}
     assert {"hpr", "raycast", "splat", "reference", "exact"} <= names
+    # The level-of-detail methods are listed too, with the registry's parameter names.
+    assert {"qsplat", "spt", "srn", "random"} <= names
+    qsplat_keys = {k for name, _, params in ps.methods() if name == "qsplat" for k, _, _ in params}
+    assert qsplat_keys == {"threshold_px"}
     hpr_keys = {k for name, _, params in ps.methods() if name == "hpr" for k, _, _ in params}
     assert {"gamma", "radius", "kernel", "hull", "perturb", "seed"} == hpr_keys
 

@@ -334,7 +334,7 @@ fn parent_of(nodes: &[Node], children: &[u32]) -> Node {
 }
 
 /// The parent of the nodes `kids`, whose arena indices are `children`.
-fn parent_from(nodes: &[&Node], children: &[u32]) -> Node {
+pub(crate) fn parent_from(nodes: &[&Node], children: &[u32]) -> Node {
     let kids = || nodes.iter().copied();
     let (lo, hi) = kids().fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), k| {
         (

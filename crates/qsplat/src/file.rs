@@ -26,19 +26,40 @@ const MAGIC: &[u8; 8] = b"PSQSPLAT";
 const VERSION: u32 = 1;
 const HEADER: usize = 8 + 4 + 4 + 8 + 8 + 32 + 4;
 
+/// The header (everything before the words).
+pub fn header_bytes(
+    colors: bool,
+    n_points: u64,
+    n_words: u64,
+    root_center: DVec3,
+    root_radius: f64,
+    root_word: u32,
+) -> Vec<u8> {
+    let mut b = Vec::with_capacity(HEADER);
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&VERSION.to_le_bytes());
+    b.extend_from_slice(&u32::from(colors).to_le_bytes());
+    b.extend_from_slice(&n_points.to_le_bytes());
+    b.extend_from_slice(&n_words.to_le_bytes());
+    for v in root_center.to_array() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&root_radius.to_le_bytes());
+    b.extend_from_slice(&root_word.to_le_bytes());
+    b
+}
+
 /// Serialises `tree`.
 pub fn to_bytes(tree: &QTree) -> Vec<u8> {
     let mut b = Vec::with_capacity(HEADER + tree.payload_bytes() + 8);
-    b.extend_from_slice(MAGIC);
-    b.extend_from_slice(&VERSION.to_le_bytes());
-    b.extend_from_slice(&u32::from(tree.colors.is_some()).to_le_bytes());
-    b.extend_from_slice(&tree.n_points.to_le_bytes());
-    b.extend_from_slice(&(tree.words.len() as u64).to_le_bytes());
-    for v in tree.root_center.to_array() {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-    b.extend_from_slice(&tree.root_radius.to_le_bytes());
-    b.extend_from_slice(&tree.root_word.to_le_bytes());
+    b.extend_from_slice(&header_bytes(
+        tree.colors.is_some(),
+        tree.n_points,
+        tree.words.len() as u64,
+        tree.root_center,
+        tree.root_radius,
+        tree.root_word,
+    ));
     for w in &tree.words {
         b.extend_from_slice(&w.to_le_bytes());
     }

@@ -7,7 +7,8 @@
 //! 14-bit normal, 2-bit cone, RGB565, 3 tree bits) into a breadth-first node stream
 //! ([`tree`]), with a compact file format ([`file`]) and the view-dependent traversal that
 //! decides what to draw ([`traverse`]: frustum and back-face culling, recursion while the
-//! projected size exceeds a threshold in pixels).
+//! projected size exceeds a threshold in pixels). [`ooc`] writes the same file out of core,
+//! within a memory limit, for clouds larger than memory.
 //!
 //! Points need normals; leaves are spheres of a given radius around the points (the original
 //! uses each vertex's distance to its mesh neighbours; a cloud has no mesh, so the harness
@@ -17,6 +18,7 @@
 pub mod build;
 pub mod error;
 pub mod file;
+pub mod ooc;
 pub mod quant;
 pub mod traverse;
 pub mod tree;

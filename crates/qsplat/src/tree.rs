@@ -16,7 +16,7 @@ use cloud::glam::DVec3;
 
 use rayon::prelude::*;
 
-use crate::build::Hierarchy;
+use crate::build::{Hierarchy, Node};
 use crate::quant;
 
 /// Word layout.
@@ -94,6 +94,16 @@ impl Word {
 
 fn word_of(h: &Hierarchy, id: usize, sphere: u16) -> Word {
     let n = &h.nodes[id];
+    let grandchildren = n
+        .children()
+        .iter()
+        .any(|&c| !h.nodes[c as usize].children().is_empty());
+    word_for(n, sphere, grandchildren)
+}
+
+/// The word of node `n` with sphere index `sphere`; `grandchildren` when some child of it has
+/// children.
+pub(crate) fn word_for(n: &Node, sphere: u16, grandchildren: bool) -> Word {
     let normal = quant::encode_normal(n.normal);
     // Widen the cone by how far quantisation moved the normal.
     let cos_moved = quant::decode_normal(normal).dot(n.normal).clamp(-1.0, 1.0);
@@ -110,15 +120,33 @@ fn word_of(h: &Hierarchy, id: usize, sphere: u16) -> Word {
         normal,
         cone,
         children: n.children().len() as u8,
-        grandchildren: n
-            .children()
-            .iter()
-            .any(|&c| !h.nodes[c as usize].children().is_empty()),
+        grandchildren,
     }
 }
 
+/// The sphere index of a node `(center, radius)` inside the decoded parent `(pc, pr)`, and its
+/// own decoded sphere.
+pub(crate) fn child_sphere(
+    center: DVec3,
+    radius: f64,
+    parent: (DVec3, f64),
+) -> (u16, (DVec3, f64)) {
+    let (pc, pr) = parent;
+    // The child is inside the (outward-rounded) parent: an entry always exists; the
+    // parent's own cube (size 13) is the fallback.
+    let sphere = quant::encode_sphere(center, radius, pc, pr)
+        .unwrap_or_else(|| quant::sphere_table().1[(quant::N_GRID - 1) as usize]);
+    let own = quant::decode_sphere(sphere, pc, pr).unwrap_or((pc, pr));
+    (sphere, own)
+}
+
 fn color_of(h: &Hierarchy, id: usize) -> u16 {
-    let c = h.nodes[id].color;
+    node_color(&h.nodes[id])
+}
+
+/// A node's RGB565 colour.
+pub(crate) fn node_color(n: &Node) -> u16 {
+    let c = n.color;
     quant::encode_rgb565([c.x.round() as u8, c.y.round() as u8, c.z.round() as u8])
 }
 
@@ -135,7 +163,6 @@ fn encode_children(
     words: &mut [u32],
     parent: (DVec3, f64),
 ) {
-    let (pc, pr) = parent;
     let mut tasks = Vec::with_capacity(4);
     let (mut dec, mut wor, mut s) = (decoded, words, start);
     for &c in h.nodes[id].children() {
@@ -143,11 +170,7 @@ fn encode_children(
         let (d_head, d_tail) = std::mem::take(&mut dec).split_at_mut(c + 1 - s);
         let (w_head, w_tail) = std::mem::take(&mut wor).split_at_mut(c + 1 - s);
         let node = &h.nodes[c];
-        // The child is inside the (outward-rounded) parent: an entry always exists; the
-        // parent's own cube (size 13) is the fallback.
-        let sphere = quant::encode_sphere(node.center, node.radius, pc, pr)
-            .unwrap_or_else(|| quant::sphere_table().1[(quant::N_GRID - 1) as usize]);
-        let own = quant::decode_sphere(sphere, pc, pr).unwrap_or((pc, pr));
+        let (sphere, own) = child_sphere(node.center, node.radius, parent);
         let last = c - s;
         d_head[last] = own;
         w_head[last] = word_of(h, c, sphere).pack();
@@ -174,117 +197,16 @@ impl QTree {
     /// Quantises `h` and also returns every hierarchy node's decoded sphere (for checks).
     pub fn encode_with_spheres(h: &Hierarchy, colors: bool) -> (Self, Vec<(DVec3, f64)>) {
         let root = h.root();
-        let n = h.nodes.len();
-        // Top-down over the contiguous subtrees, in parallel: every node's sphere relative to
-        // its parent's decoded sphere, its decoded sphere and its word.
-        let mut decoded: Vec<(DVec3, f64)> = vec![(DVec3::ZERO, 0.0); n];
-        let mut node_words = vec![0u32; n];
         let root_sphere = (h.nodes[root].center, h.nodes[root].radius);
-        decoded[root] = root_sphere;
-        node_words[root] = word_of(h, root, 0).pack();
-        encode_children(
-            h,
-            0,
-            root,
-            &mut decoded[..root],
-            &mut node_words[..root],
-            root_sphere,
-        );
-
-        // Sibling groups breadth first, one level at a time (in parallel: rayon's collect
-        // keeps the order): the next level's groups are, in order, the children that have
-        // children of this level's groups.
-        // Child counts in one compact array (the nodes are 112 bytes; these lookups jump).
-        let n_kids: Vec<u8> = h.nodes.par_iter().map(|n| n.n_children).collect();
-        let has_kids = |c: u32| n_kids[c as usize] != 0;
-        let mut levels: Vec<Vec<u32>> = Vec::new();
-        if !h.nodes[root].children().is_empty() {
-            levels.push(vec![root as u32]);
-        }
-        while let Some(last) = levels.last() {
-            let next: Vec<u32> = last
-                .par_iter()
-                .flat_map_iter(|&p| {
-                    h.nodes[p as usize]
-                        .children()
-                        .iter()
-                        .copied()
-                        .filter(move |&c| has_kids(c))
-                })
-                .collect();
-            if next.is_empty() {
-                break;
-            }
-            levels.push(next);
-        }
-        // Per group: its words (an offset word when some child has children, then one per
-        // child) and how many of its children start groups of the next level.
-        let shape = |p: u32| {
-            let kids = h.nodes[p as usize].children();
-            let grand = kids.iter().filter(|&&c| has_kids(c)).count();
-            (kids.len() + usize::from(grand > 0), grand)
-        };
-        let shapes: Vec<Vec<(usize, usize)>> = levels
-            .iter()
-            .map(|l| l.par_iter().map(|&p| shape(p)).collect())
-            .collect();
-        // Word position of every group, level by level.
-        let mut pos: Vec<Vec<usize>> = Vec::with_capacity(levels.len());
-        let mut total = 0usize;
-        for level in &shapes {
-            let mut at = Vec::with_capacity(level.len());
-            for &(len, _) in level {
-                at.push(total);
-                total += len;
-            }
-            pos.push(at);
-        }
-        // A group's offset word: the position of the group of its first child with children,
-        // which is the next level's group numbered by the grandparents counted before it.
-        let mut offsets: Vec<Vec<u32>> = Vec::with_capacity(levels.len());
-        for (l, level) in shapes.iter().enumerate() {
-            let mut seen = 0usize;
-            offsets.push(
-                level
-                    .iter()
-                    .map(|&(_, grand)| {
-                        let o = if grand > 0 {
-                            pos[l + 1][seen] as u32
-                        } else {
-                            0
-                        };
-                        seen += grand;
-                        o
-                    })
-                    .collect(),
-            );
-        }
-        let group_words = |l: usize, g: usize| {
-            let p = levels[l][g] as usize;
-            let offset = (shapes[l][g].1 > 0).then_some((offsets[l][g], 0u16));
-            offset
-                .into_iter()
-                .chain(h.nodes[p].children().iter().map(|&c| {
-                    let c = c as usize;
-                    (node_words[c], if colors { color_of(h, c) } else { 0 })
-                }))
-        };
-        let (words, cols): (Vec<u32>, Vec<u16>) = (0..levels.len())
-            .flat_map(|l| (0..levels[l].len()).map(move |g| (l, g)))
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .flat_map_iter(|(l, g)| group_words(l, g))
-            .unzip();
-        debug_assert_eq!(words.len(), total);
-        let cols = colors.then_some(cols);
+        let (parts, decoded) = encode_parts(h, 0, root_sphere, colors, false);
         let tree = Self {
             n_points: u64::from(h.nodes[root].leaves),
             root_center: root_sphere.0,
             root_radius: root_sphere.1,
-            root_word: node_words[root],
-            words,
-            colors: cols,
-            root_color: if colors { color_of(h, root) } else { 0 },
+            root_word: parts.root_word,
+            words: parts.words,
+            colors: colors.then_some(parts.colors),
+            root_color: parts.root_color,
         };
         (tree, decoded)
     }
@@ -295,6 +217,156 @@ impl QTree {
         let nodes = 1 + self.words.len();
         4 * nodes + if self.colors.is_some() { 2 * nodes } else { 0 }
     }
+}
+
+/// The quantised form of a (sub)tree: its root's word and colour, and its sibling groups
+/// breadth first.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct Parts {
+    /// The root's word.
+    pub root_word: u32,
+    /// The root's colour (0 without colours).
+    pub root_color: u16,
+    /// The words below the root, breadth first (offset words point into this array).
+    pub words: Vec<u32>,
+    /// One colour per word (empty without colours).
+    pub colors: Vec<u16>,
+    /// Word position at which each level of groups starts (the groups of the root's children
+    /// first), then the total.
+    pub level_starts: Vec<usize>,
+    /// Positions of the offset words (filled only when asked for).
+    pub offsets: Vec<usize>,
+}
+
+/// Quantises the tree `h` whose root has sphere index `root_sphere` (0 for the whole tree's
+/// root, stored in full) and decodes to `root_decoded`; also returns every node's decoded
+/// sphere. `want_offsets` lists the offset words' positions (for a subtree whose offsets are
+/// moved when it is placed in a larger tree).
+pub(crate) fn encode_parts(
+    h: &Hierarchy,
+    root_sphere: u16,
+    root_decoded: (DVec3, f64),
+    colors: bool,
+    want_offsets: bool,
+) -> (Parts, Vec<(DVec3, f64)>) {
+    let root = h.root();
+    let n = h.nodes.len();
+    // Top-down over the contiguous subtrees, in parallel: every node's sphere relative to
+    // its parent's decoded sphere, its decoded sphere and its word.
+    let mut decoded: Vec<(DVec3, f64)> = vec![(DVec3::ZERO, 0.0); n];
+    let mut node_words = vec![0u32; n];
+    decoded[root] = root_decoded;
+    node_words[root] = word_of(h, root, root_sphere).pack();
+    encode_children(
+        h,
+        0,
+        root,
+        &mut decoded[..root],
+        &mut node_words[..root],
+        root_decoded,
+    );
+
+    // Sibling groups breadth first, one level at a time (in parallel: rayon's collect
+    // keeps the order): the next level's groups are, in order, the children that have
+    // children of this level's groups.
+    // Child counts in one compact array (the nodes are 112 bytes; these lookups jump).
+    let n_kids: Vec<u8> = h.nodes.par_iter().map(|n| n.n_children).collect();
+    let has_kids = |c: u32| n_kids[c as usize] != 0;
+    let mut levels: Vec<Vec<u32>> = Vec::new();
+    if !h.nodes[root].children().is_empty() {
+        levels.push(vec![root as u32]);
+    }
+    while let Some(last) = levels.last() {
+        let next: Vec<u32> = last
+            .par_iter()
+            .flat_map_iter(|&p| {
+                h.nodes[p as usize]
+                    .children()
+                    .iter()
+                    .copied()
+                    .filter(move |&c| has_kids(c))
+            })
+            .collect();
+        if next.is_empty() {
+            break;
+        }
+        levels.push(next);
+    }
+    // Per group: its words (an offset word when some child has children, then one per
+    // child) and how many of its children start groups of the next level.
+    let shape = |p: u32| {
+        let kids = h.nodes[p as usize].children();
+        let grand = kids.iter().filter(|&&c| has_kids(c)).count();
+        (kids.len() + usize::from(grand > 0), grand)
+    };
+    let shapes: Vec<Vec<(usize, usize)>> = levels
+        .iter()
+        .map(|l| l.par_iter().map(|&p| shape(p)).collect())
+        .collect();
+    // Word position of every group, level by level.
+    let mut pos: Vec<Vec<usize>> = Vec::with_capacity(levels.len());
+    let mut level_starts = Vec::with_capacity(levels.len() + 1);
+    let mut offset_at = Vec::new();
+    let mut total = 0usize;
+    for level in &shapes {
+        level_starts.push(total);
+        let mut at = Vec::with_capacity(level.len());
+        for &(len, grand) in level {
+            at.push(total);
+            if want_offsets && grand > 0 {
+                offset_at.push(total);
+            }
+            total += len;
+        }
+        pos.push(at);
+    }
+    level_starts.push(total);
+    // A group's offset word: the position of the group of its first child with children,
+    // which is the next level's group numbered by the grandparents counted before it.
+    let mut offsets: Vec<Vec<u32>> = Vec::with_capacity(levels.len());
+    for (l, level) in shapes.iter().enumerate() {
+        let mut seen = 0usize;
+        offsets.push(
+            level
+                .iter()
+                .map(|&(_, grand)| {
+                    let o = if grand > 0 {
+                        pos[l + 1][seen] as u32
+                    } else {
+                        0
+                    };
+                    seen += grand;
+                    o
+                })
+                .collect(),
+        );
+    }
+    let group_words = |l: usize, g: usize| {
+        let p = levels[l][g] as usize;
+        let offset = (shapes[l][g].1 > 0).then_some((offsets[l][g], 0u16));
+        offset
+            .into_iter()
+            .chain(h.nodes[p].children().iter().map(|&c| {
+                let c = c as usize;
+                (node_words[c], if colors { color_of(h, c) } else { 0 })
+            }))
+    };
+    let (words, cols): (Vec<u32>, Vec<u16>) = (0..levels.len())
+        .flat_map(|l| (0..levels[l].len()).map(move |g| (l, g)))
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .flat_map_iter(|(l, g)| group_words(l, g))
+        .unzip();
+    debug_assert_eq!(words.len(), total);
+    let parts = Parts {
+        root_word: node_words[root],
+        root_color: if colors { color_of(h, root) } else { 0 },
+        words,
+        colors: if colors { cols } else { Vec::new() },
+        level_starts,
+        offsets: offset_at,
+    };
+    (parts, decoded)
 }
 
 #[cfg(test)]

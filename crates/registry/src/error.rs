@@ -1,4 +1,7 @@
 //! Typed errors of the registry: parameters, method lookup, and the method crates' own errors.
+//!
+//! The messages speak of parameter names and values only: the command line (`--set`) and the
+//! Python package (keyword arguments) add their own framing.
 
 /// Why a method could not be prepared or run.
 #[derive(Debug, thiserror::Error)]
@@ -11,11 +14,16 @@ pub enum Error {
         /// The names there are.
         known: String,
     },
-    /// A `KEY=VALUE` pair that is not one.
-    #[error("--set {0}")]
-    BadPair(String),
-    /// A value that does not parse or is out of range.
-    #[error("--set {key}={value}: {reason}")]
+    /// A `NAME=VALUE` pair that is not one (an empty name, a name given twice).
+    #[error("parameter {pair:?}: {reason}")]
+    BadPair {
+        /// The pair as given.
+        pair: String,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A parameter value that does not parse or is out of range.
+    #[error("parameter {key}={value}: {reason}")]
     BadValue {
         /// Key.
         key: String,
@@ -48,6 +56,9 @@ pub enum Error {
     /// HPR.
     #[error(transparent)]
     Hpr(#[from] hpr::HprError),
+    /// The robust operator (Mehra et al. 2010).
+    #[error(transparent)]
+    Robust(#[from] robustvis::RobustError),
     /// A hull implementation.
     #[error(transparent)]
     Hull(#[from] hull::HullError),
@@ -57,6 +68,9 @@ pub enum Error {
     /// The splat baseline.
     #[error(transparent)]
     Splat(#[from] splat::Error),
+    /// The screen-space operators.
+    #[error(transparent)]
+    Screenspace(#[from] screenspace::Error),
     /// The ground truth.
     #[error(transparent)]
     Truth(#[from] truth::Error),

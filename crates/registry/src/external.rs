@@ -46,10 +46,14 @@
 //! peer_of = "hpr"                            # the family of ours it pairs with
 //! kind = "visibility"                        # or "lod"
 //! timeout_seconds = 120
+//! memory_bytes_per_point = 200               # for the scale experiment's memory guard
+//!                                            # (undeclared: not run above 10^6 points)
 //! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
 //! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
 //! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
 //! family = "open3d-hpr"                      # how its rows group in plots (default: name)
+//! # peer_keys = {point_size = {ours = "radius_px", factor = 0.5}}: for a peer whose key's
+//! # name or unit differs from its partner's (ours = factor x the peer's; same names as is)
 //! [params.gamma]
 //! default = "3"
 //! help = "R = max|p - C| * 10^gamma"
@@ -133,6 +137,22 @@ struct Manifest {
     quick_grid: Option<toml::Value>,
     default: Option<toml::Value>,
     family: Option<String>,
+    memory_bytes_per_point: Option<u64>,
+    #[serde(default)]
+    peer_keys: BTreeMap<String, PeerKeyEntry>,
+}
+
+/// `[peer_keys]`: `point_size = {ours = "radius_px", factor = 0.5}`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PeerKeyEntry {
+    ours: String,
+    #[serde(default = "one")]
+    factor: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// What an external method is.
@@ -163,6 +183,8 @@ pub struct ExternalMethod {
     params: &'static [ParamSpec],
     sweep: Option<MethodSweep>,
     family: Option<String>,
+    memory_bytes_per_point: Option<u64>,
+    peer_keys: &'static [crate::PeerKey],
 }
 
 fn leak(s: String) -> &'static str {
@@ -224,6 +246,25 @@ impl ExternalMethod {
                  e.g. \"hpr\", \"raycast\", \"splat\", \"hull\", \"voxel\", \"lod\""
             )));
         }
+        if !m.peer_keys.is_empty() && m.peer_of.is_none() {
+            return Err(bad("peer_keys without peer_of".into()));
+        }
+        let mut peer_keys = Vec::new();
+        for (k, e) in &m.peer_keys {
+            if !m.params.contains_key(k) {
+                return Err(bad(format!("peer_keys.{k}: not one of its [params]")));
+            }
+            if !(e.factor.is_finite() && e.factor > 0.0) || e.ours.is_empty() {
+                return Err(bad(format!(
+                    "peer_keys.{k}: expected a key of ours and a positive factor"
+                )));
+            }
+            peer_keys.push(crate::PeerKey {
+                peer: leak(k.clone()),
+                ours: leak(e.ours.clone()),
+                factor: e.factor,
+            });
+        }
         let name = m.name.clone().unwrap_or_else(|| {
             folder
                 .file_name()
@@ -281,6 +322,8 @@ impl ExternalMethod {
             params: Box::leak(params.into_boxed_slice()),
             sweep,
             family: m.family,
+            memory_bytes_per_point: m.memory_bytes_per_point,
+            peer_keys: Box::leak(peer_keys.into_boxed_slice()),
         })
     }
 
@@ -558,9 +601,19 @@ impl Method for ExternalMethod {
     fn is_external(&self) -> bool {
         true
     }
+    fn scale(&self) -> crate::Scale {
+        // What the program and this process together need per point beyond the cloud, as the
+        // method.toml declares it; undeclared: not run above Scale::UNKNOWN_LIMIT points.
+        self.memory_bytes_per_point
+            .map_or(crate::Scale::Unknown, crate::Scale::PerPoint)
+    }
 
     fn peer_of(&self) -> Option<&'static str> {
         self.peer_of
+    }
+
+    fn peer_keys(&self) -> &'static [crate::PeerKey] {
+        self.peer_keys
     }
 
     fn version(&self) -> Option<String> {
@@ -1284,7 +1337,7 @@ for line in sys.stdin:
     req = json.loads(line)
     k = int(req["params"]["keep"])
     print(json.dumps({"visible": list(range(k))[::-1], "radius": [0.5 + i for i in range(k)][::-1],
-                      "seconds": 0.25}), flush=True)
+                      "seconds": 0.25 + req["view"]}), flush=True)
 "#;
         let dir = folder(
             "protocol = 2\nkind = \"lod\"\ncommand = [\"python3\", \"m.py\"]\n\
@@ -1336,7 +1389,7 @@ for line in sys.stdin:
         )
         .unwrap();
         sel.select_at(4, &camera).unwrap();
-        assert_eq!(sel.reported_seconds(), Some(0.25));
+        assert_eq!(sel.reported_seconds(), Some(4.25));
         let splats = sel.splats();
         // Sorted by index, each with its own radius (the answer's order was reversed).
         let radii: Vec<f32> = splats.iter().map(|s| s.radius).collect();
@@ -1355,6 +1408,35 @@ for line in sys.stdin:
         .err()
         .unwrap();
         assert!(err.to_string().contains("level-of-detail"), "{err}");
+        // Through the kernel: the program's own seconds are the build's and the selections'
+        // timings, and each selection is told its view's index (not a call count).
+        let settings = [crate::Setting::parse("keep=2")];
+        let views = [
+            crate::kernel::View { index: 7, camera },
+            crate::kernel::View { index: 2, camera },
+        ];
+        let cell = crate::kernel::LodCell {
+            method: &m,
+            settings: &settings,
+            views: &views,
+            repeats: 3,
+            build_repeats: 1,
+        };
+        let mut got = Vec::new();
+        let built = crate::kernel::run_lod(&cell, &input, |k, v, sel| {
+            got.push((
+                k,
+                v,
+                sel.map(|s| (s.splats.len(), s.timing.median, s.timing.samples))
+                    .map_err(|e| e.to_string()),
+            ));
+        })
+        .unwrap();
+        assert_eq!(built.timing.median, 0.125);
+        assert_eq!(
+            got,
+            vec![(0, 0, Ok((2, 7.25, 3))), (0, 1, Ok((2, 2.25, 3)))]
+        );
     }
 
     #[test]

@@ -4,9 +4,10 @@
 //! A method is a [`Method`] (name, typed parameters, and `prepare`, which builds whatever it
 //! keeps per cloud: a BVH, a k-d tree) returning a [`Prepared`] that answers one view at a
 //! time. Adding a method is one adapter module and one line in [`METHODS`]. Methods return
-//! indices; callers, not methods, score them (ann-benchmarks' rule). `seconds` in every report
-//! is the time of [`Prepared::visible`] alone, measured by [`timing`]: loading and per-cloud
-//! preparation are excluded.
+//! indices; callers, not methods, score them (ann-benchmarks' rule). Every caller measures a
+//! method through [`kernel`], the one code path that prepares, times and runs one; `seconds`
+//! in every report is the time of [`Prepared::visible_at`] alone, measured by [`timing`]:
+//! loading and per-cloud preparation are excluded.
 //!
 //! This crate knows nothing of the command line, datasets, plots or reports: its input is a
 //! cloud and, for the ground truth, a mesh ([`Input`]).
@@ -15,16 +16,22 @@ pub mod error;
 mod exact;
 pub mod external;
 pub mod hpr;
+pub mod hpr_approx;
+pub mod hpr_confidence;
 pub mod image_score;
+pub mod kernel;
 pub mod lod;
 pub mod params;
 mod plugins;
 pub mod raycast;
 mod reference;
+pub mod robust;
 pub mod score;
+mod screenspace;
 mod splat;
 pub mod sweep;
 pub mod timing;
+mod vardensity;
 
 use cloud::{Camera, PointCloud, TriMesh};
 
@@ -137,11 +144,52 @@ pub trait Method: Sync {
     fn peer_of(&self) -> Option<&'static str> {
         None
     }
+    /// For a peer: how its parameters translate into those of the method it pairs with, where
+    /// the names or units differ (VTK's `point_size` is 2 × our splat's `radius_px`); keys of
+    /// the same name are taken as they are. Empty for our own methods.
+    fn peer_keys(&self) -> &'static [PeerKey] {
+        &[]
+    }
     /// The version of the program behind the method, for run metadata (an external method's
     /// `version` command, run once); `None`: our own (the build's version says it).
     fn version(&self) -> Option<String> {
         None
     }
+    /// How the scale experiment may run it on large clouds (default: its memory is not known,
+    /// so it is not run above [`Scale::UNKNOWN_LIMIT`] points).
+    fn scale(&self) -> Scale {
+        Scale::Unknown
+    }
+}
+
+/// One translated parameter of a peer (`method.toml`'s `[peer_keys]`): the peer's `peer`
+/// at value v stands for the partner's `ours` at `factor` × v.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeerKey {
+    /// The peer's key.
+    pub peer: &'static str,
+    /// The partner's key.
+    pub ours: &'static str,
+    /// The partner's value over the peer's.
+    pub factor: f64,
+}
+
+/// What the scale experiment may know of a method's memory, so that its guard can refuse a
+/// cell that cannot fit before it starts.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Scale {
+    /// Bytes per point the method needs beyond the sampled cloud's own 48 (its peak measured at
+    /// 10^7 points, with a margin).
+    PerPoint(u64),
+    /// Not known: not run above [`Scale::UNKNOWN_LIMIT`] points.
+    Unknown,
+    /// The method takes no part in the scale experiment, for this reason (the report prints it).
+    OptOut(String),
+}
+
+impl Scale {
+    /// The most points a method of unknown memory is run on.
+    pub const UNKNOWN_LIMIT: u64 = 1_000_000;
 }
 
 /// Methods registered at run time: external ones ([`register_external`]) and any a program
@@ -200,8 +248,13 @@ pub static METHODS: &[&dyn Method] = &[
     &reference::ReferenceMethod,
     &exact::ExactMethod,
     &hpr::HprMethod,
+    &hpr_confidence::HprConfidenceMethod,
+    &hpr_approx::HprApproxMethod,
+    &robust::RobustMethod,
     &raycast::RaycastMethod,
     &splat::SplatMethod,
+    &screenspace::ScreenspaceMethod,
+    &vardensity::VardensityMethod,
 ];
 
 /// Looks a method up by name.
@@ -217,62 +270,6 @@ pub fn method(name: &str) -> Result<&'static dyn Method> {
                 .collect::<Vec<_>>()
                 .join(", "),
         })
-}
-
-/// Prepares `method` on `input`, rejecting parameters it does not read.
-pub fn prepare<'a>(
-    method: &dyn Method,
-    input: Input<'a>,
-    params: &Params,
-) -> Result<Box<dyn Prepared + 'a>> {
-    let prepared = method.prepare(input, params)?;
-    params.check_all_read(method.name(), method.params())?;
-    Ok(prepared)
-}
-
-/// Runs one view `repeats` times (at least once) and times it with the one timing helper:
-/// the last output and the timing (median, spread). A method that reports its own compute
-/// seconds on every run (an external program, whose wall time includes the protocol) is timed
-/// by those.
-pub fn timed(
-    prepared: &dyn Prepared,
-    camera: &Camera,
-    repeats: usize,
-) -> Result<(Output, timing::Timing)> {
-    timed_view(prepared, None, camera, repeats)
-}
-
-/// [`timed`] for view `view` of the dataset ([`Prepared::visible_at`]: an external program is
-/// told the view's index, the same on every repeat).
-pub fn timed_at(
-    prepared: &dyn Prepared,
-    view: usize,
-    camera: &Camera,
-    repeats: usize,
-) -> Result<(Output, timing::Timing)> {
-    timed_view(prepared, Some(view), camera, repeats)
-}
-
-fn timed_view(
-    prepared: &dyn Prepared,
-    view: Option<usize>,
-    camera: &Camera,
-    repeats: usize,
-) -> Result<(Output, timing::Timing)> {
-    let mut reported = Vec::new();
-    let (out, wall) = timing::measure(repeats, || {
-        let out = match view {
-            Some(k) => prepared.visible_at(k, camera)?,
-            None => prepared.visible(camera)?,
-        };
-        reported.push(out.reported_seconds);
-        Ok::<_, Error>(out)
-    })?;
-    let own: Option<Vec<f64>> = reported.into_iter().collect();
-    Ok(match own {
-        Some(own) if !own.is_empty() => (out, timing::Timing::of(&own)),
-        _ => (out, wall),
-    })
 }
 
 /// Indices of the true entries of `flags`.

@@ -80,7 +80,12 @@ pub trait LodMethod: Sync {
     fn availability(&self) -> std::result::Result<(), String> {
         Ok(())
     }
-    /// The method's own sweep (an external method's `method.toml`); `None`: `sweeps.toml`.
+    /// How the scale experiment may run it on large clouds (default: memory not known).
+    fn scale(&self) -> crate::Scale {
+        crate::Scale::Unknown
+    }
+    /// Its own sweep, for methods that carry one (a method registered at run time); `None`:
+    /// the built-in grids say, if anything.
     fn sweep(&self) -> Option<crate::MethodSweep> {
         None
     }
@@ -91,6 +96,105 @@ pub trait LodMethod: Sync {
     /// The version of the program behind it (an external method's `version` command).
     fn version(&self) -> Option<String> {
         None
+    }
+}
+
+/// Sets each point's colour from `texture` through the cloud's texture coordinates (else the
+/// spherical parameterisation of `srn::param` about the bounding box's centre, so colour
+/// detail counts in an image comparison); returns the coordinates used.
+pub fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
+    let uvs = match &cloud.uvs {
+        Some(uvs) => uvs.clone(),
+        None => {
+            let center = cloud::Aabb::from_points(&cloud.positions)
+                .map(|b| b.center())
+                .unwrap_or_default();
+            srn::param::spherical_uvs(&cloud.positions, center)
+        }
+    };
+    cloud.colors = Some(
+        uvs.iter()
+            .map(|&uv| {
+                let c = texture.sample(uv) * 255.0;
+                [c.x as u8, c.y as u8, c.z as u8]
+            })
+            .collect(),
+    );
+    uvs
+}
+
+/// The owned data an LOD method builds on, made from a cloud once: a colour per point from
+/// `texture` through the cloud's texture coordinates (else the spherical parameterisation of
+/// `srn::param` about the bounding box's centre), a unit normal per point (the cloud's, else
+/// k-nearest-neighbour estimates: 16 neighbours, oriented away from the centroid, as a scan
+/// file often has none), and the full-detail splat radius `radius_spacings` density spacings
+/// (`cloud::spacing::density_spacing`, k = 8, 20,000 samples).
+pub struct LodData {
+    /// The cloud, its colours set from the texture.
+    pub cloud: PointCloud,
+    /// Unit normal per point.
+    pub normals: Vec<Vec3>,
+    /// Colour per point in [0, 1]³.
+    pub albedo: Vec<Vec3>,
+    /// Texture coordinates per point.
+    pub uvs: Vec<Vec2>,
+    /// The texture.
+    pub texture: Texture,
+    /// Full-detail splat radius, world units.
+    pub radius: f64,
+    /// Seed of every random choice.
+    pub seed: u64,
+}
+
+impl LodData {
+    /// Prepares `cloud` (see the type's documentation).
+    pub fn prepare(
+        mut cloud: PointCloud,
+        texture: Texture,
+        radius_spacings: f64,
+        seed: u64,
+    ) -> Result<Self> {
+        let uvs = colorize(&mut cloud, &texture);
+        let albedo = cloud.colors.iter().flatten().map(|&c| albedo(c)).collect();
+        let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1)?;
+        let normals = match cloud.normals.clone() {
+            Some(n) => n,
+            None => cloud::normals::estimate_normals(
+                &cloud.positions,
+                16.min(cloud.len()),
+                cloud::normals::Orientation::AwayFromCentroid,
+            )?,
+        };
+        Ok(Self {
+            cloud,
+            normals,
+            albedo,
+            uvs,
+            texture,
+            radius: radius_spacings * spacing,
+            seed,
+        })
+    }
+
+    /// The borrowed view the methods build on.
+    pub fn input(&self) -> LodInput<'_> {
+        LodInput {
+            cloud: &self.cloud,
+            normals: &self.normals,
+            albedo: &self.albedo,
+            uvs: &self.uvs,
+            texture: &self.texture,
+            radius: self.radius,
+            seed: self.seed,
+        }
+    }
+
+    /// Every point as a splat of the full-detail radius (the reference render's splats).
+    pub fn full_splats(&self) -> Vec<Splat> {
+        let input = self.input();
+        (0..self.cloud.len())
+            .map(|i| input.point_splat(i, self.radius))
+            .collect()
     }
 }
 
@@ -162,6 +266,11 @@ const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
 }];
 
 impl LodMethod for QsplatMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points (build and selection, with
+        // the normals, colours and texture coordinates of `LodData`), less the cloud's 48.
+        crate::Scale::PerPoint(382)
+    }
     fn name(&self) -> &'static str {
         "qsplat"
     }
@@ -238,6 +347,11 @@ const SPT_PARAMS: &[ParamSpec] = &[ParamSpec {
 }];
 
 impl LodMethod for SptMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points (build and selection, with
+        // the normals, colours and texture coordinates of `LodData`), less the cloud's 48.
+        crate::Scale::PerPoint(392)
+    }
     fn name(&self) -> &'static str {
         "spt"
     }
@@ -313,6 +427,11 @@ const SRN_PARAMS: &[ParamSpec] = &[ParamSpec {
 }];
 
 impl LodMethod for SrnMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points (build and selection, with
+        // the normals, colours and texture coordinates of `LodData`), less the cloud's 48.
+        crate::Scale::PerPoint(72)
+    }
     fn name(&self) -> &'static str {
         "srn"
     }
@@ -391,6 +510,11 @@ const RANDOM_PARAMS: &[ParamSpec] = &[ParamSpec {
 }];
 
 impl LodMethod for RandomMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points (build and selection, with
+        // the normals, colours and texture coordinates of `LodData`), less the cloud's 48.
+        crate::Scale::PerPoint(72)
+    }
     fn name(&self) -> &'static str {
         "random"
     }

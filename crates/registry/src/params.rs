@@ -1,5 +1,6 @@
-//! `--set KEY=VALUE` parameters: parsed once, read with typed getters, and checked so that a
-//! key no method reads is an error rather than silently ignored.
+//! A method's parameters (`NAME=VALUE` pairs: the command line's `--set`, Python's keyword
+//! arguments, a sweep's setting): parsed once, read with typed getters, and checked so that a
+//! name no method reads is an error rather than silently ignored.
 
 use std::cell::RefCell;
 use std::collections::{BTreeMap, BTreeSet};
@@ -19,7 +20,7 @@ pub struct ParamSpec {
     pub help: &'static str,
 }
 
-/// Parameters given with `--set`, remembering which keys were read.
+/// A method's parameters by name, remembering which names were read.
 #[derive(Debug, Default)]
 pub struct Params {
     values: BTreeMap<String, String>,
@@ -41,15 +42,22 @@ impl Params {
         let mut values = BTreeMap::new();
         for pair in pairs {
             let pair = pair.as_ref();
-            let (k, v) = pair
-                .split_once('=')
-                .ok_or_else(|| Error::BadPair(format!("expects KEY=VALUE, got {pair:?}")))?;
+            let (k, v) = pair.split_once('=').ok_or_else(|| Error::BadPair {
+                pair: pair.to_owned(),
+                reason: "expected NAME=VALUE".into(),
+            })?;
             let (k, v) = (k.trim(), v.trim());
             if k.is_empty() {
-                return Err(Error::BadPair(format!("{pair:?}: empty key")));
+                return Err(Error::BadPair {
+                    pair: pair.to_owned(),
+                    reason: "empty name".into(),
+                });
             }
             if values.insert(k.to_owned(), v.to_owned()).is_some() {
-                return Err(Error::BadPair(format!("{k} given twice")));
+                return Err(Error::BadPair {
+                    pair: pair.to_owned(),
+                    reason: format!("{k} given twice"),
+                });
             }
         }
         Ok(Self {
@@ -149,15 +157,22 @@ mod tests {
 
     #[test]
     fn errors() {
-        assert!(Params::parse(&["novalue"]).is_err());
-        assert!(Params::parse(&["=3"]).is_err());
-        assert!(Params::parse(&["a=1", "a=2"]).is_err());
+        // In the registry's words: parameter names and values, no command-line flag.
+        let message = |pairs: &[&str]| Params::parse(pairs).unwrap_err().to_string();
+        assert_eq!(
+            message(&["novalue"]),
+            "parameter \"novalue\": expected NAME=VALUE"
+        );
+        assert_eq!(message(&["=3"]), "parameter \"=3\": empty name");
+        assert_eq!(message(&["a=1", "a=2"]), "parameter \"a=2\": a given twice");
         let p = Params::parse(&["gamma=abc"]).unwrap();
-        assert!(
-            p.get("gamma", 3.0)
-                .unwrap_err()
-                .to_string()
-                .contains("gamma=abc")
+        assert_eq!(
+            p.get("gamma", 3.0).unwrap_err().to_string(),
+            "parameter gamma=abc: invalid float literal"
+        );
+        assert_eq!(
+            p.get_opt::<u32>("gamma").unwrap_err().to_string(),
+            "parameter gamma=abc: invalid digit found in string"
         );
         let p = Params::parse(&["gama=3"]).unwrap();
         let _ = p.get("gamma", 3.0);

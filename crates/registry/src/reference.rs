@@ -52,6 +52,10 @@ impl Prepared for Prep<'_> {
 }
 
 impl Method for ReferenceMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+        crate::Scale::PerPoint(40)
+    }
     fn name(&self) -> &'static str {
         "reference"
     }

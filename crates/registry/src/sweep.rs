@@ -184,6 +184,11 @@ pub struct MethodSweep {
     pub quick_grid: Vec<Setting>,
     /// The setting that stands for the method; `None`: the first automatic one, else the first.
     pub default: Option<Setting>,
+    /// The grid the robustness experiment tunes on the clean cloud; empty: the grid.
+    pub robustness: Vec<Setting>,
+    /// The automatic setting the robustness experiment recomputes on each degraded cloud;
+    /// `None`: the default setting.
+    pub robustness_auto: Option<Setting>,
 }
 
 impl MethodSweep {
@@ -207,13 +212,32 @@ impl MethodSweep {
         })
     }
 
-    /// Reads one method's table (`grid`, `quick_grid`, `default`).
+    /// The settings the robustness experiment tunes on the clean cloud (`robustness`, else the
+    /// grid of `quick`).
+    pub fn tuning(&self, quick: bool) -> &[Setting] {
+        if self.robustness.is_empty() {
+            self.settings(quick)
+        } else {
+            &self.robustness
+        }
+    }
+
+    /// The setting the robustness experiment recomputes on each degraded cloud
+    /// (`robustness_auto`, else the default setting).
+    pub fn automatic(&self) -> Option<Setting> {
+        self.robustness_auto
+            .clone()
+            .or_else(|| self.default_setting())
+    }
+
+    /// Reads one method's table (`grid`, `quick_grid`, `default`, `robustness`,
+    /// `robustness_auto`).
     pub fn from_toml(table: &toml::Table, where_: &str) -> Result<Self> {
         let mut out = Self::default();
         for (key, value) in table {
             let here = format!("{where_}.{key}");
             match key.as_str() {
-                "grid" | "quick_grid" => {
+                "grid" | "quick_grid" | "robustness" => {
                     let blocks = value.as_array().ok_or_else(|| {
                         Error::Sweep(format!("{here}: expected a list of tables ([[{here}]])"))
                     })?;
@@ -224,13 +248,13 @@ impl MethodSweep {
                         })?;
                         settings.extend(expand(block, &format!("{here}[{i}]"))?);
                     }
-                    if key == "grid" {
-                        out.grid = settings;
-                    } else {
-                        out.quick_grid = settings;
+                    match key.as_str() {
+                        "grid" => out.grid = settings,
+                        "quick_grid" => out.quick_grid = settings,
+                        _ => out.robustness = settings,
                     }
                 }
-                "default" => {
+                "default" | "robustness_auto" => {
                     let t = value.as_table().ok_or_else(|| {
                         Error::Sweep(format!("{here}: expected a table of key = value"))
                     })?;
@@ -238,11 +262,15 @@ impl MethodSweep {
                     for (k, v) in t {
                         s.0.insert(k.clone(), Value::from_toml(v, &format!("{here}.{k}"))?);
                     }
-                    out.default = Some(s);
+                    if key == "default" {
+                        out.default = Some(s);
+                    } else {
+                        out.robustness_auto = Some(s);
+                    }
                 }
                 other => {
                     return Err(Error::Sweep(format!(
-                        "{where_}: unknown key {other:?} (expected grid, quick_grid, default)"
+                        "{where_}: unknown key {other:?} (expected grid, quick_grid, default, robustness, robustness_auto)"
                     )));
                 }
             }
@@ -380,6 +408,11 @@ impl Sweeps {
                 base.methods.insert(m.name().to_owned(), s);
             }
         }
+        for m in crate::lod::all() {
+            if let Some(s) = m.sweep() {
+                base.methods.insert(m.name().to_owned(), s);
+            }
+        }
         if let Some(user) = &user {
             for name in user.methods.keys() {
                 if crate::lod::method(name).is_none() {
@@ -453,7 +486,9 @@ mod tests {
             }
             assert!(sweep.default_setting().is_some());
         }
-        for name in ["hpr", "raycast", "splat", "qsplat", "spt", "srn", "random"] {
+        for name in [
+            "hpr", "robust", "raycast", "splat", "qsplat", "spt", "srn", "random",
+        ] {
             assert!(s.methods.contains_key(name), "{name}");
         }
     }

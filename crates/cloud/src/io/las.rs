@@ -188,88 +188,14 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
     Ok(())
 }
 
-/// Reads a LAS or LAZ file.
+/// Reads a LAS or LAZ file whole.
 pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> {
-    let len = std::fs::metadata(path)
-        .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?
-        .len();
-    if len == 0 {
-        return Err(ReadError::new(path, Location::File, ReadErrorKind::Empty));
-    }
-    let raw = raw_header(path, len)?;
-    if raw.point_data > len {
-        return Err(ReadError::new(
-            path,
-            Location::Byte(len),
-            ReadErrorKind::BadHeader(format!(
-                "the point data starts at byte {} but the file ends at byte {len}",
-                raw.point_data
-            )),
-        ));
-    }
-    // The point count against the file, before the `las` crate multiplies it by the record
-    // length (which overflows for absurd counts): uncompressed records must fit in the file;
-    // LAZ never compresses below a byte a point.
-    let data_bytes = len - raw.point_data;
-    let fits = if raw.compressed {
-        data_bytes
-    } else {
-        data_bytes / raw.record.max(1)
-    };
-    if raw.points > fits {
-        return Err(ReadError::new(
-            path,
-            Location::Byte(if raw.compressed {
-                len
-            } else {
-                raw.point_data + fits * raw.record
-            }),
-            ReadErrorKind::Truncated {
-                what: "points",
-                expected: usize::try_from(raw.points).unwrap_or(usize::MAX),
-                found: fits as usize,
-            },
-        ));
-    }
-    if raw.compressed {
-        check_laz(path, &raw, len)?;
-    }
-    let mut reader = Reader::from_path(path).map_err(|e| {
-        ReadError::new(
-            path,
-            Location::File,
-            ReadErrorKind::BadHeader(e.to_string()),
-        )
-    })?;
-    let header = reader.header().clone();
-    let announced = header.number_of_points();
-    // The same check on the count the crate parsed (it may differ from the raw fields above
-    // for headers those fields do not describe).
-    let record = raw.record.max(1);
-    let plausible = if raw.compressed {
-        data_bytes
-    } else {
-        data_bytes / record
-    };
-    if announced > plausible {
-        return Err(ReadError::new(
-            path,
-            Location::Byte(if raw.compressed {
-                len
-            } else {
-                raw.point_data + plausible * record
-            }),
-            ReadErrorKind::Truncated {
-                what: "points",
-                expected: announced as usize,
-                found: plausible as usize,
-            },
-        ));
-    }
+    let mut stream = LasStream::open(path, options)?;
+    let announced = stream.announced;
     let n = announced as usize;
-    let with_color = header.point_format().has_color;
-    let keep = |c: u8| options.classes.as_ref().is_none_or(|k| k.contains(&c));
-    let reserve = if options.classes.is_some() { 0 } else { n };
+    let path = stream.path.as_path();
+    let keep_all = options.classes.is_none();
+    let reserve = if keep_all { n } else { 0 };
     // A LAZ header may claim as many points as its file has bytes: check the arrays (position,
     // intensity, classification, colour: 30 bytes a point) against memory before reserving.
     crate::memory::ensure(
@@ -287,12 +213,162 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
         positions: Vec::with_capacity(reserve),
         intensity: Some(Vec::with_capacity(reserve)),
         classification: Some(Vec::with_capacity(reserve)),
-        colors: with_color.then(|| Vec::with_capacity(reserve)),
+        colors: stream.with_color.then(|| Vec::with_capacity(reserve)),
         ..PointCloud::default()
     };
-    let mut chunk = PointDataBuilder::new().for_header(&header).build();
-    let mut read: u64 = 0;
-    while read < announced {
+    while stream.next_into(&mut cloud)? {}
+    let path = stream.path.as_path();
+    if cloud.positions.is_empty() {
+        return Err(ReadError::new(
+            path,
+            Location::File,
+            if options.classes.is_some() {
+                ReadErrorKind::Unsupported(format!(
+                    "no point has a classification in {:?}",
+                    options.classes
+                ))
+            } else {
+                ReadErrorKind::Empty
+            },
+        ));
+    }
+    cloud.positions.shrink_to_fit();
+    Ok(Loaded {
+        cloud,
+        ..Loaded::default()
+    })
+}
+
+/// A LAS or LAZ file read chunk by chunk ([`CHUNK`] points at a time), with every check of
+/// [`read_las`]: the memory held is one chunk.
+pub struct LasStream {
+    path: std::path::PathBuf,
+    reader: Reader,
+    raw: RawHeader,
+    len: u64,
+    chunk: las::PointData,
+    /// Points the header announces.
+    pub announced: u64,
+    read: u64,
+    /// Whether the points have RGB.
+    pub with_color: bool,
+    classes: Option<Vec<u8>>,
+}
+
+impl LasStream {
+    /// Opens `path` and checks its header and (LAZ) chunk table against the file.
+    pub fn open(path: &Path, options: &LasOptions) -> Result<Self, ReadError> {
+        let len = std::fs::metadata(path)
+            .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?
+            .len();
+        if len == 0 {
+            return Err(ReadError::new(path, Location::File, ReadErrorKind::Empty));
+        }
+        let raw = raw_header(path, len)?;
+        if raw.point_data > len {
+            return Err(ReadError::new(
+                path,
+                Location::Byte(len),
+                ReadErrorKind::BadHeader(format!(
+                    "the point data starts at byte {} but the file ends at byte {len}",
+                    raw.point_data
+                )),
+            ));
+        }
+        // The point count against the file, before the `las` crate multiplies it by the record
+        // length (which overflows for absurd counts): uncompressed records must fit in the file;
+        // LAZ never compresses below a byte a point.
+        let data_bytes = len - raw.point_data;
+        let fits = if raw.compressed {
+            data_bytes
+        } else {
+            data_bytes / raw.record.max(1)
+        };
+        if raw.points > fits {
+            return Err(ReadError::new(
+                path,
+                Location::Byte(if raw.compressed {
+                    len
+                } else {
+                    raw.point_data + fits * raw.record
+                }),
+                ReadErrorKind::Truncated {
+                    what: "points",
+                    expected: usize::try_from(raw.points).unwrap_or(usize::MAX),
+                    found: fits as usize,
+                },
+            ));
+        }
+        if raw.compressed {
+            check_laz(path, &raw, len)?;
+        }
+        let reader = Reader::from_path(path).map_err(|e| {
+            ReadError::new(
+                path,
+                Location::File,
+                ReadErrorKind::BadHeader(e.to_string()),
+            )
+        })?;
+        let header = reader.header().clone();
+        let announced = header.number_of_points();
+        // The same check on the count the crate parsed (it may differ from the raw fields above
+        // for headers those fields do not describe).
+        let record = raw.record.max(1);
+        let plausible = if raw.compressed {
+            data_bytes
+        } else {
+            data_bytes / record
+        };
+        if announced > plausible {
+            return Err(ReadError::new(
+                path,
+                Location::Byte(if raw.compressed {
+                    len
+                } else {
+                    raw.point_data + plausible * record
+                }),
+                ReadErrorKind::Truncated {
+                    what: "points",
+                    expected: announced as usize,
+                    found: plausible as usize,
+                },
+            ));
+        }
+        let chunk = PointDataBuilder::new().for_header(&header).build();
+        Ok(Self {
+            path: path.to_owned(),
+            reader,
+            raw,
+            len,
+            chunk,
+            announced,
+            read: 0,
+            with_color: header.point_format().has_color,
+            classes: options.classes.clone(),
+        })
+    }
+
+    /// Points decoded so far.
+    pub fn read(&self) -> u64 {
+        self.read
+    }
+
+    /// Appends the next chunk's points (those of the kept classes) to `cloud`'s positions,
+    /// intensity, classification and colours (each where `cloud` has the array); `false` once
+    /// every point was read. A file with fewer points than announced is
+    /// [`ReadErrorKind::Truncated`].
+    pub fn next_into(&mut self, cloud: &mut PointCloud) -> Result<bool, ReadError> {
+        let (path, raw, announced, record) = (
+            self.path.as_path(),
+            &self.raw,
+            self.announced,
+            self.raw.record.max(1),
+        );
+        let read = self.read;
+        let keep = |c: u8| self.classes.as_ref().is_none_or(|k| k.contains(&c));
+        if read >= announced {
+            return Ok(false);
+        }
         // Where the failing points start: exact for LAS; for LAZ the start of the compressed
         // data, with the point range in the message.
         let malformed = |e: las::Error| {
@@ -314,13 +390,22 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
                 )),
             )
         };
-        let got = reader
-            .fill_points(CHUNK.min(announced - read), &mut chunk)
+        let got = self
+            .reader
+            .fill_points(CHUNK.min(announced - read), &mut self.chunk)
             .map_err(malformed)?;
         if got == 0 {
-            break;
+            return Err(ReadError::new(
+                path,
+                Location::Byte(self.len),
+                ReadErrorKind::Truncated {
+                    what: "points",
+                    expected: announced as usize,
+                    found: read as usize,
+                },
+            ));
         }
-        for (k, point) in chunk.points().enumerate() {
+        for (k, point) in self.chunk.points().enumerate() {
             let point = point.map_err(malformed)?;
             let index = (read + k as u64) as usize;
             let class = u8::from(point.classification);
@@ -354,38 +439,9 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
                 ]);
             }
         }
-        read += got;
+        self.read += got;
+        Ok(true)
     }
-    if read < announced {
-        return Err(ReadError::new(
-            path,
-            Location::Byte(len),
-            ReadErrorKind::Truncated {
-                what: "points",
-                expected: n,
-                found: read as usize,
-            },
-        ));
-    }
-    if cloud.positions.is_empty() {
-        return Err(ReadError::new(
-            path,
-            Location::File,
-            if options.classes.is_some() {
-                ReadErrorKind::Unsupported(format!(
-                    "no point has a classification in {:?}",
-                    options.classes
-                ))
-            } else {
-                ReadErrorKind::Empty
-            },
-        ));
-    }
-    cloud.positions.shrink_to_fit();
-    Ok(Loaded {
-        cloud,
-        ..Loaded::default()
-    })
 }
 
 /// The scale [`write_las`] uses for points in `min..=max`.

@@ -1,5 +1,7 @@
 //! `pointsight merge`: the reports folders of a sharded run (`--shard K/N` each) combined into
-//! the folder an unsharded run would have written, then rendered.
+//! the folder an unsharded run would have written, then rendered. A shard's folder is one
+//! experiment's (`run EXPERIMENT --shard K/N --out DIR`) or a reports folder of experiment
+//! folders (`bench --shard K/N --reports DIR`); the two may be mixed.
 //!
 //! For an experiment that splits its cells ([`super::Experiment::shardable`]), every shard 1..N
 //! must be present; each CSV is the shards' rows concatenated and put back in the unsharded
@@ -19,16 +21,37 @@ use super::{EXPERIMENTS, Experiment};
 use crate::output::meta::RunMeta;
 
 /// Merges every experiment found in `shards` into `out/EXPERIMENT/`; returns their names.
+///
+/// A shard folder is either what `run EXPERIMENT --shard K/N --out DIR` wrote (`DIR` holds
+/// `metadata.json` and the results of that one experiment) or what `bench --shard K/N
+/// --reports DIR` wrote (`DIR/EXPERIMENT/metadata.json` for each experiment).
 pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<String>> {
+    // A folder of one run names its experiment in its metadata.
+    let mut single: Vec<Option<RunMeta>> = Vec::with_capacity(shards.len());
+    for s in shards {
+        single.push(if s.join("metadata.json").exists() {
+            Some(RunMeta::read(s).with_context(|| format!("{}: metadata.json", s.display()))?)
+        } else {
+            None
+        });
+    }
     let mut merged = Vec::new();
     for exp in EXPERIMENTS {
         let mut parts: Vec<(PathBuf, RunMeta)> = Vec::new();
-        for s in shards {
-            let dir = s.join(exp.name());
-            if dir.join("metadata.json").exists() {
-                let meta = RunMeta::read(&dir)
-                    .with_context(|| format!("{}: metadata.json", dir.display()))?;
-                parts.push((dir, meta));
+        for (s, one) in shards.iter().zip(&single) {
+            match one {
+                Some(meta) if meta.experiment == exp.name() => {
+                    parts.push((s.clone(), meta.clone()));
+                }
+                Some(_) => {}
+                None => {
+                    let dir = s.join(exp.name());
+                    if dir.join("metadata.json").exists() {
+                        let meta = RunMeta::read(&dir)
+                            .with_context(|| format!("{}: metadata.json", dir.display()))?;
+                        parts.push((dir, meta));
+                    }
+                }
             }
         }
         if parts.is_empty() {
@@ -39,7 +62,9 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<String>> {
     }
     if merged.is_empty() {
         bail!(
-            "no experiment results in {} (each shard folder holds EXPERIMENT/metadata.json)",
+            "no experiment results in {} (a shard folder holds metadata.json, as `run \
+             EXPERIMENT --shard K/N --out DIR` writes it, or EXPERIMENT/metadata.json, as \
+             `bench --shard K/N --reports DIR` does)",
             shards
                 .iter()
                 .map(|s| s.display().to_string())
@@ -121,6 +146,22 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
     }
     std::fs::create_dir_all(&staging)
         .with_context(|| format!("cannot create {}", staging.display()))?;
+    let result = fill(exp, parts, &staging, out);
+    if result.is_err() {
+        // Best effort: the error that stopped the merge is the one to report.
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    result
+}
+
+/// Writes the merged experiment into `staging`, renders it and moves it to `out`.
+fn fill(
+    exp: &dyn Experiment,
+    parts: &[(PathBuf, RunMeta)],
+    staging: &Path,
+    out: &Path,
+) -> Result<()> {
+    let first = &parts[0].1;
     // Every file of every part: CSVs concatenated, others copied from the part that has them.
     let mut files: BTreeSet<String> = BTreeSet::new();
     for (dir, _) in parts {
@@ -156,8 +197,8 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
             }
         }
     }
-    meta.write(&staging)?;
-    exp.render(&staging)?;
+    meta.write(staging)?;
+    exp.render(staging)?;
     if out.exists() {
         std::fs::remove_dir_all(out)
             .with_context(|| format!("cannot replace {}", out.display()))?;
@@ -165,7 +206,7 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
     if let Some(parent) = out.parent() {
         std::fs::create_dir_all(parent)?;
     }
-    std::fs::rename(&staging, out)
+    std::fs::rename(staging, out)
         .with_context(|| format!("cannot move {} into place", out.display()))?;
     Ok(())
 }

@@ -7,7 +7,7 @@
 
 mod background;
 mod hull;
-mod lod;
+pub(crate) mod lod;
 pub mod merge;
 mod reference;
 mod robustness;
@@ -20,6 +20,7 @@ use std::time::Instant;
 use anyhow::{Context as _, Result};
 
 use crate::output::meta::RunMeta;
+use crate::shard::Shard;
 
 /// Where and how an experiment runs.
 #[derive(Debug, Clone)]
@@ -40,8 +41,13 @@ pub struct Context {
     pub sweeps: registry::Sweeps,
     /// Timed runs per call (`--repeats`, or the sweeps file's `repeats`; default [`REPEATS`]).
     pub repeats: usize,
+    /// True when the user set `repeats` (`--repeats` or the sweeps file): experiments that
+    /// measure accuracy rather than speed (`robustness`) time one run per call otherwise.
+    pub repeats_given: bool,
     /// The part of the cells this process runs (`--shard K/N`); `None`: all.
     pub shard: Option<Shard>,
+    /// `scale`: the largest cloud size (default 10^6 quick, 10^8 full).
+    pub max_points: Option<u64>,
 }
 
 impl Context {
@@ -56,7 +62,9 @@ impl Context {
             files: Default::default(),
             sweeps: registry::Sweeps::builtin(),
             repeats: REPEATS,
+            repeats_given: false,
             shard: None,
+            max_points: None,
         }
     }
 
@@ -66,49 +74,45 @@ impl Context {
         registry::timing::measure(self.repeats, f)
     }
 
+    /// Timed runs per call of an experiment that measures accuracy: [`Context::repeats`] when
+    /// the user set it, else one.
+    pub fn accuracy_repeats(&self) -> usize {
+        if self.repeats_given { self.repeats } else { 1 }
+    }
+
+    /// Every registered visibility method with a non-empty sweep, in registry order, that can
+    /// run here; the others (an external method whose environment is missing) listed with why.
+    pub fn methods_to_run(
+        &self,
+    ) -> (
+        Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+        Vec<String>,
+    ) {
+        let mut not_run = Vec::new();
+        let mut out = Vec::new();
+        for m in registry::all() {
+            let Some(sweep) = self
+                .sweeps
+                .methods
+                .get(m.name())
+                .filter(|s| !s.settings(self.quick).is_empty())
+            else {
+                continue;
+            };
+            match m.availability() {
+                Ok(()) => out.push((m, sweep.clone())),
+                Err(why) => not_run.push(format!("{}: {why}", m.name())),
+            }
+        }
+        (out, not_run)
+    }
+
     /// True when this process runs view `view` of the `dataset`-th dataset (of an experiment
     /// that covers `views_per_dataset` views of each): cells are numbered dataset-major and
     /// dealt round-robin to the shards.
     pub fn owns(&self, dataset: usize, view: usize, views_per_dataset: usize) -> bool {
         self.shard
             .is_none_or(|s| s.owns(dataset * views_per_dataset.max(1) + view))
-    }
-}
-
-/// `--shard K/N`: the K-th of N parts (1-based) of an experiment's cells.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Shard {
-    /// This part, 1..=n.
-    pub k: usize,
-    /// Number of parts.
-    pub n: usize,
-}
-
-impl Shard {
-    /// True when cell number `cell` (0-based) belongs to this part.
-    pub fn owns(&self, cell: usize) -> bool {
-        cell % self.n == self.k - 1
-    }
-}
-
-impl std::str::FromStr for Shard {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let (k, n) = s
-            .split_once('/')
-            .ok_or_else(|| format!("--shard expects K/N (for example 2/8), got {s:?}"))?;
-        let (k, n): (usize, usize) = (
-            k.trim()
-                .parse()
-                .map_err(|_| format!("--shard {s}: K is not a whole number"))?,
-            n.trim()
-                .parse()
-                .map_err(|_| format!("--shard {s}: N is not a whole number"))?,
-        );
-        if n == 0 || k == 0 || k > n {
-            return Err(format!("--shard {s}: expects 1 <= K <= N"));
-        }
-        Ok(Self { k, n })
     }
 }
 
@@ -188,7 +192,8 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
 ///
 /// Everything is written into a staging folder beside the output folder
 /// (`.NAME.partial`), which replaces the output folder only when the experiment has finished:
-/// an interrupted run leaves the previous results as they were.
+/// an interrupted run leaves the previous results as they were, and a run that fails (an
+/// error anywhere after the staging folder was made) removes its staging folder too.
 pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     if let Some(shard) = ctx.shard
         && !exp.shardable()
@@ -202,7 +207,7 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
         }
     }
     let start = Instant::now();
-    let mut meta = RunMeta::now(
+    let meta = RunMeta::now(
         exp.name(),
         ctx.quick,
         &ctx.datasets,
@@ -224,31 +229,94 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     }
     std::fs::create_dir_all(&staging)
         .with_context(|| format!("cannot create {}", staging.display()))?;
+    let result =
+        stage(exp, ctx, meta, start, &staging).and_then(|()| swap_in(&staging, out, &previous));
+    if result.is_err() {
+        // A failed run leaves nothing behind: the previous results stay as they were. (Best
+        // effort: the error that stopped the run is the one to report.)
+        let _ = std::fs::remove_dir_all(&staging);
+    }
+    result.map(|()| true)
+}
+
+/// Every registered peer, visibility and LOD (a method whose `peer_of` names one of ours), with
+/// what it pairs with and its version (its `version` command, run once per process), or
+/// `not installed` and why: the run metadata's `peers`.
+pub fn peers_metadata() -> serde_json::Map<String, serde_json::Value> {
+    let mut out = serde_json::Map::new();
+    let mut add = |name: &str,
+                   peer_of: &str,
+                   availability: std::result::Result<(), String>,
+                   version: &dyn Fn() -> Option<String>| {
+        let entry = match availability {
+            Ok(()) => serde_json::json!({
+                "peer_of": peer_of,
+                "version": version().unwrap_or_else(|| "unknown (no version command)".into()),
+            }),
+            Err(why) => serde_json::json!({
+                "peer_of": peer_of,
+                "version": "not installed",
+                "why": why,
+            }),
+        };
+        out.insert(name.to_owned(), entry);
+    };
+    for m in registry::all() {
+        if let Some(p) = m.peer_of() {
+            add(m.name(), p, m.availability(), &|| m.version());
+        }
+    }
+    for m in registry::lod::all() {
+        if let Some(p) = m.peer_of() {
+            add(m.name(), p, m.availability(), &|| m.version());
+        }
+    }
+    out
+}
+
+/// Measures, writes the metadata and renders into `staging`.
+fn stage(
+    exp: &dyn Experiment,
+    ctx: &Context,
+    mut meta: RunMeta,
+    start: Instant,
+    staging: &Path,
+) -> Result<()> {
     let staged = Context {
-        out_dir: staging.clone(),
+        out_dir: staging.to_owned(),
         ..ctx.clone()
     };
     meta.shard = ctx.shard;
     meta.parameters = exp.measure(&staged)?;
     meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
+    meta.peers = peers_metadata();
     meta.seconds = start.elapsed().as_secs_f64();
-    meta.write(&staging)?;
+    meta.write(staging)?;
     // A shard's output is drawn once merged (`pointsight merge`); a shard alone may hold too
     // few cells for some plots.
     if ctx.shard.is_none() {
-        exp.render(&staging)?;
+        exp.render(staging)?;
     }
+    Ok(())
+}
+
+/// Replaces `out` by `staging`, through `previous`; puts `out` back if the swap fails.
+fn swap_in(staging: &Path, out: &Path, previous: &Path) -> Result<()> {
     if out.exists() {
-        std::fs::rename(out, &previous)
+        std::fs::rename(out, previous)
             .with_context(|| format!("cannot move {} aside", out.display()))?;
     }
-    std::fs::rename(&staging, out)
-        .with_context(|| format!("cannot move {} into place", out.display()))?;
+    if let Err(e) = std::fs::rename(staging, out) {
+        if previous.exists() {
+            let _ = std::fs::rename(previous, out);
+        }
+        return Err(e).with_context(|| format!("cannot move {} into place", out.display()));
+    }
     if previous.exists() {
-        std::fs::remove_dir_all(&previous)
+        std::fs::remove_dir_all(previous)
             .with_context(|| format!("cannot remove {}", previous.display()))?;
     }
-    Ok(true)
+    Ok(())
 }
 
 /// Markdown table from a header and rows.
@@ -266,3 +334,60 @@ pub fn markdown_table(header: &[&str], rows: &[Vec<String>]) -> String {
 
 /// Runs per timed call in the experiments by default: enough for a median and a spread.
 pub const REPEATS: usize = 3;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Writes a result into its output folder, then fails in `measure` or in `render`.
+    struct Failing {
+        in_render: bool,
+    }
+
+    impl Experiment for Failing {
+        fn name(&self) -> &'static str {
+            "failing"
+        }
+        fn summary(&self) -> &'static str {
+            "fails after writing"
+        }
+        fn default_datasets(&self, _quick: bool) -> &'static [&'static str] {
+            &[]
+        }
+        fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
+            std::fs::write(ctx.out_dir.join("results.csv"), "a\n1\n")?;
+            if self.in_render {
+                Ok(serde_json::Value::Null)
+            } else {
+                anyhow::bail!("injected failure in measure")
+            }
+        }
+        fn render(&self, _dir: &Path) -> Result<()> {
+            anyhow::bail!("injected failure in render")
+        }
+    }
+
+    #[test]
+    fn a_failed_run_removes_its_staging_folder_and_keeps_the_previous_results() {
+        for in_render in [false, true] {
+            let dir = tempfile::tempdir().unwrap();
+            let out = dir.path().join("failing");
+            std::fs::create_dir_all(&out).unwrap();
+            std::fs::write(out.join("results.csv"), "previous").unwrap();
+            let ctx = Context::new(dir.path().into(), out.clone(), true, Vec::new());
+            let err = run(&Failing { in_render }, &ctx).unwrap_err().to_string();
+            let stage = if in_render { "render" } else { "measure" };
+            assert_eq!(err, format!("injected failure in {stage}"));
+            let left: Vec<String> = std::fs::read_dir(dir.path())
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(left, vec!["failing".to_owned()], "{stage}");
+            assert_eq!(
+                std::fs::read_to_string(out.join("results.csv")).unwrap(),
+                "previous"
+            );
+            assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+        }
+    }
+}

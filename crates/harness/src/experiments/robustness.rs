@@ -11,33 +11,35 @@
 //! spherical ray grids against the mesh, range noise) are scored the same way, the truth being
 //! the visibility of each ray's noise-free hit.
 //!
-//! Each method runs at two settings: `best`, the grid value with the highest median F1 over
-//! the views on the clean cloud (tuned once, then held fixed as a user tuning on clean data
-//! would; on a scan, tuned on the scan itself, an oracle), and `auto`, its automatic rule evaluated on the degraded cloud itself (HPR's γ rule,
-//! `hpr::auto`; the ray cast's radius of 1.5 density spacings, `raycast::auto`; the splat
-//! baseline's default radius). Both rules were fitted on clean data; this is where they are
-//! tested off it. Methods go through the registry (`registry::method`), on the degraded cloud
-//! only: none sees the mesh.
+//! Every registered visibility method with a sweep (built-in, registered at run time or
+//! external; `registry::sweep`) runs through the measurement kernel (`registry::kernel`) at two
+//! settings: `best`, the setting of its tuning grid (`robustness` in `sweeps.toml`, else its
+//! grid; `--config` replaces both) with the highest median F1 over the views on the clean cloud
+//! (tuned once, then held fixed as a user tuning on clean data would; on a scan, tuned on the
+//! scan itself, an oracle), and `auto`, its automatic setting (`robustness_auto`, else its
+//! default) evaluated on the degraded cloud itself (HPR's γ rule, `hpr::auto`; the ray cast's
+//! radius of 1.5 density spacings, `raycast::auto`; the splat baseline's default radius). The
+//! rules were fitted on clean data; this is where they are tested off it. Methods see the
+//! degraded cloud only, never the mesh. `seconds` is one run, or the median of `--repeats` runs when given
+//! (this experiment measures accuracy; `visibility` measures speed with its spread).
 //!
-//! LOD methods (`lod.csv`): QSplat, SPT, SRN and random selection are built on each noisy
-//! cloud (σ ∈ {0, 0.25, 0.5, 1, 2} spacings; colours from the clean source's texture
-//! coordinates) and their finest setting rendered against the *clean* full-cloud render of the
-//! same view (PSNR, SSIM), beside the noisy full cloud itself (`full`): how much of the loss is
-//! the noise and how much the selection. External methods are not run here (they run in
-//! `visibility`). Timings are one run per cell (this experiment measures
-//! accuracy; `visibility` measures speed with its spread).
+//! LOD methods (`lod.csv`, `experiments::lod::noise`): every LOD method with a sweep, built on
+//! each noisy cloud (σ ∈ {0, 0.25, 0.5, 1, 2} spacings; colours from the clean source's texture
+//! coordinates), its finest setting rendered against the *clean* full-cloud render of the same
+//! view (PSNR, SSIM), beside the noisy full cloud itself (`full`).
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 use cloud::degrade::{Degradation, Unit};
 use cloud::glam::DVec3;
 use registry::score::Score;
+use registry::{Setting, kernel};
 use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
+use super::lod::noise::{self, LOD_NOISE, LodRow};
 use super::{Context, Experiment, markdown_table};
 use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
@@ -54,134 +56,6 @@ const NOISE: &[f64] = &[0.05, 0.1, 0.25, 0.5, 1.0, 2.0];
 const OUTLIERS: &[f64] = &[0.01, 0.02, 0.05, 0.1];
 /// Density ratios of the fall-off.
 const FALLOFF: &[f64] = &[2.0, 4.0, 16.0];
-
-/// Noise levels of the LOD part, density spacings.
-const LOD_NOISE: &[f64] = &[0.0, 0.25, 0.5, 1.0, 2.0];
-
-/// One LOD selection on one view of a noisy cloud, against the clean full render.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-struct LodRow {
-    dataset: String,
-    sigma: f64,
-    method: String,
-    params: String,
-    view: usize,
-    points_rendered: usize,
-    psnr: f64,
-    ssim: f64,
-}
-
-/// The LOD part for one clean dataset.
-fn lod_rows(
-    ctx: &Context,
-    name: &str,
-    clean: &cloud::PointCloud,
-    views: &[cloud::Camera],
-) -> Result<Vec<LodRow>> {
-    use super::lod;
-    use splat::render::render;
-    // Texture coordinates of the clean points (the colours follow the source, not the noise).
-    let centre = clean.bbox().map(|b| b.center()).unwrap_or_default();
-    let uvs = clean
-        .uvs
-        .clone()
-        .unwrap_or_else(|| srn::param::spherical_uvs(&clean.positions, centre));
-    let mut builds = Vec::new();
-    let mut base = clean.clone();
-    base.uvs = Some(uvs.clone());
-    let reference = lod::prepare(ctx, name, base, &mut builds)?;
-    let full = reference.full_splats();
-    let mut rows = Vec::new();
-    for &sigma in LOD_NOISE {
-        let d = cloud::degrade::apply(
-            clean,
-            &[Degradation::Noise {
-                sigma,
-                unit: Unit::Spacing,
-                along_normal: false,
-            }],
-            SEED,
-        )?;
-        let mut noisy = d.cloud;
-        noisy.uvs = Some(d.source.iter().map(|&s| uvs[s as usize]).collect());
-        let p = lod::prepare(ctx, name, noisy, &mut builds)?;
-        let noisy_full = p.full_splats();
-        for (view, cam) in views.iter().enumerate() {
-            let target = render(&full, cam, &lod::render_params());
-            let mut push = |method: &str, params: String, splats: &[splat::render::Splat]| {
-                let img = render(splats, cam, &lod::render_params());
-                rows.push(LodRow {
-                    dataset: name.to_owned(),
-                    sigma,
-                    method: method.to_owned(),
-                    params,
-                    view,
-                    points_rendered: splats.len(),
-                    psnr: registry::image_score::psnr(&target, &img),
-                    ssim: registry::image_score::ssim(&target, &img),
-                });
-            };
-            push("full", String::new(), &noisy_full);
-            // Each method's finest setting (the most splats).
-            let sels = lod::selections(ctx, &p, cam)?;
-            let mut methods: Vec<&str> = sels.iter().map(|s| s.method).collect();
-            methods.dedup();
-            for method in methods {
-                if let Some(s) = sels
-                    .iter()
-                    .filter(|s| s.method == method)
-                    .max_by_key(|s| s.splats.len())
-                {
-                    push(method, s.params.clone(), &s.splats);
-                }
-            }
-        }
-    }
-    Ok(rows)
-}
-
-/// A method's tuning grid (parameter sets) and its automatic setting.
-struct Tuning {
-    method: &'static str,
-    grid: Vec<Vec<String>>,
-    auto: Vec<String>,
-}
-
-/// The methods: HPR over γ; the ray cast over its radius (density spacings) and resolution
-/// (one ray per pixel: at 1280 × 720 the dragon has more visible points than rays); the splat
-/// baseline over its splat radius.
-fn methods() -> Vec<Tuning> {
-    let one = |key: &str, values: &[&str]| -> Vec<Vec<String>> {
-        values.iter().map(|v| vec![format!("{key}={v}")]).collect()
-    };
-    let mut raycast = Vec::new();
-    for f in ["1", "1.5", "2"] {
-        for (w, h) in [(1280, 720), (1920, 1080), (2560, 1440)] {
-            raycast.push(vec![
-                format!("radius_factor={f}"),
-                format!("width={w}"),
-                format!("height={h}"),
-            ]);
-        }
-    }
-    vec![
-        Tuning {
-            method: "hpr",
-            grid: one("gamma", &["1.5", "2", "2.5", "3", "3.5", "4"]),
-            auto: vec!["gamma=auto".into()],
-        },
-        Tuning {
-            method: "raycast",
-            grid: raycast,
-            auto: Vec::new(),
-        },
-        Tuning {
-            method: "splat",
-            grid: one("radius_px", &["1", "2", "3", "5"]),
-            auto: Vec::new(),
-        },
-    ]
-}
 
 /// One method run on one view of one degraded cloud.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -237,76 +111,59 @@ fn degraded(
     })
 }
 
-/// Runs `method` with `params` on `case` for every view; one row per view.
+/// Runs `method` at `setting` on `case` for every view through the measurement kernel (on the
+/// degraded cloud only: no method sees the mesh); one row per view.
+#[allow(clippy::too_many_arguments)]
 fn run_views(
     name: &str,
     case: &Case,
     truths: &[Vec<bool>],
-    views: &[cloud::Camera],
-    method: &str,
-    setting: &str,
-    params: &[String],
+    views: &[kernel::View],
+    method: &dyn registry::Method,
+    kind: &str,
+    setting: &Setting,
+    repeats: usize,
 ) -> Vec<Row> {
-    let row = |view: usize, outcome: Result<(Vec<u32>, f64)>| {
-        let n_out = case.outliers.iter().filter(|&&o| o).count();
-        let (score, outliers_visible, seconds, status) = match outcome {
-            Ok((visible, seconds)) => {
-                let s = Score::of_on_surface(&visible, &truths[view], Some(&case.outliers));
-                let ov = visible
-                    .iter()
-                    .filter(|&&i| case.outliers[i as usize])
-                    .count();
-                (Some(s), ov, seconds, "ok".to_owned())
-            }
-            Err(e) => (None, 0, f64::NAN, format!("error: {e:#}")),
-        };
-        Row {
-            dataset: name.to_owned(),
-            degradation: case.degradation.to_owned(),
-            level: case.level,
-            n_points: case.cloud.len(),
-            method: method.to_owned(),
-            setting: setting.to_owned(),
-            params: params.join(";"),
-            view,
-            precision: score.map_or(f64::NAN, |s| s.precision()),
-            recall: score.map_or(f64::NAN, |s| s.recall()),
-            f1: score.map_or(f64::NAN, |s| s.f1()),
-            outliers: n_out,
-            outliers_visible,
-            seconds,
-            status,
-        }
+    let n_out = case.outliers.iter().filter(|&&o| o).count();
+    let input = registry::Input {
+        cloud: &case.cloud,
+        mesh: None,
     };
-    let prepared = registry::method(method)
-        .and_then(|m| {
-            let p = registry::Params::parse(params)?;
-            m.prepare(
-                registry::Input {
-                    cloud: &case.cloud,
-                    mesh: None,
-                },
-                &p,
-            )
+    let (_, answers) = kernel::collect(&kernel::Cell::new(method, setting, views, repeats), input);
+    answers
+        .into_iter()
+        .map(|(v, answer)| {
+            let (score, outliers_visible, seconds, status) = match answer {
+                Ok(a) => {
+                    let visible = &a.output.visible;
+                    let s = Score::of_on_surface(visible, &truths[v.index], Some(&case.outliers));
+                    let ov = visible
+                        .iter()
+                        .filter(|&&i| case.outliers[i as usize])
+                        .count();
+                    (Some(s), ov, a.timing.median, "ok".to_owned())
+                }
+                Err(e) => (None, 0, f64::NAN, format!("error: {e}")),
+            };
+            Row {
+                dataset: name.to_owned(),
+                degradation: case.degradation.to_owned(),
+                level: case.level,
+                n_points: case.cloud.len(),
+                method: method.name().to_owned(),
+                setting: kind.to_owned(),
+                params: setting.label(),
+                view: v.index,
+                precision: score.map_or(f64::NAN, |s| s.precision()),
+                recall: score.map_or(f64::NAN, |s| s.recall()),
+                f1: score.map_or(f64::NAN, |s| s.f1()),
+                outliers: n_out,
+                outliers_visible,
+                seconds,
+                status,
+            }
         })
-        .map_err(anyhow::Error::from);
-    match prepared {
-        Err(e) => (0..views.len())
-            .map(|v| row(v, Err(anyhow::anyhow!("{e:#}"))))
-            .collect(),
-        Ok(prepared) => views
-            .iter()
-            .enumerate()
-            .map(|(v, cam)| {
-                let start = Instant::now();
-                let out = prepared
-                    .visible(cam)
-                    .map(|o| (o.visible, start.elapsed().as_secs_f64()))
-                    .map_err(anyhow::Error::from);
-                row(v, out)
-            })
-            .collect(),
-    }
+        .collect()
 }
 
 /// Median, quartiles and range of the finite values (`registry::timing::Timing::of`: Tukey's
@@ -344,6 +201,8 @@ impl Experiment for RobustnessExperiment {
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let n_views = if ctx.quick { 3 } else { 8 };
+        let (methods, not_run) = ctx.methods_to_run();
+        let repeats = ctx.accuracy_repeats();
         let mut rows: Vec<Row> = Vec::new();
         let mut lod: Vec<LodRow> = Vec::new();
         for name in &ctx.datasets {
@@ -351,6 +210,7 @@ impl Experiment for RobustnessExperiment {
             let mesh = ds.mesh("robustness")?;
             let reference = Reference::new(mesh)?;
             let views: Vec<cloud::Camera> = ds.views.iter().take(n_views).copied().collect();
+            let kviews = kernel::View::all(&views);
             // A scan (truth positions given): scored as it is. Else: the clean samples and
             // their degradations.
             let scanned = ds.truth_positions.is_some() && ds.outliers.is_none();
@@ -372,7 +232,7 @@ impl Experiment for RobustnessExperiment {
                     .filter(|c| matches!(c.model(), cloud::Model::Pinhole { .. }))
                     .copied()
                     .collect();
-                lod.extend(lod_rows(ctx, name, &ds.cloud, &pinhole)?);
+                lod.extend(noise::rows(ctx, name, &ds.cloud, &pinhole, SEED)?);
                 let bbox = mesh.bbox().context("the mesh has no vertices")?;
                 let from = bbox.center() + DVec3::new(1.5, 0.0, 0.5) * bbox.diagonal();
                 for &sigma in NOISE {
@@ -414,7 +274,7 @@ impl Experiment for RobustnessExperiment {
                 (views.len() * cases.len()) as u64,
                 format!("robustness {name}"),
             );
-            let mut tuned: BTreeMap<&str, Vec<String>> = BTreeMap::new();
+            let mut tuned: BTreeMap<&str, Setting> = BTreeMap::new();
             for case in &cases {
                 let truths: Vec<Vec<bool>> = views
                     .iter()
@@ -424,33 +284,34 @@ impl Experiment for RobustnessExperiment {
                             .visible)
                     })
                     .collect::<Result<_>>()?;
-                for Tuning { method, grid, auto } in methods() {
+                for (method, sweep) in &methods {
+                    let run = |kind: &str, setting: &Setting| {
+                        run_views(
+                            name, case, &truths, &kviews, *method, kind, setting, repeats,
+                        )
+                    };
                     if case.degradation == "clean" || case.degradation == "scan" {
-                        // Tune: the grid value with the best median F1.
-                        let mut best: Option<(f64, Vec<String>, Vec<Row>)> = None;
-                        for params in grid {
-                            let r = run_views(name, case, &truths, &views, method, "grid", &params);
+                        // Tune: the grid value with the best median F1 (the first of equals).
+                        let mut best: Option<(f64, &Setting, Vec<Row>)> = None;
+                        for setting in sweep.tuning(ctx.quick) {
+                            let r = run("grid", setting);
                             let m = median(r.iter().map(|r| r.f1).collect());
                             if best.as_ref().is_none_or(|b| m > b.0) {
-                                best = Some((m, params, r));
+                                best = Some((m, setting, r));
                             }
                         }
-                        if let Some((_, params, r)) = best {
+                        if let Some((_, setting, r)) = best {
                             rows.extend(r.into_iter().map(|mut r| {
                                 r.setting = "best".into();
                                 r
                             }));
-                            tuned.insert(method, params);
+                            tuned.insert(method.name(), setting.clone());
                         }
                     } else {
-                        let params = tuned.get(method).cloned().unwrap_or_default();
-                        rows.extend(run_views(
-                            name, case, &truths, &views, method, "best", &params,
-                        ));
+                        let setting = tuned.get(method.name()).cloned().unwrap_or_default();
+                        rows.extend(run("best", &setting));
                     }
-                    rows.extend(run_views(
-                        name, case, &truths, &views, method, "auto", &auto,
-                    ));
+                    rows.extend(run("auto", &sweep.automatic().unwrap_or_default()));
                 }
                 bar.inc(views.len() as u64);
             }
@@ -466,7 +327,13 @@ impl Experiment for RobustnessExperiment {
             "outlier_fractions": OUTLIERS,
             "falloff_ratios": FALLOFF,
             "falloff_from": "bbox centre + (1.5, 0, 0.5) diagonals",
-            "grids": methods().iter().map(|t| serde_json::json!({"method": t.method, "grid": t.grid, "auto": t.auto})).collect::<Vec<_>>(),
+            "grids": methods.iter().map(|(m, s)| serde_json::json!({
+                "method": m.name(),
+                "grid": s.tuning(ctx.quick).iter().map(Setting::label).collect::<Vec<_>>(),
+                "auto": s.automatic().unwrap_or_default().label(),
+            })).collect::<Vec<_>>(),
+            "methods_not_run": not_run,
+            "repeats": repeats,
         }))
     }
 
@@ -800,8 +667,7 @@ impl Experiment for RobustnessExperiment {
             ]);
         }
         text.push_str(&format!(
-            "\n{}\nNot run here: external methods (they run in `visibility`). Raw rows: \
-             [results.csv](results.csv), [lod.csv](lod.csv).\n",
+            "\n{}\nRaw rows: [results.csv](results.csv), [lod.csv](lod.csv).\n",
             markdown_table(
                 &[
                     "dataset",

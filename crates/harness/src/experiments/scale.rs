@@ -2,29 +2,37 @@
 //!
 //! Clouds of 10^4 … 10^8 points (quick: up to 10^6) are sampled from the dragon mesh (seeded,
 //! area-weighted; `ChineseDragon-10kv.off`; `--datasets NAME` takes another dataset's mesh, the
-//! first one given) and seen from its first Fibonacci view (pinhole, 1280 × 720). Every method is a cell per size: each visibility method of the registry
-//! (`reference`, `exact`, `splat`, `hpr`, `raycast`, default parameters), each hull
-//! implementation on HPR's flipped set (γ = 4, the eye included), each LOD build (`qsplat`,
-//! `spt`, `srn`) and each LOD selection at its default setting. `seconds` is the operation
-//! alone (median of 3 runs up to 10^6 points, one run above; sampling and per-cloud
-//! preparation excluded for per-view operations, included for builds, which are the
-//! operation).
+//! first one given) and seen from its first Fibonacci view (pinhole, 1280 × 720). The cells
+//! ([`cells`]): every registered visibility method (built-in, registered at run time, external)
+//! at its default setting, through the measurement kernel (`registry::kernel`); each hull
+//! implementation on HPR's flipped set (γ = 4, the eye included), which measures hulls and so
+//! calls `hull` directly; every registered LOD method's build (`NAME-build`) and selection
+//! (`NAME-select`) at its default setting, through the kernel's LOD form, on the cloud prepared
+//! as the `lod` experiment prepares it. `seconds` is the operation alone (median of 3 runs up
+//! to 10^6 points, one run above; sampling and per-cloud preparation excluded for per-view
+//! operations, included for builds, which are the operation).
 //!
-//! Each cell runs in its own process (`pointsight scale-cell`, hidden), so `peak_rss_bytes` is
-//! the cell's own (`VmHWM` of `/proc/self/status`: the sampled cloud plus what the method
-//! allocated) and a time cap can stop it. A cell is not started when the memory guard refuses
-//! its estimate (`cloud::memory`, a per-point budget per method), nor when the same method took
-//! more than a tenth of the cap at the previous size (time grows at least linearly: it would
-//! hit the cap); each such cell is a row saying so, as is a cell the cap stopped. The plots fit
-//! a slope per method on log–log axes over the sizes that finished.
+//! Each cell runs in its own process (`pointsight scale-cell`, hidden: [`cell_entry`] is the
+//! entry point a program that embeds the registry and registers its own methods forwards to,
+//! since the cells re-run the current executable), so `peak_rss_bytes` is the cell's own: its
+//! `VmHWM` (the sampled cloud plus what the method allocated) plus the largest peak of the
+//! programs it waited for (an external method: `getrusage(RUSAGE_CHILDREN)`), and a time cap
+//! can stop it. A cell is not started when the memory guard refuses its estimate
+//! (`cloud::memory`, from the method's declared bytes per point, `registry::Scale`; a method
+//! that declares none, such as an external one without `memory_bytes_per_point`, is not run
+//! above 10^6 points), nor when the same method took more than a tenth of the cap at the
+//! previous size (time grows at least linearly: it would hit the cap); each such cell is a row
+//! saying so, as is a cell the cap stopped. A method may opt out (`registry::Scale::OptOut`);
+//! the report lists it with its reason. The plots fit a slope per method on log–log axes over
+//! the sizes that finished.
 
 use std::io::Read as _;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::{Command, ExitCode, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result, bail};
-use cloud::glam::DVec3;
+use registry::{Scale, Setting, kernel};
 use serde::{Deserialize, Serialize};
 
 use super::{Context, Experiment, markdown_table};
@@ -37,27 +45,67 @@ pub struct ScaleExperiment;
 /// Sampling seed.
 const SEED: u64 = 16;
 
-/// Every cell's method, with its memory budget in bytes per point beyond the 48 of the sampled
-/// cloud: 1.25 times the peak per point measured at 10^7 points (10^6 for the hulls that stop
-/// there), less the 48, so that the guard refuses what cannot fit rather than what might.
-const METHODS: &[(&str, u64)] = &[
-    ("reference", 40),
-    ("exact", 40),
-    ("splat", 45),
-    ("hpr", 130),
-    ("raycast", 155),
-    ("hull-own", 135),
-    ("hull-qhull", 275),
-    ("hull-parry", 800),
-    ("hull-quickhull", 305),
-    ("hull-chull", 800),
-    ("qsplat-build", 350),
-    ("spt-build", 350),
-    ("srn-build", 40),
-    ("qsplat-select", 350),
-    ("spt-select", 360),
-    ("srn-select", 40),
+/// The hull implementations measured on HPR's flipped set, with their memory budget in bytes
+/// per point beyond the 48 of the sampled cloud (1.25 times the peak per point measured at 10^7
+/// points, 10^6 for those that stop there).
+const HULLS: &[(&str, u64)] = &[
+    ("own", 135),
+    ("qhull", 275),
+    ("parry", 800),
+    ("quickhull", 305),
+    ("chull", 800),
 ];
+
+/// One cell kind of the experiment.
+#[derive(Debug, Clone)]
+pub struct CellKind {
+    /// Name (the CSV `method`).
+    pub name: String,
+    /// The setting it runs at (empty for hulls).
+    pub setting: Setting,
+    /// Its memory, as the guard knows it.
+    pub scale: Scale,
+    /// Why it cannot run here (an external method that is not installed).
+    pub unavailable: Option<String>,
+}
+
+/// Every cell kind, in report order: visibility methods, hulls, then each LOD method's build
+/// and selection.
+pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
+    let default_of = |name: &str| {
+        sweeps
+            .methods
+            .get(name)
+            .and_then(registry::MethodSweep::default_setting)
+            .unwrap_or_default()
+    };
+    let mut out: Vec<CellKind> = registry::all()
+        .into_iter()
+        .map(|m| CellKind {
+            name: m.name().to_owned(),
+            setting: default_of(m.name()),
+            scale: m.scale(),
+            unavailable: m.availability().err(),
+        })
+        .collect();
+    out.extend(HULLS.iter().map(|&(h, bytes)| CellKind {
+        name: format!("hull-{h}"),
+        setting: Setting::default(),
+        scale: Scale::PerPoint(bytes),
+        unavailable: None,
+    }));
+    for m in registry::lod::all() {
+        for part in ["build", "select"] {
+            out.push(CellKind {
+                name: format!("{}-{part}", m.name()),
+                setting: default_of(m.name()),
+                scale: m.scale(),
+                unavailable: None,
+            });
+        }
+    }
+    out
+}
 
 /// One cell.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -68,7 +116,8 @@ pub struct Row {
     pub n_points: u64,
     /// Seconds of the operation (NaN when it did not finish).
     pub seconds: f64,
-    /// Peak resident memory of the cell's process (0 when it did not run).
+    /// Peak resident memory of the cell's process and the programs it waited for (0 when it
+    /// did not run).
     pub peak_rss_bytes: u64,
     /// `ok`, `timeout after S s`, `skipped: ...`, `refused: ...`, `error: ...`.
     pub status: String,
@@ -79,18 +128,22 @@ pub struct Row {
 pub struct CellOutput {
     /// Seconds (median of the runs).
     pub seconds: f64,
-    /// Peak RSS of the process.
+    /// Peak RSS of the process and of the largest child it waited for.
     pub peak_rss_bytes: u64,
 }
 
-fn sizes(quick: bool) -> Vec<u64> {
+fn sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
     let top = if quick { 6 } else { 8 };
-    (4..=top).map(|e| 10u64.pow(e)).collect()
+    (4..=top)
+        .map(|e| 10u64.pow(e))
+        .filter(|&n| max_points.is_none_or(|m| n <= m))
+        .collect()
 }
 
-/// Peak resident set size of this process (`VmHWM`), bytes.
+/// Peak resident set size of this process (`VmHWM`) plus that of the largest child process it
+/// waited for (`getrusage(RUSAGE_CHILDREN)`: an external method's program), bytes.
 fn peak_rss() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
+    let own = std::fs::read_to_string("/proc/self/status")
         .ok()
         .and_then(|s| {
             s.lines()
@@ -98,15 +151,61 @@ fn peak_rss() -> u64 {
                 .and_then(|l| l.split_whitespace().nth(1))
                 .and_then(|kb| kb.parse::<u64>().ok())
         })
-        .map_or(0, |kb| kb * 1024)
+        .map_or(0, |kb| kb * 1024);
+    // ru_maxrss is in kilobytes on Linux.
+    let children = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_CHILDREN)
+        .map_or(0, |u| u64::try_from(u.max_rss()).unwrap_or(0) * 1024);
+    own + children
 }
 
-/// Runs one cell in this process: samples `n` points of the dragon, runs `method`, returns
-/// its seconds and this process's peak RSS.
-pub fn cell(dataset: &str, method: &str, n: u64, data_dir: &Path) -> Result<CellOutput> {
+/// The entry point of a cell process: when `args` (the process's arguments, program name
+/// first) ask for a scale cell, runs it, prints its one JSON line and returns the exit code;
+/// else `None`. `pointsight` reaches it through its own command line; a program that embeds
+/// the registry, registers its own methods and runs the scale experiment (whose cells re-run
+/// the current executable) calls it first thing in `main`, after registering.
+pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
+    let rest = args.get(1..)?;
+    if rest.first().map(String::as_str) != Some("scale-cell") {
+        return None;
+    }
+    let arg = |flag: &str| {
+        rest.iter()
+            .position(|a| a == flag)
+            .and_then(|i| rest.get(i + 1))
+            .cloned()
+    };
+    let run = || -> Result<CellOutput> {
+        let dataset = arg("--dataset").context("scale-cell needs --dataset")?;
+        let method = arg("--method").context("scale-cell needs --method")?;
+        let n: u64 = arg("--n").context("scale-cell needs --n")?.parse()?;
+        let setting = Setting::parse(&arg("--setting").unwrap_or_default());
+        let data_dir = arg("--data-dir").map_or_else(|| data_dir.to_path_buf(), Into::into);
+        cell(&dataset, &method, &setting, n, &data_dir)
+    };
+    Some(match run().and_then(|o| Ok(serde_json::to_string(&o)?)) {
+        Ok(line) => {
+            println!("{line}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    })
+}
+
+/// Runs one cell in this process: samples `n` points of the dataset's mesh, runs `method` at
+/// `setting`, returns its seconds and this process's peak RSS.
+pub fn cell(
+    dataset: &str,
+    method: &str,
+    setting: &Setting,
+    n: u64,
+    data_dir: &Path,
+) -> Result<CellOutput> {
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
     let mesh = crate::datasets::load_mesh_of(dataset, data_dir)?;
-    let bbox = mesh.bbox().context("the dragon mesh has no vertices")?;
+    let bbox = mesh.bbox().context("the mesh has no vertices")?;
     let cam = cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default())?[0];
     let n = usize::try_from(n)?;
     cloud::memory::ensure(
@@ -116,94 +215,57 @@ pub fn cell(dataset: &str, method: &str, n: u64, data_dir: &Path) -> Result<Cell
     let mut cloud = cloud::sample::sample_surface(&mesh, n, SEED)?;
     cloud.samples = None;
     let repeats = if n <= 1_000_000 { 3 } else { 1 };
-    let time = |f: &mut dyn FnMut() -> Result<()>| -> Result<f64> {
-        let (_, t) = registry::timing::measure(repeats, &mut *f)?;
-        Ok(t.median)
-    };
-    let spacing = || cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1);
-    let seconds = match method {
-        "reference" | "exact" | "splat" | "hpr" | "raycast" => {
-            let m = registry::method(method)?;
-            let prepared = m.prepare(
-                registry::Input {
-                    cloud: &cloud,
-                    mesh: Some(&mesh),
-                },
-                &registry::Params::parse::<&str>(&[])?,
-            )?;
-            time(&mut || {
-                prepared.visible(&cam)?;
-                Ok(())
-            })?
+    let views = [kernel::View {
+        index: 0,
+        camera: cam,
+    }];
+    let seconds = if let Some(h) = method.strip_prefix("hull-") {
+        let hull = hull::by_name(h)?;
+        let mut flipped = hpr::transform::transform(
+            &cloud.positions,
+            cam.eye,
+            hpr::Kernel::Linear(hpr::Radius::Gamma(4.0)),
+        )?
+        .points;
+        flipped.push(cam.eye.to_array());
+        let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
+        t.median
+    } else if let Ok(m) = registry::method(method) {
+        let input = registry::Input {
+            cloud: &cloud,
+            mesh: Some(&mesh),
+        };
+        let (prepared, answers) =
+            kernel::collect(&kernel::Cell::new(m, setting, &views, repeats), input);
+        prepared?;
+        match answers.into_iter().next() {
+            Some((_, Ok(a))) => a.timing.median,
+            Some((_, Err(e))) => bail!(e),
+            None => bail!("the kernel answered no view"),
         }
-        hull_name if hull_name.starts_with("hull-") => {
-            let hull = hull::by_name(&hull_name["hull-".len()..])?;
-            let mut flipped = hpr::transform::transform(
-                &cloud.positions,
-                cam.eye,
-                hpr::Kernel::Linear(hpr::Radius::Gamma(4.0)),
-            )?
-            .points;
-            flipped.push(cam.eye.to_array());
-            time(&mut || {
-                hull.vertices(&flipped)?;
-                Ok(())
-            })?
+    } else if let Some((m, build)) = lod_cell(method) {
+        let data = super::lod::lod_data(cloud)?;
+        let settings = [setting.clone()];
+        let cell = kernel::LodCell {
+            method: m,
+            settings: &settings,
+            views: &views,
+            repeats: if build { 1 } else { repeats },
+            build_repeats: if build { repeats } else { 1 },
+        };
+        let mut selection = None;
+        let built = kernel::run_lod(&cell, &data.input(), |_, _, s| {
+            selection = Some(s.map(|s| s.timing.median).map_err(|e| e.to_string()));
+        })?;
+        if build {
+            built.timing.median
+        } else {
+            selection
+                .context("the kernel made no selection")?
+                .map_err(anyhow::Error::msg)?
         }
-        "qsplat-build" | "qsplat-select" => {
-            let r = 2.0 * spacing()?;
-            if method == "qsplat-build" {
-                time(&mut || {
-                    qsplat::build_tree(&cloud, r)?;
-                    Ok(())
-                })?
-            } else {
-                let tree = qsplat::build_tree(&cloud, r)?;
-                let params = qsplat::TraverseParams::default();
-                time(&mut || {
-                    qsplat::traverse(&tree, &cam, &params);
-                    Ok(())
-                })?
-            }
-        }
-        "spt-build" | "spt-select" => {
-            let d = 4.0 * spacing()?;
-            if method == "spt-build" {
-                time(&mut || {
-                    spt::build(&cloud, d)?;
-                    Ok(())
-                })?
-            } else {
-                let tree = spt::build(&cloud, d)?;
-                let eps = spt::epsilon_for_pixels(&cam, 1.0);
-                let mut entries = Vec::new();
-                time(&mut || {
-                    tree.cut_into(cam.eye, eps, &mut entries)?;
-                    Ok(())
-                })?
-            }
-        }
-        "srn-build" | "srn-select" => {
-            let centre = cloud.bbox().map(|b| b.center()).unwrap_or(DVec3::ZERO);
-            let uvs = srn::param::spherical_uvs(&cloud.positions, centre);
-            let texture = srn::texture::marble(256, SEED);
-            let map = srn::masking_map(&texture, &srn::MaskingParams::default())?;
-            if method == "srn-build" {
-                time(&mut || {
-                    srn::Srn::new(&uvs, &map, SEED)?;
-                    Ok(())
-                })?
-            } else {
-                let s = srn::Srn::new(&uvs, &map, SEED)?;
-                let mut kept = Vec::new();
-                let params = srn::SrnParams::default();
-                time(&mut || {
-                    s.select_into(&params, &mut kept)?;
-                    Ok(())
-                })?
-            }
-        }
-        other => bail!("unknown scale cell {other:?}"),
+    } else {
+        bail!("unknown scale cell {method:?}")
     };
     Ok(CellOutput {
         seconds,
@@ -211,8 +273,24 @@ pub fn cell(dataset: &str, method: &str, n: u64, data_dir: &Path) -> Result<Cell
     })
 }
 
+/// The LOD method of a `NAME-build` or `NAME-select` cell, and whether it is the build.
+fn lod_cell(name: &str) -> Option<(&'static dyn registry::lod::LodMethod, bool)> {
+    let (m, build) = name
+        .strip_suffix("-build")
+        .map(|m| (m, true))
+        .or_else(|| name.strip_suffix("-select").map(|m| (m, false)))?;
+    Some((registry::lod::method(m)?, build))
+}
+
 /// Runs a cell in a child process with a time cap.
-fn run_cell(dataset: &str, method: &str, n: u64, data_dir: &Path, cap: Duration) -> Row {
+fn run_cell(
+    dataset: &str,
+    method: &str,
+    setting: &Setting,
+    n: u64,
+    data_dir: &Path,
+    cap: Duration,
+) -> Row {
     let row = |seconds: f64, peak: u64, status: String| Row {
         method: method.to_owned(),
         n_points: n,
@@ -233,6 +311,8 @@ fn run_cell(dataset: &str, method: &str, n: u64, data_dir: &Path, cap: Duration)
             method,
             "--n",
             &n.to_string(),
+            "--setting",
+            &setting.label(),
             "--data-dir",
         ])
         .arg(data_dir)
@@ -335,43 +415,58 @@ impl Experiment for ScaleExperiment {
             .context("scale needs a dataset with a mesh")?;
         crate::datasets::load_mesh_of(dataset, &ctx.data_dir)?;
         let cap = Duration::from_secs(if ctx.quick { 30 } else { 40 });
-        let sizes = sizes(ctx.quick);
-        let bar = crate::progress::bar((METHODS.len() * sizes.len()) as u64, "scale");
+        let sizes = sizes(ctx.quick, ctx.max_points);
+        let kinds = cells(&ctx.sweeps);
+        let bar = crate::progress::bar((kinds.len() * sizes.len()) as u64, "scale");
         let mut rows = Vec::new();
-        for &(method, per_point) in METHODS {
+        let mut opted_out = Vec::new();
+        for kind in &kinds {
+            let method = kind.name.as_str();
+            let per_point = match &kind.scale {
+                Scale::OptOut(why) => {
+                    opted_out.push(serde_json::json!({"method": method, "reason": why}));
+                    bar.inc(sizes.len() as u64);
+                    continue;
+                }
+                Scale::PerPoint(b) => Some(*b),
+                Scale::Unknown => None,
+            };
             let mut previous: Option<f64> = None;
             for &n in &sizes {
-                let estimate = u128::from(n) * u128::from(per_point + 48);
-                let row = if let Err(e) =
-                    cloud::memory::ensure(estimate, &format!("{method} on {n} points"))
-                {
-                    Row {
-                        method: method.to_owned(),
-                        n_points: n,
-                        seconds: f64::NAN,
-                        peak_rss_bytes: 0,
-                        status: format!("refused: {e}"),
-                    }
+                let not_run = |status: String| Row {
+                    method: method.to_owned(),
+                    n_points: n,
+                    seconds: f64::NAN,
+                    peak_rss_bytes: 0,
+                    status,
+                };
+                let row = if let Some(why) = &kind.unavailable {
+                    not_run(format!("skipped: not installed: {why}"))
+                } else if per_point.is_none() && n > Scale::UNKNOWN_LIMIT {
+                    not_run(format!(
+                        "refused: its memory per point is not declared (an external method: \
+                         memory_bytes_per_point in its method.toml), so it is not run above {} points",
+                        Scale::UNKNOWN_LIMIT
+                    ))
+                } else if let Err(e) = cloud::memory::ensure(
+                    u128::from(n) * u128::from(per_point.unwrap_or(0) + 48),
+                    &format!("{method} on {n} points"),
+                ) {
+                    not_run(format!("refused: {e}"))
                 } else if let Some(p) =
                     previous.filter(|&p| p.is_nan() || p > cap.as_secs_f64() / 10.0)
                 {
-                    Row {
-                        method: method.to_owned(),
-                        n_points: n,
-                        seconds: f64::NAN,
-                        peak_rss_bytes: 0,
-                        status: if p.is_nan() {
-                            "skipped: the previous size did not finish".into()
-                        } else {
-                            format!(
-                                "skipped: {p:.1} s at {} points, so over the {} s cap here",
-                                n / 10,
-                                cap.as_secs()
-                            )
-                        },
-                    }
+                    not_run(if p.is_nan() {
+                        "skipped: the previous size did not finish".into()
+                    } else {
+                        format!(
+                            "skipped: {p:.1} s at {} points, so over the {} s cap here",
+                            n / 10,
+                            cap.as_secs()
+                        )
+                    })
                 } else {
-                    run_cell(dataset, method, n, &ctx.data_dir, cap)
+                    run_cell(dataset, method, &kind.setting, n, &ctx.data_dir, cap)
                 };
                 previous = Some(row.seconds);
                 rows.push(row);
@@ -387,7 +482,12 @@ impl Experiment for ScaleExperiment {
             "view": 0,
             "cap_seconds": cap.as_secs(),
             "repeats": "3 up to 10^6 points, 1 above",
-            "budgets_bytes_per_point": METHODS.iter().map(|(m, b)| serde_json::json!({"method": m, "bytes": b + 48})).collect::<Vec<_>>(),
+            "cells": kinds.iter().map(|k| serde_json::json!({
+                "method": k.name,
+                "setting": k.setting.label(),
+                "bytes_per_point": match &k.scale { Scale::PerPoint(b) => Some(b + 48), _ => None },
+            })).collect::<Vec<_>>(),
+            "opted_out": opted_out,
         }))
     }
 
@@ -504,13 +604,31 @@ impl Experiment for ScaleExperiment {
                 n = names[k]
             ));
         }
+        let opted_out: Vec<String> = crate::output::meta::RunMeta::read(dir)
+            .ok()
+            .and_then(|m| m.parameters["opted_out"].as_array().cloned())
+            .unwrap_or_default()
+            .iter()
+            .map(|o| {
+                format!(
+                    "- `{}` takes no part: {}\n",
+                    o["method"].as_str().unwrap_or("?"),
+                    o["reason"].as_str().unwrap_or("?")
+                )
+            })
+            .collect();
+        let opted_out = if opted_out.is_empty() {
+            String::new()
+        } else {
+            format!("\nMethods that opted out:\n\n{}", opted_out.concat())
+        };
         let text = format!(
             "How each method's time and peak memory grow with the cloud size: clouds sampled \
              from the dragon mesh, view 0, one process per cell (peak RSS is the cell's own: \
-             the sampled cloud plus the method). Slopes are least-squares fits of log10 against \
+             the sampled cloud plus the method, and the largest program it waited for). Slopes are least-squares fits of log10 against \
              log10 over the sizes that finished (1: linear; memory slopes are lowered by the \
              process's fixed overhead at the small sizes). Cells not run or stopped say why.\n\n\
-             {images}{}\nRaw rows: [results.csv](results.csv).\n",
+             {images}{}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
             markdown_table(
                 &[
                     "method",

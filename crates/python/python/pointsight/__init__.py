@@ -301,5 +301,6 @@ def set_num_threads(n: int) -> None:
 
 
 def methods() -> list:
-    """The registry's visibility methods: (name, summary, [(key, default, help), ...])."""
+    """Every method of the registry, visibility then level of detail: (name, summary,
+    [(key, default, help), ...])."""
     return _native.methods()

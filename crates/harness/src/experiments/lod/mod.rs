@@ -34,19 +34,19 @@
 
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::time::Instant;
 
-use anyhow::{Context as _, Result};
-use cloud::glam::{Vec2, Vec3};
+use anyhow::Result;
 use cloud::{Camera, PointCloud};
+use registry::Setting;
 use registry::image_score::{hole_fraction, psnr, ssim};
-use registry::lod::{LodBuilt, LodInput, LodMethod, albedo};
+use registry::kernel;
+use registry::lod::{LodData, LodMethod};
 use serde::{Deserialize, Serialize};
-use splat::render::{Image, RenderParams, Splat, render};
-use srn::texture::Texture;
+use splat::render::{Image, RenderParams, render};
 
 use super::{Context, Experiment, markdown_table};
 
+pub mod noise;
 mod srn_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{Panel, compose};
@@ -91,6 +91,13 @@ pub struct Row {
     pub ssim: f64,
     /// Share of the reference's pixels left empty.
     pub hole_fraction: f64,
+    /// `ok`, or `error: …` for a build or selection that failed (metrics NaN).
+    #[serde(default = "ok_status")]
+    pub status: String,
+}
+
+fn ok_status() -> String {
+    "ok".into()
 }
 
 /// One row of `builds.csv`.
@@ -110,153 +117,26 @@ pub struct BuildRow {
     pub bytes_per_point: f64,
 }
 
-/// A dataset prepared for the LOD methods: the coloured cloud and every LOD method with a
-/// sweep, built on it.
-pub(crate) struct Prepared {
-    cloud: PointCloud,
-    colors: Vec<Vec3>,
-    normals: Vec<Vec3>,
-    uvs: Vec<Vec2>,
-    texture: Texture,
-    ref_radius: f64,
-    built: Vec<(&'static dyn LodMethod, Box<dyn LodBuilt>)>,
-}
-
-fn colorize(cloud: &mut PointCloud, texture: &Texture) -> Vec<Vec2> {
-    let uvs = match &cloud.uvs {
-        Some(uvs) => uvs.clone(),
-        None => {
-            let center = cloud::Aabb::from_points(&cloud.positions)
-                .map(|b| b.center())
-                .unwrap_or_default();
-            srn::param::spherical_uvs(&cloud.positions, center)
-        }
-    };
-    cloud.colors = Some(
-        uvs.iter()
-            .map(|&uv| {
-                let c = texture.sample(uv) * 255.0;
-                [c.x as u8, c.y as u8, c.z as u8]
-            })
-            .collect(),
-    );
-    uvs
-}
-
-pub(crate) fn prepare(
-    ctx: &Context,
-    name: &str,
-    mut cloud: PointCloud,
-    builds: &mut Vec<BuildRow>,
-) -> Result<Prepared> {
-    let texture = srn_table::marble_texture();
-    let uvs = colorize(&mut cloud, &texture);
-    let n = cloud.len();
-    let spacing = cloud::spacing::density_spacing(&cloud.positions, 8, 20_000, 1)?;
-    let ref_radius = REF_RADIUS * spacing;
-    let colors = cloud
-        .colors
-        .as_ref()
-        .context("colours were just set")?
-        .iter()
-        .map(|&c| albedo(c))
-        .collect();
-    // A scan without normals gets k-nearest-neighbour estimates (16 neighbours, oriented away
-    // from the centroid), as a user's scan file often has none.
-    let normals = match cloud.normals.clone() {
-        Some(n) => n,
-        None => cloud::normals::estimate_normals(
-            &cloud.positions,
-            16.min(cloud.len()),
-            cloud::normals::Orientation::AwayFromCentroid,
-        )?,
-    };
-    let mut p = Prepared {
+/// `cloud` prepared for the LOD methods: colours from the marble texture, normals, the
+/// reference splat radius ([`REF_RADIUS`] density spacings).
+pub fn lod_data(cloud: PointCloud) -> Result<LodData> {
+    Ok(LodData::prepare(
         cloud,
-        colors,
-        normals,
-        uvs,
-        texture,
-        ref_radius,
-        built: Vec::new(),
-    };
-    // Every LOD method with a sweep, built once (build time: one run).
-    for m in registry::lod::all() {
-        if ctx
-            .sweeps
-            .methods
-            .get(m.name())
-            .is_none_or(|s| s.settings(ctx.quick).is_empty())
-        {
-            continue;
-        }
-        let start = Instant::now();
-        let built = m.build(&p.input())?;
-        let seconds = start.elapsed().as_secs_f64();
-        let size = built.size();
-        builds.push(BuildRow {
-            dataset: name.to_owned(),
-            method: m.name().to_owned(),
-            n_points: n,
-            seconds,
-            nodes: size.nodes,
-            bytes_per_point: size.bytes / n as f64,
-        });
-        p.built.push((m, built));
-    }
-    Ok(p)
+        srn_table::marble_texture(),
+        REF_RADIUS,
+        SEED,
+    )?)
 }
 
-impl Prepared {
-    fn input(&self) -> LodInput<'_> {
-        LodInput {
-            cloud: &self.cloud,
-            normals: &self.normals,
-            albedo: &self.colors,
-            uvs: &self.uvs,
-            texture: &self.texture,
-            radius: self.ref_radius,
-            seed: SEED,
-        }
-    }
-
-    pub(crate) fn full_splats(&self) -> Vec<Splat> {
-        let input = self.input();
-        (0..self.cloud.len())
-            .map(|i| input.point_splat(i, self.ref_radius))
-            .collect()
-    }
-}
-
-/// A method's drawable output for one setting.
-pub(crate) struct Selection {
-    pub(crate) method: &'static str,
-    pub(crate) params: String,
-    pub(crate) splats: Vec<Splat>,
-    pub(crate) seconds: f64,
-}
-
-/// Every built method at every setting of its sweep, for `cam`: the selection alone is timed
-/// (`LodSelector::select`), the splats are made afterwards.
-pub(crate) fn selections(ctx: &Context, p: &Prepared, cam: &Camera) -> Result<Vec<Selection>> {
-    let input = p.input();
-    let mut out = Vec::new();
-    for (m, built) in &p.built {
-        let Some(sweep) = ctx.sweeps.methods.get(m.name()) else {
-            continue;
-        };
-        for setting in sweep.settings(ctx.quick) {
-            let mut sel = built.selector(&input, &setting.params())?;
-            let ((), t) = ctx.timed(|| Ok(sel.select(cam)?))?;
-            out.push(Selection {
-                method: m.name(),
-                params: setting.label(),
-                splats: sel.splats(),
-                seconds: t.median,
-            });
-        }
-    }
-    Ok(out)
+/// Every LOD method with a non-empty sweep, with its settings.
+pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static dyn LodMethod, Vec<Setting>)> {
+    registry::lod::all()
+        .into_iter()
+        .filter_map(|m| {
+            let settings = ctx.sweeps.methods.get(m.name())?.settings(ctx.quick);
+            (!settings.is_empty()).then(|| (m, settings.to_vec()))
+        })
+        .collect()
 }
 
 /// The view's camera with the eye moved to `factor` times its distance from the target.
@@ -323,61 +203,124 @@ fn measure_dataset(
             &["pinhole"],
         )?;
     }
-    let p = prepare(ctx, name, std::mem::take(&mut ds.cloud), builds)?;
-    let full = p.full_splats();
-    let bar = progress::bar((N_VIEWS * DISTANCES.len()) as u64, format!("lod {name}"));
-    let mut strip: Vec<Panel> = Vec::new();
+    let data = lod_data(std::mem::take(&mut ds.cloud))?;
+    let n = data.cloud.len();
+    let full = data.full_splats();
+    // Every (view, distance), in that order, with its reference render.
+    let mut views = Vec::new();
+    let mut at = Vec::new();
     for view in 0..N_VIEWS {
-        for (d, &factor) in DISTANCES.iter().enumerate() {
-            let cam = at_distance(ds.view(view)?, factor)?;
-            let reference = render(&full, &cam, &render_params());
-            let sels = selections(ctx, &p, &cam)?;
-            let keep_strip = view == 0 && d == 0;
-            let crop = covered_box(&reference, 8);
-            if keep_strip {
-                strip.push(
-                    panel(format!("reference: {} points", full.len()), &reference)
-                        .crop(crop.0, crop.1, crop.2, crop.3),
-                );
-            }
-            let mut by_method: BTreeMap<&str, Vec<(usize, Panel)>> = BTreeMap::new();
-            for s in &sels {
-                let img = render(&s.splats, &cam, &render_params());
-                rows.push(Row {
-                    dataset: name.to_owned(),
-                    view,
-                    distance: factor,
-                    method: s.method.to_owned(),
-                    params: s.params.clone(),
-                    points_rendered: s.splats.len(),
-                    seconds: s.seconds,
-                    psnr: psnr(&reference, &img),
-                    ssim: ssim(&reference, &img),
-                    hole_fraction: hole_fraction(&reference, &img),
-                });
-                if keep_strip {
-                    let title = format!("{} {}: {} splats", s.method, s.params, s.splats.len());
-                    by_method.entry(s.method).or_default().push((
-                        s.splats.len(),
-                        panel(title, &img).crop(crop.0, crop.1, crop.2, crop.3),
-                    ));
+        for &factor in DISTANCES {
+            views.push(kernel::View {
+                index: view,
+                camera: at_distance(ds.view(view)?, factor)?,
+            });
+            at.push((view, factor));
+        }
+    }
+    let references: Vec<Image> = views
+        .iter()
+        .map(|v| render(&full, &v.camera, &render_params()))
+        .collect();
+    let crop = covered_box(&references[0], 8);
+    let mut strip: Vec<Panel> = vec![
+        panel(format!("reference: {} points", full.len()), &references[0])
+            .crop(crop.0, crop.1, crop.2, crop.3),
+    ];
+    let methods = methods_to_run(ctx);
+    let bar = progress::bar(methods.len() as u64, format!("lod {name}"));
+    let input = data.input();
+    let mut ds_rows: Vec<(usize, Row)> = Vec::new();
+    for (m, settings) in &methods {
+        let cell = kernel::LodCell {
+            method: *m,
+            settings,
+            views: &views,
+            repeats: ctx.repeats,
+            build_repeats: 1,
+        };
+        let mut levels: Vec<Panel> = Vec::new();
+        let built = kernel::run_lod(&cell, &input, |k, v, selection| {
+            let (view, distance) = at[v];
+            let mut row = Row {
+                dataset: name.to_owned(),
+                view,
+                distance,
+                method: m.name().to_owned(),
+                params: settings[k].label(),
+                points_rendered: 0,
+                seconds: f64::NAN,
+                psnr: f64::NAN,
+                ssim: f64::NAN,
+                hole_fraction: f64::NAN,
+                status: "ok".into(),
+            };
+            match selection {
+                Ok(s) => {
+                    let img = render(&s.splats, &views[v].camera, &render_params());
+                    let reference = &references[v];
+                    row.points_rendered = s.splats.len();
+                    row.seconds = s.timing.median;
+                    row.psnr = psnr(reference, &img);
+                    row.ssim = ssim(reference, &img);
+                    row.hole_fraction = hole_fraction(reference, &img);
+                    // Three levels per method in the strip: the finest, the middle and the
+                    // coarsest setting, at view 0 and the near distance.
+                    let last = settings.len() - 1;
+                    if v == 0 && (k == 0 || k == settings.len() / 2 || k == last) {
+                        let title =
+                            format!("{} {}: {} splats", m.name(), row.params, s.splats.len());
+                        levels.push(panel(title, &img).crop(crop.0, crop.1, crop.2, crop.3));
+                    }
+                }
+                Err(e) => {
+                    eprintln!("lod: {} {} view {view}: {e}", m.name(), row.params);
+                    row.status = format!("error: {e}");
                 }
             }
-            // Three levels per method: the finest, the middle and the coarsest setting.
-            for (m, _) in &p.built {
-                if let Some(levels) = by_method.remove(m.name()) {
-                    let n = levels.len();
-                    for (k, (_, pnl)) in levels.into_iter().enumerate() {
-                        if k == 0 || k == n / 2 || k == n - 1 {
-                            strip.push(pnl);
-                        }
+            ds_rows.push((v, row));
+        });
+        match built {
+            Ok(b) => builds.push(BuildRow {
+                dataset: name.to_owned(),
+                method: m.name().to_owned(),
+                n_points: n,
+                seconds: b.timing.median,
+                nodes: b.size.nodes,
+                bytes_per_point: b.size.bytes / n as f64,
+            }),
+            Err(e) => {
+                // A failed build: an error row per setting and view, and the run goes on.
+                eprintln!("lod: {} build: {e}", m.name());
+                for setting in settings {
+                    for (v, &(view, distance)) in at.iter().enumerate() {
+                        ds_rows.push((
+                            v,
+                            Row {
+                                dataset: name.to_owned(),
+                                view,
+                                distance,
+                                method: m.name().to_owned(),
+                                params: setting.label(),
+                                points_rendered: 0,
+                                seconds: f64::NAN,
+                                psnr: f64::NAN,
+                                ssim: f64::NAN,
+                                hole_fraction: f64::NAN,
+                                status: format!("error: build: {e}"),
+                            },
+                        ));
                     }
                 }
             }
-            bar.inc(1);
         }
+        strip.extend(levels);
+        bar.inc(1);
     }
     bar.finish_and_clear();
+    // Rows in (view, distance, method, setting) order: the loop ran method by method.
+    ds_rows.sort_by_key(|(v, _)| *v);
+    rows.extend(ds_rows.into_iter().map(|(_, r)| r));
     // Layout: the reference, then each method's three levels on one row of four.
     let mut panels = Vec::new();
     let reference = strip.first().cloned();
@@ -394,7 +337,7 @@ fn measure_dataset(
         4,
         &format!(
             "{name}, view 0: the full-cloud reference, then {} at three levels (rows)",
-            p.built
+            methods
                 .iter()
                 .map(|(m, _)| m.name())
                 .collect::<Vec<_>>()
@@ -441,7 +384,7 @@ impl Experiment for LodExperiment {
                     let s = ctx.sweeps.methods.get(m.name())?;
                     Some((
                         m.name().to_owned(),
-                        serde_json::json!(s.settings(ctx.quick).iter().map(registry::Setting::label).collect::<Vec<_>>()),
+                        serde_json::json!(s.settings(ctx.quick).iter().map(Setting::label).collect::<Vec<_>>()),
                     ))
                 })
                 .collect::<serde_json::Map<_, _>>(),

@@ -5,12 +5,13 @@
 //! available) with the marble texture; point counts and render times beside the paper's.
 
 use anyhow::{Context as _, Result};
+use registry::lod::colorize;
 use serde::{Deserialize, Serialize};
 use splat::render::{Splat, render};
 use srn::texture::{Texture, flower, half_textured, marble};
 use srn::{MaskingParams, Srn, SrnParams, masking_map};
 
-use super::{REF_RADIUS, SEED, TEXTURE_SIZE, colorize, covered_box, render_params};
+use super::{REF_RADIUS, SEED, TEXTURE_SIZE, covered_box, render_params};
 use crate::datasets;
 use crate::experiments::{Context, markdown_table};
 use crate::output::render::Panel;
@@ -63,7 +64,7 @@ fn half_flower_texture() -> Texture {
     half_textured(&flower(TEXTURE_SIZE, 8), [225, 220, 200])
 }
 
-pub(super) fn marble_texture() -> Texture {
+pub(crate) fn marble_texture() -> Texture {
     marble(TEXTURE_SIZE, SEED)
 }
 
@@ -105,7 +106,7 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
     for m in SRN_MODELS {
         let info = datasets::info(m.dataset)?;
         if let Some(mesh) = info.mesh_file()
-            && !datasets::mesh_path(&ctx.data_dir, &mesh).exists()
+            && !crate::fetch::mesh_path(&ctx.data_dir, &mesh).exists()
         {
             eprintln!(
                 "lod: {} is not fetched; the SRN table leaves out the {} row (run `pointsight fetch`)",

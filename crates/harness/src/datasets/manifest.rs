@@ -21,13 +21,18 @@
 //! ```
 //!
 //! Without `views` or `view_spec` a dataset gets the Fibonacci views of the built-in datasets
-//! around its mesh (or its cloud). Names must not shadow built-in datasets.
+//! around its mesh (or its cloud). Names must not shadow built-in datasets. An entry becomes a
+//! [`FileDataset`] ([`manifest_dataset`]), which [`super::files`] loads.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use cloud::degrade::Degradation;
+use cloud::views::ViewSpec;
 use serde::Deserialize;
+
+use super::files::{FileDataset, ViewsFrom};
 
 /// A manifest: datasets by name.
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -134,7 +139,7 @@ impl Manifest {
             .to_owned();
         m.path = path.to_owned();
         for (name, e) in &m.datasets {
-            if crate::datasets::REGISTRY.iter().any(|d| d.name == name) {
+            if super::builtin::REGISTRY.iter().any(|d| d.name == name) {
                 bail!(
                     "{}: dataset {name} shadows a built-in dataset; choose another name",
                     path.display()
@@ -219,6 +224,57 @@ impl Manifest {
     }
 }
 
+/// The file dataset a manifest entry describes.
+pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDataset> {
+    let format = match &e.format {
+        Some(f) => Some(cloud::io::Format::from_name(f).with_context(|| {
+            format!(
+                "dataset {name}: unknown format {f:?}; known: {}",
+                cloud::io::Format::NAMES
+            )
+        })?),
+        None => None,
+    };
+    let views = match (&e.views, &e.view_spec) {
+        (Some(v), _) if v.as_os_str() == "scanners" => ViewsFrom::Scanners,
+        (Some(v), _) => ViewsFrom::File(m.resolve(v)),
+        (None, Some(vs)) => ViewsFrom::Spec(ViewSpec {
+            n_views: vs.count,
+            distance_factor: vs.distance,
+            width: vs.width,
+            height: vs.height,
+            ..ViewSpec::default()
+        }),
+        (None, None) => ViewsFrom::Spec(ViewSpec::default()),
+    };
+    Ok(FileDataset {
+        name: name.to_owned(),
+        description: if e.description.is_empty() {
+            format!("from {}", m.path.display())
+        } else {
+            e.description.clone()
+        },
+        cloud: e.cloud.as_ref().map(|p| m.resolve(p)),
+        sample: e.sample.map(|s| (s.n, s.seed)),
+        mesh: e.mesh.as_ref().map(|p| m.resolve(p)),
+        read: cloud::io::ReadOptions {
+            format,
+            classes: e.classes.clone(),
+            scan: e.scan,
+        },
+        views,
+        surface_tolerance: e.surface_tolerance,
+        degrade: (
+            e.degrade
+                .iter()
+                .map(|d| d.parse::<Degradation>())
+                .collect::<cloud::Result<Vec<_>>>()
+                .with_context(|| format!("dataset {name}: degrade"))?,
+            e.degrade_seed.unwrap_or(1),
+        ),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -267,5 +323,48 @@ mod tests {
             let err = format!("{:#}", Manifest::read(&p).unwrap_err());
             assert!(err.contains(needle), "{text}: {err}");
         }
+    }
+
+    #[test]
+    fn a_manifest_degrades_its_dataset_and_keeps_the_truth_clean() {
+        use crate::datasets::files::load_files;
+        use cloud::glam::DVec3;
+        let dir = tempfile::tempdir().unwrap();
+        let mesh = cloud::synth::sphere_scene(100).mesh;
+        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
+        for v in &mesh.vertices {
+            off.push_str(&format!("{} {} {}\n", v.x, v.y, v.z));
+        }
+        for t in &mesh.triangles {
+            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+        }
+        std::fs::write(dir.path().join("ball.off"), off).unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            "[datasets.noisy]\nmesh = \"ball.off\"\nsample = { n = 5000, seed = 2 }\n\
+             degrade = [\"noise:sigma=0.5\", \"outliers:fraction=0.1\"]\ndegrade_seed = 3\n",
+        )
+        .unwrap();
+        let m = Manifest::read(&path).unwrap();
+        let spec = manifest_dataset(&m, "noisy", &m.datasets["noisy"]).unwrap();
+        let ds = load_files(&spec).unwrap();
+        assert_eq!(ds.cloud.len(), 5_500);
+        let outliers = ds.outliers.as_ref().unwrap();
+        assert_eq!(outliers.iter().filter(|&&o| o).count(), 500);
+        let truth = ds.truth_positions.as_ref().unwrap();
+        // Surface points' truth positions lie on the mesh; the points themselves do not.
+        let exact = truth::ExactVisibility::new(ds.mesh.as_ref().unwrap()).unwrap();
+        let on = |p: DVec3| exact.distance(p) < 1e-9;
+        assert!((0..5_000).all(|i| on(truth[i])));
+        assert!((0..5_000).filter(|&i| on(ds.cloud.positions[i])).count() < 100);
+        let bad = "[datasets.x]\nmesh = \"ball.off\"\nsample = { n = 10, seed = 1 }\ndegrade = [\"blur:sigma=1\"]\n";
+        std::fs::write(&path, bad).unwrap();
+        let m = Manifest::read(&path).unwrap();
+        let err = format!(
+            "{:#}",
+            manifest_dataset(&m, "x", &m.datasets["x"]).unwrap_err()
+        );
+        assert!(err.contains("unknown degradation \"blur\""), "{err}");
     }
 }

@@ -1,0 +1,269 @@
+//! Spilling to disk for out-of-core builds: a scratch directory beside the output file, removed
+//! with everything in it when the build ends (also after an error or a panic), and files of
+//! fixed-size records in it, written once and read back by range.
+//!
+//! A [`Scratch`] can be told to fail its writes after a number of bytes
+//! ([`Scratch::fail_after`]), which is how tests play a disk that fills: the error is the one a
+//! full disk gives (`StorageFull`), and the caller's clean-up path is the real one.
+
+use std::fs::File;
+use std::io::{self, BufReader, BufWriter, Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// A scratch directory, removed with its contents on drop.
+#[derive(Debug)]
+pub struct Scratch {
+    dir: PathBuf,
+    next: AtomicU64,
+    written: Arc<AtomicU64>,
+    fail_after: Option<u64>,
+}
+
+impl Scratch {
+    /// Creates `.NAME.chunks-PID-K/` beside `out` (the disk the output goes to).
+    pub fn beside(out: &Path) -> io::Result<Self> {
+        static COUNTER: AtomicU64 = AtomicU64::new(0);
+        let name = out
+            .file_name()
+            .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
+        let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+        let dir = out.with_file_name(format!(".{name}.chunks-{}-{k}", std::process::id()));
+        std::fs::create_dir(&dir)?;
+        Ok(Self {
+            dir,
+            next: AtomicU64::new(0),
+            written: Arc::new(AtomicU64::new(0)),
+            fail_after: None,
+        })
+    }
+
+    /// Makes every write fail (as a full disk does) once `bytes` have been written in total.
+    pub fn fail_after(mut self, bytes: u64) -> Self {
+        self.fail_after = Some(bytes);
+        self
+    }
+
+    /// The directory.
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    /// Bytes written to the scratch files so far.
+    pub fn bytes_written(&self) -> u64 {
+        self.written.load(Ordering::Relaxed)
+    }
+
+    /// A new file of records of `record` bytes.
+    pub fn create(&self, record: usize) -> io::Result<SpillWriter> {
+        let k = self.next.fetch_add(1, Ordering::Relaxed);
+        let path = self.dir.join(format!("{k}.bin"));
+        let file = File::create(&path)?;
+        Ok(SpillWriter {
+            out: BufWriter::with_capacity(1 << 20, file),
+            file: Arc::new(Removed(path)),
+            record,
+            count: 0,
+            written: Arc::clone(&self.written),
+            fail_after: self.fail_after,
+        })
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// A path removed when the last handle goes.
+#[derive(Debug)]
+struct Removed(PathBuf);
+
+impl Drop for Removed {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+/// Appends records to a scratch file.
+#[derive(Debug)]
+pub struct SpillWriter {
+    out: BufWriter<File>,
+    file: Arc<Removed>,
+    record: usize,
+    count: u64,
+    written: Arc<AtomicU64>,
+    fail_after: Option<u64>,
+}
+
+impl SpillWriter {
+    /// Appends one record (`bytes.len()` must be the record size).
+    pub fn push(&mut self, bytes: &[u8]) -> io::Result<()> {
+        debug_assert_eq!(bytes.len(), self.record);
+        let total = self
+            .written
+            .fetch_add(bytes.len() as u64, Ordering::Relaxed)
+            + bytes.len() as u64;
+        if self.fail_after.is_some_and(|limit| total > limit) {
+            return Err(io::Error::new(
+                io::ErrorKind::StorageFull,
+                "no space left on device (injected)",
+            ));
+        }
+        self.out.write_all(bytes)?;
+        self.count += 1;
+        Ok(())
+    }
+
+    /// Records written so far.
+    pub fn len(&self) -> u64 {
+        self.count
+    }
+
+    /// Whether nothing was written.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Flushes what is buffered (so that a reader sees every record pushed so far).
+    pub fn flush(&mut self) -> io::Result<()> {
+        self.out.flush()
+    }
+
+    /// Finishes the file.
+    pub fn finish(mut self) -> io::Result<SpillFile> {
+        self.out.flush()?;
+        Ok(SpillFile {
+            file: self.file,
+            record: self.record,
+            count: self.count,
+        })
+    }
+
+    /// A reader of this file while it is still being written (records up to those flushed).
+    pub fn reader_from(&self, start: u64) -> io::Result<SpillReader> {
+        open_reader(&self.file.0, self.record, start, u64::MAX)
+    }
+}
+
+/// A finished scratch file of records; removed from disk when the last clone goes.
+#[derive(Debug, Clone)]
+pub struct SpillFile {
+    file: Arc<Removed>,
+    record: usize,
+    count: u64,
+}
+
+impl SpillFile {
+    /// Number of records.
+    pub fn len(&self) -> u64 {
+        self.count
+    }
+
+    /// Whether the file has no records.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Reads records `start..start + count`.
+    pub fn reader(&self, start: u64, count: u64) -> io::Result<SpillReader> {
+        if start.checked_add(count).is_none_or(|end| end > self.count) {
+            return Err(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                format!(
+                    "records {start}..+{count} past the end of a scratch file of {}",
+                    self.count
+                ),
+            ));
+        }
+        open_reader(&self.file.0, self.record, start, count)
+    }
+}
+
+fn open_reader(path: &Path, record: usize, start: u64, count: u64) -> io::Result<SpillReader> {
+    let mut file = File::open(path)?;
+    file.seek(SeekFrom::Start(start * record as u64))?;
+    Ok(SpillReader {
+        input: BufReader::with_capacity(1 << 20, file),
+        pos: start,
+        left: count,
+        record: record as u64,
+    })
+}
+
+/// Reads records in order from a range of a scratch file.
+#[derive(Debug)]
+pub struct SpillReader {
+    input: BufReader<File>,
+    pos: u64,
+    left: u64,
+    record: u64,
+}
+
+impl SpillReader {
+    /// Reads the next record into `buf` (the record size); `false` at the end of the range.
+    pub fn next_into(&mut self, buf: &mut [u8]) -> io::Result<bool> {
+        if self.left == 0 {
+            return Ok(false);
+        }
+        self.input.read_exact(buf)?;
+        self.left -= 1;
+        self.pos += 1;
+        Ok(true)
+    }
+
+    /// Moves to record `index` (a no-op when already there).
+    pub fn seek_to(&mut self, index: u64) -> io::Result<()> {
+        if index != self.pos {
+            let delta = (index as i64 - self.pos as i64) * self.record as i64;
+            self.input.seek_relative(delta)?;
+            self.left = self.left.saturating_add(self.pos).saturating_sub(index);
+            self.pos = index;
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn records_round_trip_and_everything_is_removed() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("x.qsplat");
+        let scratch = Scratch::beside(&out).unwrap();
+        let mut w = scratch.create(4).unwrap();
+        for i in 0u32..1000 {
+            w.push(&i.to_le_bytes()).unwrap();
+        }
+        let f = w.finish().unwrap();
+        let mut r = f.reader(10, 5).unwrap();
+        let mut b = [0u8; 4];
+        let mut got = Vec::new();
+        while r.next_into(&mut b).unwrap() {
+            got.push(u32::from_le_bytes(b));
+        }
+        assert_eq!(got, vec![10, 11, 12, 13, 14]);
+        assert!(f.reader(999, 2).is_err());
+        drop(f);
+        assert_eq!(std::fs::read_dir(scratch.dir()).unwrap().count(), 0);
+        drop(scratch);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+
+    #[test]
+    fn an_injected_full_disk_fails_the_write() {
+        let dir = tempfile::tempdir().unwrap();
+        let scratch = Scratch::beside(&dir.path().join("x"))
+            .unwrap()
+            .fail_after(8);
+        let mut w = scratch.create(4).unwrap();
+        w.push(&[0; 4]).unwrap();
+        w.push(&[0; 4]).unwrap();
+        let e = w.push(&[0; 4]).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::StorageFull);
+    }
+}

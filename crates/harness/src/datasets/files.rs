@@ -1,0 +1,187 @@
+//! The frame for a user's files: a dataset made of a point file (or samples of a mesh file),
+//! read, recentred without loss (`cloud::recentre`), rescaled by an exact power of two where
+//! its coordinates sit at the ends of the f64 range, degraded when asked, and recorded with
+//! its files' SHA-256. Manifests ([`super::manifest`]) and `visible --cloud` describe such
+//! datasets as a [`FileDataset`].
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use cloud::degrade::Degradation;
+use cloud::glam::DVec3;
+use cloud::views::{ViewSpec, fibonacci_views};
+use cloud::{Camera, TriMesh};
+
+use super::degraded::degrade;
+use super::{Dataset, SourceFile};
+
+/// Reads a mesh file (any format with faces) and checks it.
+pub fn read_mesh(path: &Path) -> Result<TriMesh> {
+    let loaded = cloud::io::read(path)?;
+    if loaded.triangles.is_empty() {
+        bail!(
+            "{} has no faces: a mesh file is needed here",
+            path.display()
+        );
+    }
+    let mesh = loaded.mesh();
+    mesh.validate()
+        .with_context(|| format!("{} is not a usable mesh", path.display()))?;
+    Ok(mesh)
+}
+
+fn sha256_of(path: &Path) -> Result<SourceFile> {
+    Ok(SourceFile {
+        path: path.to_owned(),
+        sha256: crate::fetch::sha256_file(path)?,
+    })
+}
+
+/// Where a dataset made of files gets its views.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ViewsFrom {
+    /// The Fibonacci set of this spec around the mesh (or the cloud).
+    Spec(ViewSpec),
+    /// A views file or COLMAP model (world coordinates).
+    File(PathBuf),
+    /// The scanners of an E57 file (spherical cameras, 2048 × 1024).
+    Scanners,
+}
+
+/// A dataset made of user files.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FileDataset {
+    /// Its name.
+    pub name: String,
+    /// One line for listings.
+    pub description: String,
+    /// The point file, or `None` to sample the mesh.
+    pub cloud: Option<PathBuf>,
+    /// Sampling of the mesh (n, seed) when there is no cloud.
+    pub sample: Option<(usize, u64)>,
+    /// The mesh file.
+    pub mesh: Option<PathBuf>,
+    /// How to read the cloud.
+    pub read: cloud::io::ReadOptions,
+    /// Its views.
+    pub views: ViewsFrom,
+    /// Off-surface tolerance.
+    pub surface_tolerance: Option<f64>,
+    /// Degradations applied after loading (`cloud::degrade`), with their seed.
+    pub degrade: (Vec<Degradation>, u64),
+}
+
+/// Loads a dataset made of user files, recentred without loss.
+pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
+    let mut files = Vec::new();
+    let mesh = match &spec.mesh {
+        Some(p) => {
+            files.push(sha256_of(p)?);
+            Some(read_mesh(p)?)
+        }
+        None => None,
+    };
+    let (mut cloud, scanners) = match (&spec.cloud, spec.sample) {
+        (Some(p), _) => {
+            files.push(sha256_of(p)?);
+            let loaded = cloud::io::read_with(p, &spec.read)?;
+            (loaded.cloud, loaded.scanners)
+        }
+        (None, Some((n, seed))) => {
+            let mesh = mesh.as_ref().context("sampling needs a mesh")?;
+            (cloud::sample::sample_surface(mesh, n, seed)?, Vec::new())
+        }
+        (None, None) => bail!("dataset {} has neither a cloud nor a sample", spec.name),
+    };
+    if cloud.is_empty() {
+        bail!("dataset {}: the cloud has no points", spec.name);
+    }
+    cloud.validate()?;
+    // Recentre: one lossless offset for the cloud and the mesh together.
+    let mut origin = cloud::recentre::exact_offset(&cloud.positions);
+    if let Some(m) = &mesh
+        && !cloud::recentre::is_exact_for(&m.vertices, origin)
+    {
+        origin = DVec3::ZERO;
+    }
+    cloud::recentre::shift(&mut cloud.positions, origin);
+    let mut mesh = mesh.map(|mut m| {
+        cloud::recentre::shift(&mut m.vertices, origin);
+        m
+    });
+    // Rescale: coordinates at the ends of the f64 range, by a power of two, exactly.
+    let coords = cloud
+        .positions
+        .iter()
+        .chain(mesh.iter().flat_map(|m| m.vertices.iter()))
+        .flat_map(|p| p.to_array());
+    let scale = hull::exact_rescale(coords)
+        .with_context(|| format!("dataset {}", spec.name))?
+        .unwrap_or((1.0, 1.0));
+    if scale != (1.0, 1.0) {
+        let (f1, f2) = scale;
+        for p in &mut cloud.positions {
+            *p = *p * f1 * f2;
+        }
+        if let Some(m) = mesh.as_mut() {
+            for p in &mut m.vertices {
+                *p = *p * f1 * f2;
+            }
+        }
+    }
+    let from_world = |c: &Camera| c.translated(origin).scaled(scale.0).scaled(scale.1);
+    // Degrade (after rescaling: the steps' lengths are relative to the cloud).
+    let (mut truth_positions, mut outliers) = (None, None);
+    if !spec.degrade.0.is_empty() {
+        let d = degrade(&cloud, &spec.degrade.0, spec.degrade.1)?;
+        truth_positions = Some(d.truth_positions);
+        outliers = Some(d.outliers);
+        cloud = d.cloud;
+    }
+    let views = match &spec.views {
+        ViewsFrom::Spec(vs) => {
+            let bbox = match &mesh {
+                Some(m) => m.bbox(),
+                None => cloud.bbox(),
+            }
+            .context("no points for a bounding box")?;
+            fibonacci_views(&bbox, vs)?
+        }
+        ViewsFrom::File(p) => {
+            files.push(sha256_of(p).or_else(|_| -> Result<SourceFile> {
+                // A COLMAP folder: hash its images.txt.
+                sha256_of(&p.join("images.txt"))
+            })?);
+            cloud::io::views::read_views(p)?
+                .iter()
+                .map(from_world)
+                .collect()
+        }
+        ViewsFrom::Scanners => {
+            if scanners.is_empty() {
+                bail!(
+                    "dataset {}: views = \"scanners\" needs an E57 file with scan poses",
+                    spec.name
+                );
+            }
+            scanners
+                .iter()
+                .map(|s| Ok(from_world(&s.camera(2048, 1024)?)))
+                .collect::<Result<_>>()?
+        }
+    };
+    Ok(Dataset {
+        name: spec.name.clone(),
+        description: spec.description.clone(),
+        cloud,
+        mesh,
+        views,
+        files,
+        origin,
+        scale,
+        // A tolerance in world units, in the scaled frame.
+        surface_tolerance: spec.surface_tolerance.map(|t| t * scale.0 * scale.1),
+        truth_positions,
+        outliers,
+    })
+}

@@ -1,0 +1,258 @@
+//! Datasets: what the experiments and `visible` load by name, and the dataset in memory.
+//!
+//! A name is a built-in dataset ([`builtin`]: one table, names that say what they are) or one
+//! of the process's manifest ([`manifest`]: datasets made of the user's files, loaded through
+//! the frame of [`files`]: read, recentred without loss, rescaled exactly, degraded,
+//! recorded with their SHA-256). Degraded clouds keep their truth bookkeeping through
+//! [`degrade`], the one place that does it. The real meshes and `pointsight fetch` are
+//! [`crate::fetch`]'s.
+//!
+//! Layers: `manifest` → `builtin`, `files` → `degraded`; this module looks names up over
+//! them; none of them imports it back but for the [`Dataset`] type.
+
+pub mod builtin;
+pub mod degraded;
+pub mod files;
+pub mod manifest;
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use anyhow::{Context, Result};
+use cloud::glam::DVec3;
+use cloud::{Camera, PointCloud, TriMesh};
+
+pub use builtin::{DatasetInfo, REGISTRY, Source};
+pub use degraded::{Degraded, degrade};
+pub use files::{FileDataset, ViewsFrom, load_files, read_mesh};
+use manifest::{Manifest, manifest_dataset};
+
+/// The manifest of this process (`--manifest`, or `pointsight.toml`), set once at start.
+static MANIFEST: OnceLock<Option<Manifest>> = OnceLock::new();
+
+/// Uses `manifest` for every later lookup (call once, before loading anything).
+pub fn use_manifest(manifest: Option<Manifest>) {
+    // A second call keeps the first manifest: the process has one.
+    let _ = MANIFEST.set(manifest);
+}
+
+fn manifest() -> Option<&'static Manifest> {
+    MANIFEST.get().and_then(Option::as_ref)
+}
+
+/// The names of every dataset: built-in, then the manifest's.
+pub fn names() -> Vec<String> {
+    let mut out: Vec<String> = REGISTRY.iter().map(|d| d.name.to_owned()).collect();
+    if let Some(m) = manifest() {
+        out.extend(m.datasets.keys().cloned());
+    }
+    out
+}
+
+/// Looks a built-in dataset up by name (the error lists every name, the manifest's too).
+pub fn info(name: &str) -> Result<&'static DatasetInfo> {
+    REGISTRY.iter().find(|d| d.name == name).with_context(|| {
+        format!(
+            "unknown dataset {name:?}; known datasets: {}",
+            names().join(", ")
+        )
+    })
+}
+
+/// Fails unless `name` is a built-in or manifest dataset.
+pub fn check(name: &str) -> Result<()> {
+    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
+        return Ok(());
+    }
+    info(name).map(|_| ())
+}
+
+/// A user file a dataset was made from: its path and SHA-256 (for the run metadata).
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct SourceFile {
+    /// The path as given.
+    pub path: PathBuf,
+    /// SHA-256 of its bytes, hex.
+    pub sha256: String,
+}
+
+/// A dataset in memory: points, the mesh the ground truth needs (when there is one), views.
+#[derive(Debug, Clone)]
+pub struct Dataset {
+    /// Name used on the command line.
+    pub name: String,
+    /// One line for listings.
+    pub description: String,
+    /// The points methods see (recentred: world = `origin` + position).
+    pub cloud: PointCloud,
+    /// The surface the ground truth renders, in the same frame; `None` for a bare scan.
+    pub mesh: Option<TriMesh>,
+    /// Its viewpoint set, in the same frame.
+    pub views: Vec<Camera>,
+    /// User files it was read from.
+    pub files: Vec<SourceFile>,
+    /// The lossless offset subtracted from user files' coordinates (`cloud::recentre`); zero
+    /// for built-in datasets, which keep their source coordinates.
+    pub origin: DVec3,
+    /// The power of two, as two factors applied in turn, the recentred coordinates were
+    /// multiplied by when they lay outside [2^-100, 2^100] (`hull::exact_rescale`: exact, and
+    /// every visibility answer is invariant under it); (1, 1) otherwise. Position = (world −
+    /// origin) × scale.
+    pub scale: (f64, f64),
+    /// Points farther than this from the mesh are off-surface (scored apart); `None`: one
+    /// density spacing.
+    pub surface_tolerance: Option<f64>,
+    /// For degraded and scanned datasets: per point, where it truly lies on the surface (the
+    /// clean sample a noisy point came from, the noise-free hit of a scanner ray); its ground
+    /// truth is that position's visibility. `None`: the points themselves.
+    pub truth_positions: Option<Vec<DVec3>>,
+    /// For degraded datasets: per point, whether it is an added outlier (scored apart, with
+    /// the off-surface points).
+    pub outliers: Option<Vec<bool>>,
+}
+
+impl Dataset {
+    /// The positions whose visibility is the ground truth ([`Dataset::truth_positions`], else
+    /// the points).
+    pub fn truth_points(&self) -> &[DVec3] {
+        self.truth_positions
+            .as_deref()
+            .unwrap_or(&self.cloud.positions)
+    }
+
+    /// A camera given in world coordinates, in the dataset's frame.
+    pub fn camera_from_world(&self, camera: &Camera) -> Camera {
+        camera
+            .translated(self.origin)
+            .scaled(self.scale.0)
+            .scaled(self.scale.1)
+    }
+
+    /// The points in world coordinates (both steps undone exactly).
+    pub fn world_positions(&self) -> Vec<DVec3> {
+        let (f1, f2) = self.scale;
+        self.cloud
+            .positions
+            .iter()
+            .map(|&p| p / f2 / f1 + self.origin)
+            .collect()
+    }
+
+    /// The dataset's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// What the methods prepare on.
+    pub fn input(&self) -> registry::Input<'_> {
+        registry::Input {
+            cloud: &self.cloud,
+            mesh: self.mesh.as_ref(),
+        }
+    }
+
+    /// The mesh, or an error saying that `what` needs one.
+    pub fn mesh(&self, what: &str) -> Result<&TriMesh> {
+        self.mesh.as_ref().with_context(|| {
+            format!(
+                "{what} needs a mesh (the ground truth renders it); dataset {} has none: add \
+                 `mesh = ...` to its manifest entry or `--mesh FILE`",
+                self.name
+            )
+        })
+    }
+
+    /// View `k`, or an error naming the valid range.
+    pub fn view(&self, k: usize) -> Result<&Camera> {
+        self.views.get(k).with_context(|| {
+            format!(
+                "view {k} does not exist: dataset {} has views 0..{}",
+                self.name(),
+                self.views.len().saturating_sub(1)
+            )
+        })
+    }
+
+    /// Which points lie farther than the surface tolerance from the mesh (`None` without a
+    /// mesh); the tolerance used.
+    pub fn off_surface(&self) -> Result<Option<(Vec<bool>, f64)>> {
+        let Some(mesh) = &self.mesh else {
+            return Ok(None);
+        };
+        let tolerance = match self.surface_tolerance {
+            Some(t) => t,
+            None => cloud::spacing::density_spacing(&self.cloud.positions, 8, 20_000, 1)?,
+        };
+        let d = truth::ExactVisibility::new(mesh)?.distances(self.truth_points())?;
+        let outlier = |i: usize| self.outliers.as_ref().is_some_and(|o| o[i]);
+        Ok(Some((
+            d.iter()
+                .enumerate()
+                .map(|(i, &d)| d > tolerance || outlier(i))
+                .collect(),
+            tolerance,
+        )))
+    }
+}
+
+/// Loads a dataset by name: the manifest's, else a built-in one (real datasets need
+/// `data_dir` to hold the fetched meshes).
+pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
+    if let Some(m) = manifest()
+        && let Some(e) = m.datasets.get(name)
+    {
+        return load_files(&manifest_dataset(m, name, e)?)
+            .with_context(|| format!("dataset {name} of {}", m.path.display()));
+    }
+    builtin::load(info(name)?, data_dir)
+}
+
+/// The mesh of dataset `name` alone (without sampling its cloud, where that can be avoided).
+pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
+    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
+        return load(name, data_dir)?
+            .mesh
+            .with_context(|| format!("dataset {name} has no mesh"));
+    }
+    builtin::load_mesh_of(info(name)?, data_dir)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn synthetic_datasets_load_with_their_registered_sizes() {
+        for info in REGISTRY.iter().filter(|d| !d.needs_fetch()) {
+            let ds = load(info.name, Path::new("/nonexistent")).unwrap();
+            assert_eq!(ds.cloud.len(), info.n_points, "{}", info.name);
+            assert_eq!(ds.views.len(), 16);
+        }
+    }
+
+    #[test]
+    fn real_dataset_without_data_says_to_fetch() {
+        let err = load("bunny", Path::new("/nonexistent")).unwrap_err();
+        assert!(format!("{err:#}").contains("pointsight fetch"), "{err:#}");
+    }
+
+    #[test]
+    fn unknown_dataset_lists_the_known_ones() {
+        let err = info("teapot").unwrap_err().to_string();
+        assert!(
+            err.contains("bunny-69451") && err.contains("sphere-20000"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn names_are_unique_and_end_with_the_size_where_sampled() {
+        for (i, a) in REGISTRY.iter().enumerate() {
+            assert!(REGISTRY[i + 1..].iter().all(|b| b.name != a.name));
+            if let Source::MeshSamples { n, .. } = a.source {
+                assert!(a.name.ends_with(&n.to_string()));
+                assert_eq!(n, a.n_points);
+            }
+        }
+    }
+}

@@ -1,0 +1,248 @@
+//! `pointsight lod-build`: an LOD method's file built from a point file within a memory limit
+//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`), the same bytes as the
+//! in-memory build when it does.
+//!
+//! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
+//! neighbour estimates oriented away from the centroid when it has none; the leaf radius
+//! `experiments::lod::REF_RADIUS` density spacings
+//! (`cloud::spacing::density_spacing`, k = 8, 20,000 points, seed 1); the file's colours when
+//! it has them (the experiment paints its own texture instead, which a file build cannot know).
+//!
+//! Input: LAS and LAZ are streamed chunk by chunk (`cloud::io::las::LasStream`); PLY, E57 and
+//! the other formats are read whole first (their readers are not streamed), so for those the
+//! memory limit covers the build but not the reading.
+
+use std::path::Path;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use cloud::glam::{DVec3, Vec3};
+use qsplat::ooc::{self, Normals, Options, Point, Radius, Stage};
+
+/// The density-spacing rule of the `lod` experiment.
+pub const SPACING_K: usize = 8;
+/// Points the spacing samples.
+pub const SPACING_SAMPLE: usize = 20_000;
+/// The spacing's seed.
+pub const SPACING_SEED: u64 = 1;
+/// Neighbours of an estimated normal.
+pub const NORMALS_K: usize = 16;
+
+/// What `lod-build` did.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Built {
+    /// Points.
+    pub points: u64,
+    /// Wall-clock seconds, reading included.
+    pub seconds: f64,
+    /// Peak resident set size of this process (`VmHWM`), bytes.
+    pub peak_rss_bytes: u64,
+    /// Chunks (1: built in memory).
+    pub chunks: u64,
+    /// Levels above the chunks.
+    pub top_levels: u32,
+    /// Largest halo, points.
+    pub largest_halo: u64,
+    /// The leaf radius.
+    pub leaf_radius: f64,
+    /// Bytes of the file written.
+    pub file_bytes: u64,
+    /// Bytes written to scratch files.
+    pub scratch_bytes: u64,
+}
+
+/// A size: a number of bytes, optionally with a unit (`B`, `KiB`, `MiB`, `GiB`, `TiB`; `K`,
+/// `M`, `G`, `T` and `KB`, `MB`, `GB`, `TB` are read as the binary units too).
+pub fn parse_size(text: &str) -> Result<u64> {
+    let t = text.trim();
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
+    let (num, unit) = t.split_at(split);
+    let value: f64 = num
+        .parse()
+        .with_context(|| format!("size {text:?}: expected a number with a unit like 512MiB"))?;
+    let shift = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "b" => 0,
+        "k" | "kb" | "kib" => 10,
+        "m" | "mb" | "mib" => 20,
+        "g" | "gb" | "gib" => 30,
+        "t" | "tb" | "tib" => 40,
+        other => bail!("size {text:?}: unknown unit {other:?} (B, KiB, MiB, GiB, TiB)"),
+    };
+    let bytes = value * (1u64 << shift) as f64;
+    if !bytes.is_finite() || !(1.0..=1e18).contains(&bytes) {
+        bail!("size {text:?} is out of range");
+    }
+    Ok(bytes as u64)
+}
+
+/// The options of the `lod` experiment's preparation for a cloud with or without normals and
+/// colours, under `memory_limit`.
+pub fn options(memory_limit: u64, has_normals: bool, colors: bool) -> Options {
+    Options {
+        memory_limit,
+        colors,
+        normals: if has_normals {
+            Normals::Given
+        } else {
+            Normals::Estimate { k: NORMALS_K }
+        },
+        radius: Radius::DensitySpacing {
+            k: SPACING_K,
+            sample: SPACING_SAMPLE,
+            seed: SPACING_SEED,
+            factor: crate::experiments::lod::REF_RADIUS,
+        },
+        fail_after_bytes: None,
+    }
+}
+
+/// Peak resident set size of this process (`VmHWM`), bytes (0 where unknown).
+pub fn peak_rss() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<u64>().ok())
+        })
+        .map_or(0, |kb| kb * 1024)
+}
+
+/// Builds `method`'s file of the cloud in `cloud_path` into `out` within `memory_limit`
+/// bytes (`progress`: a bar on a terminal). The public entry a scale cell calls.
+pub fn build(
+    cloud_path: &Path,
+    method: &str,
+    memory_limit: u64,
+    out: &Path,
+    progress: bool,
+) -> Result<Built> {
+    if method != "qsplat" {
+        bail!("lod-build: method {method:?} has no out-of-core build yet (qsplat has)");
+    }
+    let start = Instant::now();
+    let is_las = cloud::io::Format::of_path(cloud_path) == Some(cloud::io::Format::Las);
+    let bar = progress.then(|| crate::progress::bar(0, "reading"));
+    let mut report = |stage: Stage, count: u64| {
+        if let Some(b) = &bar {
+            let msg = match stage {
+                Stage::Read => "reading",
+                Stage::Split => "splitting into chunks",
+                Stage::Neighbours => "normals and spacing",
+                Stage::Build => "building chunk roots",
+                Stage::Encode => "encoding chunks",
+                Stage::Write => "writing levels",
+            };
+            if b.message() != msg {
+                b.set_message(msg);
+            }
+            b.set_position(count);
+        }
+    };
+    let summary = if is_las {
+        let mut stream =
+            cloud::io::las::LasStream::open(cloud_path, &cloud::io::las::LasOptions::default())?;
+        if let Some(b) = &bar {
+            b.set_length(stream.announced);
+        }
+        let colors = stream.with_color;
+        let opts = options(memory_limit, false, colors);
+        let mut chunk = cloud::PointCloud {
+            colors: colors.then(Vec::new),
+            ..cloud::PointCloud::default()
+        };
+        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+            chunk.positions.clear();
+            if let Some(c) = chunk.colors.as_mut() {
+                c.clear();
+            }
+            let more = stream
+                .next_into(&mut chunk)
+                .map_err(|e| qsplat::Error::Cloud(cloud::Error::Read(e)))?;
+            batch.extend(chunk.positions.iter().enumerate().map(|(i, &p)| Point {
+                position: p,
+                normal: Vec3::ZERO,
+                color: chunk.colors.as_ref().map_or([0; 3], |c| c[i]),
+            }));
+            Ok(more)
+        };
+        ooc::build_file(&mut source, &opts, out, &mut report)?
+    } else {
+        let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
+        let c = loaded.cloud;
+        if let Some(b) = &bar {
+            b.set_length(c.len() as u64);
+        }
+        let opts = options(memory_limit, c.normals.is_some(), c.colors.is_some());
+        let mut at = 0usize;
+        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+            let end = (at + (1 << 16)).min(c.len());
+            batch.extend((at..end).map(|i| Point {
+                position: c.positions[i],
+                normal: c.normals.as_ref().map_or(Vec3::ZERO, |n| n[i]),
+                color: c.colors.as_ref().map_or([0; 3], |k| k[i]),
+            }));
+            at = end;
+            Ok(at < c.len())
+        };
+        ooc::build_file(&mut source, &opts, out, &mut report)?
+    };
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok(Built {
+        points: summary.points,
+        seconds: start.elapsed().as_secs_f64(),
+        peak_rss_bytes: peak_rss(),
+        chunks: summary.chunks,
+        top_levels: summary.top_levels,
+        largest_halo: summary.largest_halo,
+        leaf_radius: summary.leaf_radius,
+        file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
+        scratch_bytes: summary.scratch_bytes,
+    })
+}
+
+/// The in-memory build of the same file (the whole cloud read, then
+/// `qsplat::ooc::in_memory`): the reference the out-of-core build equals, and the baseline
+/// of its rate and memory.
+pub fn build_in_memory(cloud_path: &Path, out: &Path) -> Result<Built> {
+    let start = Instant::now();
+    let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
+    let c = loaded.cloud;
+    let n = c.len() as u64;
+    let opts = options(u64::MAX, c.normals.is_some(), c.colors.is_some());
+    let positions: Vec<DVec3> = c.positions;
+    let (tree, radius) = ooc::in_memory(positions, c.normals, c.colors, &opts)?;
+    qsplat::file::write(&tree, out)?;
+    Ok(Built {
+        points: n,
+        seconds: start.elapsed().as_secs_f64(),
+        peak_rss_bytes: peak_rss(),
+        chunks: 1,
+        top_levels: 0,
+        largest_halo: 0,
+        leaf_radius: radius,
+        file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
+        scratch_bytes: 0,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes() {
+        assert_eq!(parse_size("512MiB").unwrap(), 512 << 20);
+        assert_eq!(parse_size("4GiB").unwrap(), 4 << 30);
+        assert_eq!(parse_size("1.5G").unwrap(), 3 << 29);
+        assert_eq!(parse_size("1000").unwrap(), 1000);
+        assert!(parse_size("12 parsecs").is_err());
+        assert!(parse_size("MiB").is_err());
+        assert!(parse_size("0").is_err());
+    }
+}

@@ -1,0 +1,220 @@
+//! The report's viewer pages: for every real (fetched) dataset the visibility experiment ran,
+//! the page of view 0 (the view of `renders.png`) with every default method, into
+//! `reports/viewer/DATASET.html`, each at most [`MAX_PAGE_BYTES`] (a uniform subsample when
+//! the whole cloud would not fit, which the page says); `reports/viewer/pages.json` lists
+//! them for the report page ([`section`]).
+
+use std::path::Path;
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize};
+
+use super::{MethodRun, choose, page, run_method};
+use crate::datasets;
+use crate::output::{read_csv, write_atomic};
+
+/// A committed page's size limit.
+pub const MAX_PAGE_BYTES: usize = 5 * 1024 * 1024;
+
+/// One page of the report.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Entry {
+    /// Dataset.
+    pub dataset: String,
+    /// View.
+    pub view: usize,
+    /// File name under `viewer/`.
+    pub file: String,
+    /// Points of the cloud.
+    pub points: usize,
+    /// Points on the page.
+    pub shown: usize,
+    /// Methods on the page.
+    pub methods: Vec<String>,
+    /// Size of the page.
+    pub bytes: usize,
+}
+
+/// The datasets of the visibility experiment's results (in `reports/visibility/results.csv`)
+/// that come from fetched files.
+pub fn real_datasets(reports: &Path) -> Result<Vec<String>> {
+    #[derive(Deserialize)]
+    struct R {
+        dataset: String,
+    }
+    let path = reports.join("visibility/results.csv");
+    if !path.exists() {
+        return Ok(Vec::new());
+    }
+    let rows: Vec<R> = read_csv(&path)?;
+    let names = crate::output::distinct(rows.iter().map(|r| r.dataset.as_str()));
+    Ok(names
+        .into_iter()
+        .filter(|d| datasets::info(d).is_ok_and(|i| i.needs_fetch()))
+        .collect())
+}
+
+/// Writes the page of each of `names` (view 0) and `viewer/pages.json` (nothing when `names`
+/// is empty); a dataset whose files are missing is left out with a line on standard error.
+pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
+    let script = page::bundle()?;
+    let mut entries = Vec::new();
+    for name in names {
+        let ds = match datasets::load(name, data_dir) {
+            Ok(ds) => ds,
+            Err(e) => {
+                eprintln!("viewer pages: {name} left out: {e:#}");
+                continue;
+            }
+        };
+        let view = 0;
+        let camera = *ds.view(view)?;
+        let mut runs = Vec::new();
+        for (m, params, setting) in choose(None, &[])? {
+            match run_method(m, &ds, &params, view, &camera) {
+                Ok((out, seconds)) => runs.push(MethodRun {
+                    name: m.name().to_owned(),
+                    setting,
+                    visible: out.visible,
+                    seconds,
+                }),
+                Err(e) => eprintln!("viewer pages: {name}: {} left out: {e:#}", m.name()),
+            }
+        }
+        let truth = page::Truth::of(&ds, &camera, &runs)?;
+        // Bytes per point: 6 of position and one bit per set, base64 (4/3).
+        let per_point = (6.0 + (runs.len() + 2) as f64 / 8.0) * 4.0 / 3.0;
+        let budget = MAX_PAGE_BYTES.saturating_sub(script.len() + 64 * 1024) as f64;
+        let mut max_points = ((budget / per_point) as usize).clamp(1, ds.cloud.len());
+        let note = format!(
+            "The report's page of {name}, view {view} (the view of renders.png), every method at \
+             its default setting."
+        );
+        let html = loop {
+            let html = page::Page {
+                ds: &ds,
+                view,
+                camera: &camera,
+                runs: &runs,
+                truth: &truth,
+                max_points: Some(max_points),
+                note: Some(&note),
+            }
+            .html(&script)?;
+            if html.len() <= MAX_PAGE_BYTES || max_points <= 1 {
+                break html;
+            }
+            max_points = (max_points as f64 * 0.95) as usize;
+        };
+        let file = format!("{name}.html");
+        write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
+        eprintln!(
+            "viewer pages: {file}: {} of {} points, {} bytes",
+            max_points,
+            ds.cloud.len(),
+            html.len()
+        );
+        entries.push(Entry {
+            dataset: name.clone(),
+            view,
+            file,
+            points: ds.cloud.len(),
+            shown: max_points,
+            methods: runs.iter().map(|r| r.name.clone()).collect(),
+            bytes: html.len(),
+        });
+    }
+    write_atomic(
+        &reports.join("viewer/pages.json"),
+        serde_json::to_string_pretty(&entries)?.as_bytes(),
+    )?;
+    Ok(entries)
+}
+
+/// The report page's section on the viewer pages (empty when there are none).
+pub fn section(reports: &Path) -> Result<String> {
+    let path = reports.join("viewer/pages.json");
+    if !path.exists() {
+        return Ok(String::new());
+    }
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let entries: Vec<Entry> =
+        serde_json::from_str(&text).with_context(|| format!("malformed {}", path.display()))?;
+    if entries.is_empty() {
+        return Ok(String::new());
+    }
+    let mut s = String::from(
+        "\n## viewer\n\nInteractive 3D pages (open from disk, no server): every method's visible \
+         set of view 0 against the reference, in the colours of renders.png; orbit, look \
+         through the view's camera, switch methods. `pointsight view` writes them for any \
+         dataset, view and methods.\n\n",
+    );
+    for e in &entries {
+        let sample = if e.shown < e.points {
+            format!("a uniform subsample of {} of {} points", e.shown, e.points)
+        } else {
+            format!("all {} points", e.points)
+        };
+        s.push_str(&format!(
+            "- [{}, view {}](viewer/{}): {sample}; {}; {:.1} MiB\n",
+            e.dataset,
+            e.view,
+            e.file,
+            e.methods.join(", "),
+            e.bytes as f64 / (1024.0 * 1024.0)
+        ));
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_section_links_every_page_and_says_when_subsampled() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(section(dir.path()).unwrap(), "");
+        let entries = vec![
+            Entry {
+                dataset: "dragon-871414".into(),
+                view: 0,
+                file: "dragon-871414.html".into(),
+                points: 871_414,
+                shown: 500_000,
+                methods: vec!["hpr".into(), "raycast".into()],
+                bytes: 5_000_000,
+            },
+            Entry {
+                dataset: "bunny".into(),
+                view: 0,
+                file: "bunny.html".into(),
+                points: 37_706,
+                shown: 37_706,
+                methods: vec!["hpr".into()],
+                bytes: 900_000,
+            },
+        ];
+        write_atomic(
+            &dir.path().join("viewer/pages.json"),
+            serde_json::to_string(&entries).unwrap().as_bytes(),
+        )
+        .unwrap();
+        let s = section(dir.path()).unwrap();
+        assert!(
+            s.contains("[dragon-871414, view 0](viewer/dragon-871414.html)"),
+            "{s}"
+        );
+        assert!(
+            s.contains("a uniform subsample of 500000 of 871414 points"),
+            "{s}"
+        );
+        assert!(s.contains("all 37706 points"), "{s}");
+        // No results: no real dataset to draw.
+        assert!(real_datasets(dir.path()).unwrap().is_empty());
+    }
+}

@@ -1,0 +1,254 @@
+//! `hpr-approx`: HPR over an approximate hull (`hpr::approx`, Machado e Silva et al. 2012 and
+//! 2014): the transformed points' directions binned into `sectors` cells of a cube map around
+//! the eye, the farthest per cell kept, the exact hull of those.
+//!
+//! `sectors=auto`: one cell per pixel, i.e. a cube-map edge of ⌈(π/2)·f⌉ cells for the camera's
+//! focal length f in pixels (the angle of a pixel at the image centre; spherical cameras: the
+//! equirectangular pixel), after the CGF paper's image-space framing. The kernel keys are
+//! `hpr`'s (`gamma=auto` included).
+
+use cloud::Camera;
+use hpr::approx::{ApproxParams, visible};
+use hpr::{Kernel, Radius};
+use hull::ConvexHull;
+
+use crate::error::{Error, Result};
+use crate::hpr::{auto_gamma_for, kernel_from, refuse_orthographic, wants_auto_gamma};
+use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
+
+/// Approximate HPR.
+pub struct HprApproxMethod;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        key: "sectors",
+        default: "auto",
+        help: "k, the cells of the direction cube map (rounded to 6 m^2), or auto: one per pixel of the view",
+    },
+    ParamSpec {
+        key: "gamma",
+        default: "3 (linear), -0.05 (exp), 1000 (log), 0.001 (expdecay)",
+        help: "the kernel's parameter as for hpr, or auto (linear: hpr::auto's rule, per view)",
+    },
+    ParamSpec {
+        key: "radius",
+        default: "-",
+        help: "absolute flipping radius R (linear kernel; overrides gamma)",
+    },
+    ParamSpec {
+        key: "kernel",
+        default: "linear",
+        help: "linear, exp, log, expdecay (as for hpr)",
+    },
+    ParamSpec {
+        key: "hull",
+        default: "own",
+        help: "hull implementation for the representatives: own, qhull, qhull-qj, parry, quickhull, chull",
+    },
+];
+
+/// `sectors=auto` for `camera`: 6 m² with m = ⌈(π/2) / pixel angle⌉.
+pub fn auto_sectors(camera: &Camera) -> u64 {
+    let m = (std::f64::consts::FRAC_PI_2 * camera.focal_px())
+        .ceil()
+        .max(1.0) as u64;
+    6 * m * m
+}
+
+struct Prep<'a> {
+    points: &'a [cloud::glam::DVec3],
+    kernel: Kernel,
+    /// `None`: auto.
+    sectors: Option<u64>,
+    hull: Box<dyn ConvexHull>,
+    auto_gamma: Option<hpr::auto::CloudScale>,
+}
+
+impl Prepared for Prep<'_> {
+    fn visible(&self, camera: &Camera) -> Result<Output> {
+        refuse_orthographic("hpr-approx", camera)?;
+        let mut detail = Vec::new();
+        let kernel = match &self.auto_gamma {
+            Some(scale) => {
+                let gamma = auto_gamma_for(scale, self.points, camera.eye);
+                detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
+                Kernel::Linear(Radius::Gamma(gamma))
+            }
+            None => self.kernel,
+        };
+        let sectors = self.sectors.unwrap_or_else(|| auto_sectors(camera));
+        let v = visible(
+            self.points,
+            camera.eye,
+            &ApproxParams { kernel, sectors },
+            self.hull.as_ref(),
+        )?;
+        detail.push(("sectors_used".to_owned(), v.sectors.to_string()));
+        detail.push(("representatives".to_owned(), v.representatives.to_string()));
+        Ok(Output {
+            visible: v.visible,
+            detail,
+            ..Output::default()
+        })
+    }
+}
+
+impl Method for HprApproxMethod {
+    fn name(&self) -> &'static str {
+        "hpr-approx"
+    }
+
+    fn summary(&self) -> &'static str {
+        "HPR over an approximate hull (Machado e Silva et al. 2012/2014): farthest flipped point per direction sector, hull of those"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn parallel_views(&self) -> bool {
+        true
+    }
+
+    fn family(&self, _setting: &crate::Setting) -> String {
+        "hpr-approx".into()
+    }
+
+    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
+        let auto = wants_auto_gamma(params)?;
+        let kernel = kernel_from(params)?;
+        let sectors: Option<String> = params.get_opt("sectors")?;
+        let sectors = match sectors.as_deref() {
+            None | Some("auto") => None,
+            Some(text) => {
+                let k = text.parse::<u64>().map_err(|e| Error::BadValue {
+                    key: "sectors".into(),
+                    value: text.to_owned(),
+                    reason: e.to_string(),
+                })?;
+                hpr::approx::edge_for(k)?;
+                Some(k)
+            }
+        };
+        let hull: String = params.get("hull", "own".to_owned())?;
+        let auto_gamma = if auto {
+            Some(hpr::auto::CloudScale::of(&input.cloud.positions)?)
+        } else {
+            None
+        };
+        Ok(Box::new(Prep {
+            points: &input.cloud.positions,
+            kernel,
+            sectors,
+            hull: hull::by_name(&hull)?,
+            auto_gamma,
+        }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use cloud::glam::DVec3;
+    use cloud::synth::sphere_scene;
+    use cloud::{Camera, Model};
+
+    use super::*;
+
+    fn run(set: &[&str], camera: &Camera) -> Result<Output> {
+        let scene = sphere_scene(3_000);
+        let input = Input {
+            cloud: &scene.cloud,
+            mesh: None,
+        };
+        let params = Params::parse(set)?;
+        let p = crate::kernel::prepare(&HprApproxMethod, input, &params)?;
+        p.visible(camera)
+    }
+
+    fn camera(model: Model, w: u32, h: u32) -> Camera {
+        Camera::look_at(
+            DVec3::new(0.3, 0.2, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            model,
+            w,
+            h,
+        )
+        .unwrap()
+    }
+
+    fn pinhole() -> Camera {
+        camera(Model::pinhole_fov(50.0, 320, 240).unwrap(), 320, 240)
+    }
+
+    #[test]
+    fn many_sectors_give_exact_hpr_and_few_give_fewer_points() {
+        let scene = sphere_scene(3_000);
+        let input = Input {
+            cloud: &scene.cloud,
+            mesh: None,
+        };
+        let exact = crate::kernel::prepare(
+            &crate::hpr::HprMethod,
+            input,
+            &Params::parse(&["gamma=2"]).unwrap(),
+        )
+        .unwrap()
+        .visible(&pinhole())
+        .unwrap();
+        let fine = run(&["gamma=2", "sectors=600000000"], &pinhole()).unwrap();
+        assert_eq!(fine.visible, exact.visible);
+        let coarse = run(&["gamma=2", "sectors=600"], &pinhole()).unwrap();
+        assert!(coarse.visible.len() * 2 < exact.visible.len());
+        assert!(
+            coarse
+                .detail
+                .iter()
+                .any(|(k, v)| k == "sectors_used" && v == "600")
+        );
+    }
+
+    #[test]
+    fn auto_sectors_follow_the_pixel_angle_and_every_eye_camera_runs() {
+        let small = pinhole();
+        let big = camera(Model::pinhole_fov(50.0, 1280, 960).unwrap(), 1280, 960);
+        assert!(auto_sectors(&big) > 10 * auto_sectors(&small));
+        let sph = camera(Model::Spherical, 512, 256);
+        for cam in [small, sph] {
+            let out = run(&["gamma=auto"], &cam).unwrap();
+            assert!(out.visible.len() > 500, "{}", out.visible.len());
+            assert!(out.detail.iter().any(|(k, _)| k == "gamma_value"));
+        }
+        let ortho = camera(
+            Model::Orthographic {
+                view_width: 3.0,
+                view_height: 3.0,
+            },
+            100,
+            100,
+        );
+        let err = run(&[], &ortho).unwrap_err().to_string();
+        assert!(
+            err.contains("orthographic") && err.contains("viewpoint"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        let cam = pinhole();
+        for (set, needle) in [
+            (&["sectors=0"][..], "sectors"),
+            (&["sectors=-3"], "sectors"),
+            (&["sectors=lots"], "sectors"),
+            (&["kernel=cubic"], "kernel=cubic"),
+            (&["kernel=exp", "gamma=0.5"], "gamma"),
+            (&["kernel=log", "radius=3"], "radius"),
+            (&["gamma=NaN"], "gamma"),
+            (&["perturb=0.01"], "perturb"),
+        ] {
+            let err = run(set, &cam).unwrap_err().to_string();
+            assert!(err.contains(needle), "{set:?}: {err}");
+        }
+    }
+}

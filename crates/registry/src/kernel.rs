@@ -1,0 +1,286 @@
+//! The measurement kernel: the only code that prepares, times and runs a method.
+//!
+//! Every caller that measures a method goes through here: the `visible` command, the
+//! `visibility`, `robustness`, `scale` and `lod` experiments, and the Python package. A
+//! **cell** is one method at one setting on one cloud over a list of views (each named by its
+//! index among the dataset's views, which an external program is told); it gives, per view,
+//! the method's answer and its timing with the spread of the repeats, or the error that
+//! stopped it. A failure is a value, not an abort: a cell whose preparation fails reports the
+//! same error for each of its views, and a view that fails does not stop the others, so the
+//! experiments can write an error row and go on.
+//!
+//! The visibility form ([`run`]): the method is prepared once per cell (per-cloud state: a
+//! k-d tree, a BVH; parameters the method did not read are refused here), then each view is
+//! answered `repeats` times through [`crate::timing`] (an external program's own reported
+//! seconds when it gives them). The level-of-detail form ([`run_lod`]): the method builds once
+//! per cloud (timed on its own), then each setting's selector selects per view (the part a
+//! renderer pays per frame, timed); the splats are made after the clock stops.
+//!
+//! Scoring is the caller's (methods return indices or splats; the harness scores them against
+//! the ground truth), so is where the answers go (rows, files, arrays).
+
+use cloud::Camera;
+use splat::render::Splat;
+
+use crate::error::{Error, Result};
+use crate::lod::{LodInput, LodMethod, LodSize};
+use crate::params::Params;
+use crate::sweep::Setting;
+use crate::timing::{self, Timing};
+use crate::{Input, Method, Output, Prepared};
+
+/// One view of a dataset: its index among the dataset's views and its camera.
+#[derive(Debug, Clone, Copy)]
+pub struct View {
+    /// Index among the dataset's views (what an external program is told).
+    pub index: usize,
+    /// The camera.
+    pub camera: Camera,
+}
+
+impl View {
+    /// Every camera of `cameras`, each with its position as its index.
+    pub fn all(cameras: &[Camera]) -> Vec<View> {
+        cameras
+            .iter()
+            .enumerate()
+            .map(|(index, &camera)| View { index, camera })
+            .collect()
+    }
+}
+
+/// A visibility cell: one method at one setting, over views.
+pub struct Cell<'a> {
+    /// The method.
+    pub method: &'a dyn Method,
+    /// Its setting.
+    pub params: Params,
+    /// The views to answer, in order.
+    pub views: &'a [View],
+    /// Timed runs per view (at least one).
+    pub repeats: usize,
+    /// Answer the views in parallel, one per thread (the answers still reach the caller in the
+    /// views' order).
+    pub parallel: bool,
+}
+
+impl<'a> Cell<'a> {
+    /// A cell of `method` at `setting` over `views`, `repeats` timed runs per view, the views
+    /// answered one after another.
+    pub fn new(
+        method: &'a dyn Method,
+        setting: &Setting,
+        views: &'a [View],
+        repeats: usize,
+    ) -> Self {
+        Self {
+            method,
+            params: setting.params(),
+            views,
+            repeats,
+            parallel: false,
+        }
+    }
+}
+
+/// A view's answer: the method's output and the timing of its repeats.
+#[derive(Debug)]
+pub struct Answer {
+    /// The last run's output.
+    pub output: Output,
+    /// Median and spread of the runs.
+    pub timing: Timing,
+}
+
+/// Prepares `cell.method` on `input` (refusing parameters it did not read), then answers each
+/// view: `each` gets every view of the cell, in order, with its answer or the error that
+/// stopped it (a failed preparation's error, for every view). Returns the preparation's
+/// seconds (one run), or its error once every view has been told.
+pub fn run<'a>(
+    cell: &Cell<'_>,
+    input: Input<'a>,
+    mut each: impl FnMut(&View, std::result::Result<Answer, &Error>),
+) -> Result<f64> {
+    let start = std::time::Instant::now();
+    let prepared = prepare(cell.method, input, &cell.params);
+    let prepare_seconds = start.elapsed().as_secs_f64();
+    let prepared = match prepared {
+        Ok(p) => p,
+        Err(e) => {
+            for view in cell.views {
+                each(view, Err(&e));
+            }
+            return Err(e);
+        }
+    };
+    if cell.parallel {
+        use rayon::prelude::*;
+        // (The cell itself is not shared: its parameters remember which keys were read.)
+        let (views, repeats, prepared) = (cell.views, cell.repeats, prepared.as_ref());
+        let answers: Vec<Result<Answer>> = views
+            .par_iter()
+            .map(|v| timed(prepared, v, repeats))
+            .collect();
+        for (view, answer) in cell.views.iter().zip(answers) {
+            match answer {
+                Ok(a) => each(view, Ok(a)),
+                Err(e) => each(view, Err(&e)),
+            }
+        }
+    } else {
+        for view in cell.views {
+            match timed(prepared.as_ref(), view, cell.repeats) {
+                Ok(a) => each(view, Ok(a)),
+                Err(e) => each(view, Err(&e)),
+            }
+        }
+    }
+    Ok(prepare_seconds)
+}
+
+/// Prepares `method` on `input`, rejecting parameters it does not read.
+pub(crate) fn prepare<'a>(
+    method: &dyn Method,
+    input: Input<'a>,
+    params: &Params,
+) -> Result<Box<dyn Prepared + 'a>> {
+    let prepared = method.prepare(input, params)?;
+    params.check_all_read(method.name(), method.params())?;
+    Ok(prepared)
+}
+
+/// The kernel's one hook for methods that report their own compute seconds (an external
+/// program, whose wall time includes starting it, the protocol and the transfer of points and
+/// answers): when every run of a measurement reported its seconds, those are its timing;
+/// otherwise the wall clock's. Used for visibility answers, LOD builds and LOD selections
+/// alike, so no caller chooses between the two.
+fn own_or_wall(reported: Vec<Option<f64>>, wall: Timing) -> Timing {
+    let own: Option<Vec<f64>> = reported.into_iter().collect();
+    match own {
+        Some(own) if !own.is_empty() => Timing::of(&own),
+        _ => wall,
+    }
+}
+
+/// Answers one view `repeats` times (at least once) with the one timing helper: the last
+/// output and the timing ([`own_or_wall`]: [`Output::reported_seconds`] when the method gives
+/// it on every run).
+fn timed(prepared: &dyn Prepared, view: &View, repeats: usize) -> Result<Answer> {
+    let mut reported = Vec::new();
+    let (output, wall) = timing::measure(repeats, || {
+        let out = prepared.visible_at(view.index, &view.camera)?;
+        reported.push(out.reported_seconds);
+        Ok::<_, Error>(out)
+    })?;
+    Ok(Answer {
+        output,
+        timing: own_or_wall(reported, wall),
+    })
+}
+
+/// A level-of-detail cell: one method built once, selecting at each setting over views.
+pub struct LodCell<'a> {
+    /// The method.
+    pub method: &'a dyn LodMethod,
+    /// The settings to select at, in order.
+    pub settings: &'a [Setting],
+    /// The views (cameras) to select for, in order.
+    pub views: &'a [View],
+    /// Timed runs per selection (at least one).
+    pub repeats: usize,
+    /// Timed builds (at least one; the last build is kept).
+    pub build_repeats: usize,
+}
+
+/// A built structure's timing and size.
+#[derive(Debug, Clone, Copy)]
+pub struct Built {
+    /// Median and spread of the builds.
+    pub timing: Timing,
+    /// Its size.
+    pub size: LodSize,
+}
+
+/// One selection: the splats to draw and the timing of the selection alone.
+#[derive(Debug)]
+pub struct Selection {
+    /// The splats (made after the clock stopped).
+    pub splats: Vec<Splat>,
+    /// Median and spread of the selections.
+    pub timing: Timing,
+}
+
+/// Builds `cell.method` on `input` once (`build_repeats` timed builds), then, for each setting
+/// in order and each view in order, selects: `each` gets (the setting's position in
+/// `cell.settings`, the view's position in `cell.views`, the selection or the error that
+/// stopped it: a bad setting's, for each of its views). Returns the build's timing and size,
+/// or its error (then `each` is not called).
+pub fn run_lod(
+    cell: &LodCell<'_>,
+    input: &LodInput<'_>,
+    mut each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
+) -> Result<Built> {
+    // Builds and selections are timed as answers are: a program's own reported seconds
+    // (`LodBuilt::reported_build_seconds`, `LodSelector::reported_seconds`) when it gives
+    // them, else the wall clock.
+    let mut reported = Vec::new();
+    let (built, wall) = timing::measure(cell.build_repeats, || {
+        let built = cell.method.build(input)?;
+        reported.push(built.reported_build_seconds());
+        Ok::<_, Error>(built)
+    })?;
+    let build_timing = own_or_wall(reported, wall);
+    let size = built.size();
+    for (k, setting) in cell.settings.iter().enumerate() {
+        let params = setting.params();
+        let selector = built.selector(input, &params).and_then(|s| {
+            params.check_all_read(cell.method.name(), cell.method.params())?;
+            Ok(s)
+        });
+        let mut selector = match selector {
+            Ok(s) => s,
+            Err(e) => {
+                for v in 0..cell.views.len() {
+                    each(k, v, Err(&e));
+                }
+                continue;
+            }
+        };
+        for (v, view) in cell.views.iter().enumerate() {
+            let mut reported = Vec::new();
+            let measured = timing::measure(cell.repeats, || {
+                selector.select_at(view.index, &view.camera)?;
+                reported.push(selector.reported_seconds());
+                Ok::<_, Error>(())
+            });
+            match measured {
+                Ok(((), wall)) => each(
+                    k,
+                    v,
+                    Ok(Selection {
+                        splats: selector.splats(),
+                        timing: own_or_wall(reported, wall),
+                    }),
+                ),
+                Err(e) => each(k, v, Err(&e)),
+            }
+        }
+    }
+    Ok(Built {
+        timing: build_timing,
+        size,
+    })
+}
+
+/// Each view of a cell with its answer or its error's message.
+pub type Answers = Vec<(View, std::result::Result<Answer, String>)>;
+
+/// [`run`], with the answers collected: each view with its answer or its error's message, and
+/// the preparation's seconds or its error.
+pub fn collect(cell: &Cell<'_>, input: Input<'_>) -> (Result<f64>, Answers) {
+    let mut answers = Vec::with_capacity(cell.views.len());
+    let prepared = run(cell, input, |view, answer| {
+        answers.push((*view, answer.map_err(|e| e.to_string())));
+    });
+    (prepared, answers)
+}

@@ -1,0 +1,308 @@
+//! One measurement path: a throwaway visibility method and a throwaway LOD method, registered
+//! once each, and an external method folder, reach every experiment with no other edit. The
+//! visibility and external methods appear in the results of `visibility`, `robustness` and
+//! `scale`; the LOD method in `lod`, robustness's LOD results and `scale`. The robustness run
+//! takes its grids from a sweeps file (`--config`), and HPR is tuned over that file's grid.
+//!
+//! A program of its own (`harness = false`), as a program embedding the registry is: it
+//! registers its methods first thing in `main`, and forwards a scale cell to
+//! `harness::experiments::scale::cell_entry`, because the scale experiment runs each cell by
+//! re-running the current executable (this test binary) as a child process.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use cloud::Camera;
+use harness::experiments::{self, Context};
+use registry::lod::{LodBuilt, LodInput, LodMethod, LodSelector, LodSize};
+use registry::{Input, Method, MethodSweep, Output, ParamSpec, Params, Prepared, Sweeps};
+use splat::render::Splat;
+
+/// A sweep from TOML text.
+fn sweep(text: &str) -> Option<MethodSweep> {
+    MethodSweep::from_toml(&toml::from_str(text).ok()?, "kernel-test").ok()
+}
+
+/// Test-only visibility method: the half of the points nearest to the eye.
+struct Nearest;
+
+struct NearestPrep<'a>(&'a [cloud::glam::DVec3]);
+
+impl Prepared for NearestPrep<'_> {
+    fn visible(&self, camera: &Camera) -> registry::Result<Output> {
+        let mut by: Vec<(f64, u32)> = self
+            .0
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ((*p - camera.eye).length(), i as u32))
+            .collect();
+        by.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut visible: Vec<u32> = by[..by.len() / 2].iter().map(|x| x.1).collect();
+        visible.sort_unstable();
+        Ok(Output {
+            visible,
+            ..Output::default()
+        })
+    }
+}
+
+impl Method for Nearest {
+    fn name(&self) -> &'static str {
+        "kernel-test-nearest"
+    }
+    fn summary(&self) -> &'static str {
+        "test only: the nearest half of the points"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        &[]
+    }
+    fn prepare<'a>(
+        &self,
+        input: Input<'a>,
+        _: &Params,
+    ) -> registry::Result<Box<dyn Prepared + 'a>> {
+        Ok(Box::new(NearestPrep(&input.cloud.positions)))
+    }
+    fn sweep(&self) -> Option<MethodSweep> {
+        sweep("[[grid]]\n")
+    }
+    fn scale(&self) -> registry::Scale {
+        registry::Scale::PerPoint(64)
+    }
+}
+
+/// Test-only LOD method: every `stride`-th point.
+struct Stride;
+struct StrideBuilt(usize);
+struct StrideSel<'s> {
+    input: &'s LodInput<'s>,
+    stride: usize,
+    n: usize,
+}
+
+const STRIDE: &[ParamSpec] = &[ParamSpec {
+    key: "stride",
+    default: "2",
+    help: "keep every stride-th point",
+}];
+
+impl LodMethod for Stride {
+    fn name(&self) -> &'static str {
+        "kernel-test-stride"
+    }
+    fn summary(&self) -> &'static str {
+        "test only: every stride-th point"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        STRIDE
+    }
+    fn build(&self, input: &LodInput<'_>) -> registry::Result<Box<dyn LodBuilt>> {
+        Ok(Box::new(StrideBuilt(input.cloud.len())))
+    }
+    fn sweep(&self) -> Option<MethodSweep> {
+        sweep("default = {stride = 2}\n[[grid]]\nstride = [2, 4]\n")
+    }
+    fn scale(&self) -> registry::Scale {
+        registry::Scale::PerPoint(64)
+    }
+}
+
+impl LodBuilt for StrideBuilt {
+    fn size(&self) -> LodSize {
+        LodSize {
+            nodes: self.0,
+            bytes: 0.0,
+        }
+    }
+    fn selector<'s>(
+        &'s self,
+        input: &'s LodInput<'s>,
+        params: &Params,
+    ) -> registry::Result<Box<dyn LodSelector + 's>> {
+        Ok(Box::new(StrideSel {
+            input,
+            stride: params.get("stride", 2usize)?.max(1),
+            n: self.0,
+        }))
+    }
+}
+
+impl LodSelector for StrideSel<'_> {
+    fn select(&mut self, _: &Camera) -> registry::Result<()> {
+        Ok(())
+    }
+    fn splats(&self) -> Vec<Splat> {
+        (0..self.n)
+            .step_by(self.stride)
+            .map(|i| self.input.point_splat(i, self.input.radius))
+            .collect()
+    }
+}
+
+/// Small grids for the built-in methods, so the test stays fast.
+const SMALL: &str = r#"
+[hpr]
+[[hpr.grid]]
+gamma = [2.0, 3.0]
+[[hpr.robustness]]
+gamma = [2.0, 3.0]
+[raycast]
+[[raycast.grid]]
+radius_factor = 1.5
+size = [{width = 320, height = 180}]
+[splat]
+[[splat.grid]]
+radius_px = 2.0
+[qsplat]
+[[qsplat.grid]]
+threshold_px = 8.0
+[spt]
+[[spt.grid]]
+epsilon_px = 4.0
+[srn]
+[[srn.grid]]
+scale = 1.0
+[random]
+[[random.grid]]
+fraction = 0.25
+"#;
+
+/// An external method folder: the plain-Python example z-buffer under a name of its own, with
+/// a one-setting grid.
+fn external_folder(root: &Path) -> PathBuf {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods/example-zbuffer");
+    let methods = root.join("methods");
+    let folder = methods.join("kernel-test-zbuffer");
+    std::fs::create_dir_all(&folder).expect("a method folder");
+    std::fs::copy(example.join("zbuffer.py"), folder.join("zbuffer.py")).expect("the example");
+    let toml = std::fs::read_to_string(example.join("method.toml")).expect("the example's toml");
+    std::fs::write(
+        folder.join("method.toml"),
+        format!("default = {{scale = 1.0}}\n{toml}\n[[grid]]\nscale = 1.0\n"),
+    )
+    .expect("a method.toml");
+    methods
+}
+
+fn lines_with(path: &Path, needle: &str) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .unwrap_or_else(|e| panic!("{path:?}: {e}"))
+        .lines()
+        .filter(|l| l.contains(needle))
+        .map(str::to_owned)
+        .collect()
+}
+
+fn every_experiment(root: &Path) {
+    let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").expect("small grids")))
+        .expect("the sweeps resolve");
+    let run = |name: &str| {
+        let ctx = Context {
+            sweeps: sweeps.clone(),
+            repeats: 1,
+            max_points: Some(10_000),
+            ..Context::new(
+                PathBuf::from("/nonexistent-pointsight-data"),
+                root.join(name),
+                true,
+                vec!["sphere-plane-24000".into()],
+            )
+        };
+        let exp = experiments::experiment(name).expect("the experiment exists");
+        assert!(experiments::run(exp, &ctx).expect("the experiment runs"));
+        root.join(name)
+    };
+    let vis = run("visibility");
+    for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
+        let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
+        assert_eq!(rows.len(), 2, "visibility: {m} on 2 views: {rows:?}");
+        assert!(rows.iter().all(|r| r.ends_with(",ok")), "{rows:?}");
+    }
+    let rob = run("robustness");
+    for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
+        let rows = lines_with(&rob.join("results.csv"), &format!(",{m},"));
+        // 14 cases (clean, 6 noise levels, 4 outlier fractions, 3 fall-offs), best and auto,
+        // 3 views.
+        assert_eq!(rows.len(), 14 * 2 * 3, "robustness: {m}");
+        assert!(rows.iter().all(|r| r.ends_with(",ok")), "{m}: {rows:?}");
+    }
+    // `--config`'s grids: HPR tuned over the file's robustness grid only (γ 2 and 3; the
+    // built-in one has six values), and every best row keeps the setting tuned on the clean
+    // cloud.
+    let hpr_best = lines_with(&rob.join("results.csv"), ",hpr,best,");
+    assert_eq!(hpr_best.len(), 14 * 3, "{hpr_best:?}");
+    let tuned: BTreeSet<&str> = hpr_best
+        .iter()
+        .map(|r| r.split(',').nth(6).expect("a params column"))
+        .collect();
+    assert_eq!(tuned.len(), 1, "one tuned setting: {tuned:?}");
+    assert!(
+        tuned.iter().all(|p| *p == "gamma=2" || *p == "gamma=3"),
+        "the file's grid: {tuned:?}"
+    );
+    let rob_lod = lines_with(&rob.join("lod.csv"), ",kernel-test-stride,");
+    // 5 noise levels × the pinhole views.
+    assert!(rob_lod.len() >= 5, "robustness LOD: {rob_lod:?}");
+    assert!(
+        rob_lod.iter().all(|r| r.contains("stride=2")),
+        "the finest: {rob_lod:?}"
+    );
+    let lod = run("lod");
+    let rows = lines_with(&lod.join("results.csv"), ",kernel-test-stride,");
+    // 2 settings × 8 views × 2 distances.
+    assert_eq!(rows.len(), 2 * 8 * 2, "lod: {rows:?}");
+    assert!(rows.iter().all(|r| r.ends_with(",ok")), "{rows:?}");
+    assert_eq!(
+        lines_with(&lod.join("builds.csv"), ",kernel-test-stride,").len(),
+        1
+    );
+    let scale = run("scale");
+    for m in [
+        "kernel-test-nearest",
+        "kernel-test-zbuffer",
+        "kernel-test-stride-build",
+        "kernel-test-stride-select",
+    ] {
+        let rows: Vec<String> = lines_with(&scale.join("results.csv"), &format!("{m},"))
+            .into_iter()
+            .filter(|r| r.starts_with(&format!("{m},")))
+            .collect();
+        assert_eq!(rows.len(), 1, "scale: {m} at 10^4 points: {rows:?}");
+        assert!(rows[0].ends_with(",ok"), "scale: {rows:?}");
+    }
+}
+
+fn main() -> ExitCode {
+    registry::register(&Nearest).expect("a new visibility name");
+    registry::lod::register_lod(&Stride).expect("a new LOD name");
+    let args: Vec<String> = std::env::args().collect();
+    // A scale cell (this executable re-run by the scale experiment) loads its parent's folder.
+    let cell = args.get(1).map(String::as_str) == Some("scale-cell");
+    let owner = if cell {
+        std::os::unix::process::parent_id()
+    } else {
+        std::process::id()
+    };
+    let root = std::env::temp_dir().join(format!("pointsight-kernel-reach-{owner}"));
+    let methods = if cell {
+        root.join("methods")
+    } else {
+        external_folder(&root)
+    };
+    registry::register_external(&methods).expect("the external folder loads");
+    if let Some(code) =
+        experiments::scale::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
+    {
+        return code;
+    }
+    // libtest's flags (`--list`, filters) are not ours: only `--list` needs an answer.
+    if args.iter().any(|a| a == "--list") {
+        println!("every_experiment: test");
+        return ExitCode::SUCCESS;
+    }
+    every_experiment(&root);
+    let _ = std::fs::remove_dir_all(&root);
+    println!("1 passed, 0 failed");
+    ExitCode::SUCCESS
+}
