@@ -410,7 +410,11 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                     ps.len().to_string(),
                     j_median,
                     j_min,
-                    format!("{:.4}", mean(ours_s.iter().copied())),
+                    if first.partner.is_empty() {
+                        "-".to_owned()
+                    } else {
+                        format!("{:.4}", mean(ours_s.iter().copied()))
+                    },
                     format!("{:.4}", mean(peer_s.iter().copied())),
                     ratio,
                     spread,
