@@ -228,7 +228,7 @@ impl Experiment for VisibilityExperiment {
         let n_views = if ctx.quick { 2 } else { 8 };
         let (mut methods, mut not_run) = ctx.methods_to_run();
         // Each peer's settings with its partner's; ours run at those the sweep lacks.
-        let pairing = pair_peers(&mut methods, ctx.quick);
+        let pairing = pair_peers(&mut methods, &ctx.sweeps, ctx.quick);
         let partner_runs: std::collections::BTreeSet<(String, String)> =
             pairing.values().flatten().cloned().collect();
         // The setting that stands for each method (agreement on clouds without a mesh).
@@ -507,9 +507,9 @@ fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool
 /// are added to them (a partner without a sweep joins with those alone).
 fn pair_peers(
     methods: &mut Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+    sweeps: &registry::Sweeps,
     quick: bool,
 ) -> BTreeMap<(String, String), Option<(String, String)>> {
-    let sweeps = registry::Sweeps::builtin();
     let mut pairing = BTreeMap::new();
     let peers: Vec<(&'static dyn registry::Method, Vec<Setting>)> = methods
         .iter()

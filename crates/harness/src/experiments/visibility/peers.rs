@@ -87,6 +87,9 @@ mod tests {
         fn name(&self) -> &'static str {
             "peer"
         }
+        fn peer_of(&self) -> Option<&'static str> {
+            Some("splat")
+        }
         fn summary(&self) -> &'static str {
             "peer: test"
         }
@@ -187,6 +190,48 @@ mod tests {
             Some(&sweep_of("raycast")),
         );
         assert_eq!(s.label(), "height=240;radius_factor=1;width=320");
+    }
+
+    #[test]
+    fn ours_runs_at_the_paired_settings_its_sweep_lacks() {
+        let splat = registry::method("splat").expect("splat");
+        let peer: &'static Peer = Box::leak(Box::new(Peer(Box::leak(Box::new([
+            spec("point_size"),
+            spec("depth_tolerance"),
+        ])))));
+        let peer_sweep = MethodSweep {
+            grid: vec![
+                Setting::parse("depth_tolerance=0.01;point_size=4"),
+                Setting::parse("depth_tolerance=0.01;point_size=5"),
+            ],
+            ..Default::default()
+        };
+        let sweeps = registry::Sweeps::builtin();
+        let mut methods: Vec<(&'static dyn Method, MethodSweep)> =
+            vec![(peer, peer_sweep.clone()), (splat, sweep_of("splat"))];
+        let before = methods[1].1.grid.len();
+        let pairing = super::super::pair_peers(&mut methods, &sweeps, false);
+        let partner = |label: &str| {
+            pairing[&("peer".to_owned(), label.to_owned())]
+                .clone()
+                .expect("paired")
+        };
+        assert_eq!(
+            partner("depth_tolerance=0.01;point_size=4"),
+            ("splat".into(), "depth_tolerance=0.01;radius_px=2".into())
+        );
+        assert_eq!(
+            partner("depth_tolerance=0.01;point_size=5"),
+            ("splat".into(), "depth_tolerance=0.01;radius_px=2.5".into())
+        );
+        // radius_px = 2.5 is not in splat's grid: added for this run, once.
+        assert_eq!(methods[1].1.grid.len(), before + 1);
+        // Without ours in the run, ours joins with the paired settings alone.
+        let mut alone: Vec<(&'static dyn Method, MethodSweep)> = vec![(peer, peer_sweep)];
+        super::super::pair_peers(&mut alone, &sweeps, false);
+        assert_eq!(alone.len(), 2);
+        assert_eq!(alone[1].0.name(), "splat");
+        assert_eq!(alone[1].1.grid.len(), 2);
     }
 
     fn peer_row(view: usize, peer_s: f64, ours_s: f64, jaccard: f64) -> super::super::PeerRow {
