@@ -43,7 +43,8 @@ python: setup
     .venv/bin/pip install -q maturin numpy pytest
     VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop -q --release -m crates/python/Cargo.toml
 
-# Install the peers measured beside our methods into .venv: Open3D (the open3d-cpu wheel).
+# Install the peers measured beside our methods (methods/*/method.toml with peer_of): Open3D,
+# point-cloud-utils, VTK and py3dtiles into .venv; CGAL and PCL from Debian (then built here).
 peers: python
     scripts/peers.sh
 

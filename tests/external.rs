@@ -221,3 +221,207 @@ fn broken_programs_are_errors_not_crashes() {
         String::from_utf8_lossy(&run.stdout)
     );
 }
+
+/// A protocol-2 method folder with `script` as its Python program.
+fn method2(dir: &Path, name: &str, script: &str, extra: &str) {
+    let folder = dir.join(name);
+    std::fs::create_dir_all(&folder).expect("folder");
+    std::fs::write(folder.join("m.py"), script).expect("script");
+    std::fs::write(
+        folder.join("method.toml"),
+        format!("protocol = 2\nsummary = \"{name}\"\ncommand = [\"python3\", \"m.py\"]\n{extra}"),
+    )
+    .expect("manifest");
+}
+
+fn visible(d: &Path, name: &str, view: &str, out: &Path) -> Output {
+    pointsight(
+        d,
+        &[
+            "visible",
+            "--dataset",
+            "sphere-20000",
+            "--view",
+            view,
+            "--method",
+            name,
+            "--out",
+            out.to_str().expect("utf-8 path"),
+        ],
+    )
+}
+
+#[test]
+fn protocol_2_sends_normals_spacing_and_the_view_index() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Checks the PLY header and the arguments, then answers the view's index as its set.
+    let script = r#"
+import sys, json
+args = sys.argv[1:]
+points = args[args.index("--points") + 1]
+assert args[args.index("--protocol") + 1] == "2", args
+assert args[args.index("--normals") + 1] in ("dataset", "estimated"), args
+spacing = float(args[args.index("--spacing") + 1])
+assert 0 < spacing < 1, spacing
+header = open(points, "rb").read(400).split(b"end_header")[0].decode()
+assert "property float nx" in header and "property double x" in header, header
+for line in sys.stdin:
+    req = json.loads(line)
+    print(json.dumps({"visible": [req["view"]], "seconds": 0.5}), flush=True)
+"#;
+    method2(d, "echo-view", script, "peer_of = \"raycast\"\n");
+    let out = d.join("v.txt");
+    for view in ["2", "5"] {
+        let run = visible(d, "echo-view", view, &out);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        // The request's view is the dataset's view index, not a count of calls.
+        assert_eq!(std::fs::read_to_string(&out).unwrap(), format!("{view}\n"));
+    }
+    // Repeats ask the same view again.
+    let run = pointsight(
+        d,
+        &[
+            "visible",
+            "--dataset",
+            "sphere-20000",
+            "--view",
+            "3",
+            "--repeat",
+            "3",
+            "--method",
+            "echo-view",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+    );
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "3\n");
+    // Protocol 1 is still accepted: no normals, no --normals, positions only.
+    let v1 = r#"
+import sys, json
+assert "--normals" not in sys.argv and "--spacing" not in sys.argv, sys.argv
+header = open(sys.argv[sys.argv.index("--points") + 1], "rb").read(400).split(b"end_header")[0]
+assert b"nx" not in header, header
+for line in sys.stdin:
+    print(json.dumps({"visible": [json.loads(line)["view"]]}), flush=True)
+"#;
+    method(d, "old", v1, "");
+    let run = visible(d, "old", "4", &out);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "4\n");
+}
+
+#[test]
+fn floods_are_refused_with_bounded_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // An endless answer line (it would be gigabytes): refused after the limit, unread.
+    method2(
+        d,
+        "flood-line",
+        "import sys\nsys.stdin.readline()\nsys.stdout.write('{\"visible\": [')\nwhile True:\n    sys.stdout.write('1, ' * 100000)\n",
+        "",
+    );
+    // A 4 GiB (sparse) visible_file.
+    method2(
+        d,
+        "flood-file",
+        "import sys, json\nfor line in sys.stdin:\n    with open('big.txt', 'wb') as f:\n        f.truncate(4 << 30)\n    print(json.dumps({'visible_file': 'big.txt'}), flush=True)\n",
+        "",
+    );
+    // More indices than points, as a list and as a file within the size limit.
+    method2(
+        d,
+        "too-many",
+        &ANSWER.replace("ANSWER", "{'visible': list(range(20001))}"),
+        "",
+    );
+    method2(
+        d,
+        "too-many-file",
+        "import sys, json\nfor line in sys.stdin:\n    open('many.txt', 'w').write('0 ' * 20001)\n    print(json.dumps({'visible_file': 'many.txt'}), flush=True)\n",
+        "",
+    );
+    method2(
+        d,
+        "negative",
+        &ANSWER.replace("ANSWER", "{'visible': [4, -1]}"),
+        "",
+    );
+    let out = d.join("v.txt");
+    for (name, needle) in [
+        ("flood-line", "longer than 1528576 bytes"),
+        (
+            "flood-file",
+            "is 4294967296 bytes, more than the 1528576 bytes",
+        ),
+        (
+            "too-many",
+            "it answered 20001 indices, more than the cloud's 20000 points",
+        ),
+        ("too-many-file", "index 0 is repeated"),
+        ("negative", "index -1 is outside 0..20000"),
+    ] {
+        let run = visible(d, name, "0", &out);
+        let err = String::from_utf8_lossy(&run.stderr);
+        assert!(!run.status.success(), "{name} should fail");
+        assert!(err.contains(needle), "{name}: {err}");
+        assert!(
+            err.contains(&format!("external method {name}")),
+            "{name}: {err}"
+        );
+        assert!(!out.exists(), "{name}: no output file on error");
+    }
+}
+
+#[test]
+fn manifest_keys_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    method2(d, "bad-peer", "", "peer_of = \"Ray Cast\"\n");
+    let run = pointsight(d, &["methods"]);
+    assert!(!run.status.success());
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("peer_of = \"Ray Cast\""),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    method(d, "old-lod", "", "kind = \"lod\"\n");
+    let run = pointsight(d, &["methods"]);
+    assert!(
+        String::from_utf8_lossy(&run.stderr).contains("kind = \"lod\" needs protocol = 2"),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let folder = d.join("future");
+    std::fs::create_dir_all(&folder).unwrap();
+    std::fs::write(
+        folder.join("method.toml"),
+        "protocol = 3\ncommand = [\"true\"]\n",
+    )
+    .unwrap();
+    let run = pointsight(d, &["methods"]);
+    assert!(
+        String::from_utf8_lossy(&run.stderr)
+            .contains("protocol 3 (this pointsight speaks 1 and 2)"),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+}

@@ -357,7 +357,10 @@ fn list_methods() -> Result<()> {
     }
     println!("level of detail (experiment lod; sweeps keys):");
     for m in registry::lod::all() {
-        println!("{:<10} {}", m.name(), m.summary());
+        match m.availability() {
+            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
+            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
+        }
         for p in m.params() {
             println!("    {}=…  (default {}) {}", p.key, p.default, p.help);
         }

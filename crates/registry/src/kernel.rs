@@ -149,9 +149,22 @@ pub(crate) fn prepare<'a>(
     Ok(prepared)
 }
 
+/// The kernel's one hook for methods that report their own compute seconds (an external
+/// program, whose wall time includes starting it, the protocol and the transfer of points and
+/// answers): when every run of a measurement reported its seconds, those are its timing;
+/// otherwise the wall clock's. Used for visibility answers, LOD builds and LOD selections
+/// alike, so no caller chooses between the two.
+fn own_or_wall(reported: Vec<Option<f64>>, wall: Timing) -> Timing {
+    let own: Option<Vec<f64>> = reported.into_iter().collect();
+    match own {
+        Some(own) if !own.is_empty() => Timing::of(&own),
+        _ => wall,
+    }
+}
+
 /// Answers one view `repeats` times (at least once) with the one timing helper: the last
-/// output and the timing. A method that reports its own compute seconds on every run (an
-/// external program, whose wall time includes the protocol) is timed by those.
+/// output and the timing ([`own_or_wall`]: [`Output::reported_seconds`] when the method gives
+/// it on every run).
 fn timed(prepared: &dyn Prepared, view: &View, repeats: usize) -> Result<Answer> {
     let mut reported = Vec::new();
     let (output, wall) = timing::measure(repeats, || {
@@ -159,12 +172,10 @@ fn timed(prepared: &dyn Prepared, view: &View, repeats: usize) -> Result<Answer>
         reported.push(out.reported_seconds);
         Ok::<_, Error>(out)
     })?;
-    let own: Option<Vec<f64>> = reported.into_iter().collect();
-    let timing = match own {
-        Some(own) if !own.is_empty() => Timing::of(&own),
-        _ => wall,
-    };
-    Ok(Answer { output, timing })
+    Ok(Answer {
+        output,
+        timing: own_or_wall(reported, wall),
+    })
 }
 
 /// A level-of-detail cell: one method built once, selecting at each setting over views.
@@ -216,12 +227,21 @@ pub fn run_lod(
 
 /// The build half of [`run_lod`], for a caller that keeps the structure and selects later
 /// (Python's `Lod`): `repeats` timed builds, the last one returned with the timing and size.
+/// Builds and selections are timed as answers are: a program's own reported seconds
+/// (`LodBuilt::reported_build_seconds`, `LodSelector::reported_seconds`) when it gives them,
+/// else the wall clock.
 pub fn build_lod(
     method: &dyn LodMethod,
     input: &LodInput<'_>,
     repeats: usize,
 ) -> Result<(Box<dyn LodBuilt>, Built)> {
-    let (built, timing) = timing::measure(repeats, || method.build(input))?;
+    let mut reported = Vec::new();
+    let (built, wall) = timing::measure(repeats, || {
+        let built = method.build(input)?;
+        reported.push(built.reported_build_seconds());
+        Ok::<_, Error>(built)
+    })?;
+    let timing = own_or_wall(reported, wall);
     let size = built.size();
     Ok((built, Built { timing, size }))
 }
@@ -250,13 +270,19 @@ pub fn select_lod(
             }
         };
         for (v, view) in cell.views.iter().enumerate() {
-            match timing::measure(cell.repeats, || selector.select(&view.camera)) {
-                Ok(((), timing)) => each(
+            let mut reported = Vec::new();
+            let measured = timing::measure(cell.repeats, || {
+                selector.select_at(view.index, &view.camera)?;
+                reported.push(selector.reported_seconds());
+                Ok::<_, Error>(())
+            });
+            match measured {
+                Ok(((), wall)) => each(
                     k,
                     v,
                     Ok(Selection {
                         splats: selector.splats(),
-                        timing,
+                        timing: own_or_wall(reported, wall),
                     }),
                 ),
                 Err(e) => each(k, v, Err(&e)),

@@ -138,11 +138,40 @@ pub trait Method: Sync {
     fn is_external(&self) -> bool {
         false
     }
+    /// For a peer (another project's tool measured beside ours): the family of ours it pairs
+    /// with (`hpr`, `raycast`, `splat`, `hull`, `voxel`, `lod`...), from its `method.toml`'s
+    /// `peer_of`; `None` for our own methods and for external methods that pair with none.
+    fn peer_of(&self) -> Option<&'static str> {
+        None
+    }
+    /// For a peer: how its parameters translate into those of the method it pairs with, where
+    /// the names or units differ (VTK's `point_size` is 2 × our splat's `radius_px`); keys of
+    /// the same name are taken as they are. Empty for our own methods.
+    fn peer_keys(&self) -> &'static [PeerKey] {
+        &[]
+    }
+    /// The version of the program behind the method, for run metadata (an external method's
+    /// `version` command, run once); `None`: our own (the build's version says it).
+    fn version(&self) -> Option<String> {
+        None
+    }
     /// How the scale experiment may run it on large clouds (default: its memory is not known,
     /// so it is not run above [`Scale::UNKNOWN_LIMIT`] points).
     fn scale(&self) -> Scale {
         Scale::Unknown
     }
+}
+
+/// One translated parameter of a peer (`method.toml`'s `[peer_keys]`): the peer's `peer`
+/// at value v stands for the partner's `ours` at `factor` × v.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeerKey {
+    /// The peer's key.
+    pub peer: &'static str,
+    /// The partner's key.
+    pub ours: &'static str,
+    /// The partner's value over the peer's.
+    pub factor: f64,
 }
 
 /// What the scale experiment may know of a method's memory, so that its guard can refuse a
@@ -174,12 +203,14 @@ pub fn register(method: &'static dyn Method) -> Result<()> {
     EXTRA.add(method.name(), method)
 }
 
-/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup.
+/// Loads the external methods under `dir` (`NAME/method.toml` each) for every later lookup:
+/// visibility methods with [`register`], those of `kind = "lod"` with [`lod::register_lod`].
 /// Names must not shadow built-in methods (visibility or LOD: one namespace); a method already
 /// loaded under the same name is kept (loading the same folder twice is harmless).
 pub fn register_external(dir: &std::path::Path) -> Result<()> {
     let loaded = external::ExternalMethod::load_dir(dir)?;
     for m in loaded {
+        let lod_kind = m.kind() == external::Kind::Lod;
         let builtin = METHODS.iter().map(|b| b.name());
         if builtin
             .chain(lod::LOD_METHODS.iter().map(|b| b.name()))
@@ -191,10 +222,18 @@ pub fn register_external(dir: &std::path::Path) -> Result<()> {
                 dir.display()
             )));
         }
-        if all().iter().any(|b| b.name() == m.name()) {
+        if all().iter().any(|b| b.name() == m.name())
+            || lod::all().iter().any(|b| b.name() == m.name())
+        {
             continue;
         }
-        register(Box::leak(Box::new(m)))?;
+        let m: &'static external::ExternalMethod = Box::leak(Box::new(m));
+        if lod_kind {
+            // The LOD form: a level-of-detail method, which the lod experiment runs.
+            lod::register_lod(m)?;
+        } else {
+            register(m)?;
+        }
     }
     Ok(())
 }

@@ -76,6 +76,11 @@ pub trait LodMethod: Sync {
     fn params(&self) -> &'static [ParamSpec];
     /// Builds the per-cloud structure.
     fn build(&self, input: &LodInput<'_>) -> Result<Box<dyn LodBuilt>>;
+    /// `Ok` when the method can run here; else why not (an external method's environment is
+    /// missing).
+    fn availability(&self) -> std::result::Result<(), String> {
+        Ok(())
+    }
     /// How the scale experiment may run it on large clouds (default: memory not known).
     fn scale(&self) -> crate::Scale {
         crate::Scale::Unknown
@@ -83,6 +88,14 @@ pub trait LodMethod: Sync {
     /// Its own sweep, for methods that carry one (a method registered at run time); `None`:
     /// the built-in grids say, if anything.
     fn sweep(&self) -> Option<crate::MethodSweep> {
+        None
+    }
+    /// For a peer: the family of ours it pairs with (`lod`); `None` for our own.
+    fn peer_of(&self) -> Option<&'static str> {
+        None
+    }
+    /// The version of the program behind it (an external method's `version` command).
+    fn version(&self) -> Option<String> {
         None
     }
 }
@@ -205,6 +218,11 @@ impl LodData {
 pub trait LodBuilt: Sync + Send {
     /// Its size.
     fn size(&self) -> LodSize;
+    /// The build's own seconds, for structures built by a program that reports its own
+    /// compute time (an external method); `None`: the caller's timing is the time.
+    fn reported_build_seconds(&self) -> Option<f64> {
+        None
+    }
     /// A selector for one setting on the input the structure was built from.
     fn selector<'s>(
         &'s self,
@@ -217,6 +235,17 @@ pub trait LodBuilt: Sync + Send {
 pub trait LodSelector {
     /// The timed part for `camera`: traversal, cut or test, into the selector's buffers.
     fn select(&mut self, camera: &Camera) -> Result<()>;
+    /// [`LodSelector::select`] for view `view` of the dataset (its index among the dataset's
+    /// views); the default ignores the index.
+    fn select_at(&mut self, view: usize, camera: &Camera) -> Result<()> {
+        let _ = view;
+        self.select(camera)
+    }
+    /// The last selection's own compute seconds, for selectors that report it (an external
+    /// program, whose wall time includes the protocol); `None`: the caller's timing.
+    fn reported_seconds(&self) -> Option<f64> {
+        None
+    }
     /// The last selection as splats (not timed).
     fn splats(&self) -> Vec<Splat>;
 }

@@ -239,6 +239,41 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     result.map(|()| true)
 }
 
+/// Every registered peer, visibility and LOD (a method whose `peer_of` names one of ours), with
+/// what it pairs with and its version (its `version` command, run once per process), or
+/// `not installed` and why: the run metadata's `peers`.
+pub fn peers_metadata() -> serde_json::Map<String, serde_json::Value> {
+    let mut out = serde_json::Map::new();
+    let mut add = |name: &str,
+                   peer_of: &str,
+                   availability: std::result::Result<(), String>,
+                   version: &dyn Fn() -> Option<String>| {
+        let entry = match availability {
+            Ok(()) => serde_json::json!({
+                "peer_of": peer_of,
+                "version": version().unwrap_or_else(|| "unknown (no version command)".into()),
+            }),
+            Err(why) => serde_json::json!({
+                "peer_of": peer_of,
+                "version": "not installed",
+                "why": why,
+            }),
+        };
+        out.insert(name.to_owned(), entry);
+    };
+    for m in registry::all() {
+        if let Some(p) = m.peer_of() {
+            add(m.name(), p, m.availability(), &|| m.version());
+        }
+    }
+    for m in registry::lod::all() {
+        if let Some(p) = m.peer_of() {
+            add(m.name(), p, m.availability(), &|| m.version());
+        }
+    }
+    out
+}
+
 /// Measures, writes the metadata and renders into `staging`.
 fn stage(
     exp: &dyn Experiment,
@@ -254,6 +289,7 @@ fn stage(
     meta.shard = ctx.shard;
     meta.parameters = exp.measure(&staged)?;
     meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
+    meta.peers = peers_metadata();
     meta.seconds = start.elapsed().as_secs_f64();
     meta.write(staging)?;
     // A shard's output is drawn once merged (`pointsight merge`); a shard alone may hold too

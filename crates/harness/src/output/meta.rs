@@ -40,6 +40,10 @@ pub struct RunMeta {
     pub user_files: Vec<crate::datasets::SourceFile>,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
+    /// Every registered peer (a method whose `peer_of` names one of ours): what it pairs with
+    /// and its version, or why it is not installed.
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub peers: serde_json::Map<String, serde_json::Value>,
     /// For one shard's run (`--shard K/N`): which part.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub shard: Option<crate::shard::Shard>,
@@ -72,6 +76,7 @@ impl RunMeta {
             datasets: datasets.to_vec(),
             parameters,
             user_files: Vec::new(),
+            peers: serde_json::Map::new(),
             seconds: 0.0,
             shard: None,
             shards: Vec::new(),

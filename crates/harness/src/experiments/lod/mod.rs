@@ -128,14 +128,30 @@ pub fn lod_data(cloud: PointCloud) -> Result<LodData> {
     )?)
 }
 
-/// Every LOD method with a non-empty sweep, with its settings.
+/// Every LOD method with a non-empty sweep that can run here, with its settings (an external
+/// one whose environment is missing is not run: [`methods_not_run`]).
 pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static dyn LodMethod, Vec<Setting>)> {
     registry::lod::all()
         .into_iter()
+        .filter(|m| m.availability().is_ok())
         .filter_map(|m| {
             let settings = ctx.sweeps.methods.get(m.name())?.settings(ctx.quick);
             (!settings.is_empty()).then(|| (m, settings.to_vec()))
         })
+        .collect()
+}
+
+/// The LOD methods with a sweep that cannot run here (a peer not installed), each with why.
+pub(crate) fn methods_not_run(ctx: &Context) -> Vec<String> {
+    registry::lod::all()
+        .into_iter()
+        .filter(|m| {
+            ctx.sweeps
+                .methods
+                .get(m.name())
+                .is_some_and(|s| !s.settings(ctx.quick).is_empty())
+        })
+        .filter_map(|m| Some(format!("{}: {}", m.name(), m.availability().err()?)))
         .collect()
 }
 
@@ -389,6 +405,7 @@ impl Experiment for LodExperiment {
                 })
                 .collect::<serde_json::Map<_, _>>(),
             "repeats": ctx.repeats,
+            "methods_not_run": methods_not_run(ctx),
             "texture_size": TEXTURE_SIZE,
             "seed": SEED,
         }))
@@ -398,10 +415,13 @@ impl Experiment for LodExperiment {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let builds: Vec<BuildRow> = read_csv(&dir.join("builds.csv"))?;
         let srn_rows: Vec<SrnRow> = read_csv(&dir.join("srn_table.csv"))?;
-        let repeats = crate::output::meta::RunMeta::read(dir)?.parameters["repeats"]
+        let parameters = crate::output::meta::RunMeta::read(dir)?.parameters;
+        let repeats = parameters["repeats"]
             .as_u64()
             .unwrap_or(super::REPEATS as u64);
-        render_outputs(dir, &rows, &builds, &srn_rows, repeats)
+        let not_run: Vec<String> =
+            serde_json::from_value(parameters["methods_not_run"].clone()).unwrap_or_default();
+        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run)
     }
 }
 
@@ -450,6 +470,7 @@ fn render_outputs(
     builds: &[BuildRow],
     srn: &[SrnRow],
     repeats: u64,
+    not_run: &[String],
 ) -> Result<()> {
     let datasets = distinct(rows.iter().map(|r| r.dataset.as_str()));
     let mut distances: Vec<f64> = rows.iter().map(|r| r.distance).collect();
@@ -460,8 +481,15 @@ fn render_outputs(
     summary.push_str(
         "Each method's splats rendered with `splat::render` and compared with the full-cloud \
          render of the same view (PSNR over covered pixels, SSIM on luma, holes = reference \
-         pixels left empty); `seconds` is the selection alone. Means over the views.\n\n",
+         pixels left empty); `seconds` is the selection alone (an external method's own \
+         reported seconds). Means over the views.\n\n",
     );
+    for n in not_run {
+        summary.push_str(&format!("- not run: {n}\n"));
+    }
+    if !not_run.is_empty() {
+        summary.push('\n');
+    }
     for ds in &datasets {
         let series_of = |f: &dyn Fn(&Mean) -> (f64, f64)| -> Vec<Series> {
             let mut out = Vec::new();

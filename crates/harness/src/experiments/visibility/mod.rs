@@ -6,7 +6,7 @@
 //! own in its `method.toml`, a user's `--config` file over both) is prepared once per setting
 //! and run on every view; the harness scores each answer against the reference (the mesh's
 //! z-buffer). Adding a method to this experiment is a registry entry and a grid; nothing here
-//! names a method except where a peer is paired with our exact HPR at the same γ.
+//! names a method (a peer names its partner in its `method.toml`: `peer_of`).
 //!
 //! `results.csv`: one row per (dataset, view, method, setting), in that order, with precision,
 //! recall and F1 against `reference`; `family` groups rows in plots (HPR's two kernels are two
@@ -17,9 +17,12 @@
 //! cast, splat), the share of covered pixels whose point is truly visible and the share of the
 //! mesh's pixels (the mesh rasterised at the method's resolution) that got a point.
 //! `agreement.csv`: on clouds without a mesh, the Jaccard index of each pair of methods at
-//! their default settings. `peers.csv`: an external method with a `gamma` against our exact
-//! HPR at that γ, per view. `renders.png`: bunny-69451 (else the first dataset), view 0, every
-//! family at its best setting beside the reference.
+//! their default settings. `peers.csv`: each peer (a method whose `peer_of` names one of ours)
+//! at each of its settings against the method it names at the matching setting ([`peers`]:
+//! ours is run at that setting too when its sweep lacks it), per view: both seconds, both F1,
+//! the Jaccard index of the two sets; a peer whose `peer_of` names no visibility method of ours
+//! (PCL's voxel occlusion) has rows without a partner. `renders.png`: bunny-69451 (else the
+//! first dataset), view 0, every family at its best setting beside the reference.
 //!
 //! Sharded runs (`--shard K/N`) split the (dataset, view) cells round-robin; every method and
 //! setting of one view stays in one shard, because agreement and peers pair methods per view.
@@ -34,6 +37,7 @@ use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
 use super::{Context, Experiment};
 
+mod peers;
 mod render;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
@@ -141,8 +145,8 @@ pub struct PixelRow {
     pub mesh_coverage: f64,
 }
 
-/// One row of `peers.csv`: a peer (external method with a `gamma`) against our exact HPR at
-/// the same γ, same view.
+/// One row of `peers.csv`: a peer at one setting against the method of ours its `peer_of`
+/// names at the matching setting, same view.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct PeerRow {
     /// Dataset.
@@ -151,13 +155,23 @@ pub struct PeerRow {
     pub view: usize,
     /// The peer method.
     pub peer: String,
-    /// γ of both.
-    pub gamma: String,
-    /// Our HPR's median seconds.
-    pub ours_seconds: f64,
+    /// Its setting (label).
+    pub peer_params: String,
+    /// What its `peer_of` names.
+    pub peer_of: String,
+    /// The method of ours it is paired with (empty: `peer_of` names no visibility method).
+    pub partner: String,
+    /// The partner's setting (label).
+    pub partner_params: String,
     /// The peer's seconds (its own compute time, median).
     pub peer_seconds: f64,
-    /// Jaccard index of the two visible sets.
+    /// The partner's median seconds.
+    pub partner_seconds: f64,
+    /// The peer's F1 (NaN without a ground truth).
+    pub peer_f1: f64,
+    /// The partner's F1.
+    pub partner_f1: f64,
+    /// Jaccard index of the two visible sets (NaN without a partner).
     pub jaccard: f64,
 }
 
@@ -212,18 +226,16 @@ impl Experiment for VisibilityExperiment {
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let n_views = if ctx.quick { 2 } else { 8 };
-        let (methods, mut not_run) = ctx.methods_to_run();
+        let (mut methods, mut not_run) = ctx.methods_to_run();
+        // Each peer's settings with its partner's; ours run at those the sweep lacks.
+        let pairing = pair_peers(&mut methods, &ctx.sweeps, ctx.quick);
+        let partner_runs: std::collections::BTreeSet<(String, String)> =
+            pairing.values().flatten().cloned().collect();
         // The setting that stands for each method (agreement on clouds without a mesh).
         let defaults: BTreeMap<String, String> = methods
             .iter()
             .filter_map(|(m, s)| Some((m.name().to_owned(), s.default_setting()?.label())))
             .collect();
-        let peers_wanted = methods.iter().any(|(m, s)| {
-            m.is_external()
-                && s.settings(ctx.quick)
-                    .iter()
-                    .any(|x| x.get("gamma").is_some())
-        });
         let render_ds = render_dataset(&ctx.datasets);
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
@@ -361,8 +373,8 @@ impl Experiment for VisibilityExperiment {
                                 }
                                 let keep = (truth.is_none()
                                     && defaults.get(m.name()) == Some(&label))
-                                    || (peers_wanted
-                                        && (m.is_external() || is_peer_partner(m.name(), setting)))
+                                    || m.peer_of().is_some()
+                                    || partner_runs.contains(&(m.name().to_owned(), label.clone()))
                                     || (Some(name.as_str()) == render_ds && view == 0);
                                 if keep {
                                     kept.entry(view).or_default().push(Run {
@@ -391,7 +403,7 @@ impl Experiment for VisibilityExperiment {
                 if truths.get(&view).is_some_and(Option::is_none) {
                     agreement.extend(agreement_rows(name, view, runs, &defaults));
                 }
-                peers.extend(peer_rows(name, view, runs, &ds_rows));
+                peers.extend(peer_rows(name, view, runs, &ds_rows, &pairing));
             }
             if let (Some(reference), Some(runs)) = (
                 reference
@@ -490,44 +502,108 @@ fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool
     }
 }
 
-/// True for the settings of ours a peer is paired with: exact HPR, linear kernel, a fixed γ, no
-/// perturbation.
-fn is_peer_partner(method: &str, setting: &Setting) -> bool {
-    method == "hpr"
-        && setting.text("kernel").is_none_or(|k| k == "linear")
-        && setting.number("perturb").unwrap_or(0.0) == 0.0
-        && setting.number("gamma").is_some()
+/// Each peer's settings (by label) with the partner and setting they are paired with (`None`:
+/// its `peer_of` names no visibility method of ours); the partners' settings their sweeps lack
+/// are added to them (a partner without a sweep joins with those alone).
+fn pair_peers(
+    methods: &mut Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+    sweeps: &registry::Sweeps,
+    quick: bool,
+) -> BTreeMap<(String, String), Option<(String, String)>> {
+    let mut pairing = BTreeMap::new();
+    let peers: Vec<(&'static dyn registry::Method, Vec<Setting>)> = methods
+        .iter()
+        .filter(|(m, _)| m.peer_of().is_some())
+        .map(|(m, s)| (*m, s.settings(quick).to_vec()))
+        .collect();
+    for (peer, settings) in peers {
+        let partner = peer
+            .peer_of()
+            .and_then(|p| registry::method(p).ok())
+            .filter(|p| p.peer_of().is_none() && p.availability().is_ok());
+        for setting in settings {
+            let key = (peer.name().to_owned(), setting.label());
+            let Some(partner) = partner else {
+                pairing.insert(key, None);
+                continue;
+            };
+            let at = methods.iter().position(|(m, _)| m.name() == partner.name());
+            let sweep = at
+                .map(|k| methods[k].1.clone())
+                .or_else(|| sweeps.methods.get(partner.name()).cloned());
+            let ours = peers::partner_setting(peer, &setting, partner, sweep.as_ref());
+            let label = ours.label();
+            match at {
+                Some(k) => {
+                    let s = &mut methods[k].1;
+                    if !s.settings(quick).iter().any(|x| x.label() == label) {
+                        if quick && !s.quick_grid.is_empty() {
+                            s.quick_grid.push(ours);
+                        } else {
+                            s.grid.push(ours);
+                        }
+                    }
+                }
+                None => methods.push((
+                    partner,
+                    registry::MethodSweep {
+                        grid: vec![ours],
+                        ..Default::default()
+                    },
+                )),
+            }
+            pairing.insert(key, Some((partner.name().to_owned(), label)));
+        }
+    }
+    pairing
 }
 
-/// Each external run with a `gamma` against our exact HPR at the same γ, same view.
-fn peer_rows(dataset: &str, view: usize, runs: &[Run], rows: &[Row]) -> Vec<PeerRow> {
+/// Each peer's run against its partner's at the paired setting, same view (a peer without a
+/// partner: its own figures alone).
+fn peer_rows(
+    dataset: &str,
+    view: usize,
+    runs: &[Run],
+    rows: &[Row],
+    pairing: &BTreeMap<(String, String), Option<(String, String)>>,
+) -> Vec<PeerRow> {
     let mut out = Vec::new();
-    for peer in runs
-        .iter()
-        .filter(|r| registry::method(&r.method).is_ok_and(|m| m.is_external()))
-    {
-        let Some(g) = Setting::parse(&peer.params).number("gamma") else {
+    let row = |method: &str, params: &str| {
+        rows.iter()
+            .find(|x| x.view == view && x.method == method && x.params == params)
+    };
+    for peer in runs {
+        let Some(paired) = pairing.get(&(peer.method.clone(), peer.params.clone())) else {
             continue;
         };
-        let Some(ours) = runs.iter().find(|r| {
-            let s = Setting::parse(&r.params);
-            is_peer_partner(&r.method, &s) && s.number("gamma") == Some(g)
-        }) else {
+        let peer_of = registry::method(&peer.method)
+            .ok()
+            .and_then(|m| m.peer_of())
+            .unwrap_or_default();
+        let ours = paired
+            .as_ref()
+            .and_then(|(m, p)| runs.iter().find(|r| r.method == *m && r.params == *p));
+        if paired.is_some() && ours.is_none() {
+            // The partner failed on this view: its row says why.
             continue;
-        };
-        let seconds = |r: &Run| {
-            rows.iter()
-                .find(|x| x.view == view && x.method == r.method && x.params == r.params)
-                .map_or(f64::NAN, |x| x.seconds)
-        };
+        }
+        let mine = row(&peer.method, &peer.params);
+        let theirs = ours.and_then(|o| row(&o.method, &o.params));
         out.push(PeerRow {
             dataset: dataset.to_owned(),
             view,
             peer: peer.method.clone(),
-            gamma: format!("{g}"),
-            ours_seconds: seconds(ours),
-            peer_seconds: seconds(peer),
-            jaccard: Score::of_sets(&peer.visible, &ours.visible).jaccard(),
+            peer_params: peer.params.clone(),
+            peer_of: peer_of.to_owned(),
+            partner: ours.map_or(String::new(), |o| o.method.clone()),
+            partner_params: ours.map_or(String::new(), |o| o.params.clone()),
+            peer_seconds: mine.map_or(f64::NAN, |r| r.seconds),
+            partner_seconds: theirs.map_or(f64::NAN, |r| r.seconds),
+            peer_f1: mine.map_or(f64::NAN, |r| r.f1),
+            partner_f1: theirs.map_or(f64::NAN, |r| r.f1),
+            jaccard: ours.map_or(f64::NAN, |o| {
+                Score::of_sets(&peer.visible, &o.visible).jaccard()
+            }),
         });
     }
     out

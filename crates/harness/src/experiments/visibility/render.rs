@@ -316,47 +316,109 @@ fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Resu
     Ok(Some(file))
 }
 
-/// The peers' section: per dataset, peer and γ, our exact HPR's speed ratio against the peer
-/// (geometric mean over views of the paired per-view ratios, bootstrap 95 % interval) and the
-/// Jaccard index of the two visible sets; the peers that were not run, and why.
+/// The peers' section: per dataset, peer and peer setting, the method of ours it is paired
+/// with (its `peer_of`, at the matching setting) and, over the views: the Jaccard index of the
+/// two visible sets (median and lowest view), the time ratio (the peer's seconds over ours:
+/// geometric mean of the paired per-view ratios with its bootstrap 95 % interval, and the
+/// lowest and highest view's), the F1 difference (mean, bootstrap 95 % interval); then the
+/// peers that were not run, and why.
 pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
     let mut s = String::from("### Peers, measured in the same run\n\n");
     let mut groups: BTreeMap<(&str, &str, &str), Vec<&PeerRow>> = BTreeMap::new();
     for p in peers {
         groups
-            .entry((&p.dataset, &p.peer, &p.gamma))
+            .entry((&p.dataset, &p.peer, &p.peer_params))
             .or_default()
             .push(p);
     }
     if groups.is_empty() && not_run.is_empty() {
-        s.push_str("No external peer method has a grid in methods/: none was run.\n\n");
+        s.push_str(
+            "No peer (a method.toml with `peer_of`) has a grid in methods/: none was run.\n\n",
+        );
         return s;
     }
     if !groups.is_empty() {
         s.push_str(
-            "`speed ratio`: the peer's seconds over our exact HPR's (own hull) at the same γ and \
-             view, geometric mean over the views, with its bootstrap 95 % interval (views \
-             resampled, 10,000 times); above 1 means ours is faster. `Jaccard`: of the two visible \
-             sets, mean over views.\n\n",
+            "Each peer at each of its settings against the method of ours its `peer_of` names, \
+             at the matching setting, paired per view. `Jaccard`: of the two visible sets, the \
+             median over the views and the lowest view's (on clouds without a mesh, the only \
+             measure of agreement). `time ratio`: the peer's seconds (its own reported compute \
+             time) over ours, geometric mean over the views with its bootstrap 95 % interval \
+             (views resampled, 10,000 times), then the lowest and highest view's; above 1 means \
+             ours is faster. `ΔF1`: the peer's F1 minus ours, mean over the views [95 % \
+             interval]. A peer whose `peer_of` names no visibility method of ours has its own \
+             figures only.\n\n",
         );
         let rows: Vec<Vec<String>> = groups
             .iter()
-            .map(|((d, peer, g), ps)| {
+            .map(|((d, peer, setting), ps)| {
+                let first = ps[0];
+                let partner = if first.partner.is_empty() {
+                    format!("none (no method `{}` of ours)", first.peer_of)
+                } else {
+                    format!("{} {}", first.partner, first.partner_params)
+                };
                 let peer_s: Vec<f64> = ps.iter().map(|p| p.peer_seconds).collect();
-                let ours_s: Vec<f64> = ps.iter().map(|p| p.ours_seconds).collect();
+                let ours_s: Vec<f64> = ps.iter().map(|p| p.partner_seconds).collect();
                 let ratio = crate::stats::paired_ratio(&peer_s, &ours_s, 2007)
                     .map_or("-".to_owned(), |(r, lo, hi)| {
                         format!("{r:.2}× [{lo:.2}, {hi:.2}]")
                     });
+                let per_view: Vec<f64> = ps
+                    .iter()
+                    .map(|p| p.peer_seconds / p.partner_seconds)
+                    .filter(|r| r.is_finite() && *r > 0.0)
+                    .collect();
+                let spread = match (
+                    per_view.iter().copied().reduce(f64::min),
+                    per_view.iter().copied().reduce(f64::max),
+                ) {
+                    (Some(lo), Some(hi)) => format!("{lo:.2}–{hi:.2}"),
+                    _ => "-".into(),
+                };
+                let mut jaccard: Vec<f64> = ps
+                    .iter()
+                    .map(|p| p.jaccard)
+                    .filter(|j| !j.is_nan())
+                    .collect();
+                jaccard.sort_by(f64::total_cmp);
+                let (j_median, j_min) = if jaccard.is_empty() {
+                    ("-".to_owned(), "-".to_owned())
+                } else {
+                    let n = jaccard.len();
+                    let median = if n % 2 == 1 {
+                        jaccard[n / 2]
+                    } else {
+                        0.5 * (jaccard[n / 2 - 1] + jaccard[n / 2])
+                    };
+                    (format!("{median:.4}"), format!("{:.4}", jaccard[0]))
+                };
+                let df1: Vec<f64> = ps
+                    .iter()
+                    .map(|p| p.peer_f1 - p.partner_f1)
+                    .filter(|d| !d.is_nan())
+                    .collect();
+                let df1 = crate::stats::bootstrap_mean(&df1, 2007)
+                    .map_or("-".to_owned(), |(m, lo, hi)| {
+                        format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
+                    });
                 vec![
                     (*d).to_owned(),
                     (*peer).to_owned(),
-                    (*g).to_owned(),
+                    (*setting).to_owned(),
+                    partner,
                     ps.len().to_string(),
-                    format!("{:.4}", mean(ours_s.iter().copied())),
+                    j_median,
+                    j_min,
+                    if first.partner.is_empty() {
+                        "-".to_owned()
+                    } else {
+                        format!("{:.4}", mean(ours_s.iter().copied()))
+                    },
                     format!("{:.4}", mean(peer_s.iter().copied())),
                     ratio,
-                    format!("{:.6}", mean(ps.iter().map(|p| p.jaccard))),
+                    spread,
+                    df1,
                 ]
             })
             .collect();
@@ -364,12 +426,16 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
             &[
                 "dataset",
                 "peer",
-                "γ",
+                "peer setting",
+                "paired with (ours, setting)",
                 "views",
-                "hpr (ours) s",
+                "Jaccard median",
+                "Jaccard min",
+                "ours s",
                 "peer s",
-                "speed ratio [95 % CI]",
-                "Jaccard",
+                "time ratio [95 % CI]",
+                "ratio min–max",
+                "ΔF1 [95 % CI]",
             ],
             &rows,
         ));

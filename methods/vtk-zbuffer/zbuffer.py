@@ -1,0 +1,138 @@
+"""VTK's vtkSelectVisiblePoints as a pointsight external method (protocol 2).
+
+The cloud is drawn once per view as VTK points of `point_size` pixels (a square sprite per
+point, VTK's OpenGL point rendering) into an offscreen render window (EGL, else OSMesa: no
+display needed), the camera set from pointsight's pinhole camera (eye, forward, up, vertical
+field of view, principal point as VTK's window centre); `vtkSelectVisiblePoints` then reads
+the z-buffer and keeps each point whose depth at its own pixel is within `ToleranceWorld` of
+the buffer's. The point's index rides along as point data, so the selection maps back.
+
+Deviations from pointsight's `splat`: VTK's sprite is a square of `point_size` pixels where
+ours is a disc of radius `radius_px` (`point_size` = 2 × radius_px compares like for like);
+VTK's depth tolerance is one world distance per view, `depth_tolerance` × the distance from the
+eye to the cloud's centre, where ours is relative per point. The render window's class is on the
+stderr log's first line (a test checks it is an offscreen one).
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+import numpy as np  # noqa: E402
+import vtk  # noqa: E402
+from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy  # noqa: E402
+
+
+def read_points(path):
+    with open(path, "rb") as f:
+        n, props, in_vertex = None, [], False
+        while True:
+            words = f.readline().decode("ascii").split()
+            if not words:
+                continue
+            if words[0] == "element":
+                in_vertex = words[1] == "vertex"
+                if in_vertex:
+                    n = int(words[2])
+            elif words[0] == "property" and in_vertex:
+                props.append((words[2], {"double": "<f8", "float": "<f4", "uchar": "u1"}[words[1]]))
+            elif words[0] == "end_header":
+                break
+        rows = np.frombuffer(f.read(n * np.dtype(props).itemsize), dtype=np.dtype(props), count=n)
+    return np.stack([rows["x"], rows["y"], rows["z"]], axis=1).astype(np.float64)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--points")
+    ap.add_argument("--params", default="{}")
+    ap.add_argument("--protocol", type=int, default=1)
+    ap.add_argument("--normals", default=None)
+    ap.add_argument("--spacing", default=None)
+    ap.add_argument("--window-class", action="store_true", help="print the window class, exit")
+    args = ap.parse_args()
+    if args.window_class:
+        window = vtk.vtkRenderWindow()
+        window.SetOffScreenRendering(1)
+        window.AddRenderer(vtk.vtkRenderer())
+        window.SetSize(8, 8)
+        window.Render()
+        print(window.GetClassName())
+        return
+    if args.points is None:
+        raise SystemExit("vtk-zbuffer: --points FILE is required")
+    params = json.loads(args.params)
+    point_size = float(params.get("point_size", "4"))
+    depth_tolerance = float(params.get("depth_tolerance", "0.01"))
+    width = int(params["width"]) if "width" in params else None
+    height = int(params["height"]) if "height" in params else None
+
+    points = read_points(args.points)
+    centre = points.mean(axis=0)
+    vpoints = vtk.vtkPoints()
+    vpoints.SetData(numpy_to_vtk(points, deep=True))
+    poly = vtk.vtkPolyData()
+    poly.SetPoints(vpoints)
+    ids = numpy_to_vtkIdTypeArray(np.arange(len(points), dtype=np.int64), deep=True)
+    ids.SetName("index")
+    poly.GetPointData().AddArray(ids)
+    verts = vtk.vtkVertexGlyphFilter()
+    verts.SetInputData(poly)
+    mapper = vtk.vtkPolyDataMapper()
+    mapper.SetInputConnection(verts.GetOutputPort())
+    mapper.ScalarVisibilityOff()
+    actor = vtk.vtkActor()
+    actor.SetMapper(mapper)
+    actor.GetProperty().SetPointSize(point_size)
+    actor.GetProperty().SetRepresentationToPoints()
+    ren = vtk.vtkRenderer()
+    ren.AddActor(actor)
+    window = vtk.vtkRenderWindow()
+    window.SetOffScreenRendering(1)
+    window.AddRenderer(ren)
+    print(f"vtk-zbuffer: render window {window.GetClassName()}", file=sys.stderr, flush=True)
+    select = vtk.vtkSelectVisiblePoints()
+    select.SetInputData(poly)
+    select.SetRenderer(ren)
+    select.SetTolerance(0.0)
+    radius = float(np.max(np.linalg.norm(points - centre, axis=1)))
+    for line in sys.stdin:
+        try:
+            cam = json.loads(line)["camera"]
+            if cam["model"] != "pinhole":
+                raise ValueError(f"vtk-zbuffer takes pinhole cameras, not {cam['model']}")
+            w, h = width or cam["width"], height or cam["height"]
+            sx, sy = w / cam["width"], h / cam["height"]
+            cx, cy = cam["cx"] * sx, cam["cy"] * sy
+            m = np.array(cam["camera_to_world"], dtype=np.float64)
+            eye, forward, down = m[:3, 3], m[:3, 2], m[:3, 1]
+            window.SetSize(w, h)
+            vc = ren.GetActiveCamera()
+            vc.SetPosition(*eye)
+            vc.SetFocalPoint(*(eye + forward))
+            vc.SetViewUp(*(-down))
+            vc.SetViewAngle(float(cam["fov_y_deg"]))
+            # Principal point: VTK's window centre, in [-1, 1] (y up).
+            vc.SetWindowCenter(-(cx - w / 2) / (w / 2), (cy - h / 2) / (h / 2))
+            distance = float(np.linalg.norm(centre - eye))
+            near = max(distance - radius, 1e-3 * distance)
+            vc.SetClippingRange(near, distance + radius)
+            select.SetToleranceWorld(depth_tolerance * distance)
+            t0 = time.perf_counter()
+            window.Render()
+            select.Modified()
+            select.Update()
+            out = select.GetOutput().GetPointData().GetArray("index")
+            visible = np.sort(vtk_to_numpy(out)) if out is not None else np.array([], np.int64)
+            seconds = time.perf_counter() - t0
+            print(json.dumps({"visible": visible.tolist(), "seconds": seconds}), flush=True)
+        except (ValueError, KeyError) as e:
+            print(json.dumps({"error": str(e)}), flush=True)
+
+
+if __name__ == "__main__":
+    main()
