@@ -18,7 +18,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "robustness/results.csv",
-        "dataset,degradation,level,n_points,method,setting,params,view,precision,recall,f1,outliers,outliers_visible,seconds,status",
+        "dataset,degradation,level,n_points,method,setting,params,view,precision,recall,f1,true_positives,false_positives,false_negatives,outliers,outliers_visible,seconds,status",
     ),
     (
         "scale/results.csv",
@@ -93,6 +93,33 @@ fn quick_bench_writes_a_complete_report() {
     }
     for family in ["hpr-linear", "hpr-exp", "robust", "raycast", "splat"] {
         assert!(vis.contains(&format!(",{family},")), "{family}");
+    }
+    // Robustness: every built-in visibility method has an ok row for every degradation.
+    let rob = std::fs::read_to_string(reports.join("robustness/results.csv")).expect("results");
+    let mut reader = csv::Reader::from_reader(rob.as_bytes());
+    let mut ok = std::collections::BTreeSet::new();
+    for r in reader.records() {
+        let r = r.expect("a record");
+        if r.get(17) == Some("ok") {
+            ok.insert((r[4].to_owned(), r[1].to_owned()));
+        }
+    }
+    for method in [
+        "hpr",
+        "robust",
+        "hpr-confidence",
+        "hpr-approx",
+        "raycast",
+        "splat",
+        "screenspace",
+        "vardensity",
+    ] {
+        for degradation in ["clean", "noise", "outliers", "falloff", "jitter"] {
+            assert!(
+                ok.contains(&(method.to_owned(), degradation.to_owned())),
+                "robustness: {method} has no ok row under {degradation}"
+            );
+        }
     }
     // Every experiment left its summary and metadata.
     for exp in ["reference", "hull", "background", "visibility", "lod"] {

@@ -2,8 +2,8 @@
 //! `lod` and `robustness` results equal goldens committed from revision 5c38c1a's output
 //! (`tests/data/golden/`, written by that revision's `pointsight run EXPERIMENT --quick`).
 //!
-//! Only the methods (and families) the goldens have are compared (methods added since,
-//! built-in or external, add rows); columns added since are ignored; a setting's label is compared as a set of
+//! Only the methods (and families), datasets and degradations the goldens have are compared
+//! (methods added since, built-in or external, add rows; so do new datasets and degradations); columns added since are ignored; a setting's label is compared as a set of
 //! `key=value` pairs (robustness wrote its pairs in its own order then, the registry's sorted
 //! label now). Runs when `POINTSIGHT_REAL_DATA=1` (set by `just test`, which fetches the
 //! meshes first); otherwise it says why it did nothing.
@@ -80,6 +80,14 @@ fn check(name: &str, produced: &Path) {
         let key = |r: &Vec<String>| (r[m].clone(), family.map(|f| r[f].clone()));
         let methods: BTreeSet<(String, Option<String>)> = want.iter().map(key).collect();
         got.retain(|r| methods.contains(&key(r)));
+    }
+    // Likewise the golden's datasets and degradations (datasets and degradations added since
+    // add rows).
+    for column in ["dataset", "degradation"] {
+        if let Some(c) = at(column) {
+            let kept: BTreeSet<String> = want.iter().map(|r| r[c].clone()).collect();
+            got.retain(|r| kept.contains(&r[c]));
+        }
     }
     assert_eq!(
         got.len(),

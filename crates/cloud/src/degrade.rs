@@ -5,6 +5,10 @@
 //! Models (lengths in [`Unit`]s of the *clean* cloud, measured once before the first step):
 //! - [`Degradation::Noise`]: Gaussian displacement, isotropic (σ per axis) or along the
 //!   point's normal (σ along it; normals required).
+//! - [`Degradation::Jitter`]: uniform displacement along the point's normal, in
+//!   [−margin, margin] (normals required): the noise model of Mehra et al., "Visibility of noisy
+//!   point cloud data", 2010 ("uniform random perturbations in the normal direction", the
+//!   margin in bounding-box diagonals).
 //! - [`Degradation::FallOff`]: density falling off with distance d from a point: each point is
 //!   kept with probability `ratio^(-(d − d_min)/(d_max − d_min))`, so the nearest points keep
 //!   their density and the farthest `1/ratio` of it (the density ratio is `ratio`).
@@ -54,6 +58,13 @@ pub enum Degradation {
         unit: Unit,
         /// Along each point's normal instead of isotropic.
         along_normal: bool,
+    },
+    /// Uniform displacement along each point's normal, in [−margin, margin] units.
+    Jitter {
+        /// Half width of the displacement.
+        margin: f64,
+        /// Its unit.
+        unit: Unit,
     },
     /// Density falling off with distance from `from`, by `ratio` from nearest to farthest.
     FallOff {
@@ -106,6 +117,7 @@ impl Degradation {
                 if *along_normal { "-normal" } else { "" },
                 u(unit)
             ),
+            Degradation::Jitter { margin, unit } => format!("jitter-{margin}{}", u(unit)),
             Degradation::FallOff { ratio, .. } => format!("falloff-{ratio}"),
             Degradation::DensityField { ratio, .. } => format!("density-{ratio}"),
             Degradation::Holes {
@@ -130,7 +142,7 @@ impl std::str::FromStr for Degradation {
     type Err = Error;
 
     /// `KIND:key=value,key=value`, the form manifests use:
-    /// `noise:sigma=0.5[,unit=spacing|diagonal][,along=normal]`,
+    /// `noise:sigma=0.5[,unit=spacing|diagonal][,along=normal]`, `jitter:margin=0.01[,unit=...]`,
     /// `falloff:ratio=4,from=X;Y;Z`, `density:ratio=4[,wavelength=0.5]`,
     /// `holes:count=5,radius=10[,unit=...]`, `outliers:fraction=0.01[,near=5][,unit=...]`.
     fn from_str(text: &str) -> Result<Self> {
@@ -167,6 +179,10 @@ impl std::str::FromStr for Degradation {
                     Some(other) => return Err(bad(format!("along={other}: normal or isotropic"))),
                 },
             },
+            "jitter" => Degradation::Jitter {
+                margin: need(number(take("margin"), "margin")?, "margin")?,
+                unit,
+            },
             "falloff" => {
                 let from = take("from").ok_or_else(|| bad("needs from=X;Y;Z".into()))?;
                 let c: Vec<f64> = from
@@ -198,7 +214,7 @@ impl std::str::FromStr for Degradation {
             },
             other => {
                 return Err(bad(format!(
-                    "unknown degradation {other:?}: noise, falloff, density, holes or outliers"
+                    "unknown degradation {other:?}: noise, jitter, falloff, density, holes or outliers"
                 )));
             }
         };
@@ -303,6 +319,19 @@ pub fn apply(clean: &PointCloud, steps: &[Degradation], seed: u64) -> Result<Deg
                         }
                     };
                     *p += d;
+                }
+            }
+            Degradation::Jitter { margin, unit } => {
+                if !(margin >= 0.0 && margin.is_finite()) {
+                    return Err(invalid("margin", format!("must be >= 0, got {margin}")));
+                }
+                let m = length(margin, unit);
+                let normals = cloud.normals.clone().ok_or_else(|| {
+                    invalid("jitter", "noise along the normal needs normals".into())
+                })?;
+                for (p, n) in cloud.positions.iter_mut().zip(&normals) {
+                    let t: f64 = rng.random::<f64>() * 2.0 - 1.0;
+                    *p += n.as_dvec3().normalize_or_zero() * (m * t);
                 }
             }
             Degradation::FallOff { from, ratio } => {
@@ -507,6 +536,51 @@ mod tests {
             );
             assert!((s / n).abs() < 0.02 * sigma, "mean {}", s / n);
         }
+    }
+
+    #[test]
+    fn jitter_is_uniform_along_the_normal_within_its_margin() {
+        let c = clean();
+        let step: Degradation = "jitter:margin=0.01,unit=diagonal".parse().unwrap();
+        assert_eq!(step.label(), "jitter-0.01diag");
+        let d = apply(&c, &[step], 3).unwrap();
+        let m = 0.01 * c.bbox().unwrap().diagonal();
+        let normals = c.normals.as_ref().unwrap();
+        let mut t = Vec::new();
+        for ((p, q), n) in d.cloud.positions.iter().zip(&c.positions).zip(normals) {
+            let disp = *p - *q;
+            let n = n.as_dvec3().normalize();
+            assert!((disp - n * disp.dot(n)).length() < 1e-12, "off the normal");
+            t.push(disp.dot(n) / m);
+        }
+        // Uniform on [-1, 1]: inside it, mean 0, variance 1/3, and both ends reached.
+        assert!(t.iter().all(|x| x.abs() <= 1.0 + 1e-9));
+        let n = t.len() as f64;
+        let mean = t.iter().sum::<f64>() / n;
+        let var = t.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n;
+        assert!(mean.abs() < 0.03, "mean {mean}");
+        assert!((var * 3.0 - 1.0).abs() < 0.05, "variance {var}");
+        assert!(t.iter().any(|&x| x > 0.95) && t.iter().any(|&x| x < -0.95));
+        let bare = PointCloud {
+            normals: None,
+            ..c.clone()
+        };
+        assert!(
+            apply(
+                &bare,
+                &[Degradation::Jitter {
+                    margin: 0.01,
+                    unit: Unit::Diagonal
+                }],
+                3
+            )
+            .is_err()
+        );
+        assert!(
+            "jitter:margin=-1"
+                .parse::<Degradation>()
+                .is_ok_and(|s| apply(&c, &[s], 3).is_err())
+        );
     }
 
     #[test]

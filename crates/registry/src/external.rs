@@ -52,6 +52,8 @@
 //! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
 //! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
 //! family = "open3d-hpr"                      # how its rows group in plots (default: name)
+//! skip_robustness = "why"                    # leaves the robustness experiment (listed
+//!                                            # with the reason); default: it takes part
 //! # peer_keys = {point_size = {ours = "radius_px", factor = 0.5}}: for a peer whose key's
 //! # name or unit differs from its partner's (ours = factor x the peer's; same names as is)
 //! [params.gamma]
@@ -138,6 +140,7 @@ struct Manifest {
     default: Option<toml::Value>,
     family: Option<String>,
     memory_bytes_per_point: Option<u64>,
+    skip_robustness: Option<toml::Value>,
     #[serde(default)]
     peer_keys: BTreeMap<String, PeerKeyEntry>,
 }
@@ -276,6 +279,7 @@ impl ExternalMethod {
             ("grid", &m.grid),
             ("quick_grid", &m.quick_grid),
             ("default", &m.default),
+            ("skip_robustness", &m.skip_robustness),
         ] {
             if let Some(v) = value {
                 table.insert(key.to_owned(), v.clone());

@@ -189,6 +189,9 @@ pub struct MethodSweep {
     /// The automatic setting the robustness experiment recomputes on each degraded cloud;
     /// `None`: the default setting.
     pub robustness_auto: Option<Setting>,
+    /// Why the robustness experiment leaves the method out (`skip_robustness = "why"`); the
+    /// report lists it with the reason. `None`: it takes part.
+    pub skip_robustness: Option<String>,
 }
 
 impl MethodSweep {
@@ -231,7 +234,7 @@ impl MethodSweep {
     }
 
     /// Reads one method's table (`grid`, `quick_grid`, `default`, `robustness`,
-    /// `robustness_auto`).
+    /// `robustness_auto`, `skip_robustness`).
     pub fn from_toml(table: &toml::Table, where_: &str) -> Result<Self> {
         let mut out = Self::default();
         for (key, value) in table {
@@ -268,9 +271,18 @@ impl MethodSweep {
                         out.robustness_auto = Some(s);
                     }
                 }
+                "skip_robustness" => {
+                    let why = value
+                        .as_str()
+                        .filter(|w| !w.trim().is_empty())
+                        .ok_or_else(|| {
+                            Error::Sweep(format!("{here}: expected the reason, a non-empty string"))
+                        })?;
+                    out.skip_robustness = Some(why.to_owned());
+                }
                 other => {
                     return Err(Error::Sweep(format!(
-                        "{where_}: unknown key {other:?} (expected grid, quick_grid, default, robustness, robustness_auto)"
+                        "{where_}: unknown key {other:?} (expected grid, quick_grid, default, robustness, robustness_auto, skip_robustness)"
                     )));
                 }
             }
@@ -510,11 +522,27 @@ mod tests {
             ),
             ("m = 3", "m must be a table"),
             ("[m]\n[[m.grid]]\nw = 1\ns = [{w = 2}]", "w is set twice"),
+            ("[m]\nskip_robustness = 3", "m.skip_robustness"),
+            ("[m]\nskip_robustness = \" \"", "m.skip_robustness"),
         ] {
             let e = Sweeps::parse(text, "f.toml").unwrap_err().to_string();
             assert!(e.contains(needle) && e.contains("f.toml"), "{text}: {e}");
         }
         assert!(Sweeps::resolve(Some(Sweeps::parse("[nosuch]", "u").unwrap())).is_err());
+    }
+
+    #[test]
+    fn a_method_can_leave_robustness_with_a_reason() {
+        let s = Sweeps::parse(
+            "[m]\nskip_robustness = \"same sets as hpr\"\n[[m.grid]]\ng = 1",
+            "f.toml",
+        )
+        .unwrap();
+        let m = &s.methods["m"];
+        assert_eq!(m.skip_robustness.as_deref(), Some("same sets as hpr"));
+        assert_eq!(m.grid.len(), 1);
+        let b = Sweeps::parse(BUILTIN, "sweeps.toml").unwrap();
+        assert!(b.methods.values().all(|m| m.skip_robustness.is_none()));
     }
 
     #[test]

@@ -28,7 +28,7 @@ const PARAMS: &[ParamSpec] = &[
     },
     ParamSpec {
         key: "threshold",
-        default: "0.1",
+        default: "0.5",
         help: "minimum visibility score, in [0, 1]",
     },
     ParamSpec {

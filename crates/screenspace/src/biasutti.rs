@@ -59,7 +59,7 @@ impl Default for BiasuttiParams {
         Self {
             k: 8,
             max_radius: 32,
-            threshold: 0.1,
+            threshold: 0.5,
             depth_tolerance: 0.0,
         }
     }

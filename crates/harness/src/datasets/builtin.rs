@@ -48,14 +48,13 @@ pub enum Source {
         /// The steps.
         steps: fn() -> Vec<Degradation>,
     },
-    /// A simulated scan (`truth::scan`): `scanners` on a ring at 1.5 bounding-box diagonals
-    /// from the mesh's centre, 0.5 diagonals up, each a `width × height` grid, range noise
-    /// `sigma` diagonals, range at most 5 diagonals.
+    /// A simulated scan (`truth::scan`): scanners placed by `rig`, each a `width × height`
+    /// grid, range noise `sigma` diagonals, range at most 5 diagonals.
     Scanned {
         /// The mesh.
         mesh: MeshFile,
-        /// Number of scanners.
-        scanners: usize,
+        /// Where the scanners stand.
+        rig: Rig,
         /// Directions around, per scanner.
         width: u32,
         /// Directions from zenith to nadir, per scanner.
@@ -65,6 +64,20 @@ pub enum Source {
         /// Seed of the range noise.
         seed: u64,
     },
+}
+
+/// Where a simulated scan's scanners stand (diagonals: the mesh's bounding-box diagonal D).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rig {
+    /// Terrestrial: this many scanners on a horizontal ring at 1.5 D from the mesh's centre,
+    /// 0.5 D up (`truth::scan::ring`); the dataset's views are the standard 16.
+    Ring(usize),
+    /// Mobile mapping: this many profile scanners (width 2: the plane across the direction of
+    /// travel) evenly along a straight pass at 1 D beside the mesh's centre (along +x, from
+    /// −1.2 D to +1.2 D, offset −D in y), as a vehicle's scanner sweeps one profile per step;
+    /// the density falls with range across the pass and is fixed by the speed along it. Its
+    /// views are 16 cameras on the vehicle ([`mobile_views`]).
+    Line(usize),
 }
 
 /// A registry entry.
@@ -220,7 +233,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
         description: "simulated scan of bunny00.off from 4 scanners (2048x1024 directions each, range noise 1e-4 diagonals)",
         source: Source::Scanned {
             mesh: BUNNY_MESH,
-            scanners: 4,
+            rig: Rig::Ring(4),
             width: 2048,
             height: 1024,
             sigma: 1e-4,
@@ -233,11 +246,37 @@ pub const REGISTRY: &[DatasetInfo] = &[
         description: "simulated scan of ChineseDragon-10kv.off from 4 scanners (4096x2048 directions each, range noise 1e-4 diagonals)",
         source: Source::Scanned {
             mesh: DRAGON_MESH,
-            scanners: 4,
+            rig: Rig::Ring(4),
             width: 4096,
             height: 2048,
             sigma: 1e-4,
             seed: 4,
+        },
+    },
+    DatasetInfo {
+        name: "bunny-mobile",
+        n_points: BUNNY_MOBILE_POINTS,
+        description: "simulated mobile-mapping pass beside bunny00.off: 400 profiles of 4096 directions along a line, range noise 1e-4 diagonals; views from the vehicle",
+        source: Source::Scanned {
+            mesh: BUNNY_MESH,
+            rig: Rig::Line(400),
+            width: 2,
+            height: 4096,
+            sigma: 1e-4,
+            seed: 5,
+        },
+    },
+    DatasetInfo {
+        name: "dragon-mobile",
+        n_points: DRAGON_MOBILE_POINTS,
+        description: "simulated mobile-mapping pass beside ChineseDragon-10kv.off: 800 profiles of 8192 directions along a line, range noise 1e-4 diagonals; views from the vehicle",
+        source: Source::Scanned {
+            mesh: DRAGON_MESH,
+            rig: Rig::Line(800),
+            width: 2,
+            height: 8192,
+            sigma: 1e-4,
+            seed: 5,
         },
     },
 ];
@@ -246,6 +285,10 @@ pub const REGISTRY: &[DatasetInfo] = &[
 const BUNNY_SCAN_POINTS: usize = 36_070;
 /// Points of `dragon-scan-4`.
 const DRAGON_SCAN_POINTS: usize = 159_472;
+/// Points of `bunny-mobile`.
+const BUNNY_MOBILE_POINTS: usize = 46_179;
+/// Points of `dragon-mobile`.
+const DRAGON_MOBILE_POINTS: usize = 172_965;
 
 /// Reads a fetched mesh (checksummed by `pointsight fetch`), or says to fetch it.
 pub fn load_mesh(data_dir: &Path, mesh: &MeshFile) -> Result<TriMesh> {
@@ -305,14 +348,14 @@ pub fn load(info: &DatasetInfo, data_dir: &Path) -> Result<Dataset> {
         }
         Source::Scanned {
             mesh: file,
-            scanners,
+            rig,
             width,
             height,
             sigma,
             seed,
         } => {
             let mesh = load_mesh(data_dir, &file)?;
-            let capture = scan_mesh(&mesh, scanners, width, height, sigma, seed)?;
+            let capture = scan_mesh(&mesh, rig, width, height, sigma, seed)?;
             truth_positions = Some(capture.clean);
             (capture.cloud, mesh)
         }
@@ -326,7 +369,12 @@ pub fn load(info: &DatasetInfo, data_dir: &Path) -> Result<Dataset> {
     }
     cloud.validate()?;
     let bbox = mesh.bbox().context("the dataset's mesh has no vertices")?;
-    let views = fibonacci_views(&bbox, &ViewSpec::default())?;
+    let views = match info.source {
+        Source::Scanned {
+            rig: Rig::Line(_), ..
+        } => mobile_views(&bbox)?,
+        _ => fibonacci_views(&bbox, &ViewSpec::default())?,
+    };
     Ok(Dataset {
         name: info.name.to_owned(),
         description: info.description.to_owned(),
@@ -353,10 +401,46 @@ pub fn load_mesh_of(info: &DatasetInfo, data_dir: &Path) -> Result<TriMesh> {
     }
 }
 
+/// The pass of a [`Rig::Line`]: `count` positions from −1.2 D to +1.2 D along x, at −D in y
+/// from the centre of `bbox` (D its diagonal).
+fn pass(bbox: &cloud::Aabb, count: usize) -> Vec<DVec3> {
+    let d = bbox.diagonal();
+    let start = bbox.center() + DVec3::new(-1.2 * d, -d, 0.0);
+    let end = bbox.center() + DVec3::new(1.2 * d, -d, 0.0);
+    (0..count)
+        .map(|k| start.lerp(end, (k as f64 + 0.5) / count.max(1) as f64))
+        .collect()
+}
+
+/// The views of a mobile pass: 16 pinhole cameras (1280 × 720) on the vehicle, 0.05 D above
+/// the scanner's line, evenly along its middle 2 D, each looking at the mesh's centre with a
+/// field of view that frames the bounding sphere (5 % margin, as `fibonacci_views`).
+pub fn mobile_views(bbox: &cloud::Aabb) -> Result<Vec<cloud::Camera>> {
+    let d = bbox.diagonal();
+    let spec = ViewSpec::default();
+    let centre = bbox.center();
+    (0..spec.n_views)
+        .map(|k| {
+            let t = -1.0 + 2.0 * (k as f64 + 0.5) / spec.n_views as f64;
+            let eye = centre + DVec3::new(t * d, -d, 0.05 * d);
+            let half = (0.5 * d / (eye - centre).length()).asin();
+            let fov = (2.0 * half).to_degrees() * (1.0 + spec.margin);
+            Ok(cloud::Camera::new(
+                eye,
+                centre,
+                DVec3::Z,
+                fov,
+                spec.width,
+                spec.height,
+            )?)
+        })
+        .collect()
+}
+
 /// A simulated scan of `mesh` ([`Source::Scanned`]).
 pub fn scan_mesh(
     mesh: &TriMesh,
-    scanners: usize,
+    rig: Rig,
     width: u32,
     height: u32,
     sigma: f64,
@@ -365,7 +449,10 @@ pub fn scan_mesh(
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
     let diagonal = bbox.diagonal();
     let surface = truth::ExactVisibility::new(mesh)?;
-    let positions = truth::scan::ring(bbox.center(), 1.5 * diagonal, 0.5 * diagonal, scanners);
+    let positions = match rig {
+        Rig::Ring(n) => truth::scan::ring(bbox.center(), 1.5 * diagonal, 0.5 * diagonal, n),
+        Rig::Line(n) => pass(&bbox, n),
+    };
     let scanners: Vec<truth::scan::Scanner> = positions
         .into_iter()
         .map(|position| truth::scan::Scanner {
@@ -382,4 +469,70 @@ pub fn scan_mesh(
         &scanners,
         seed,
     )?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit_box() -> cloud::Aabb {
+        cloud::Aabb {
+            min: DVec3::new(-0.5, -0.5, -0.5),
+            max: DVec3::new(1.5, 0.5, 0.5),
+        }
+    }
+
+    #[test]
+    fn a_mobile_pass_runs_straight_beside_the_mesh_at_one_diagonal() {
+        let b = unit_box();
+        let d = b.diagonal();
+        let p = pass(&b, 5);
+        assert_eq!(p.len(), 5);
+        for w in p.windows(2) {
+            // Evenly spaced along +x, at a fixed offset in y and z.
+            assert!(((w[1] - w[0]) - DVec3::new(2.4 * d / 5.0, 0.0, 0.0)).length() < 1e-12);
+        }
+        for q in &p {
+            assert!((q.y - (b.center().y - d)).abs() < 1e-12 && (q.z - b.center().z).abs() < 1e-12);
+        }
+        // The profile scanner's two azimuths (width 2: ±y) sweep the plane across the travel.
+        let s = truth::scan::Scanner {
+            position: p[0],
+            width: 2,
+            height: 8,
+            max_range: 1.0,
+            range_sigma: 0.0,
+        };
+        let cam = s.camera().unwrap();
+        for (x, y) in [(0.5, 0.5), (1.5, 3.5), (0.5, 7.5)] {
+            let (_, dir) = cam.ray(x, y);
+            assert!(
+                dir.normalize().x.abs() < 1e-9,
+                "ray {dir:?} leaves the profile plane"
+            );
+        }
+    }
+
+    #[test]
+    fn mobile_views_ride_the_vehicle_and_frame_the_mesh() {
+        let b = unit_box();
+        let d = b.diagonal();
+        let views = mobile_views(&b).unwrap();
+        assert_eq!(views.len(), 16);
+        for v in &views {
+            assert!((v.eye.y - (b.center().y - d)).abs() < 1e-12);
+            assert!(
+                (v.eye - b.center()).length() > 0.5 * d,
+                "inside the bounding sphere"
+            );
+            let c = v.project(b.center()).unwrap();
+            assert!((c.x - 640.0).abs() < 1e-6 && (c.y - 360.0).abs() < 1e-6);
+            for corner in [b.min, b.max] {
+                assert!(
+                    v.project(corner).unwrap().pixel(1280, 720).is_some(),
+                    "{corner:?} out of frame"
+                );
+            }
+        }
+    }
 }

@@ -5,10 +5,12 @@
 //! (`cloud::degrade`, seeded): isotropic Gaussian noise σ ∈ {0.25, 0.5, 1, 2} density spacings,
 //! outliers uniform in the bounding box at fractions {0.01, 0.02, 0.05, 0.1}, and a density
 //! fall-off from a scanner-like point (1.5 diagonals out, 0.5 up) with density ratios
-//! {2, 4, 16}. A point's truth is the reference visibility of the clean sample it came from
+//! {2, 4, 16}, and Mehra et al. 2010's noise model, uniform along the normal with margins
+//! {0.0025, 0.005, 0.01} box diagonals (`jitter`; the quick run 0.005). A point's truth is the reference visibility of the clean sample it came from
 //! (`Degraded::source`); outliers have no truth and are scored apart (`outliers_visible`: how
 //! many of them a method calls visible). Simulated scans (`bunny-scan-4`, `dragon-scan-4`:
-//! spherical ray grids against the mesh, range noise) are scored the same way, the truth being
+//! spherical ray grids against the mesh, range noise; `bunny-mobile`, `dragon-mobile`: one
+//! mobile-mapping pass of a profile scanner, seen from cameras on the vehicle) are scored the same way, the truth being
 //! the visibility of each ray's noise-free hit.
 //!
 //! Every registered visibility method with a sweep (built-in, registered at run time or
@@ -22,6 +24,9 @@
 //! rules were fitted on clean data; this is where they are tested off it. Methods see the
 //! degraded cloud only, never the mesh. `seconds` is one run, or the median of `--repeats` runs when given
 //! (this experiment measures accuracy; `visibility` measures speed with its spread).
+//!
+//! The report's comparison tables (the winner per degradation with a paired interval, Mehra
+//! et al.'s and Biasutti et al.'s comparisons) are [`tables`]'.
 //!
 //! LOD methods (`lod.csv`, `experiments::lod::noise`): every LOD method with a sweep, built on
 //! each noisy cloud (σ ∈ {0, 0.25, 0.5, 1, 2} spacings; colours from the clean source's texture
@@ -46,6 +51,8 @@ use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 
+mod tables;
+
 /// The experiment.
 pub struct RobustnessExperiment;
 
@@ -57,6 +64,10 @@ const NOISE: &[f64] = &[0.05, 0.1, 0.25, 0.5, 1.0, 2.0];
 const OUTLIERS: &[f64] = &[0.01, 0.02, 0.05, 0.1];
 /// Density ratios of the fall-off.
 const FALLOFF: &[f64] = &[2.0, 4.0, 16.0];
+/// Margins of the uniform noise along the normal (Mehra et al. 2010's model), box diagonals.
+const JITTER: &[f64] = &[0.0025, 0.005, 0.01];
+/// The quick run's margin.
+const JITTER_QUICK: &[f64] = &[0.005];
 
 /// One method run on one view of one degraded cloud.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -76,6 +87,13 @@ struct Row {
     precision: f64,
     recall: f64,
     f1: f64,
+    /// The score's counts (surface points only; 0 for a failed run).
+    #[serde(default)]
+    true_positives: usize,
+    #[serde(default)]
+    false_positives: usize,
+    #[serde(default)]
+    false_negatives: usize,
     outliers: usize,
     outliers_visible: usize,
     seconds: f64,
@@ -151,6 +169,9 @@ fn run_views(
                 precision: score.map_or(f64::NAN, |s| s.precision()),
                 recall: score.map_or(f64::NAN, |s| s.recall()),
                 f1: score.map_or(f64::NAN, |s| s.f1()),
+                true_positives: score.map_or(0, |s| s.true_positives),
+                false_positives: score.map_or(0, |s| s.false_positives),
+                false_negatives: score.map_or(0, |s| s.false_negatives),
                 outliers: n_out,
                 outliers_visible,
                 seconds,
@@ -182,20 +203,30 @@ impl Experiment for RobustnessExperiment {
 
     fn default_datasets(&self, quick: bool) -> &'static [&'static str] {
         if quick {
-            &["bunny-69451", "bunny-scan-4"]
+            &["bunny-69451", "bunny-scan-4", "bunny-mobile"]
         } else {
             &[
                 "bunny-69451",
                 "dragon-871414",
                 "bunny-scan-4",
                 "dragon-scan-4",
+                "bunny-mobile",
+                "dragon-mobile",
             ]
         }
     }
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let n_views = if ctx.quick { 3 } else { 8 };
-        let (methods, not_run) = ctx.methods_to_run();
+        let (mut methods, mut not_run) = ctx.methods_to_run();
+        // A method whose sweep says why it stays out (`skip_robustness`) is listed, not run.
+        methods.retain(|(m, s)| match &s.skip_robustness {
+            Some(why) => {
+                not_run.push(format!("{}: {why}", m.name()));
+                false
+            }
+            None => true,
+        });
         let repeats = ctx.accuracy_repeats();
         let mut rows: Vec<Row> = Vec::new();
         let mut lod: Vec<LodRow> = Vec::new();
@@ -263,6 +294,17 @@ impl Experiment for RobustnessExperiment {
                         Degradation::FallOff { from, ratio },
                     )?);
                 }
+                for &margin in if ctx.quick { JITTER_QUICK } else { JITTER } {
+                    cases.push(degraded(
+                        &ds.cloud,
+                        "jitter",
+                        margin,
+                        Degradation::Jitter {
+                            margin,
+                            unit: Unit::Diagonal,
+                        },
+                    )?);
+                }
             }
             // The truth of every clean position, once per view; each case maps it through
             // its own truth positions (the clean cloud's, or the scan's hits).
@@ -323,6 +365,7 @@ impl Experiment for RobustnessExperiment {
             "outlier_fractions": OUTLIERS,
             "falloff_ratios": FALLOFF,
             "falloff_from": "bbox centre + (1.5, 0, 0.5) diagonals",
+            "jitter_margins_diagonals": if ctx.quick { JITTER_QUICK } else { JITTER },
             "grids": methods.iter().map(|(m, s)| serde_json::json!({
                 "method": m.name(),
                 "grid": s.tuning(ctx.quick).iter().map(Setting::label).collect::<Vec<_>>(),
@@ -377,6 +420,11 @@ impl Experiment for RobustnessExperiment {
             (
                 "falloff",
                 "density ratio (fall-off from a scanner point)",
+                true,
+            ),
+            (
+                "jitter",
+                "uniform noise along the normal, margin (box diagonals)",
                 true,
             ),
         ];
@@ -494,6 +542,25 @@ impl Experiment for RobustnessExperiment {
                 "On the simulated scans `best` is the grid value best on the scan itself (an \
                  oracle: there is no clean version to tune on).\n\n![F1 on simulated scans](f1_scans.png)\n\n",
             );
+        }
+        let not_run: Vec<String> = crate::output::meta::RunMeta::read(dir)
+            .ok()
+            .and_then(|m| serde_json::from_value(m.parameters["methods_not_run"].clone()).ok())
+            .unwrap_or_default();
+        if !not_run.is_empty() {
+            text.push_str("Not run:\n\n");
+            for n in &not_run {
+                text.push_str(&format!("- {n}\n"));
+            }
+            text.push('\n');
+        }
+        for part in [
+            tables::winners(&rows),
+            tables::mehra(&rows),
+            tables::biasutti(&rows),
+        ] {
+            text.push_str(&part);
+            text.push('\n');
         }
         if !thresholds.is_empty() {
             text.push_str(&format!(

@@ -37,6 +37,7 @@ use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
 use super::{Context, Experiment};
 
+mod papers;
 mod peers;
 mod render;
 use crate::output::{read_csv, write_csv};

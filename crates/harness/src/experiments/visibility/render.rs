@@ -24,7 +24,7 @@ fn families_of(rows: &[Row]) -> Vec<String> {
 }
 
 /// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
-fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
+pub(super) fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
     let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
     for r in rows.iter().filter(|r| {
         r.dataset == dataset && r.family == fam && !is_auto(&r.params) && r.status == "ok"
@@ -628,7 +628,12 @@ pub(super) fn render(
         }
     }
 
-    let versus = versus_table(rows, &datasets, &families);
+    let versus = format!(
+        "{}{}{}",
+        versus_table(rows, &datasets, &families),
+        super::papers::machado(rows, &datasets),
+        super::papers::katz_tal(rows, &datasets)
+    );
 
     // The automatic rules against the best fixed setting of the same family, view by view:
     // fixed settings that agree with the rule's setting on every fixed key both have (the ray

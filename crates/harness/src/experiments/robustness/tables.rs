@@ -1,0 +1,361 @@
+//! The robustness report's comparison tables, drawn from `results.csv` alone (so `pointsight
+//! tables` redraws them):
+//!
+//! - [`winners`]: per dataset, degradation and level, the best method (highest median F1 over
+//!   the views, either setting) against the best of every *other* method: the F1 difference
+//!   paired per view with its bootstrap 95 % interval (`crate::stats`), and what each costs;
+//! - [`mehra`]: the comparison of Mehra et al. 2010 (their project page's figure: HPR against
+//!   the robust operator on clouds perturbed uniformly along the normal, noise margins in
+//!   bounding-box diagonals, false positives and false negatives against a z-buffer of the
+//!   source mesh), as rates: false positives over the truly hidden points, false negatives over
+//!   the truly visible ones;
+//! - [`biasutti`]: the comparison of Biasutti et al. 2019 (HPR, screen-space operators and
+//!   their variable-density operator on mobile-mapping scans), on our simulated mobile and
+//!   terrestrial scans, every method beside them.
+
+use std::collections::BTreeMap;
+
+use super::{Row, median};
+use crate::experiments::markdown_table;
+
+/// Seed of the bootstrap intervals.
+const SEED: u64 = 2010;
+
+/// A cell of the comparison: dataset, degradation, level (×10⁶, rounded).
+type Cell = (String, String, i64);
+/// Per view: (F1, seconds).
+type Views = BTreeMap<usize, (f64, f64)>;
+/// A method's best setting: median F1, the setting, its views.
+type Best<'a> = (f64, &'a str, &'a Views);
+
+/// Rows grouped by cell, then by (method, setting), then per view: (F1, seconds).
+fn grouped(rows: &[Row]) -> BTreeMap<Cell, BTreeMap<(String, String), Views>> {
+    let mut out: BTreeMap<Cell, BTreeMap<(String, String), Views>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.status == "ok") {
+        out.entry((
+            r.dataset.clone(),
+            r.degradation.clone(),
+            (r.level * 1e6).round() as i64,
+        ))
+        .or_default()
+        .entry((r.method.clone(), r.setting.clone()))
+        .or_default()
+        .insert(r.view, (r.f1, r.seconds));
+    }
+    out
+}
+
+/// Per cell: the winner and the runner-up (the best setting of another method), the paired F1
+/// difference with its interval, and each one's median seconds per view.
+pub fn winners(rows: &[Row]) -> String {
+    let mut table = Vec::new();
+    for ((ds, deg, level), runs) in grouped(rows) {
+        // The best setting of each method, by median F1 (a method that failed on a view is
+        // ranked on the views it answered, and the pairing below uses the common views).
+        let mut best: BTreeMap<&str, Best> = BTreeMap::new();
+        for ((method, setting), views) in &runs {
+            let m = median(views.values().map(|v| v.0).collect());
+            if best.get(method.as_str()).is_none_or(|b| m > b.0) {
+                best.insert(method, (m, setting, views));
+            }
+        }
+        let mut ranked: Vec<(&str, Best)> =
+            best.into_iter().filter(|(_, b)| b.0.is_finite()).collect();
+        ranked.sort_by(|a, b| b.1.0.total_cmp(&a.1.0).then(a.0.cmp(b.0)));
+        let [(wm, (wf1, ws, wv)), (rm, (rf1, rs, rv)), ..] = ranked[..] else {
+            continue;
+        };
+        let diffs: Vec<f64> = wv
+            .iter()
+            .filter_map(|(k, a)| Some(a.0 - rv.get(k)?.0))
+            .collect();
+        let interval = crate::stats::bootstrap_mean(&diffs, SEED)
+            .map_or("-".into(), |(m, lo, hi)| {
+                format!("{m:+.3} ({lo:+.3} to {hi:+.3})")
+            });
+        let secs = |v: &Views| median(v.values().map(|x| x.1).collect());
+        table.push(vec![
+            ds,
+            deg,
+            format!("{}", level as f64 / 1e6),
+            format!("{wm} {ws}"),
+            format!("{wf1:.3}"),
+            format!("{:.3}", secs(wv)),
+            format!("{rm} {rs}"),
+            format!("{rf1:.3}"),
+            format!("{:.3}", secs(rv)),
+            interval,
+        ]);
+    }
+    if table.is_empty() {
+        return String::new();
+    }
+    format!(
+        "Which method is best, per dataset and degradation: the method with the highest median F1 \
+         (at its better setting, `best` or `auto`) against the best other method; the F1 difference \
+         is the mean over the views of the paired differences, with its bootstrap 95 % interval \
+         (an interval that contains 0: no winner on these views). Seconds: median per view.\n\n{}\n",
+        markdown_table(
+            &[
+                "dataset",
+                "degradation",
+                "level",
+                "best",
+                "F1",
+                "s",
+                "runner-up",
+                "F1",
+                "s",
+                "F1 difference (95 % interval)",
+            ],
+            &table
+        )
+    )
+}
+
+/// False-positive and false-negative rates of HPR and the robust operator on the clean cloud and
+/// under the uniform noise along the normal (degradation `jitter`).
+pub fn mehra(rows: &[Row]) -> String {
+    type Key = (String, i64, String, String);
+    /// Per view: false-positive rate, false-negative rate, F1.
+    type Rates = (Vec<f64>, Vec<f64>, Vec<f64>);
+    let mut rates: BTreeMap<Key, Rates> = BTreeMap::new();
+    for r in rows.iter().filter(|r| {
+        r.status == "ok"
+            && (r.degradation == "jitter" || r.degradation == "clean")
+            && (r.method == "hpr" || r.method == "robust")
+    }) {
+        let surface = r.n_points - r.outliers;
+        let visible = r.true_positives + r.false_negatives;
+        let hidden = surface.saturating_sub(visible);
+        let e = rates
+            .entry((
+                r.dataset.clone(),
+                (r.level * 1e6).round() as i64,
+                r.method.clone(),
+                r.setting.clone(),
+            ))
+            .or_default();
+        e.0.push(if hidden > 0 {
+            r.false_positives as f64 / hidden as f64
+        } else {
+            f64::NAN
+        });
+        e.1.push(if visible > 0 {
+            r.false_negatives as f64 / visible as f64
+        } else {
+            f64::NAN
+        });
+        e.2.push(r.f1);
+    }
+    if !rates.keys().any(|k| k.1 > 0) {
+        return String::new();
+    }
+    let table: Vec<Vec<String>> = rates
+        .into_iter()
+        .map(|((ds, level, method, setting), (fp, fnr, f1))| {
+            vec![
+                ds,
+                format!("{}", level as f64 / 1e6),
+                format!("{method} {setting}"),
+                format!("{:.2} %", 100.0 * median(fp)),
+                format!("{:.2} %", 100.0 * median(fnr)),
+                format!("{:.3}", median(f1)),
+            ]
+        })
+        .collect();
+    format!(
+        "**Mehra et al. 2010, regenerated.** Their project page compares HPR with the robust \
+         operator on clouds perturbed uniformly along the normal (noise margins in bounding-box \
+         diagonals) by their false positives and false negatives against a z-buffer of the \
+         source mesh; the figure's own numbers could not be read, so this is the same comparison \
+         on our clouds, not a check of theirs. False-positive rate: points called visible over \
+         the truly hidden ones; false-negative rate: visible points missed over the truly \
+         visible ones (medians over the views; margin 0: the clean cloud).\n\n{}\n",
+        markdown_table(
+            &[
+                "dataset",
+                "margin (diagonals)",
+                "method",
+                "false positives",
+                "false negatives",
+                "F1",
+            ],
+            &table
+        )
+    )
+}
+
+/// Every method on the simulated scans (mobile first), the methods of Biasutti et al.'s
+/// comparison marked.
+pub fn biasutti(rows: &[Row]) -> String {
+    type Key = (bool, String, String, String);
+    let mut cells: BTreeMap<Key, Vec<&Row>> = BTreeMap::new();
+    for r in rows.iter().filter(|r| r.degradation == "scan") {
+        cells
+            .entry((
+                !r.dataset.contains("mobile"),
+                r.dataset.clone(),
+                r.method.clone(),
+                r.setting.clone(),
+            ))
+            .or_default()
+            .push(r);
+    }
+    if !cells.keys().any(|k| !k.0) {
+        return String::new();
+    }
+    let table: Vec<Vec<String>> = cells
+        .into_iter()
+        .map(|((_, ds, method, setting), rs)| {
+            let ok: Vec<&&Row> = rs.iter().filter(|r| r.status == "ok").collect();
+            let m = |f: fn(&Row) -> f64| median(ok.iter().map(|r| f(r)).collect());
+            let theirs = matches!(method.as_str(), "hpr" | "screenspace" | "vardensity");
+            vec![
+                ds,
+                if theirs {
+                    format!("**{method}**")
+                } else {
+                    method
+                },
+                setting,
+                format!("{:.3}", m(|r| r.precision)),
+                format!("{:.3}", m(|r| r.recall)),
+                format!("{:.3}", m(|r| r.f1)),
+                format!("{:.3}", m(|r| r.seconds)),
+                if ok.len() == rs.len() {
+                    "ok".into()
+                } else {
+                    format!("{} of {} views failed", rs.len() - ok.len(), rs.len())
+                },
+            ]
+        })
+        .collect();
+    format!(
+        "**Biasutti et al. 2019's comparison, regenerated on simulated scans.** They compare HPR, \
+         screen-space operators and their variable-density operator on mobile-mapping LiDAR; the \
+         methods of that comparison are in bold (`hpr`, `screenspace` after Pintus et al., \
+         `vardensity` after Biasutti et al.). `*-mobile`: one pass of a profile scanner beside \
+         the mesh, seen from cameras on the vehicle; `*-scan-4`: four terrestrial scanners. The \
+         paper's own numbers could not be read; this is the comparison on our scans. Medians \
+         over the views.\n\n{}\n",
+        markdown_table(
+            &[
+                "dataset",
+                "method",
+                "setting",
+                "precision",
+                "recall",
+                "F1",
+                "s",
+                "status"
+            ],
+            &table
+        )
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A row of `method` on view `view`: 100 surface points, 40 truly visible, of which `tp`
+    /// found, and `fp` hidden ones reported.
+    fn row(degradation: &str, level: f64, method: &str, view: usize, tp: usize, fp: usize) -> Row {
+        let s = registry::score::Score {
+            true_positives: tp,
+            false_positives: fp,
+            false_negatives: 40 - tp,
+        };
+        Row {
+            dataset: "d".into(),
+            degradation: degradation.into(),
+            level,
+            n_points: 100,
+            method: method.into(),
+            setting: "best".into(),
+            params: String::new(),
+            view,
+            precision: s.precision(),
+            recall: s.recall(),
+            f1: s.f1(),
+            true_positives: tp,
+            false_positives: fp,
+            false_negatives: 40 - tp,
+            outliers: 0,
+            outliers_visible: 0,
+            seconds: 0.5,
+            status: "ok".into(),
+        }
+    }
+
+    #[test]
+    fn mehra_rates_are_over_the_hidden_and_the_visible_points() {
+        let rows = vec![
+            row("jitter", 0.01, "hpr", 0, 30, 6),
+            row("jitter", 0.01, "robust", 0, 40, 12),
+            row("jitter", 0.01, "splat", 0, 40, 0),
+        ];
+        let t = mehra(&rows);
+        // hpr: 6 of 60 hidden reported (10 %), 10 of 40 visible missed (25 %).
+        assert!(
+            t.contains("| d | 0.01 | hpr best | 10.00 % | 25.00 % |"),
+            "{t}"
+        );
+        assert!(
+            t.contains("| d | 0.01 | robust best | 20.00 % | 0.00 % |"),
+            "{t}"
+        );
+        assert!(
+            !t.contains("splat"),
+            "only HPR and the robust operator: {t}"
+        );
+        assert_eq!(mehra(&rows[..0]), "");
+    }
+
+    #[test]
+    fn the_winner_is_paired_per_view_against_the_best_other_method() {
+        let mut rows = Vec::new();
+        for v in 0..6 {
+            rows.push(row("noise", 0.5, "a", v, 40, 0)); // F1 1
+            rows.push(row("noise", 0.5, "b", v, 30, 0)); // F1 0.857
+            rows.push(row("noise", 0.5, "c", v, 20, 0));
+        }
+        let t = winners(&rows);
+        let line = t.lines().find(|l| l.starts_with("| d | noise")).expect(&t);
+        assert!(line.contains("| a best | 1.000 |"), "{line}");
+        assert!(line.contains("| b best | 0.857 |"), "{line}");
+        // Every view differs by the same amount: the interval is that value.
+        assert!(line.contains("+0.143 (+0.143 to +0.143)"), "{line}");
+        // A failed method does not take part.
+        for r in rows.iter_mut().filter(|r| r.method == "a") {
+            r.status = "error: x".into();
+        }
+        let t = winners(&rows);
+        assert!(
+            t.contains("| b best | 0.857 |") && t.contains("| c best |"),
+            "{t}"
+        );
+    }
+
+    #[test]
+    fn biasutti_lists_the_scans_mobile_first_and_marks_the_compared_methods() {
+        let mut rows = vec![
+            row("scan", 0.0, "vardensity", 0, 40, 0),
+            row("scan", 0.0, "raycast", 0, 40, 0),
+        ];
+        assert_eq!(biasutti(&rows), "", "no mobile scan, no table");
+        rows.iter_mut().for_each(|r| r.dataset = "x-mobile".into());
+        rows.push(Row {
+            dataset: "x-scan-4".into(),
+            ..row("scan", 0.0, "hpr", 0, 40, 0)
+        });
+        let t = biasutti(&rows);
+        let mobile = t.find("| x-mobile | **vardensity**").expect(&t);
+        let terrestrial = t.find("| x-scan-4 | **hpr**").expect(&t);
+        assert!(
+            mobile < terrestrial && t.contains("| x-mobile | raycast |"),
+            "{t}"
+        );
+    }
+}
