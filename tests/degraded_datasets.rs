@@ -90,3 +90,45 @@ fn a_scan_keeps_only_what_its_scanners_see() {
     }
     assert!(per.iter().all(|&n| n > 3_000), "{per:?}");
 }
+
+#[test]
+fn a_mobile_pass_scans_profiles_across_its_line_and_is_seen_from_the_vehicle() {
+    if !real_data() {
+        return;
+    }
+    let ds = harness::datasets::load("bunny-mobile", &data_dir()).expect("bunny-mobile");
+    let mesh = ds.mesh.as_ref().expect("mesh");
+    let exact = truth::ExactVisibility::new(mesh).expect("bvh");
+    let bbox = mesh.bbox().expect("bbox");
+    let (c, d) = (bbox.center(), bbox.diagonal());
+    // 400 profile scanners evenly along x from -1.2 d to 1.2 d, at -d in y.
+    let at = |k: usize| {
+        let t = (k as f64 + 0.5) / 400.0;
+        c + DVec3::new(-1.2 * d + 2.4 * d * t, -d, 0.0)
+    };
+    let scan = ds.cloud.scan.as_ref().expect("scan indices");
+    let hits = ds.truth_positions.as_ref().expect("hits");
+    let mut profiles = std::collections::BTreeSet::new();
+    for (i, p) in hits.iter().enumerate() {
+        let from = at(scan[i] as usize);
+        // Each hit lies in its scanner's profile plane (across the travel) and is seen from it.
+        assert!(
+            (p.x - from.x).abs() < 1e-9 * d,
+            "hit {i} off its profile plane"
+        );
+        assert!(
+            exact.is_visible(from, *p),
+            "hit {i} hidden from its scanner"
+        );
+        assert!(exact.distance(*p) < 1e-9 * d, "hit {i} off the surface");
+        profiles.insert(scan[i]);
+    }
+    // The mesh is about 0.5 d wide along the pass: a fifth of the 400 profiles or more meet it.
+    assert!(profiles.len() > 80, "{} profiles hit", profiles.len());
+    // The views ride the vehicle: 16 cameras one diagonal off, looking at the centre.
+    assert_eq!(ds.views.len(), 16);
+    for v in &ds.views {
+        assert!((v.eye.y - (c.y - d)).abs() < 1e-9 * d, "{:?}", v.eye);
+        assert!(v.forward().dot((c - v.eye).normalize()) > 1.0 - 1e-9);
+    }
+}

@@ -167,11 +167,15 @@ fn pcu_raycast_agrees_with_our_raycast() {
             worst = worst.min(j);
         }
     }
-    // The issue asks for 0.9; measured on sphere-20000 (320 x 240): 0.665 to 0.686, the peer
-    // seeing fewer points than ours (about 5 000 against 6 300). Not explained yet (suspects:
-    // discs against spheres, and the resolution change's intrinsics); this floor catches a
-    // regression, not the gap.
-    assert!(worst >= 0.6, "worst Jaccard {worst:.4} < 0.6");
+    // The issue asks for 0.9. Measured on sphere-20000 (320 x 240): 0.665 to 0.686 while the
+    // peer's script scaled fx with the width (at 4:3 from a 16:9 view a quarter fewer rays
+    // across than ours, which keeps square pixels); with the same intrinsics 0.733 to 0.743
+    // (5 530-5 690 points against 6 250-6 350). The rest is the primitive: on view 13, half
+    // of the points only ours finds and 77 % of those only the peer finds face the eye at
+    // cos < 0.3 (10 % of the common ones), where a grazing ray crosses several overlapping
+    // primitives and a tangent disc and our radius test take different first hits. This
+    // floor catches a regression, not that gap.
+    assert!(worst >= 0.7, "worst Jaccard {worst:.4} < 0.7");
 }
 
 #[test]

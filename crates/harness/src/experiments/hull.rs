@@ -16,6 +16,13 @@
 //! starts to erode the visible set. Every configuration left out is a row with status
 //! `error: skipped (…)`, so the gaps are visible. Quick mode: the bunnies, views 0 and 1,
 //! k ∈ {0, 1e-6, 1e-2}, `chull` on `bunny` only.
+//!
+//! CGAL (`hull = cgal`): the peer `cgal-hpr` (CGAL's exact `convex_hull_3` in the same
+//! flip, hull and mapping, a C++ program behind the external-method protocol) on every view and γ
+//! at k = 0 (it has no perturbation), through the measurement kernel (`registry::kernel`:
+//! its own reported seconds, the median of `--repeats`, so the process's start and the cloud's
+//! transfer are not counted). Not installed: the metadata's `not_run` says so and the report
+//! prints it.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -34,6 +41,11 @@ use crate::score::Score;
 
 /// Hull implementations compared, in report order.
 pub const HULLS: &[&str] = &["own", "qhull", "qhull-qj", "parry", "quickhull", "chull"];
+/// The peer beside them: CGAL's `convex_hull_3` in HPR (the external method `cgal-hpr`,
+/// through the measurement kernel; its rows' `hull` is [`CGAL`]).
+pub const CGAL_METHOD: &str = "cgal-hpr";
+/// The `hull` of its rows.
+pub const CGAL: &str = "cgal";
 /// Katz's γ values.
 pub const GAMMAS: &[f64] = &[2.0, 3.0, 4.0];
 /// Perturbation amplitudes k (relative to R): the required grid and, for `own` and `qhull`,
@@ -140,6 +152,13 @@ impl Experiment for HullExperiment {
             PERTURBS
         };
         let mut rows = Vec::new();
+        let cgal = registry::method(CGAL_METHOD)
+            .map_err(|e| e.to_string())
+            .and_then(|m| m.availability().map(|()| m));
+        let mut not_run = Vec::new();
+        if let Err(why) = &cgal {
+            not_run.push(format!("{CGAL_METHOD}: {why}"));
+        }
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
             // Without a mesh the F1 column stays NaN; the rest is measured.
@@ -150,6 +169,9 @@ impl Experiment for HullExperiment {
                 .collect::<Result<_>>()?;
             let total = (views * GAMMAS.len() * HULLS.len() * perturbs.len()) as u64;
             let bar = progress::bar(total, format!("hull {name}"));
+            // The exact answers (own, k = 0) and the truths, per (view, γ) and view, for CGAL's rows.
+            let mut exacts: BTreeMap<(usize, u64), Vec<u32>> = BTreeMap::new();
+            let mut truths: Vec<Option<Vec<bool>>> = Vec::new();
             for view in 0..views {
                 let cam = ds.view(view)?;
                 let truth = match &reference {
@@ -211,6 +233,7 @@ impl Experiment for HullExperiment {
                                 Some(Ok(visible)) => {
                                     if *hull_name == "own" && perturb == 0.0 {
                                         exact = Some(visible.clone());
+                                        exacts.insert((view, gamma.to_bits()), visible.clone());
                                     }
                                     row.seconds = registry::timing::Timing::of(&times).median;
                                     row.n_visible = visible.len();
@@ -229,8 +252,54 @@ impl Experiment for HullExperiment {
                         }
                     }
                 }
+                truths.push(truth);
             }
             bar.finish_and_clear();
+            if let Ok(method) = cgal {
+                let cams: Vec<cloud::Camera> = (0..views)
+                    .map(|v| ds.view(v).copied())
+                    .collect::<Result<_>>()?;
+                let kviews = registry::kernel::View::all(&cams);
+                let input = registry::Input {
+                    cloud: &ds.cloud,
+                    mesh: None,
+                };
+                for &gamma in GAMMAS {
+                    let setting = registry::Setting::parse(&format!("gamma={gamma}"));
+                    let cell = registry::kernel::Cell::new(method, &setting, &kviews, ctx.repeats);
+                    let (_, answers) = registry::kernel::collect(&cell, input);
+                    for (v, answer) in answers {
+                        let mut row = Row {
+                            dataset: name.clone(),
+                            n_points: ds.cloud.len(),
+                            view: v.index,
+                            gamma,
+                            hull: CGAL.into(),
+                            perturb: 0.0,
+                            seconds: f64::NAN,
+                            n_visible: 0,
+                            jaccard_vs_exact: f64::NAN,
+                            f1_vs_reference: f64::NAN,
+                            status: "ok".into(),
+                        };
+                        match answer {
+                            Ok(a) => {
+                                let visible = &a.output.visible;
+                                row.seconds = a.timing.median;
+                                row.n_visible = visible.len();
+                                row.f1_vs_reference = truths[v.index]
+                                    .as_ref()
+                                    .map_or(f64::NAN, |t| Score::of(visible, t).f1());
+                                if let Some(exact) = exacts.get(&(v.index, gamma.to_bits())) {
+                                    row.jaccard_vs_exact = Score::of_sets(visible, exact).jaccard();
+                                }
+                            }
+                            Err(e) => row.status = format!("error: {e}"),
+                        }
+                        rows.push(row);
+                    }
+                }
+            }
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         Ok(serde_json::json!({
@@ -238,6 +307,8 @@ impl Experiment for HullExperiment {
             "gammas": GAMMAS,
             "perturbs": perturbs,
             "hulls": HULLS,
+            "peer": CGAL_METHOD,
+            "not_run": not_run,
             "repeats": ctx.repeats,
             "perturbation_seed": SEED,
             "kernel": "linear (spherical flipping), R = max|p - C| * 10^gamma",
@@ -248,10 +319,13 @@ impl Experiment for HullExperiment {
 
     fn render(&self, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
-        let repeats = crate::output::meta::RunMeta::read(dir)?.parameters["repeats"]
+        let meta = crate::output::meta::RunMeta::read(dir)?;
+        let repeats = meta.parameters["repeats"]
             .as_u64()
             .unwrap_or(super::REPEATS as u64);
-        render(dir, &rows, repeats)
+        let not_run: Vec<String> =
+            serde_json::from_value(meta.parameters["not_run"].clone()).unwrap_or_default();
+        render(dir, &rows, repeats, &not_run)
     }
 }
 
@@ -288,11 +362,12 @@ fn fmt_s(v: Option<f64>) -> String {
     })
 }
 
-fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
+fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<()> {
     let datasets = crate::output::distinct(rows.iter().map(|r| r.dataset.as_str()));
     let hulls: Vec<&str> = HULLS
         .iter()
         .copied()
+        .chain([CGAL])
         .filter(|h| rows.iter().any(|r| r.hull == *h))
         .collect();
     let perturbs: Vec<f64> = PERTURBS
@@ -471,6 +546,7 @@ fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
 
     let table1 = table1(rows, &datasets);
     write_atomic(&dir.join("table1.md"), table1.as_bytes())?;
+    let cgal = cgal_table(rows, &datasets, not_run, repeats);
 
     let summary = format!(
         "HPR (linear kernel, R = max‖p − C‖·10^γ) with six convex hull implementations. \
@@ -478,7 +554,7 @@ fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
          the worst agreement with the exact visible set (`own`, k = 0) over the configurations. \
          Grid and skips: see the rows with status `error: skipped`.\n\n\
          **own vs Qhull (Qt), k = 0:** identical visible sets in {identical} of {} configurations; \
-         lowest Jaccard {}.\n\n{}\n\
+         lowest Jaccard {}.\n\n{cgal}{}\n\
          ![seconds per implementation](seconds.png)\n\n\
          ![speed-up vs visibility lost](perturbation.png)\n\n\
          ![F1 vs gamma](f1_gamma.png)\n\n\
@@ -504,6 +580,75 @@ fn render(dir: &Path, rows: &[Row], repeats: u64) -> Result<()> {
         table1,
     );
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
+}
+
+/// CGAL's HPR against ours (`own`, k = 0) paired per view and γ: time ratio with its
+/// bootstrap interval, identical sets.
+fn cgal_table(rows: &[Row], datasets: &[String], not_run: &[String], repeats: u64) -> String {
+    let at = |d: &str, h: &str| -> BTreeMap<(usize, u64), (f64, f64)> {
+        rows.iter()
+            .filter(|r| r.dataset == d && r.hull == h && r.perturb == 0.0 && r.status == "ok")
+            .map(|r| ((r.view, r.gamma.to_bits()), (r.seconds, r.jaccard_vs_exact)))
+            .collect()
+    };
+    let mut table = Vec::new();
+    for d in datasets {
+        let pairs = crate::stats::pair(&at(d, CGAL), &at(d, "own"));
+        if pairs.is_empty() {
+            continue;
+        }
+        let (c, o): (Vec<f64>, Vec<f64>) = pairs.iter().map(|(c, o)| (c.0, o.0)).unzip();
+        let ratio = crate::stats::paired_ratio(&c, &o, SEED)
+            .map_or("-".to_owned(), |(r, lo, hi)| {
+                format!("{r:.2}× [{lo:.2}, {hi:.2}]")
+            });
+        table.push(vec![
+            d.clone(),
+            pairs.len().to_string(),
+            fmt_s(median_of(
+                rows,
+                |r| r.dataset == *d && r.hull == CGAL,
+                |r| r.seconds,
+            )),
+            fmt_s(median_of(
+                rows,
+                |r| r.dataset == *d && r.hull == "own" && r.perturb == 0.0,
+                |r| r.seconds,
+            )),
+            ratio,
+            format!(
+                "{} of {}",
+                pairs.iter().filter(|(c, _)| c.1 == 1.0).count(),
+                pairs.len()
+            ),
+        ]);
+    }
+    let mut out = String::new();
+    if !table.is_empty() {
+        out.push_str(&format!(
+            "**CGAL (`convex_hull_3`, exact predicates) in the same HPR, against ours (`own`, \
+             k = 0)**, paired per view and γ: its own reported seconds of flip + hull + mapping \
+             (median of {repeats} runs) over ours; identical: the visible sets equal.\n\n{}\n",
+            markdown_table(
+                &[
+                    "dataset",
+                    "pairs",
+                    "CGAL median s",
+                    "own median s",
+                    "CGAL ÷ own [95 % CI]",
+                    "identical sets"
+                ],
+                &table
+            )
+        ));
+    }
+    for n in not_run {
+        out.push_str(&format!("- not run: {n}\n"));
+    }
+    if !not_run.is_empty() {
+        out.push('\n');
+    }
+    out
 }
 
 /// Seed 000 Table 1 beside ours.
@@ -595,4 +740,56 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
         out.push('\n');
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(hull: &str, view: usize, gamma: f64, seconds: f64, jaccard: f64) -> Row {
+        Row {
+            dataset: "d".into(),
+            n_points: 10,
+            view,
+            gamma,
+            hull: hull.into(),
+            perturb: 0.0,
+            seconds,
+            n_visible: 5,
+            jaccard_vs_exact: jaccard,
+            f1_vs_reference: 0.9,
+            status: "ok".into(),
+        }
+    }
+
+    #[test]
+    fn cgal_is_paired_with_own_per_view_and_gamma() {
+        let mut rows = Vec::new();
+        for view in 0..3 {
+            for gamma in [2.0, 3.0] {
+                rows.push(row("own", view, gamma, 0.1, 1.0));
+                rows.push(row(
+                    CGAL,
+                    view,
+                    gamma,
+                    0.5,
+                    if view == 2 { 0.99 } else { 1.0 },
+                ));
+            }
+        }
+        let t = cgal_table(&rows, &["d".into()], &[], 3);
+        let line = t.lines().find(|l| l.starts_with("| d |")).expect(&t);
+        assert!(
+            line.contains("| 6 |") && line.contains("5.00× [5.00, 5.00]"),
+            "{line}"
+        );
+        assert!(line.contains("4 of 6"), "{line}");
+        let missing = cgal_table(
+            &rows[..0],
+            &["d".into()],
+            &["cgal-hpr: not installed".into()],
+            3,
+        );
+        assert_eq!(missing, "- not run: cgal-hpr: not installed\n\n");
+    }
 }
