@@ -338,6 +338,8 @@ impl Bars {
         };
         let n_cat = self.categories.len().max(1);
         let n_grp = self.groups.len().max(1);
+        // Many groups: an empty slot on the right holds the legend, clear of the bars.
+        let spare = usize::from(n_grp > 6);
         let mut buf = vec![255u8; width as usize * height as usize * 3];
         {
             let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
@@ -347,7 +349,7 @@ impl Bars {
                 .margin(14)
                 .x_label_area_size(48)
                 .y_label_area_size(72)
-                .build_cartesian_2d(0.0..n_cat as f64, y0..y1)
+                .build_cartesian_2d(0.0..(n_cat + spare) as f64, y0..y1)
                 .map_err(|e| anyhow!("{e:?}"))?;
             let cats = self.categories.clone();
             let x_fmt = move |v: &f64| {
@@ -363,7 +365,7 @@ impl Bars {
             chart
                 .configure_mesh()
                 .disable_x_mesh()
-                .x_labels(2 * n_cat + 1)
+                .x_labels(2 * (n_cat + spare) + 1)
                 .x_label_formatter(&x_fmt)
                 .y_label_formatter(&y_fmt)
                 .y_desc(&self.y_label)
@@ -400,7 +402,11 @@ impl Bars {
                 .label_font((FONT, 13))
                 .background_style(WHITE.mix(0.85))
                 .border_style(RGBColor(160, 160, 160))
-                .position(SeriesLabelPosition::UpperLeft)
+                .position(if spare > 0 {
+                    SeriesLabelPosition::UpperRight
+                } else {
+                    SeriesLabelPosition::UpperLeft
+                })
                 .draw()
                 .map_err(|e| anyhow!("{e:?}"))?;
             root.present().map_err(|e| anyhow!("{e:?}"))?;
