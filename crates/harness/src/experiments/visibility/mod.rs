@@ -456,14 +456,41 @@ impl Experiment for VisibilityExperiment {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let pixels: Vec<PixelRow> = read_csv(&dir.join("pixels.csv"))?;
         let agreement: Vec<AgreementRow> = read_csv(&dir.join("agreement.csv"))?;
-        let peers: Vec<PeerRow> = read_csv(&dir.join("peers.csv"))?;
+        // A peers.csv of the Open3D-only layout (before protocol 2's pairing) cannot be read
+        // as pairs: the report says so instead of failing every other table.
+        let (peers, old_peers): (Vec<PeerRow>, Option<String>) = match read_csv(
+            &dir.join("peers.csv"),
+        ) {
+            Ok(p) => (p, None),
+            Err(e) => {
+                let header = std::fs::read_to_string(dir.join("peers.csv"))
+                    .ok()
+                    .and_then(|t| t.lines().next().map(str::to_owned))
+                    .unwrap_or_default();
+                if header.starts_with("dataset,view,peer,gamma,") {
+                    (
+                        Vec::new(),
+                        Some(format!(
+                            "peers.csv has the layout of an older revision (`{header}`), not \
+                             the pairs this report draws: run `pointsight run visibility` again.\n\n"
+                        )),
+                    )
+                } else {
+                    return Err(e);
+                }
+            }
+        };
         let meta = crate::output::meta::RunMeta::read(dir)?;
         let not_run: Vec<String> =
             serde_json::from_value(meta.parameters["external_methods_not_run"].clone())
                 .unwrap_or_default();
         let defaults: BTreeMap<String, String> =
             serde_json::from_value(meta.parameters["default_settings"].clone()).unwrap_or_default();
-        let peers_md = peers_summary(&peers, &not_run);
+        let peers_md = format!(
+            "{}{}",
+            old_peers.unwrap_or_default(),
+            peers_summary(&peers, &not_run)
+        );
         let render_ds = meta.parameters["render_dataset"].as_str();
         render(
             dir, &rows, &pixels, &agreement, &peers_md, &defaults, render_ds,
