@@ -20,7 +20,12 @@ use super::render::best_setting;
 use crate::experiments::markdown_table;
 
 /// Per view: (seconds, F1) of `family` at `params` on `dataset`.
-fn by_view(rows: &[Row], dataset: &str, family: &str, params: &str) -> BTreeMap<usize, (f64, f64)> {
+pub(super) fn by_view(
+    rows: &[Row],
+    dataset: &str,
+    family: &str,
+    params: &str,
+) -> BTreeMap<usize, (f64, f64)> {
     rows.iter()
         .filter(|r| {
             r.dataset == dataset && r.family == family && r.params == params && r.status == "ok"

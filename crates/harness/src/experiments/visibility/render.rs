@@ -133,14 +133,7 @@ fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> Strin
         let Some((base, _)) = best_setting(rows, d, BASE) else {
             continue;
         };
-        let by_view = |fam: &str, params: &str| -> BTreeMap<usize, (f64, f64)> {
-            rows.iter()
-                .filter(|r| {
-                    r.dataset == *d && r.family == fam && r.params == params && r.status == "ok"
-                })
-                .map(|r| (r.view, (r.seconds, r.f1)))
-                .collect()
-        };
+        let by_view = |fam: &str, params: &str| super::papers::by_view(rows, d, fam, params);
         let ours = by_view(BASE, &base);
         for fam in families.iter().filter(|f| *f != BASE) {
             let Some((best, _)) = best_setting(rows, d, fam) else {
