@@ -15,9 +15,23 @@
 
 use std::collections::BTreeMap;
 
-use super::Row;
-use super::render::best_setting;
+use super::{Row, is_auto};
 use crate::experiments::markdown_table;
+
+/// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
+pub(super) fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
+    let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
+    for r in rows.iter().filter(|r| {
+        r.dataset == dataset && r.family == fam && !is_auto(&r.params) && r.status == "ok"
+    }) {
+        let e = by.entry(&r.params).or_default();
+        e.0 += r.f1;
+        e.1 += 1;
+    }
+    by.into_iter()
+        .map(|(p, (s, n))| (p.to_owned(), s / n as f64))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+}
 
 /// Per view: (seconds, F1) of `family` at `params` on `dataset`.
 pub(super) fn by_view(

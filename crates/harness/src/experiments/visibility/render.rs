@@ -10,6 +10,7 @@ use anyhow::Result;
 use registry::Setting;
 use truth::{Reference, ReferenceParams};
 
+use super::papers::best_setting;
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
 use crate::experiments::markdown_table;
@@ -21,21 +22,6 @@ use crate::score::Score;
 /// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {
     distinct(rows.iter().map(|r| r.family.as_str()))
-}
-
-/// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
-pub(super) fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
-    let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
-    for r in rows.iter().filter(|r| {
-        r.dataset == dataset && r.family == fam && !is_auto(&r.params) && r.status == "ok"
-    }) {
-        let e = by.entry(&r.params).or_default();
-        e.0 += r.f1;
-        e.1 += 1;
-    }
-    by.into_iter()
-        .map(|(p, (s, n))| (p.to_owned(), s / n as f64))
-        .max_by(|a, b| a.1.total_cmp(&b.1))
 }
 
 pub(super) fn render_bunny(
