@@ -32,6 +32,7 @@ fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<O
         params: Params::parse(set).expect("valid parameters"),
         views: &views,
         repeats: 1,
+        budget: None,
         parallel: false,
     };
     let (prepared, answers) = kernel::collect(&cell, ds.input());

@@ -287,6 +287,8 @@ fn bad_shard_and_config_are_errors() {
         (vec!["--shard", "3/2"], "1 <= K <= N"),
         (vec!["--shard", "x"], "K/N"),
         (vec!["--repeats", "1001"], "1..=1000"),
+        (vec!["--time-budget=-1"], "0 or more"),
+        (vec!["--time-budget", "soon"], "0 or more"),
         (vec!["--config", "/nonexistent.toml"], "nonexistent.toml"),
     ] {
         let out = Command::new(env!("CARGO_BIN_EXE_pointsight"))

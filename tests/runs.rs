@@ -180,3 +180,51 @@ fn a_failed_run_leaves_no_staging_folder_and_the_previous_report() {
     );
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// `--time-budget`: a call stops repeating once its runs took that long (0: one run each),
+/// `inf` makes every `--repeats` run; the rows say how many runs they had.
+#[test]
+fn the_time_budget_sets_how_many_runs_a_call_gets() {
+    let root = tmp("budget");
+    let config = root.join("small.toml");
+    std::fs::write(&config, SMALL).unwrap();
+    let samples = |budget: &str| -> Vec<String> {
+        let out = root.join(format!("b-{budget}"));
+        ok(&[
+            "run",
+            "visibility",
+            "--quick",
+            "--datasets",
+            "sphere-20000",
+            "--config",
+            config.to_str().unwrap(),
+            "--repeats",
+            "3",
+            "--time-budget",
+            budget,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let mut r = csv::Reader::from_path(out.join("results.csv")).expect("results.csv");
+        let col = r
+            .headers()
+            .unwrap()
+            .iter()
+            .position(|h| h == "samples")
+            .expect("a samples column");
+        r.records()
+            .map(|rec| rec.unwrap()[col].to_owned())
+            .collect()
+    };
+    let once = samples("0");
+    assert!(
+        !once.is_empty() && once.iter().all(|s| s == "1"),
+        "{once:?}"
+    );
+    let all = samples("inf");
+    assert!(
+        all.len() == once.len() && all.iter().all(|s| s == "3"),
+        "{all:?}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

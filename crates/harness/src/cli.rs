@@ -387,9 +387,21 @@ pub struct SweepFlags {
     /// Timed runs per call, 1 to 1000 (default: the sweeps file's `repeats`, else 3).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeats: Option<u32>,
+    /// Seconds after which a call's timed runs stop repeating: a call slower than this is timed
+    /// once (every row says how many runs it had); `inf` always makes `--repeats` runs.
+    #[arg(long, value_name = "SECONDS", default_value_t = crate::experiments::TIME_BUDGET, value_parser = time_budget)]
+    pub time_budget: f64,
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<crate::shard::Shard>,
+}
+
+/// A time budget in seconds (`--time-budget`): zero or more, `inf` for none.
+fn time_budget(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(b) if b >= 0.0 => Ok(b),
+        _ => Err(format!("expected seconds (0 or more, or inf), got {s:?}")),
+    }
 }
 
 /// A run count of 1 to 1000 (`--repeat`): every run's time is kept, so the count sizes memory.

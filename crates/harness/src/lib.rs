@@ -294,6 +294,11 @@ fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<u
     Ok((sweeps, repeats))
 }
 
+/// `--time-budget` as the experiments take it (`inf`: none).
+fn budget(flags: &cli::SweepFlags) -> Option<f64> {
+    flags.time_budget.is_finite().then_some(flags.time_budget)
+}
+
 /// Writes the report page of `reports` over the experiment registry.
 fn assemble_report(reports: &Path) -> Result<()> {
     let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
@@ -487,6 +492,7 @@ fn run_experiment(
         sweeps,
         repeats: repeats.unwrap_or(experiments::REPEATS),
         repeats_given: repeats.is_some(),
+        time_budget: budget(sweep),
         shard: sweep.shard,
         ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
     };
@@ -543,6 +549,7 @@ fn bench(
             sweeps: sweeps.clone(),
             repeats: repeats.unwrap_or(experiments::REPEATS),
             repeats_given: repeats.is_some(),
+            time_budget: budget(sweep),
             shard: sweep.shard,
             ..experiments::Context::new(
                 data_dir.to_path_buf(),

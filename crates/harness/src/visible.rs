@@ -285,6 +285,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             params,
             views: &views,
             repeats: req.repeat,
+            budget: None,
             parallel: false,
         };
         let (prepared, answers) = kernel::collect(&cell, ds.input());
@@ -330,6 +331,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         params,
         views: &views,
         repeats: req.repeat,
+        budget: None,
         parallel,
     };
     let start = Instant::now();

@@ -308,6 +308,7 @@ fn visible<'py>(
             params: p,
             views: &views,
             repeats: 1,
+            budget: None,
             parallel: m.parallel_views() && views.len() > 1,
         };
         let (prepared, answers) = registry::kernel::collect(&cell, input);

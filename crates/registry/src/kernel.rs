@@ -11,8 +11,9 @@
 //!
 //! The visibility form ([`run`]): the method is prepared once per cell (per-cloud state: a
 //! k-d tree, a BVH; parameters the method did not read are refused here), then each view is
-//! answered `repeats` times through [`crate::timing`] (an external program's own reported
-//! seconds when it gives them). The level-of-detail form ([`run_lod`]): the method builds once
+//! answered `repeats` times through [`crate::timing`], fewer once the cell's time budget (wall
+//! seconds) is spent; the timing is an external program's own reported seconds when it gives
+//! them. The level-of-detail form ([`run_lod`]): the method builds once
 //! per cloud (timed on its own), then each setting's selector selects per view (the part a
 //! renderer pays per frame, timed); the splats are made after the clock stops.
 //!
@@ -59,14 +60,17 @@ pub struct Cell<'a> {
     pub views: &'a [View],
     /// Timed runs per view (at least one).
     pub repeats: usize,
+    /// Seconds after which a view's runs stop repeating ([`timing::measure_within`]; `None`:
+    /// always `repeats` runs).
+    pub budget: Option<f64>,
     /// Answer the views in parallel, one per thread (the answers still reach the caller in the
     /// views' order).
     pub parallel: bool,
 }
 
 impl<'a> Cell<'a> {
-    /// A cell of `method` at `setting` over `views`, `repeats` timed runs per view, the views
-    /// answered one after another.
+    /// A cell of `method` at `setting` over `views`, `repeats` timed runs per view (no time
+    /// budget), the views answered one after another.
     pub fn new(
         method: &'a dyn Method,
         setting: &Setting,
@@ -78,6 +82,7 @@ impl<'a> Cell<'a> {
             params: setting.params(),
             views,
             repeats,
+            budget: None,
             parallel: false,
         }
     }
@@ -116,10 +121,11 @@ pub fn run<'a>(
     if cell.parallel {
         use rayon::prelude::*;
         // (The cell itself is not shared: its parameters remember which keys were read.)
-        let (views, repeats, prepared) = (cell.views, cell.repeats, prepared.as_ref());
+        let (views, prepared) = (cell.views, prepared.as_ref());
+        let (repeats, budget) = (cell.repeats, cell.budget);
         let answers: Vec<Result<Answer>> = views
             .par_iter()
-            .map(|v| timed(prepared, v, repeats))
+            .map(|v| timed(prepared, v, repeats, budget))
             .collect();
         for (view, answer) in cell.views.iter().zip(answers) {
             match answer {
@@ -129,7 +135,7 @@ pub fn run<'a>(
         }
     } else {
         for view in cell.views {
-            match timed(prepared.as_ref(), view, cell.repeats) {
+            match timed(prepared.as_ref(), view, cell.repeats, cell.budget) {
                 Ok(a) => each(view, Ok(a)),
                 Err(e) => each(view, Err(&e)),
             }
@@ -162,12 +168,17 @@ fn own_or_wall(reported: Vec<Option<f64>>, wall: Timing) -> Timing {
     }
 }
 
-/// Answers one view `repeats` times (at least once) with the one timing helper: the last
-/// output and the timing ([`own_or_wall`]: [`Output::reported_seconds`] when the method gives
-/// it on every run).
-fn timed(prepared: &dyn Prepared, view: &View, repeats: usize) -> Result<Answer> {
+/// Answers one view `repeats` times (at least once; fewer once `budget` seconds are spent)
+/// with the one timing helper: the last output and the timing ([`own_or_wall`]:
+/// [`Output::reported_seconds`] when the method gives it on every run).
+fn timed(
+    prepared: &dyn Prepared,
+    view: &View,
+    repeats: usize,
+    budget: Option<f64>,
+) -> Result<Answer> {
     let mut reported = Vec::new();
-    let (output, wall) = timing::measure(repeats, || {
+    let (output, wall) = timing::measure_within(repeats, budget, || {
         let out = prepared.visible_at(view.index, &view.camera)?;
         reported.push(out.reported_seconds);
         Ok::<_, Error>(out)

@@ -4,6 +4,11 @@
 //! alone; the result keeps the median and the spread (minimum, maximum, quartiles) and how many
 //! samples there were, so a comparison can say how sure it is. Quartiles are the medians of
 //! the lower and upper halves (Tukey's hinges); with one sample every statistic is that sample.
+//!
+//! [`measure_within`] also takes a time budget: no new run starts once the runs so far have
+//! taken that many seconds (Google Benchmark's minimum-time rule turned into a maximum), so a
+//! call of many seconds is timed fewer times than a call of milliseconds. The statistics say
+//! how many samples there were; the first run is always made.
 
 use std::time::Instant;
 
@@ -61,17 +66,30 @@ impl Timing {
 
 /// Runs `f` `repeats` times (at least once), timing each run; returns the last output and the
 /// statistics. The first error ends the measurement.
-pub fn measure<T, E>(
+pub fn measure<T, E>(repeats: usize, f: impl FnMut() -> Result<T, E>) -> Result<(T, Timing), E> {
+    measure_within(repeats, None, f)
+}
+
+/// [`measure`], but no run after the first starts once the runs so far have taken `budget`
+/// seconds (`None`: no budget, always `repeats` runs).
+pub fn measure_within<T, E>(
     repeats: usize,
+    budget: Option<f64>,
     mut f: impl FnMut() -> Result<T, E>,
 ) -> Result<(T, Timing), E> {
     let repeats = repeats.max(1);
     let mut times = Vec::with_capacity(repeats);
     let mut last = None;
+    let mut spent = 0.0;
     for _ in 0..repeats {
+        if budget.is_some_and(|b| !times.is_empty() && spent >= b) {
+            break;
+        }
         let start = Instant::now();
         let out = f()?;
-        times.push(start.elapsed().as_secs_f64());
+        let t = start.elapsed().as_secs_f64();
+        spent += t;
+        times.push(t);
         last = Some(out);
     }
     match last {
@@ -116,5 +134,27 @@ mod tests {
         assert_eq!(err.unwrap_err(), "boom");
         assert_eq!(calls, 2);
         assert_eq!(measure(0, || Ok::<_, ()>(1)).unwrap().1.samples, 1);
+    }
+
+    #[test]
+    fn a_budget_stops_new_runs_once_spent_but_never_the_first() {
+        let sleep = || {
+            std::thread::sleep(std::time::Duration::from_millis(20));
+            Ok::<_, ()>(())
+        };
+        // Spent after two runs of >= 20 ms: the third does not start.
+        let (_, t) = measure_within(10, Some(0.03), sleep).unwrap();
+        assert_eq!(t.samples, 2);
+        // A budget of zero still makes the first run.
+        assert_eq!(measure_within(10, Some(0.0), sleep).unwrap().1.samples, 1);
+        // No budget, or one never reached: every repeat.
+        assert_eq!(measure_within(3, None, sleep).unwrap().1.samples, 3);
+        assert_eq!(
+            measure_within(3, Some(1e9), || Ok::<_, ()>(()))
+                .unwrap()
+                .1
+                .samples,
+            3
+        );
     }
 }

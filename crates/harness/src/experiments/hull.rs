@@ -266,7 +266,10 @@ impl Experiment for HullExperiment {
                 };
                 for &gamma in GAMMAS {
                     let setting = registry::Setting::parse(&format!("gamma={gamma}"));
-                    let cell = registry::kernel::Cell::new(method, &setting, &kviews, ctx.repeats);
+                    let cell = registry::kernel::Cell {
+                        budget: ctx.time_budget,
+                        ..registry::kernel::Cell::new(method, &setting, &kviews, ctx.repeats)
+                    };
                     let (_, answers) = registry::kernel::collect(&cell, input);
                     for (v, answer) in answers {
                         let mut row = Row {
@@ -310,6 +313,7 @@ impl Experiment for HullExperiment {
             "peer": CGAL_METHOD,
             "not_run": not_run,
             "repeats": ctx.repeats,
+            "time_budget_s": ctx.time_budget,
             "perturbation_seed": SEED,
             "kernel": "linear (spherical flipping), R = max|p - C| * 10^gamma",
             "extra_perturbs_own_qhull": EXTRA_PERTURBS,

@@ -202,6 +202,7 @@ pub fn run_method(
         params: params.clone(),
         views: &views,
         repeats: 1,
+        budget: None,
         parallel: false,
     };
     let (prepared, answers) = registry::kernel::collect(&cell, ds.input());

@@ -11,8 +11,9 @@
 //! `results.csv`: one row per (dataset, view, method, setting), in that order, with precision,
 //! recall and F1 against `reference`; `family` groups rows in plots (HPR's two kernels are two
 //! families); `detail` is what a rule chose (HPR's `gamma=auto`: `gamma_value`); `seconds` is
-//! the median of `--repeats` runs (`registry::timing`; an external method's own reported
-//! seconds), `seconds_min`/`seconds_max` their spread; `status` is `ok` or `error: ...` (a
+//! the median of `--repeats` runs, fewer for a call slower than `--time-budget`
+//! (`registry::timing`; an external method's own reported seconds), `seconds_min`/`seconds_max`
+//! their spread, `samples` how many; `status` is `ok` or `error: ...` (a
 //! failing view is a row and the run goes on). `pixels.csv`: for the per-pixel methods (ray
 //! cast, splat), the share of covered pixels whose point is truly visible and the share of the
 //! mesh's pixels (the mesh rasterised at the method's resolution) that got a point.
@@ -65,7 +66,7 @@ pub struct Row {
     pub params: String,
     /// What a rule chose for this view (`gamma_value=2.871` for `gamma=auto`), `k=v` pairs.
     pub detail: String,
-    /// Median seconds of the method alone (`--repeats` runs).
+    /// Median seconds of the method alone (`--repeats` runs, fewer past `--time-budget`).
     pub seconds: f64,
     /// Rays cast (0 for methods that cast none).
     pub rays: u64,
@@ -302,7 +303,10 @@ impl Experiment for VisibilityExperiment {
                     let family = m.family(setting);
                     // One cell per setting (one preparation, every view through the kernel); a
                     // failure is a row per view.
-                    let cell = kernel::Cell::new(*m, setting, &kviews, ctx.repeats);
+                    let cell = kernel::Cell {
+                        budget: ctx.time_budget,
+                        ..kernel::Cell::new(*m, setting, &kviews, ctx.repeats)
+                    };
                     let (_, answers) = kernel::collect(&cell, ds.input());
                     for (v, outcome) in answers {
                         let (view, cam) = (v.index, v.camera);
@@ -445,7 +449,8 @@ impl Experiment for VisibilityExperiment {
             "hpr_auto_rule": format!("gamma = log10(kappa * D * d^2 / (s^2 * m)), kappa = {}", hpr::auto::KAPPA),
             "raycast_auto_rule": format!("radius = {} x density spacing (k = 8)", raycast::auto::RADIUS_FACTOR),
             "repeats": ctx.repeats,
-            "timing": format!("median of {} runs (seconds_min, seconds_max: their spread); external methods: their own reported seconds", ctx.repeats),
+            "time_budget_s": ctx.time_budget,
+            "timing": format!("median of {} runs, fewer once a call's runs took {} s (samples: how many; seconds_min, seconds_max: their spread); external methods: their own reported seconds", ctx.repeats, ctx.time_budget.map_or("unbounded".to_string(), |b| b.to_string())),
             "off_surface": off_surface_meta,
             "external_methods_not_run": not_run,
             "render_dataset": render_ds,
