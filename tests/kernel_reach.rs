@@ -222,16 +222,16 @@ fn every_experiment(root: &Path) {
     let rob = run("robustness");
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&rob.join("results.csv"), &format!(",{m},"));
-        // 14 cases (clean, 6 noise levels, 4 outlier fractions, 3 fall-offs), best and auto,
-        // 3 views.
-        assert_eq!(rows.len(), 14 * 2 * 3, "robustness: {m}");
+        // 15 cases (clean, 6 noise levels, 4 outlier fractions, 3 fall-offs, 1 jitter), best
+        // and auto, 3 views.
+        assert_eq!(rows.len(), 15 * 2 * 3, "robustness: {m}");
         assert!(rows.iter().all(|r| r.ends_with(",ok")), "{m}: {rows:?}");
     }
     // `--config`'s grids: HPR tuned over the file's robustness grid only (γ 2 and 3; the
     // built-in one has six values), and every best row keeps the setting tuned on the clean
     // cloud.
     let hpr_best = lines_with(&rob.join("results.csv"), ",hpr,best,");
-    assert_eq!(hpr_best.len(), 14 * 3, "{hpr_best:?}");
+    assert_eq!(hpr_best.len(), 15 * 3, "{hpr_best:?}");
     let tuned: BTreeSet<&str> = hpr_best
         .iter()
         .map(|r| r.split(',').nth(6).expect("a params column"))
