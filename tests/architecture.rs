@@ -229,6 +229,11 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "renders every LOD method's splats (splat::render)",
     ),
     (
+        "view/lod.rs",
+        "splat",
+        "the LOD page: each selection rendered by splat::render (PSNR, coverage), as `lod` does",
+    ),
+    (
         "experiments/lod/noise.rs",
         "splat",
         "renders LOD under noise (splat::render)",

@@ -171,6 +171,22 @@ fn bad_input_gets_an_error_and_no_page() {
             vec!["--dataset", "sphere-20000", "--max-points", "0"],
             "at least 1",
         ),
+        (
+            vec!["--dataset", "sphere-20000", "--lod", "--methods", "hpr"],
+            "no level-of-detail method \"hpr\"",
+        ),
+        (
+            vec!["--dataset", "sphere-20000", "--lod", "--distance", "0"],
+            "--distance must be",
+        ),
+        (
+            vec!["--dataset", "sphere-20000", "--distance", "3"],
+            "--distance is for level-of-detail pages",
+        ),
+        (
+            vec!["--dataset", "sphere-20000", "--lod", "--set", "gamma=2"],
+            "no chosen method",
+        ),
     ];
     for (args, message) in cases {
         let mut all = vec!["view"];
@@ -211,4 +227,90 @@ fn a_missing_script_says_how_to_build_it() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("just web"), "{err}");
     assert!(!page.exists());
+}
+
+/// `view --lod` on a cloud no registry knows (a user's XYZ file, no normals, a camera from the
+/// command line): the full detail and each named method, every splat on the page.
+#[test]
+fn a_lod_page_of_a_users_cloud() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("viewer.js");
+    std::fs::write(&script, "/* stand-in */").unwrap();
+    // A bumpy sphere of 4,000 points on a golden-angle spiral.
+    let mut text = String::new();
+    let n = 4000;
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let r = (1.0 - z * z).sqrt();
+        let a = i as f64 * 2.399_963_229_728_653;
+        let bump = 1.0 + 0.05 * (5.0 * a).sin();
+        text.push_str(&format!(
+            "{} {} {}\n",
+            bump * r * a.cos(),
+            bump * r * a.sin(),
+            bump * z
+        ));
+    }
+    let cloud = dir.path().join("ball.xyz");
+    std::fs::write(&cloud, text).unwrap();
+    let page = dir.path().join("lod.html");
+    let png = dir.path().join("full.png");
+    let out = pointsight(
+        &[
+            "view",
+            "--lod",
+            "--cloud",
+            cloud.to_str().unwrap(),
+            "--eye",
+            "0,0,4",
+            "--target",
+            "0,0,0",
+            "--methods",
+            "qsplat,spt",
+            "--distance",
+            "1.5",
+            "--out",
+            page.to_str().unwrap(),
+            "--png",
+            png.to_str().unwrap(),
+        ],
+        &script,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        line.contains("points=4000") && line.contains("methods=3"),
+        "{line}"
+    );
+    let html = std::fs::read_to_string(&page).unwrap();
+    assert!(html.contains("/* stand-in */"));
+    let data = data_of(&html);
+    assert_eq!(data["kind"], "lod");
+    assert_eq!(data["distance"], 1.5);
+    let names: Vec<&str> = data["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["full detail", "qsplat", "spt"]);
+    let full = &data["methods"][0];
+    assert_eq!(full["n"], n);
+    assert!(full["psnr"].is_null() && full["seconds"].is_null());
+    for m in data["methods"].as_array().unwrap() {
+        let k = m["n"].as_u64().unwrap() as usize;
+        assert!(k > 0 && m["covered_px"].as_u64().unwrap() > 0, "{m}");
+        assert_eq!(bits(m["centers"].as_str().unwrap()).len(), 6 * k);
+        assert_eq!(bits(m["radii"].as_str().unwrap()).len(), 2 * k);
+        assert_eq!(bits(m["colors"].as_str().unwrap()).len(), 3 * k);
+    }
+    assert!(data["methods"][1]["psnr"].as_f64().unwrap() > 5.0);
+    // The eye 1.5 times as far from the target.
+    let eye = data["camera"]["eye"].as_array().unwrap();
+    assert!((eye[2].as_f64().unwrap() - 6.0).abs() < 1e-9, "{eye:?}");
+    assert!(png.exists());
 }

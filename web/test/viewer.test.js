@@ -105,3 +105,33 @@ test('bunny: the first frame within 3 s', { skip }, async () => {
   await page.screenshot({ path: join(dir, 'bunny.png') });
   await page.close();
 });
+
+// The level-of-detail page (`pointsight view --lod`): each splat a disc of its projected
+// radius, as splat::render draws it. Through the view's camera, the pixels each selection
+// covers are within 2 % of what the harness's render of it covers, the full detail's
+// silhouette matches the harness's PNG (IoU >= 0.95), and switching methods changes it.
+test('sphere-20000 LOD page: splat sizes match the harness render', { skip }, async () => {
+  const out = join(dir, 'sphere-lod.html');
+  const png = join(dir, 'sphere-lod.png');
+  pointsight(['view', '--lod', '--dataset', 'sphere-20000', '--view', '0', '--methods', 'qsplat,srn', '--out', out, '--png', png]);
+  const html = readFileSync(out, 'utf8');
+  const data = JSON.parse(html.match(/<script id="pointsight-data" type="application\/json">(.*?)<\/script>/s)[1]);
+  assert.deepEqual(data.methods.map((m) => m.name), ['full detail', 'qsplat', 'srn']);
+  const viewport = { width: data.camera.width, height: data.camera.height };
+  const { page } = await openPage(browser, out, 'panel=0&look=1', viewport);
+  const masks = [];
+  for (const m of data.methods) {
+    await showMethod(page, m.name);
+    const px = await pixels(page, {});
+    const drawn = [...px.mask].filter((c) => c === '1').length;
+    console.log(`${m.name}: ${m.n_total} splats, browser covers ${drawn} px, splat::render ${m.covered_px} px`);
+    assert.ok(Math.abs(drawn - m.covered_px) <= 0.02 * m.covered_px, `${m.name}: ${drawn} px vs ${m.covered_px}`);
+    masks.push(px);
+  }
+  const still = await pngMask(page, readFileSync(png).toString('base64'));
+  const score = iou([...masks[0].mask].map(Number), [...still.mask].map(Number));
+  console.log(`LOD full-detail silhouette IoU ${score.toFixed(4)}`);
+  assert.ok(score >= 0.95, `IoU ${score}`);
+  assert.notEqual(masks[0].mask, masks[1].mask, 'qsplat drew the full detail picture');
+  await page.close();
+});

@@ -140,6 +140,15 @@ pub enum Command {
         /// The page (HTML).
         #[arg(long)]
         out: PathBuf,
+        /// A level-of-detail page instead: the full detail and each LOD method's selection
+        /// (`--methods` names LOD methods; default every one with a sweep), each splat at its
+        /// size; `--max-points` is then per method and `--png` the full detail's render.
+        #[arg(long)]
+        lod: bool,
+        /// With --lod: the view's eye moved to this many times its distance from the target
+        /// (the `lod` experiment's distances are 1 and 2).
+        #[arg(long, default_value_t = crate::experiments::lod::FAR_DISTANCE)]
+        distance: f64,
     },
     /// One cell of the `scale` experiment, in its own process (internal): prints one JSON line
     /// with the seconds and the process's peak RSS.

@@ -161,19 +161,26 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             max_points,
             png,
             out,
+            lod,
+            distance,
         } => {
-            let page = view::run(
-                &view::Request {
-                    source: source_of(source)?,
-                    view,
-                    methods,
-                    set,
-                    max_points,
-                    png,
-                    out,
-                },
-                &data_dir,
-            )?;
+            let req = view::Request {
+                source: source_of(source)?,
+                view,
+                methods,
+                set,
+                max_points,
+                png,
+                out,
+            };
+            let page = if lod {
+                view::lod::run(&req, view::lod::LodRequest { distance }, &data_dir)?
+            } else {
+                if distance != view::lod::DEFAULT_DISTANCE {
+                    anyhow::bail!("--distance is for level-of-detail pages (--lod)");
+                }
+                view::run(&req, &data_dir)?
+            };
             println!("{}", page.line());
         }
         Command::Run {
@@ -204,8 +211,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             print!("{}", registry::sweep::BUILTIN);
         }
         Command::Report { reports } => {
-            let names = view::report::real_datasets(&reports)?;
-            view::report::write_pages(&reports, &names, &data_dir)?;
+            view::report::write_all(&reports, &data_dir)?;
             assemble_report(&reports)?;
             println!("wrote {}", reports.join("README.md").display());
         }
@@ -568,8 +574,7 @@ fn bench(
     }
     match sweep.shard {
         None => {
-            let names = view::report::real_datasets(reports)?;
-            view::report::write_pages(reports, &names, data_dir)?;
+            view::report::write_all(reports, data_dir)?;
             assemble_report(reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",

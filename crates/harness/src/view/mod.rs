@@ -10,8 +10,10 @@
 //! points and outliers ([`crate::datasets::Dataset::off_surface`]) are a class apart and left
 //! out of the scores. Without a mesh, the classes are against the methods' majority vote and
 //! the page says so. The page itself is [`page`]; the script it embeds is three.js bundled by
-//! esbuild in `web/` (`just web`).
+//! esbuild in `web/` (`just web`). `view --lod` writes the level-of-detail page instead
+//! ([`lod`]).
 
+pub mod lod;
 pub mod page;
 pub mod report;
 
@@ -137,9 +139,28 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     if base.is_empty() {
         bail!("no method to show: name some with --methods");
     }
-    let mut pairs: Vec<Vec<(String, String)>> = base
+    let named: Vec<(&str, &[registry::ParamSpec], String)> = base
         .iter()
-        .map(|(_, label)| {
+        .map(|(m, label)| (m.name(), m.params(), label.clone()))
+        .collect();
+    let settings = apply_set(&named, set)?;
+    Ok(base
+        .into_iter()
+        .zip(settings)
+        .map(|((m, _), (params, label))| (m, params, label))
+        .collect())
+}
+
+/// Each method's default `label` (`k=v` pairs joined by `;`) with the `--set` pairs that are
+/// its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every method with KEY among its `params`), as
+/// parameters and their sorted label. A pair no method takes is an error.
+pub fn apply_set(
+    methods: &[(&str, &[registry::ParamSpec], String)],
+    set: &[String],
+) -> Result<Vec<(Params, String)>> {
+    let mut pairs: Vec<Vec<(String, String)>> = methods
+        .iter()
+        .map(|(_, _, label)| {
             label
                 .split(';')
                 .filter_map(|kv| kv.split_once('='))
@@ -156,8 +177,8 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
             None => (None, key),
         };
         let mut taken = false;
-        for ((m, _), kv) in base.iter().zip(&mut pairs) {
-            if only.is_some_and(|o| o != m.name()) || !m.params().iter().any(|p| p.key == key) {
+        for ((name, params, _), kv) in methods.iter().zip(&mut pairs) {
+            if only.is_some_and(|o| o != *name) || !params.iter().any(|p| p.key == key) {
                 continue;
             }
             kv.retain(|(k, _)| k != key);
@@ -167,19 +188,20 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
         if !taken {
             bail!(
                 "--set {pair:?}: no chosen method ({}) has the parameter {key:?}",
-                base.iter()
-                    .map(|(m, _)| m.name())
+                methods
+                    .iter()
+                    .map(|(name, _, _)| *name)
                     .collect::<Vec<_>>()
                     .join(", ")
             );
         }
     }
-    base.into_iter()
-        .zip(pairs)
-        .map(|((m, _), mut kv)| {
+    pairs
+        .into_iter()
+        .map(|mut kv| {
             kv.sort();
             let text: Vec<String> = kv.iter().map(|(k, v)| format!("{k}={v}")).collect();
-            Ok((m, Params::parse(&text)?, text.join(";")))
+            Ok((Params::parse(&text)?, text.join(";")))
         })
         .collect()
 }

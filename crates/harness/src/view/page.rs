@@ -300,26 +300,30 @@ impl Page<'_> {
 
     /// The whole page, `script` (the viewer bundle) embedded.
     pub fn html(&self, script: &str) -> Result<String> {
-        let data = self.data()?;
-        // Inside <script>, "</" could close the element: JSON and JavaScript both read "<\/"
-        // as "</".
-        let json = serde_json::to_string(&data)?.replace("</", "<\\/");
-        let script = script.replace("</script", "<\\/script");
-        let title = escape_html(data["title"].as_str().unwrap_or("pointsight"));
-        Ok(format!(
-            "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-             <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-             <meta name=\"generator\" content=\"pointsight view\">\n\
-             <title>pointsight: {title}</title>\n</head>\n<body>\n\
-             <script id=\"pointsight-data\" type=\"application/json\">{json}</script>\n\
-             <script>{script}</script>\n</body>\n</html>\n"
-        ))
+        html_of(&self.data()?, script)
     }
+}
+
+/// A page of `data` (the JSON the script reads) with `script` (the viewer bundle) embedded.
+pub fn html_of(data: &serde_json::Value, script: &str) -> Result<String> {
+    // Inside <script>, "</" could close the element: JSON and JavaScript both read "<\/" as
+    // "</".
+    let json = serde_json::to_string(data)?.replace("</", "<\\/");
+    let script = script.replace("</script", "<\\/script");
+    let title = escape_html(data["title"].as_str().unwrap_or("pointsight"));
+    Ok(format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <meta name=\"generator\" content=\"pointsight view\">\n\
+         <title>pointsight: {title}</title>\n</head>\n<body>\n\
+         <script id=\"pointsight-data\" type=\"application/json\">{json}</script>\n\
+         <script>{script}</script>\n</body>\n</html>\n"
+    ))
 }
 
 /// The vertical field of view of a pinhole camera (from its focal length, so off-centre
 /// principal points keep their scale); `None` for other models.
-fn fov_y_deg(cam: &Camera) -> Option<f64> {
+pub(super) fn fov_y_deg(cam: &Camera) -> Option<f64> {
     match *cam.model() {
         cloud::camera::Model::Pinhole { fy, .. } => {
             Some((2.0 * (0.5 * cam.height as f64 / fy).atan()).to_degrees())

@@ -1,15 +1,17 @@
 //! The report's viewer pages: for every real (fetched) dataset the visibility experiment ran,
 //! the page of view 0 (the view of `renders.png`) with every default method, into
-//! `reports/viewer/DATASET.html`, each at most [`MAX_PAGE_BYTES`] (a uniform subsample when
-//! the whole cloud would not fit, which the page says); `reports/viewer/pages.json` lists
-//! them for the report page ([`section`]).
+//! `reports/viewer/DATASET.html`; for every real dataset the `lod` experiment ran, the
+//! level-of-detail page of view 0 at the experiment's farther distance with every default LOD
+//! method, into `reports/viewer/DATASET-lod.html`. Each is at most [`MAX_PAGE_BYTES`] (a
+//! uniform subsample when the whole would not fit, which the page says);
+//! `reports/viewer/pages.json` lists them for the report page ([`section`]).
 
 use std::path::Path;
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
-use super::{MethodRun, choose, page, run_method};
+use super::{MethodRun, choose, lod, page, run_method};
 use crate::datasets;
 use crate::output::{read_csv, write_atomic};
 
@@ -33,16 +35,37 @@ pub struct Entry {
     pub methods: Vec<String>,
     /// Size of the page.
     pub bytes: usize,
+    /// `lod` for a level-of-detail page (`shown`: splats of all methods), else empty.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub kind: String,
 }
 
-/// The datasets of the visibility experiment's results (in `reports/visibility/results.csv`)
-/// that come from fetched files.
-pub fn real_datasets(reports: &Path) -> Result<Vec<String>> {
+/// Writes every page of the report ([`write_pages`], [`write_lod_pages`]) and
+/// `viewer/pages.json` (nothing when there is no real dataset in the results).
+pub fn write_all(reports: &Path, data_dir: &Path) -> Result<Vec<Entry>> {
+    let mut entries = write_pages(reports, &real_datasets(reports, "visibility")?, data_dir)?;
+    entries.extend(write_lod_pages(
+        reports,
+        &real_datasets(reports, "lod")?,
+        data_dir,
+    )?);
+    if !entries.is_empty() {
+        write_atomic(
+            &reports.join("viewer/pages.json"),
+            serde_json::to_string_pretty(&entries)?.as_bytes(),
+        )?;
+    }
+    Ok(entries)
+}
+
+/// The datasets of `experiment`'s results (in `reports/EXPERIMENT/results.csv`) that come
+/// from fetched files.
+pub fn real_datasets(reports: &Path, experiment: &str) -> Result<Vec<String>> {
     #[derive(Deserialize)]
     struct R {
         dataset: String,
     }
-    let path = reports.join("visibility/results.csv");
+    let path = reports.join(experiment).join("results.csv");
     if !path.exists() {
         return Ok(Vec::new());
     }
@@ -54,8 +77,8 @@ pub fn real_datasets(reports: &Path) -> Result<Vec<String>> {
         .collect())
 }
 
-/// Writes the page of each of `names` (view 0) and `viewer/pages.json` (nothing when `names`
-/// is empty); a dataset whose files are missing is left out with a line on standard error.
+/// Writes the page of each of `names` (view 0); a dataset whose files are missing is left out
+/// with a line on standard error.
 pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
     if names.is_empty() {
         return Ok(Vec::new());
@@ -125,12 +148,101 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
             shown: max_points,
             methods: runs.iter().map(|r| r.name.clone()).collect(),
             bytes: html.len(),
+            kind: String::new(),
         });
     }
-    write_atomic(
-        &reports.join("viewer/pages.json"),
-        serde_json::to_string_pretty(&entries)?.as_bytes(),
-    )?;
+    Ok(entries)
+}
+
+/// Writes the level-of-detail page of each of `names` (view 0 at the `lod` experiment's
+/// farther distance, every default LOD method); a dataset whose files are missing, or a
+/// method that fails on it, is left out with a line on standard error.
+pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
+    if names.is_empty() {
+        return Ok(Vec::new());
+    }
+    let script = page::bundle()?;
+    let distance = lod::DEFAULT_DISTANCE;
+    let mut entries = Vec::new();
+    for name in names {
+        let ds = match datasets::load(name, data_dir) {
+            Ok(ds) => ds,
+            Err(e) => {
+                eprintln!("viewer pages: {name} (LOD) left out: {e:#}");
+                continue;
+            }
+        };
+        let view = 0;
+        let camera = crate::experiments::lod::at_distance(ds.view(view)?, distance)?;
+        let (selected, failed) = lod::select(&ds, view, &camera, &lod::choose(None, &[])?)?;
+        // A method that cannot select here is left out, not the page.
+        for (method, e) in failed {
+            eprintln!("viewer pages: {name} (LOD): {method} left out: {e:#}");
+        }
+        let total: usize = selected.iter().map(|s| s.splats.len()).sum();
+        // Bytes per splat, base64 (4/3); the limit is per method, so scale by the largest.
+        let per_splat = lod::SPLAT_BYTES as f64 * 4.0 / 3.0;
+        let budget = MAX_PAGE_BYTES.saturating_sub(script.len() + 64 * 1024) as f64;
+        let largest = selected.iter().map(|s| s.splats.len()).max().unwrap_or(1);
+        let mut max_splats = if (total as f64) * per_splat <= budget {
+            largest
+        } else {
+            // Every selection capped at the same count: find it by halving the excess.
+            let fits = |k: usize| {
+                selected
+                    .iter()
+                    .map(|s| s.splats.len().min(k))
+                    .sum::<usize>() as f64
+                    * per_splat
+                    <= budget
+            };
+            let (mut lo, mut hi) = (1usize, largest);
+            while lo < hi {
+                let mid = (lo + hi).div_ceil(2);
+                if fits(mid) { lo = mid } else { hi = mid - 1 }
+            }
+            lo
+        };
+        let note = format!(
+            "The report's level-of-detail page of {name}, view {view} at {distance}× its              distance (the lod experiment's farther distance), every LOD method at its default              setting."
+        );
+        let html = loop {
+            let html = lod::LodPage {
+                ds: &ds,
+                view,
+                distance,
+                camera: &camera,
+                selected: &selected,
+                max_splats: Some(max_splats),
+                note: Some(&note),
+            }
+            .html(&script)?;
+            if html.len() <= MAX_PAGE_BYTES || max_splats <= 1 {
+                break html;
+            }
+            max_splats = (max_splats as f64 * 0.95) as usize;
+        };
+        let file = format!("{name}-lod.html");
+        write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
+        let shown: usize = selected
+            .iter()
+            .map(|s| s.splats.len().min(max_splats))
+            .sum();
+        eprintln!(
+            "viewer pages: {file}: {shown} of {total} splats, {} bytes",
+            html.len()
+        );
+        entries.push(Entry {
+            dataset: name.clone(),
+            view,
+            file,
+            points: total,
+            shown,
+            methods: selected.iter().map(|s| s.name.clone()).collect(),
+            bytes: html.len(),
+            kind: "lod".into(),
+        });
+    }
     Ok(entries)
 }
 
@@ -153,7 +265,23 @@ pub fn section(reports: &Path) -> Result<String> {
          through the view's camera, switch methods. `pointsight view` writes them for any \
          dataset, view and methods.\n\n",
     );
-    for e in &entries {
+    for e in entries.iter().filter(|e| e.kind == "lod") {
+        let sample = if e.shown < e.points {
+            format!("a uniform subsample of {} of {} splats", e.shown, e.points)
+        } else {
+            format!("all {} splats", e.points)
+        };
+        s.push_str(&format!(
+            "- [{}, view {}, level of detail](viewer/{}): each splat at its size, at the lod \
+             experiment's farther distance; {sample}; {}; {:.1} MiB\n",
+            e.dataset,
+            e.view,
+            e.file,
+            e.methods.join(", "),
+            e.bytes as f64 / (1024.0 * 1024.0)
+        ));
+    }
+    for e in entries.iter().filter(|e| e.kind != "lod") {
         let sample = if e.shown < e.points {
             format!("a uniform subsample of {} of {} points", e.shown, e.points)
         } else {
@@ -188,6 +316,17 @@ mod tests {
                 shown: 500_000,
                 methods: vec!["hpr".into(), "raycast".into()],
                 bytes: 5_000_000,
+                kind: String::new(),
+            },
+            Entry {
+                dataset: "bunny-69451".into(),
+                view: 0,
+                file: "bunny-69451-lod.html".into(),
+                points: 120_000,
+                shown: 90_000,
+                methods: vec!["full detail".into(), "qsplat".into()],
+                bytes: 4_000_000,
+                kind: "lod".into(),
             },
             Entry {
                 dataset: "bunny".into(),
@@ -197,6 +336,7 @@ mod tests {
                 shown: 37_706,
                 methods: vec!["hpr".into()],
                 bytes: 900_000,
+                kind: String::new(),
             },
         ];
         write_atomic(
@@ -214,7 +354,12 @@ mod tests {
             "{s}"
         );
         assert!(s.contains("all 37706 points"), "{s}");
+        assert!(
+            s.contains("[bunny-69451, view 0, level of detail](viewer/bunny-69451-lod.html)")
+                && s.contains("a uniform subsample of 90000 of 120000 splats"),
+            "{s}"
+        );
         // No results: no real dataset to draw.
-        assert!(real_datasets(dir.path()).unwrap().is_empty());
+        assert!(real_datasets(dir.path(), "visibility").unwrap().is_empty());
     }
 }

@@ -57,7 +57,10 @@ pub use srn_table::SrnRow;
 /// Views per dataset.
 pub const N_VIEWS: usize = 8;
 /// Eye distances, as multiples of the view's eye-to-target distance.
-pub const DISTANCES: &[f64] = &[1.0, 2.0];
+pub const DISTANCES: &[f64] = &[1.0, FAR_DISTANCE];
+
+/// The farther of [`DISTANCES`] (the LOD pages' default).
+pub const FAR_DISTANCE: f64 = 2.0;
 /// Reference splat radius, in density spacings.
 pub const REF_RADIUS: f64 = 1.5;
 /// Texture resolution of the procedural textures.
@@ -156,7 +159,7 @@ pub(crate) fn methods_not_run(ctx: &Context) -> Vec<String> {
 }
 
 /// The view's camera with the eye moved to `factor` times its distance from the target.
-fn at_distance(cam: &Camera, factor: f64) -> Result<Camera> {
+pub(crate) fn at_distance(cam: &Camera, factor: f64) -> Result<Camera> {
     Ok(Camera::look_at(
         cam.target + (cam.eye - cam.target) * factor,
         cam.target,
