@@ -21,6 +21,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -104,62 +105,66 @@ def main():
     base_radius = args.radius or 0.0
     start = time.perf_counter()
     work = tempfile.mkdtemp(prefix="py3dtiles-lod-")
-    dt = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("red", "u1"), ("green", "u1"),
-                   ("blue", "u1"), ("index", "<u4")])
-    out = np.zeros(n, dt)
-    for c in "xyz":
-        out[c] = rows[c]
-    for c in ("red", "green", "blue"):
-        out[c] = rows[c] if c in rows.dtype.names else 200
-    out["index"] = np.arange(n, dtype=np.uint32)
-    src = os.path.join(work, "in.ply")
-    with open(src, "wb") as f:
-        f.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty double x\n"
-                 "property double y\nproperty double z\nproperty uchar red\nproperty uchar green\n"
-                 "property uchar blue\nproperty uint index\nend_header\n" % n).encode())
-        f.write(out.tobytes())
-    tiles = os.path.join(work, "tiles")
-    py3dtiles = os.path.join(os.path.dirname(sys.executable), "py3dtiles")
-    subprocess.run([py3dtiles, "convert", src, "--out", tiles, "--extra-fields", "index",
-                    "--jobs", "1", "--disable-processpool"], check=True,
-                   stdout=sys.stderr, stderr=sys.stderr)
-    with open(os.path.join(tiles, "tileset.json")) as f:
-        root = Tile(json.load(f)["root"], np.eye(4), "REPLACE", tiles)
-    seconds = time.perf_counter() - start
-    nbytes = sum(p.stat().st_size for p in Path(tiles).rglob("*") if p.is_file())
-    print(json.dumps({"built": True, "seconds": seconds, "nodes": root.count(), "bytes": nbytes}),
-          flush=True)
-    for line in sys.stdin:
-        try:
-            req = json.loads(line)
-            cam = req["camera"]
-            params = req.get("params", {})
-            sse_px = float(params.get("sse_px", "16"))
-            t0 = time.perf_counter()
-            eye = np.array(cam["eye"], dtype=np.float64)
-            if cam["model"] == "pinhole":
-                k = cam["height"] / (2.0 * math.tan(math.radians(cam["fov_y_deg"]) / 2.0))
-            else:
-                raise ValueError(f"py3dtiles-lod takes pinhole cameras, not {cam['model']}")
-            picked = []
-            cut(root, eye, k, sse_px, base_radius, picked)
-            if picked:
-                idx = np.concatenate([p[0] for p in picked])
-                rad = np.concatenate([np.full(len(p[0]), p[1]) for p in picked])
-                # A point in several selected tiles (the root's preview) is drawn once, at its
-                # smallest radius.
-                order = np.lexsort((rad, idx))
-                idx, rad = idx[order], rad[order]
-                first = np.ones(len(idx), dtype=bool)
-                first[1:] = idx[1:] != idx[:-1]
-                idx, rad = idx[first], rad[first]
-            else:
-                idx, rad = np.zeros(0, np.int64), np.zeros(0)
-            seconds = time.perf_counter() - t0
-            print(json.dumps({"visible": idx.tolist(), "radius": rad.tolist(), "seconds": seconds}),
-                  flush=True)
-        except (ValueError, KeyError) as e:
-            print(json.dumps({"error": str(e)}), flush=True)
+    # The tileset lives until the end of input (the harness closes it when the cell is done).
+    try:
+        dt = np.dtype([("x", "<f8"), ("y", "<f8"), ("z", "<f8"), ("red", "u1"), ("green", "u1"),
+                       ("blue", "u1"), ("index", "<u4")])
+        out = np.zeros(n, dt)
+        for c in "xyz":
+            out[c] = rows[c]
+        for c in ("red", "green", "blue"):
+            out[c] = rows[c] if c in rows.dtype.names else 200
+        out["index"] = np.arange(n, dtype=np.uint32)
+        src = os.path.join(work, "in.ply")
+        with open(src, "wb") as f:
+            f.write(("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty double x\n"
+                     "property double y\nproperty double z\nproperty uchar red\nproperty uchar green\n"
+                     "property uchar blue\nproperty uint index\nend_header\n" % n).encode())
+            f.write(out.tobytes())
+        tiles = os.path.join(work, "tiles")
+        py3dtiles = os.path.join(os.path.dirname(sys.executable), "py3dtiles")
+        subprocess.run([py3dtiles, "convert", src, "--out", tiles, "--extra-fields", "index",
+                        "--jobs", "1", "--disable-processpool"], check=True,
+                       stdout=sys.stderr, stderr=sys.stderr)
+        with open(os.path.join(tiles, "tileset.json")) as f:
+            root = Tile(json.load(f)["root"], np.eye(4), "REPLACE", tiles)
+        seconds = time.perf_counter() - start
+        nbytes = sum(p.stat().st_size for p in Path(tiles).rglob("*") if p.is_file())
+        print(json.dumps({"built": True, "seconds": seconds, "nodes": root.count(), "bytes": nbytes}),
+              flush=True)
+        for line in sys.stdin:
+            try:
+                req = json.loads(line)
+                cam = req["camera"]
+                params = req.get("params", {})
+                sse_px = float(params.get("sse_px", "16"))
+                t0 = time.perf_counter()
+                eye = np.array(cam["eye"], dtype=np.float64)
+                if cam["model"] == "pinhole":
+                    k = cam["height"] / (2.0 * math.tan(math.radians(cam["fov_y_deg"]) / 2.0))
+                else:
+                    raise ValueError(f"py3dtiles-lod takes pinhole cameras, not {cam['model']}")
+                picked = []
+                cut(root, eye, k, sse_px, base_radius, picked)
+                if picked:
+                    idx = np.concatenate([p[0] for p in picked])
+                    rad = np.concatenate([np.full(len(p[0]), p[1]) for p in picked])
+                    # A point in several selected tiles (the root's preview) is drawn once, at its
+                    # smallest radius.
+                    order = np.lexsort((rad, idx))
+                    idx, rad = idx[order], rad[order]
+                    first = np.ones(len(idx), dtype=bool)
+                    first[1:] = idx[1:] != idx[:-1]
+                    idx, rad = idx[first], rad[first]
+                else:
+                    idx, rad = np.zeros(0, np.int64), np.zeros(0)
+                seconds = time.perf_counter() - t0
+                print(json.dumps({"visible": idx.tolist(), "radius": rad.tolist(), "seconds": seconds}),
+                      flush=True)
+            except (ValueError, KeyError) as e:
+                print(json.dumps({"error": str(e)}), flush=True)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
 
 
 if __name__ == "__main__":

@@ -31,7 +31,8 @@
 //!   indices are sorted here). The program's standard error goes to a log file. A view that
 //!   takes longer than `timeout_seconds` (default 300), a program that exits, or an answer
 //!   that is not this protocol is an error naming the method, the view and the log; the
-//!   process is killed and the next view starts a fresh one.
+//!   process is killed and the next view starts a fresh one. A program that is done with
+//!   (the cell is over, or it failed) has its input closed and 3 s to exit before the kill.
 //!
 //! `method.toml`:
 //!
@@ -646,12 +647,26 @@ impl Method for ExternalMethod {
 /// A running program.
 struct Running {
     child: Child,
-    stdin: ChildStdin,
+    /// Its input; `None` once closed (end of input means exit).
+    stdin: Option<ChildStdin>,
     lines: Receiver<std::result::Result<String, String>>,
 }
 
+/// How long a program whose input was closed has to exit before it is killed.
+const EXIT_GRACE: Duration = Duration::from_secs(3);
+
 impl Drop for Running {
+    /// Closes the program's input and gives it [`EXIT_GRACE`] to exit (to remove its temporary
+    /// files, say), then kills it.
     fn drop(&mut self) {
+        drop(self.stdin.take());
+        let deadline = Instant::now() + EXIT_GRACE;
+        while Instant::now() < deadline {
+            match self.child.try_wait() {
+                Ok(None) => std::thread::sleep(Duration::from_millis(5)),
+                Ok(Some(_)) | Err(_) => break,
+            }
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -763,7 +778,7 @@ impl Session {
         });
         Ok(Running {
             child,
-            stdin,
+            stdin: Some(stdin),
             lines: rx,
         })
     }
@@ -853,12 +868,14 @@ impl Session {
             .as_mut()
             .ok_or_else(|| external_error(self.method, "no process"))?;
         let start = Instant::now();
-        if let Err(e) = running
-            .stdin
-            .write_all(request.as_bytes())
-            .and_then(|()| running.stdin.write_all(b"\n"))
-            .and_then(|()| running.stdin.flush())
-        {
+        let sent = match running.stdin.as_mut() {
+            Some(stdin) => stdin
+                .write_all(request.as_bytes())
+                .and_then(|()| stdin.write_all(b"\n"))
+                .and_then(|()| stdin.flush()),
+            None => Err(std::io::Error::other("its input is closed")),
+        };
+        if let Err(e) = sent {
             return fail(&mut guard, format!("the program is gone ({e})"));
         }
         let line = match Self::receive(running, self.timeout) {
@@ -1325,6 +1342,66 @@ mod tests {
             m.version()
                 .unwrap()
                 .starts_with("unknown (it printed nothing")
+        );
+    }
+
+    /// End of input means exit: a program the caller is done with has its input closed and
+    /// time to clean up (its temporary files), and one that does not exit is killed after
+    /// [`EXIT_GRACE`].
+    #[test]
+    fn a_finished_program_gets_end_of_input_then_a_kill() {
+        let script = |after: &str| {
+            format!(
+                "import sys, json, os, time\nopen('alive', 'w').write('x')\n\
+                 for line in sys.stdin:\n    json.loads(line)\n    \
+                 print(json.dumps({{'visible': [0], 'seconds': 0.0}}), flush=True)\n{after}\n"
+            )
+        };
+        let manifest = "protocol = 2\ncommand = [\"python3\", \"m.py\"]\n";
+        let positions: Vec<cloud::glam::DVec3> = (0..20)
+            .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
+            .collect();
+        let cloud = cloud::PointCloud {
+            positions,
+            ..Default::default()
+        };
+        let camera = Camera::new(
+            cloud::glam::DVec3::new(0.0, 0.0, 50.0),
+            cloud::glam::DVec3::ZERO,
+            cloud::glam::DVec3::Y,
+            60.0,
+            64,
+            48,
+        )
+        .unwrap();
+        let views = crate::kernel::View::all(&[camera, camera]);
+        let run = |dir: &tempfile::TempDir| {
+            let m = ExternalMethod::load(dir.path()).unwrap();
+            let input = Input {
+                cloud: &cloud,
+                mesh: None,
+            };
+            let cell = crate::kernel::Cell::new(&m, &crate::Setting::parse(""), &views, 1);
+            let start = Instant::now();
+            let (prepared, answers) = crate::kernel::collect(&cell, input);
+            prepared.unwrap();
+            assert!(answers.iter().all(|(_, a)| a.is_ok()), "{answers:?}");
+            start.elapsed()
+        };
+        // It takes half a second to remove its file at the end of its input; the caller waits.
+        let tidy = folder(manifest, &script("time.sleep(0.5)\nos.remove('alive')"));
+        run(&tidy);
+        assert!(
+            !tidy.path().join("alive").exists(),
+            "the program was killed before it cleaned up"
+        );
+        // One that lingers is killed once the grace is over (not after its 60 s).
+        let linger = folder(manifest, &script("time.sleep(60)"));
+        let took = run(&linger);
+        assert!(linger.path().join("alive").exists());
+        assert!(
+            took >= EXIT_GRACE && took < EXIT_GRACE + Duration::from_secs(20),
+            "{took:?}"
         );
     }
 
