@@ -254,8 +254,9 @@ pub enum Command {
     },
     /// Print the built-in sweeps (every method's grid), a starting point for `--config`.
     Sweeps,
-    /// Write the viewer pages of the visibility experiment's real datasets (reports/viewer/,
-    /// each at most 5 MiB) and assemble reports/README.md from the experiments' results.
+    /// Write the viewer pages of the visibility and lod experiments' real datasets
+    /// (reports/viewer/, each at most 5 MiB) and assemble reports/README.md from the
+    /// experiments' results.
     Report {
         /// Reports folder.
         #[arg(long, default_value = "reports")]
