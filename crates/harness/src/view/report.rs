@@ -262,8 +262,9 @@ pub fn section(reports: &Path) -> Result<String> {
     let mut s = String::from(
         "\n## viewer\n\nInteractive 3D pages (open from disk, no server): every method's visible \
          set of view 0 against the reference, in the colours of renders.png; orbit, look \
-         through the view's camera, switch methods. `pointsight view` writes them for any \
-         dataset, view and methods.\n\n",
+         through the view's camera, switch methods; and level-of-detail pages, each LOD \
+         method's selection with every splat at its size. `pointsight view` (`--lod`) writes \
+         them for any dataset, view and methods.\n\n",
     );
     for e in entries.iter().filter(|e| e.kind == "lod") {
         let sample = if e.shown < e.points {

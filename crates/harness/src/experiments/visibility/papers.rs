@@ -18,19 +18,27 @@ use std::collections::BTreeMap;
 use super::{Row, is_auto};
 use crate::experiments::markdown_table;
 
-/// The setting of `family` with the best mean F1 on `dataset` (automatic settings excluded).
+/// The setting of `family` with the best mean F1 on `dataset`: automatic settings excluded,
+/// unless every setting of the family is one (`robust`'s noise and `hpr-approx`'s γ always
+/// come from their rules; the best of those is then the family's).
 pub(super) fn best_setting(rows: &[Row], dataset: &str, fam: &str) -> Option<(String, f64)> {
-    let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
-    for r in rows.iter().filter(|r| {
-        r.dataset == dataset && r.family == fam && !is_auto(&r.params) && r.status == "ok"
-    }) {
-        let e = by.entry(&r.params).or_default();
-        e.0 += r.f1;
-        e.1 += 1;
-    }
-    by.into_iter()
-        .map(|(p, (s, n))| (p.to_owned(), s / n as f64))
-        .max_by(|a, b| a.1.total_cmp(&b.1))
+    let best = |fixed_only: bool| {
+        let mut by: BTreeMap<&str, (f64, usize)> = BTreeMap::new();
+        for r in rows.iter().filter(|r| {
+            r.dataset == dataset
+                && r.family == fam
+                && (!fixed_only || !is_auto(&r.params))
+                && r.status == "ok"
+        }) {
+            let e = by.entry(&r.params).or_default();
+            e.0 += r.f1;
+            e.1 += 1;
+        }
+        by.into_iter()
+            .map(|(p, (s, n))| (p.to_owned(), s / n as f64))
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    best(true).or_else(|| best(false))
 }
 
 /// Per view: (seconds, F1) of `family` at `params` on `dataset`.
@@ -248,5 +256,22 @@ mod tests {
             conf.contains("5.000× [") && conf.contains("+0.0100 ["),
             "{conf}"
         );
+    }
+
+    #[test]
+    fn the_best_setting_prefers_fixed_settings_and_falls_back_to_rules() {
+        let mut rows = Vec::new();
+        for v in 0..2 {
+            rows.push(row("hpr-linear", "gamma=3", v, 1.0, 0.90));
+            rows.push(row("hpr-linear", "gamma=auto", v, 1.0, 0.99));
+            rows.push(row("robust", "band=2;noise=auto", v, 1.0, 0.80));
+            rows.push(row("robust", "band=3;noise=auto", v, 1.0, 0.85));
+        }
+        // A family with fixed settings: the best fixed one, though a rule scored higher.
+        assert_eq!(best_setting(&rows, "d", "hpr-linear").unwrap().0, "gamma=3");
+        // Every setting automatic: the best of them.
+        let (p, f1) = best_setting(&rows, "d", "robust").unwrap();
+        assert_eq!((p.as_str(), f1), ("band=3;noise=auto", 0.85));
+        assert!(best_setting(&rows, "d", "nosuch").is_none());
     }
 }

@@ -715,10 +715,20 @@ pub(super) fn render(
         }
         _ => String::new(),
     };
+    // How many timed runs the calls had (fewer past the time budget).
+    let samples = rows.iter().filter(|r| r.status == "ok").map(|r| r.samples);
+    let runs = match (samples.clone().min(), samples.max()) {
+        (Some(lo), Some(hi)) if lo == hi => format!("median of {hi} runs"),
+        (Some(lo), Some(hi)) => format!(
+            "median of {lo} to {hi} runs (a call slower than the time budget is timed fewer \
+             times)"
+        ),
+        _ => "median of the timed runs".to_owned(),
+    };
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
-         alone, median of 3 runs (their spread in results.csv).\n\n{renders}### Best setting per method\n\n{}\n\
+         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{renders}### Best setting per method\n\n{}\n\
          {versus}### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the best fixed setting's F1 \
