@@ -1307,6 +1307,19 @@ mod tests {
         assert!(err.contains("longer than 65536 bytes"), "{err}");
     }
 
+    /// A 64 × 48 pinhole camera 50 units up the z axis, looking at the origin.
+    fn test_camera() -> Camera {
+        Camera::new(
+            cloud::glam::DVec3::new(0.0, 0.0, 50.0),
+            cloud::glam::DVec3::ZERO,
+            cloud::glam::DVec3::Y,
+            60.0,
+            64,
+            48,
+        )
+        .unwrap()
+    }
+
     fn folder(manifest: &str, script: &str) -> tempfile::TempDir {
         let dir = tempfile::tempdir().unwrap();
         std::fs::write(dir.path().join("method.toml"), manifest).unwrap();
@@ -1365,15 +1378,7 @@ mod tests {
             positions,
             ..Default::default()
         };
-        let camera = Camera::new(
-            cloud::glam::DVec3::new(0.0, 0.0, 50.0),
-            cloud::glam::DVec3::ZERO,
-            cloud::glam::DVec3::Y,
-            60.0,
-            64,
-            48,
-        )
-        .unwrap();
+        let camera = test_camera();
         let views = crate::kernel::View::all(&[camera, camera]);
         let run = |dir: &tempfile::TempDir| {
             let m = ExternalMethod::load(dir.path()).unwrap();
@@ -1460,15 +1465,7 @@ for line in sys.stdin:
         );
         let mut params = Params::parse(&["keep=3".to_owned()]).unwrap();
         let mut sel = built.selector(&input, &params).unwrap();
-        let camera = Camera::new(
-            cloud::glam::DVec3::new(0.0, 0.0, 50.0),
-            cloud::glam::DVec3::ZERO,
-            cloud::glam::DVec3::Y,
-            60.0,
-            64,
-            48,
-        )
-        .unwrap();
+        let camera = test_camera();
         sel.select_at(4, &camera).unwrap();
         assert_eq!(sel.reported_seconds(), Some(4.25));
         let splats = sel.splats();

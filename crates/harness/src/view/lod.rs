@@ -23,7 +23,7 @@ use registry::lod::LodMethod;
 use registry::{Params, Setting, kernel};
 use splat::render::{Splat, render};
 
-use super::page::{bundle, order};
+use super::page::{bundle, order, quantise_coord};
 use crate::datasets::Dataset;
 use crate::experiments::lod::{at_distance, lod_data, render_params};
 
@@ -199,11 +199,6 @@ fn b64(bytes: &[u8]) -> String {
     base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
-/// `v` in [0, 1] as u16 (rounded, clamped).
-fn unit_u16(v: f64) -> u16 {
-    (v * 65535.0).round().clamp(0.0, 65535.0) as u16
-}
-
 impl LodPage<'_> {
     /// The page's data (the JSON the script reads).
     pub fn data(&self) -> Result<serde_json::Value> {
@@ -243,19 +238,9 @@ impl LodPage<'_> {
                 let s = &m.splats[i as usize];
                 let p = s.center.to_array();
                 for k in 0..3 {
-                    let extent = hi[k] - lo[k];
-                    let q = if extent > 0.0 {
-                        unit_u16((p[k] - lo[k]) / extent)
-                    } else {
-                        0
-                    };
-                    centers.extend_from_slice(&q.to_le_bytes());
+                    centers.extend_from_slice(&quantise_coord(p[k], lo[k], hi[k]).to_le_bytes());
                 }
-                let r = if rmax > 0.0 {
-                    unit_u16(f64::from(s.radius) / rmax)
-                } else {
-                    0
-                };
+                let r = quantise_coord(f64::from(s.radius), 0.0, rmax);
                 radii.extend_from_slice(&r.to_le_bytes());
                 // splat::render's shading for this view: a headlight, two-sided.
                 let to_eye = (cam.eye - s.center).normalize_or_zero().as_vec3();

@@ -122,6 +122,16 @@ pub fn bitset(order: &[u32], flag: impl Fn(usize) -> bool) -> Vec<u8> {
     out
 }
 
+/// `v` in [`lo`, `hi`] as u16 (rounded, clamped; 0 when the range is empty).
+pub fn quantise_coord(v: f64, lo: f64, hi: f64) -> u16 {
+    let extent = hi - lo;
+    if extent > 0.0 {
+        ((v - lo) / extent * 65535.0).round().clamp(0.0, 65535.0) as u16
+    } else {
+        0
+    }
+}
+
 /// The points in `order`, quantised to u16 per axis over their box (little-endian x, y, z),
 /// and the box.
 pub fn quantise(
@@ -147,15 +157,7 @@ pub fn quantise(
     for &i in order {
         let p = points[i as usize].to_array();
         for k in 0..3 {
-            let extent = hi[k] - lo[k];
-            let q = if extent > 0.0 {
-                ((p[k] - lo[k]) / extent * 65535.0)
-                    .round()
-                    .clamp(0.0, 65535.0) as u16
-            } else {
-                0
-            };
-            out.extend_from_slice(&q.to_le_bytes());
+            out.extend_from_slice(&quantise_coord(p[k], lo[k], hi[k]).to_le_bytes());
         }
     }
     Ok((out, lo, hi))

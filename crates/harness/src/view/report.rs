@@ -77,6 +77,19 @@ pub fn real_datasets(reports: &Path, experiment: &str) -> Result<Vec<String>> {
         .collect())
 }
 
+/// The page `html_at(k)` for the largest limit k from `start` down (5 % at a time) whose page
+/// is at most [`MAX_PAGE_BYTES`], or the page at k = 1; with that k.
+fn fit(start: usize, html_at: impl Fn(usize) -> Result<String>) -> Result<(String, usize)> {
+    let mut k = start;
+    loop {
+        let html = html_at(k)?;
+        if html.len() <= MAX_PAGE_BYTES || k <= 1 {
+            return Ok((html, k));
+        }
+        k = (k as f64 * 0.95) as usize;
+    }
+}
+
 /// Writes the page of each of `names` (view 0); a dataset whose files are missing is left out
 /// with a line on standard error.
 pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
@@ -111,27 +124,23 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         // Bytes per point: 6 of position and one bit per set, base64 (4/3).
         let per_point = (6.0 + (runs.len() + 2) as f64 / 8.0) * 4.0 / 3.0;
         let budget = MAX_PAGE_BYTES.saturating_sub(script.len() + 64 * 1024) as f64;
-        let mut max_points = ((budget / per_point) as usize).clamp(1, ds.cloud.len());
+        let max_points = ((budget / per_point) as usize).clamp(1, ds.cloud.len());
         let note = format!(
             "The report's page of {name}, view {view} (the view of renders.png), every method at \
              its default setting."
         );
-        let html = loop {
-            let html = page::Page {
+        let (html, max_points) = fit(max_points, |k| {
+            page::Page {
                 ds: &ds,
                 view,
                 camera: &camera,
                 runs: &runs,
                 truth: &truth,
-                max_points: Some(max_points),
+                max_points: Some(k),
                 note: Some(&note),
             }
-            .html(&script)?;
-            if html.len() <= MAX_PAGE_BYTES || max_points <= 1 {
-                break html;
-            }
-            max_points = (max_points as f64 * 0.95) as usize;
-        };
+            .html(&script)
+        })?;
         let file = format!("{name}.html");
         write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
         eprintln!(
@@ -184,7 +193,7 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
         let per_splat = lod::SPLAT_BYTES as f64 * 4.0 / 3.0;
         let budget = MAX_PAGE_BYTES.saturating_sub(script.len() + 64 * 1024) as f64;
         let largest = selected.iter().map(|s| s.splats.len()).max().unwrap_or(1);
-        let mut max_splats = if (total as f64) * per_splat <= budget {
+        let max_splats = if (total as f64) * per_splat <= budget {
             largest
         } else {
             // Every selection capped at the same count: find it by halving the excess.
@@ -206,22 +215,18 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
         let note = format!(
             "The report's level-of-detail page of {name}, view {view} at {distance}× its              distance (the lod experiment's farther distance), every LOD method at its default              setting."
         );
-        let html = loop {
-            let html = lod::LodPage {
+        let (html, max_splats) = fit(max_splats, |k| {
+            lod::LodPage {
                 ds: &ds,
                 view,
                 distance,
                 camera: &camera,
                 selected: &selected,
-                max_splats: Some(max_splats),
+                max_splats: Some(k),
                 note: Some(&note),
             }
-            .html(&script)?;
-            if html.len() <= MAX_PAGE_BYTES || max_splats <= 1 {
-                break html;
-            }
-            max_splats = (max_splats as f64 * 0.95) as usize;
-        };
+            .html(&script)
+        })?;
         let file = format!("{name}-lod.html");
         write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
         let shown: usize = selected
