@@ -69,6 +69,7 @@ fn every_estimate_is_at_least_the_measured_peak() {
             let params = raycast::CastParams {
                 radius: 0.02,
                 traversal: raycast::Traversal::Exact,
+                primitive: raycast::Primitive::Sphere,
             };
             caster.cast(&rays, &camera, &params).expect("a frame")
         });

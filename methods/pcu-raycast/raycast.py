@@ -6,8 +6,10 @@ normal, the dataset's normals or pointsight's estimates, sent by protocol 2) of 
 `raycast`'s radius), or `radius` world units; Embree builds its BVH once per setting (timed
 apart, on standard error). Per view one ray per pixel centre (x + 0.5, y + 0.5) of the pinhole
 camera, at the view's resolution or `width` x `height`; a point is visible when some ray's
-nearest hit is its disc. Deviations from pointsight's `raycast`: discs instead of spheres (a
-disc seen edge-on is missed), and the disc is a polygon of `subdivs` triangles.
+nearest hit is its disc. Against pointsight's `raycast`: its `primitive=disc` casts the same
+discs (exact circles, doubles; `primitive` here only says so, so that the two pair); its
+default spheres are another primitive. The disc here is a polygon of `subdivs` triangles
+inscribed in the circle, and Embree intersects in floats.
 """
 
 import argparse
@@ -79,6 +81,8 @@ def main():
         if args.spacing is None:
             raise SystemExit("no --spacing sent (a cloud of at most 8 points): give radius")
         radius = float(params.get("radius_factor", "1.5")) * args.spacing
+    if params.get("primitive", "disc") != "disc":
+        raise SystemExit(f"pcu-raycast: primitive={params['primitive']}: surfels are discs (disc only)")
     subdivs = int(params.get("subdivs", "7"))
     width = int(params["width"]) if "width" in params else None
     height = int(params["height"]) if "height" in params else None

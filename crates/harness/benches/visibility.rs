@@ -59,7 +59,11 @@ fn benches(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(15));
     g.throughput(Throughput::Elements(rays.len() as u64));
     for traversal in [Traversal::Exact, Traversal::Seed] {
-        let params = CastParams { radius, traversal };
+        let params = CastParams {
+            radius,
+            traversal,
+            primitive: raycast::Primitive::Sphere,
+        };
         g.bench_function(format!("{name} 1920x1080 {traversal:?}"), |b| {
             b.iter(|| caster.cast(&rays, &cam, black_box(&params)).expect("cast"))
         });

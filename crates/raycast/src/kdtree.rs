@@ -86,6 +86,14 @@ pub struct KdTree {
 const PARALLEL_BUILD: usize = 32_768;
 
 impl KdTree {
+    /// `values` (one per input point) in node order: entry `at` is node `at`'s point's.
+    pub fn in_node_order<T: Copy>(&self, values: &[T]) -> Vec<T> {
+        self.nodes
+            .iter()
+            .map(|n| values[n.index as usize])
+            .collect()
+    }
+
     /// Builds the tree over `points` (finite; the caller checks).
     pub fn build(points: &[DVec3]) -> Self {
         let mut items: Vec<(DVec3, u32)> = points

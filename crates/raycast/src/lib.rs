@@ -9,7 +9,10 @@
 //! update and render is [`concurrent`], on `cloud::double_buffer`.
 //!
 //! Points are spheres of radius R (world units), given or derived from the cloud's density
-//! ([`auto::auto_radius`]). The default traversal is exact (the nearest hit, equal to
+//! ([`auto::auto_radius`]); beyond the seed, they can be oriented discs of radius R instead
+//! ([`Primitive::Disc`], with the cloud's normals: the surfels of splatting and of
+//! point-cloud-utils' `RaySurfelIntersector`, so that the peer can be compared primitive for
+//! primitive). The default traversal is exact (the nearest hit, equal to
 //! the brute force of [`brute`] ray for ray); the seed's first-hit traversal is available as
 //! [`Traversal::Seed`].
 //!
@@ -34,6 +37,17 @@ pub use kdtree::{KdTree, NONE};
 pub use rays::{RayList, memory_estimate};
 pub use traverse::{Ray, Scratch, Traversal};
 
+/// What a point is to a ray.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Primitive {
+    /// Seed 001's sphere of radius R.
+    #[default]
+    Sphere,
+    /// An oriented disc of radius R around the point, perpendicular to its normal
+    /// ([`RayCaster::with_normals`]); exact traversal only.
+    Disc,
+}
+
 /// How to cast.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CastParams {
@@ -41,6 +55,8 @@ pub struct CastParams {
     pub radius: f64,
     /// Traversal.
     pub traversal: Traversal,
+    /// The points' primitive.
+    pub primitive: Primitive,
 }
 
 /// One frame's result.
@@ -59,6 +75,8 @@ pub struct Frame {
 pub struct RayCaster {
     tree: KdTree,
     n_points: usize,
+    /// Unit normals in the tree's node order, for [`Primitive::Disc`].
+    normals: Option<Vec<[f64; 3]>>,
 }
 
 const TILE: u32 = 8;
@@ -81,7 +99,31 @@ impl RayCaster {
         Ok(Self {
             tree: KdTree::build(points),
             n_points: points.len(),
+            normals: None,
         })
+    }
+
+    /// Gives the points normals (one per point, any length but zero), for [`Primitive::Disc`].
+    pub fn with_normals(mut self, normals: &[DVec3]) -> Result<Self> {
+        if normals.len() != self.n_points {
+            return Err(Error::InvalidParameter {
+                name: "normals",
+                reason: format!("{} normals for {} points", normals.len(), self.n_points),
+            });
+        }
+        let mut unit = Vec::with_capacity(normals.len());
+        for (i, nrm) in normals.iter().enumerate() {
+            let len = nrm.length();
+            if !(len > 0.0) || !len.is_finite() {
+                return Err(Error::InvalidParameter {
+                    name: "normals",
+                    reason: format!("normal {i} is {nrm}: not a direction"),
+                });
+            }
+            unit.push((*nrm / len).to_array());
+        }
+        self.normals = Some(self.tree.in_node_order(&unit));
+        Ok(self)
     }
 
     /// The tree.
@@ -98,6 +140,35 @@ impl RayCaster {
                 reason: format!("must be positive and finite, got {}", params.radius),
             });
         }
+        match params.primitive {
+            Primitive::Sphere => self.cast_with(rays, camera, params, traverse::Sphere),
+            Primitive::Disc => {
+                let Some(normals) = &self.normals else {
+                    return Err(Error::InvalidParameter {
+                        name: "primitive",
+                        reason: "discs need the points' normals (RayCaster::with_normals)".into(),
+                    });
+                };
+                if params.traversal != Traversal::Exact {
+                    return Err(Error::InvalidParameter {
+                        name: "primitive",
+                        reason: "discs take the exact traversal (the seed's S1-S9 tests spheres)"
+                            .into(),
+                    });
+                }
+                self.cast_with(rays, camera, params, traverse::Disc(normals))
+            }
+        }
+    }
+
+    /// [`RayCaster::cast`] for points of `primitive` (the seed traversal: spheres).
+    fn cast_with(
+        &self,
+        rays: &RayList,
+        camera: &Camera,
+        params: &CastParams,
+        primitive: impl traverse::Primitive + Sync,
+    ) -> Result<Frame> {
         let (w, h) = (rays.width, rays.height);
         let mut pixel_point = vec![NONE; rays.len()];
         // Rows of tiles in parallel; within a band, tile by tile.
@@ -113,7 +184,7 @@ impl RayCaster {
                         self.cast_packets(
                             rays,
                             camera,
-                            params.radius,
+                            (params.radius, primitive),
                             (xs, y0, rows),
                             out,
                             scratch,
@@ -154,7 +225,7 @@ impl RayCaster {
         &self,
         rays: &RayList,
         camera: &Camera,
-        radius: f64,
+        (radius, primitive): (f64, impl traverse::Primitive),
         (xs, y0, rows): (std::ops::Range<u32>, u32, u32),
         out: &mut [u32],
         scratch: &mut Scratch,
@@ -175,7 +246,13 @@ impl RayCaster {
                     at[m] = ((dy + ddy) * w + x + ddx) as usize;
                     m += 1;
                 }
-                let hits = traverse::cast_exact_packet(&self.tree, &packet[..m], radius, scratch);
+                let hits = traverse::cast_exact_packet(
+                    &self.tree,
+                    &packet[..m],
+                    radius,
+                    primitive,
+                    scratch,
+                );
                 for i in 0..m {
                     out[at[i]] = hits[i].map_or(NONE, |h| h.1);
                 }

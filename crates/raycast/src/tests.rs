@@ -8,9 +8,9 @@ use cloud::glam::DVec3;
 use proptest::prelude::*;
 
 use super::*;
-use crate::brute::cast_brute;
+use crate::brute::{cast_brute, cast_brute_disc};
 use crate::hit::{entry, hits};
-use crate::traverse::{cast_exact, cast_exact_packet, cast_seed};
+use crate::traverse::{cast_exact, cast_exact_packet, cast_exact_with, cast_seed};
 
 fn rng(seed: u64) -> impl FnMut() -> f64 {
     let mut s = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
@@ -55,7 +55,13 @@ fn check_packets(points: &[DVec3], tree: &KdTree, rays: &[Ray], radius: f64) {
     let mut size = 1;
     while at < rays.len() {
         let packet = &rays[at..(at + size).min(rays.len())];
-        let got = cast_exact_packet(tree, packet, radius, &mut scratch);
+        let got = cast_exact_packet(
+            tree,
+            packet,
+            radius,
+            traverse::Sphere,
+            &mut scratch,
+        );
         for (i, ray) in packet.iter().enumerate() {
             assert_eq!(
                 got[i],
@@ -172,6 +178,7 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
         let params = CastParams {
             radius: 0.08,
             traversal: Traversal::Exact,
+            primitive: Primitive::Sphere,
         };
         let frame = caster.cast(&rays, &cam, &params).unwrap();
         for k in 0..rays.len() {
@@ -201,6 +208,7 @@ fn errors() {
         let params = CastParams {
             radius,
             traversal: Traversal::Exact,
+            primitive: Primitive::Sphere,
         };
         assert!(matches!(
             caster.cast(&rays, &cam, &params),
@@ -211,6 +219,7 @@ fn errors() {
     let params = CastParams {
         radius: 0.1,
         traversal: Traversal::Exact,
+        primitive: Primitive::Sphere,
     };
     assert!(matches!(
         caster.cast(&rays, &other, &params),
@@ -224,6 +233,7 @@ fn errors() {
             &CastParams {
                 radius: 0.2,
                 traversal: Traversal::Seed,
+                primitive: Primitive::Sphere,
             },
         )
         .unwrap();
@@ -247,12 +257,133 @@ fn concurrent_update_gives_the_direct_result() {
     let params = CastParams {
         radius: 0.05,
         traversal: Traversal::Exact,
+        primitive: Primitive::Sphere,
     };
     let mut worker = concurrent::spawn(Arc::clone(&caster), Arc::clone(&rays), params);
     let s = worker.request(cam);
     worker.wait_for(s).unwrap();
     let direct = caster.cast(&rays, &cam, &params).unwrap();
     assert_eq!(worker.front().unwrap().result.as_ref().unwrap(), &direct);
+}
+
+/// Random unit normals, one per point.
+fn random_normals(n: usize, r: &mut impl FnMut() -> f64) -> Vec<DVec3> {
+    (0..n)
+        .map(|_| {
+            loop {
+                let v = DVec3::new(2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0);
+                if v.length() > 0.1 {
+                    break v.normalize();
+                }
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn discs_equal_the_brute_force_ray_for_ray_in_packets_and_frames() {
+    for seed in 0..6 {
+        let mut r = rng(100 + seed);
+        let points: Vec<DVec3> = (0..500)
+            .map(|_| DVec3::new(r(), r(), r()) * 4.0 - 2.0)
+            .collect();
+        let normals = random_normals(points.len(), &mut r);
+        let unit: Vec<[f64; 3]> = normals.iter().map(|v| v.to_array()).collect();
+        let tree = KdTree::build(&points);
+        let in_order = tree.in_node_order(&unit);
+        let disc = traverse::Disc(&in_order);
+        let mut scratch = Scratch::default();
+        let mut rays = Vec::new();
+        for _ in 0..300 {
+            let o = [6.0 * r() - 3.0, 6.0 * r() - 3.0, 6.0 * r() - 3.0];
+            let d = [2.0 * r() - 1.0, 2.0 * r() - 1.0, 2.0 * r() - 1.0];
+            let radius = 0.05 + 0.3 * r();
+            let ray = Ray::new(o, d);
+            assert_eq!(
+                cast_exact_with(&tree, &ray, radius, disc, &mut scratch),
+                cast_brute_disc(&points, &unit, o, d, radius),
+                "ray {o:?} -> {d:?}, radius {radius}"
+            );
+            rays.push(ray);
+        }
+        for packet in rays.chunks(traverse::PACKET) {
+            let got = cast_exact_packet(&tree, packet, 0.2, disc, &mut scratch);
+            for (i, ray) in packet.iter().enumerate() {
+                assert_eq!(got[i], cast_brute_disc(&points, &unit, ray.o, ray.d, 0.2));
+            }
+        }
+        // A whole frame through `RayCaster`: every pixel the brute force's disc.
+        let caster = RayCaster::new(&points)
+            .unwrap()
+            .with_normals(&normals)
+            .unwrap();
+        let cam = Camera::new(
+            DVec3::new(0.4, 0.3, 6.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            40.0,
+            37,
+            29,
+        )
+        .unwrap();
+        let list = RayList::new(&cam).unwrap();
+        let params = CastParams {
+            radius: 0.15,
+            traversal: Traversal::Exact,
+            primitive: Primitive::Disc,
+        };
+        let frame = caster.cast(&list, &cam, &params).unwrap();
+        for k in 0..list.len() {
+            let (o, d) = list.aim(&cam, k);
+            let expected = cast_brute_disc(&points, &unit, o, d, 0.15).map_or(NONE, |h| h.1);
+            assert_eq!(frame.pixel_point[k], expected, "pixel {k}");
+        }
+        // Discs are thinner than spheres: they are hit by fewer rays, never by more.
+        let spheres = CastParams {
+            primitive: Primitive::Sphere,
+            ..params
+        };
+        let sphere_frame = caster.cast(&list, &cam, &spheres).unwrap();
+        let hit = |f: &Frame| f.pixel_point.iter().filter(|&&p| p != NONE).count();
+        assert!(hit(&frame) <= hit(&sphere_frame));
+    }
+}
+
+#[test]
+fn disc_errors() {
+    let points = [DVec3::ZERO, DVec3::X];
+    let caster = RayCaster::new(&points).unwrap();
+    let cam = Camera::new(DVec3::Z * 3.0, DVec3::ZERO, DVec3::Y, 40.0, 8, 8).unwrap();
+    let rays = RayList::new(&cam).unwrap();
+    let disc = CastParams {
+        radius: 0.2,
+        traversal: Traversal::Exact,
+        primitive: Primitive::Disc,
+    };
+    // No normals given; the seed traversal; wrong count; a zero or NaN normal.
+    let err = caster.cast(&rays, &cam, &disc).unwrap_err().to_string();
+    assert!(err.contains("normals"), "{err}");
+    let with = caster.clone().with_normals(&[DVec3::Z, DVec3::Z]).unwrap();
+    let seed = CastParams {
+        traversal: Traversal::Seed,
+        ..disc
+    };
+    let err = with.cast(&rays, &cam, &seed).unwrap_err().to_string();
+    assert!(err.contains("exact traversal"), "{err}");
+    assert!(with.cast(&rays, &cam, &disc).unwrap().visible.contains(&0));
+    for bad in [
+        vec![DVec3::Z],
+        vec![DVec3::Z, DVec3::ZERO],
+        vec![DVec3::NAN, DVec3::Z],
+    ] {
+        assert!(matches!(
+            caster.clone().with_normals(&bad),
+            Err(Error::InvalidParameter {
+                name: "normals",
+                ..
+            })
+        ));
+    }
 }
 
 proptest! {

@@ -28,8 +28,12 @@
 //!   if the ray meets its bounds enlarged by R before the best hit so far; the first hit ends
 //!   the search once nothing nearer can follow. It returns the hit with the smallest entry
 //!   parameter (ties: lowest index), exactly what the brute force of [`crate::brute`] returns.
+//!
+//! The exact traversal takes the point's primitive ([`Primitive`]): seed 001's [`Sphere`], or
+//! an oriented [`Disc`] (beyond the seed, [`crate::hit::disc_entry`]); a disc lies inside its sphere,
+//! so the same enlarged bounds prune both soundly.
 
-use crate::hit::{entry, hits};
+use crate::hit::{disc_entry, entry, hits};
 use crate::kdtree::{KdTree, NONE, Node};
 
 /// Which traversal to run.
@@ -40,6 +44,36 @@ pub enum Traversal {
     Exact,
     /// Seed 001's S1–S9 with first hit ends.
     Seed,
+}
+
+/// What a point is to a ray in the exact traversal: the ray parameter of its hit on node
+/// `at`'s point. A generic parameter, so each primitive gets its own compiled traversal.
+pub trait Primitive: Copy {
+    /// The hit parameter of `ray` on node `at`'s point (radius² `r2`), or `None`.
+    fn entry(&self, ray: &Ray, n: &Node, at: u32, r2: f64) -> Option<f64>;
+}
+
+/// Seed 001's sphere of radius R.
+#[derive(Debug, Clone, Copy)]
+pub struct Sphere;
+
+impl Primitive for Sphere {
+    #[inline(always)]
+    fn entry(&self, ray: &Ray, n: &Node, _at: u32, r2: f64) -> Option<f64> {
+        entry(&ray.o, &ray.d, &n.p, r2)
+    }
+}
+
+/// An oriented disc of radius R; the unit normals in the tree's node order
+/// ([`crate::KdTree::in_node_order`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Disc<'a>(pub &'a [[f64; 3]]);
+
+impl Primitive for Disc<'_> {
+    #[inline(always)]
+    fn entry(&self, ray: &Ray, n: &Node, at: u32, r2: f64) -> Option<f64> {
+        disc_entry(&ray.o, &ray.d, &n.p, &self.0[at as usize], r2)
+    }
 }
 
 /// A ray with its precomputed reciprocal direction.
@@ -122,6 +156,17 @@ pub fn cast_exact(
     radius: f64,
     scratch: &mut Scratch,
 ) -> Option<(f64, u32)> {
+    cast_exact_with(tree, ray, radius, Sphere, scratch)
+}
+
+/// [`cast_exact`] for points of `primitive`.
+pub fn cast_exact_with(
+    tree: &KdTree,
+    ray: &Ray,
+    radius: f64,
+    primitive: impl Primitive,
+    scratch: &mut Scratch,
+) -> Option<(f64, u32)> {
     let nodes = &tree.nodes;
     if nodes.is_empty() {
         return None;
@@ -139,7 +184,7 @@ pub fn cast_exact(
             Some(t) if t <= best_t => {}
             _ => continue,
         }
-        if let Some(t) = entry(&ray.o, &ray.d, &n.p, r2)
+        if let Some(t) = primitive.entry(ray, n, at, r2)
             && (t < best_t || (t == best_t && n.index < best))
         {
             best_t = t;
@@ -173,6 +218,7 @@ pub fn cast_exact_packet(
     tree: &KdTree,
     rays: &[Ray],
     radius: f64,
+    primitive: impl Primitive,
     scratch: &mut Scratch,
 ) -> [Option<(f64, u32)>; PACKET] {
     let mut out = [None; PACKET];
@@ -205,7 +251,7 @@ pub fn cast_exact_packet(
                 _ => continue,
             }
             live |= 1 << i;
-            if let Some(t) = entry(&ray.o, &ray.d, &n.p, r2)
+            if let Some(t) = primitive.entry(ray, n, at, r2)
                 && (t < best_t[i] || (t == best_t[i] && n.index < best[i]))
             {
                 best_t[i] = t;

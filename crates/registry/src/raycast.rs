@@ -1,10 +1,15 @@
 //! `raycast`: point filtering by ray casting (`raycast` crate, seed 001), one ray per pixel.
+//!
+//! `primitive=disc` (beyond the seed) makes every point an oriented disc of the same radius:
+//! the cloud's normals, else the estimates external methods are sent
+//! ([`crate::external::estimated_normals`]), so that it meets point-cloud-utils' surfels on
+//! their own terms.
 
 use std::sync::Mutex;
 
 use crate::error::{Error, Result};
 use cloud::Camera;
-use raycast::{CastParams, RayCaster, RayList, Traversal};
+use raycast::{CastParams, Primitive, RayCaster, RayList, Traversal};
 
 use crate::{
     Input, Method, Output, ParamSpec, Params, PixelChoice, Prepared, camera_with_resolution,
@@ -39,12 +44,18 @@ const PARAMS: &[ParamSpec] = &[
         default: "exact",
         help: "exact (nearest hit) or seed (S1..S9, first hit ends)",
     },
+    ParamSpec {
+        key: "primitive",
+        default: "sphere",
+        help: "sphere (seed 001) or disc: an oriented disc per point, the cloud's normals or estimated ones (exact traversal)",
+    },
 ];
 
 struct Prep {
     caster: RayCaster,
     radius: f64,
     traversal: Traversal,
+    primitive: Primitive,
     width: Option<u32>,
     height: Option<u32>,
     rays: Mutex<Option<RayList>>,
@@ -70,6 +81,7 @@ impl Prepared for Prep {
             &CastParams {
                 radius: self.radius,
                 traversal: self.traversal,
+                primitive: self.primitive,
             },
         )?;
         Ok(Output {
@@ -136,13 +148,99 @@ impl Method for RaycastMethod {
                 });
             }
         };
+        let primitive = match params.get("primitive", "sphere".to_owned())?.as_str() {
+            "sphere" => Primitive::Sphere,
+            "disc" if traversal == Traversal::Exact => Primitive::Disc,
+            "disc" => {
+                return Err(Error::BadValue {
+                    key: "primitive".into(),
+                    value: "disc".into(),
+                    reason: "discs take traversal=exact (the seed's S1..S9 tests spheres)".into(),
+                });
+            }
+            other => {
+                return Err(Error::BadValue {
+                    key: "primitive".into(),
+                    value: other.to_owned(),
+                    reason: "expected sphere or disc".into(),
+                });
+            }
+        };
+        let positions = &input.cloud.positions;
+        let mut caster = RayCaster::new(positions)?;
+        if primitive == Primitive::Disc {
+            let estimated;
+            let normals = match &input.cloud.normals {
+                Some(n) => n,
+                None => {
+                    estimated = crate::external::estimated_normals(positions)?;
+                    &estimated
+                }
+            };
+            let normals: Vec<cloud::glam::DVec3> = normals.iter().map(|n| n.as_dvec3()).collect();
+            caster = caster.with_normals(&normals)?;
+        }
         Ok(Box::new(Prep {
-            caster: RayCaster::new(&input.cloud.positions)?,
-            radius: radius(&input.cloud.positions, params)?,
+            caster,
+            radius: radius(positions, params)?,
             traversal,
+            primitive,
             width: params.get_opt("width")?,
             height: params.get_opt("height")?,
             rays: Mutex::new(None),
         }))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use cloud::glam::DVec3;
+    use cloud::synth::sphere_scene;
+
+    use super::*;
+
+    fn run(set: &[&str], normals: bool) -> Result<Output> {
+        let mut scene = sphere_scene(4_000);
+        if !normals {
+            scene.cloud.normals = None;
+        }
+        let input = Input {
+            cloud: &scene.cloud,
+            mesh: None,
+        };
+        let params = Params::parse(set)?;
+        let camera = Camera::new(
+            DVec3::new(0.3, 0.2, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            45.0,
+            96,
+            72,
+        )?;
+        crate::kernel::prepare(&RaycastMethod, input, &params)?.visible(&camera)
+    }
+
+    #[test]
+    fn discs_run_with_the_clouds_normals_or_estimated_ones() {
+        let spheres = run(&[], true).unwrap();
+        let given = run(&["primitive=disc"], true).unwrap();
+        let estimated = run(&["primitive=disc"], false).unwrap();
+        for out in [&given, &estimated] {
+            // A sphere seen from outside: discs and spheres see about the same points.
+            let ratio = out.visible.len() as f64 / spheres.visible.len() as f64;
+            assert!((0.7..1.3).contains(&ratio), "{ratio}");
+        }
+        assert_ne!(given.visible, spheres.visible);
+    }
+
+    #[test]
+    fn bad_primitives_are_errors() {
+        for (set, needle) in [
+            (&["primitive=cube"][..], "sphere or disc"),
+            (&["primitive=disc", "traversal=seed"], "traversal=exact"),
+        ] {
+            let err = run(set, true).unwrap_err().to_string();
+            assert!(err.contains(needle), "{set:?}: {err}");
+        }
     }
 }
