@@ -55,13 +55,7 @@ fn check_packets(points: &[DVec3], tree: &KdTree, rays: &[Ray], radius: f64) {
     let mut size = 1;
     while at < rays.len() {
         let packet = &rays[at..(at + size).min(rays.len())];
-        let got = cast_exact_packet(
-            tree,
-            packet,
-            radius,
-            traverse::Sphere,
-            &mut scratch,
-        );
+        let got = cast_exact_packet(tree, packet, radius, traverse::Sphere, &mut scratch);
         for (i, ray) in packet.iter().enumerate() {
             assert_eq!(
                 got[i],
