@@ -1,16 +1,20 @@
 //! Accuracy gates of the peers (`methods/*/method.toml` with `peer_of`), each run through
 //! `pointsight visible --method NAME` beside the family of ours it pairs with, on small
 //! synthetic clouds: CGAL's HPR set identical to our `hpr` at the same γ; point-cloud-utils'
-//! ray cast against our `raycast` with discs at equal radius (Jaccard ≥ 0.99), and VTK's z-buffer selection (in an offscreen
-//! EGL or OSMesa window) against our `splat`, Jaccard ≥ 0.9 on sphere-20000; PCL's occluded
-//! voxels against a brute-force voxel walk on a 10³ grid; the py3dtiles LOD peer's selection
-//! shrinking as the view recedes.
+//! ray cast against our `raycast` with discs at equal radius (Jaccard ≥ 0.99); VTK's z-buffer
+//! selection (in an offscreen EGL or OSMesa window) against a brute force of its own rule
+//! (Jaccard ≥ 0.99) and beside our `splat`, on sphere-20000; PCL's occluded voxels against a
+//! brute-force voxel walk on a 10³ grid; the py3dtiles LOD peer's selection shrinking as the
+//! view recedes.
 //!
 //! A peer that is not installed (`just peers`) fails its gate under `CI=true` (no silent skip)
 //! and skips it elsewhere, saying why.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+use cloud::glam::DVec3;
+use cloud::{Camera, Model};
 
 fn methods_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods")
@@ -173,8 +177,58 @@ fn pcu_raycast_agrees_with_our_raycast() {
     assert!(worst >= 0.99, "worst Jaccard {worst:.4} < 0.99");
 }
 
+/// `vtkSelectVisiblePoints`' documented rule (VTK's `vtkSelectVisiblePoints.cxx`), brute force
+/// in f64: every point drawn as a square sprite of `size` pixels centred on its projection
+/// (the pixels whose centres lie in the square: OpenGL's point rasterisation) into a z-buffer
+/// of nearest depths; a point is kept when, moved toward the eye along the view axis by the
+/// world tolerance (the adapter's `depth_tolerance` × the eye's distance to the cloud's mean),
+/// it lies nearer than the buffer at the pixel the moved point projects to.
+fn vtk_rule(points: &[DVec3], camera: &Camera, size: usize, depth_tolerance: f64) -> Vec<u32> {
+    let Model::Pinhole { fx, fy, cx, cy } = *camera.model() else {
+        panic!("pinhole cameras only");
+    };
+    let (w, h) = (camera.width as i64, camera.height as i64);
+    let (fwd, right, down) = (camera.forward(), camera.right(), camera.down());
+    let project = |p: DVec3| {
+        let v = p - camera.eye;
+        let z = v.dot(fwd);
+        (cx + fx * v.dot(right) / z, cy + fy * v.dot(down) / z, z)
+    };
+    let centre = points.iter().copied().sum::<DVec3>() / points.len() as f64;
+    let tolerance = depth_tolerance * (centre - camera.eye).length();
+    let mut buffer = vec![f64::INFINITY; (w * h) as usize];
+    let half = size as f64 / 2.0;
+    for &p in points {
+        let (x, y, z) = project(p);
+        if z <= 0.0 {
+            continue;
+        }
+        // Pixels i with i + 0.5 in [x - size/2, x + size/2).
+        let (ax, ay) = (
+            (x - half - 0.5).ceil() as i64,
+            (y - half - 0.5).ceil() as i64,
+        );
+        for py in ay.max(0)..(ay + size as i64).min(h) {
+            for px in ax.max(0)..(ax + size as i64).min(w) {
+                let k = (py * w + px) as usize;
+                buffer[k] = buffer[k].min(z);
+            }
+        }
+    }
+    (0..points.len() as u32)
+        .filter(|&i| {
+            let (x, y, z) = project(points[i as usize] - fwd * tolerance);
+            let (px, py) = (x.floor() as i64, y.floor() as i64);
+            z > 0.0
+                && (0..w).contains(&px)
+                && (0..h).contains(&py)
+                && z < buffer[(py * w + px) as usize]
+        })
+        .collect()
+}
+
 #[test]
-fn vtk_zbuffer_agrees_with_our_splat_offscreen() {
+fn vtk_zbuffer_follows_its_rule_and_agrees_with_our_splat_offscreen() {
     // The render window VTK opens on a machine without a display is an offscreen one.
     let folder = methods_dir().join("vtk-zbuffer");
     let python = methods_dir().join("../.venv/bin/python");
@@ -199,10 +253,12 @@ fn vtk_zbuffer_agrees_with_our_splat_offscreen() {
         ["vtkEGLRenderWindow", "vtkOSOpenGLRenderWindow"].contains(&class.as_str()),
         "VTK opened {class:?}, not an offscreen EGL or OSMesa window"
     );
-    let mut worst = 1.0f64;
+    let ds = harness::datasets::load("sphere-20000", Path::new("/nonexistent"))
+        .expect("a synthetic dataset");
+    let (mut worst_rule, mut worst_splat) = (1.0f64, 1.0f64);
     for view in [0, 4, 9, 13] {
-        for radius_px in ["1", "2"] {
-            let size = format!("point_size={}", 2 * radius_px.parse::<u32>().expect("int"));
+        for radius_px in [1, 2] {
+            let size = format!("point_size={}", 2 * radius_px);
             let radius = format!("radius_px={radius_px}");
             let common = ["depth_tolerance=0.01", "width=320", "height=240"];
             let peer_sets: Vec<&str> = std::iter::once(&size[..]).chain(common).collect();
@@ -210,21 +266,37 @@ fn vtk_zbuffer_agrees_with_our_splat_offscreen() {
             let Some(peer) = visible("vtk-zbuffer", "sphere-20000", view, &peer_sets) else {
                 return;
             };
+            let camera = ds.views[view].with_resolution(320, 240).expect("a camera");
+            let rule = vtk_rule(&ds.cloud.positions, &camera, 2 * radius_px, 0.01);
             let ours = visible("splat", "sphere-20000", view, &our_sets).expect("ours runs");
-            let j = jaccard(&peer, &ours);
+            let (jr, js) = (jaccard(&peer, &rule), jaccard(&peer, &ours));
             eprintln!(
-                "vtk-zbuffer vs splat: view {view} radius_px {radius_px}: Jaccard {j:.4} \
-                 ({} vs {} points)",
+                "vtk-zbuffer: view {view} point_size {}: Jaccard {jr:.4} against its rule \
+                 ({} vs {} points), {js:.4} against splat radius_px {radius_px} ({} points)",
+                2 * radius_px,
                 peer.len(),
+                rule.len(),
                 ours.len()
             );
-            worst = worst.min(j);
+            worst_rule = worst_rule.min(jr);
+            worst_splat = worst_splat.min(js);
         }
     }
-    // The issue asks for 0.9; measured: 0.729 to 0.790, VTK keeping more points than ours
-    // (its square sprites and one world depth tolerance per view against our discs and
-    // per-point relative tolerance). This floor catches a regression, not the gap.
-    assert!(worst >= 0.7, "worst Jaccard {worst:.4} < 0.7");
+    // VTK drives its rule exactly (measured 0.997 to 0.9997 with multisampling off; with VTK's
+    // default 4 samples the resolved depth breaks it: 0.66 at one pixel).
+    assert!(
+        worst_rule >= 0.99,
+        "worst Jaccard against VTK's rule {worst_rule:.4}"
+    );
+    // Against our splat the issue asks for 0.9; measured 0.72 to 0.80. The rule is another
+    // method: square sprites (with our relative tolerance the rule gives 0.79 to 0.81) and a
+    // tolerance applied by moving the point along the view axis, which also moves the pixel it
+    // is looked up at by up to 1 % of its distance from the image centre. This floor catches a
+    // regression, not that gap.
+    assert!(
+        worst_splat >= 0.7,
+        "worst Jaccard against splat {worst_splat:.4} < 0.7"
+    );
 }
 
 /// Occupied voxels (unit leaf, 10³ block from the origin) that a brute-force voxel walk

@@ -3,9 +3,10 @@
 The cloud is drawn once per view as VTK points of `point_size` pixels (a square sprite per
 point, VTK's OpenGL point rendering) into an offscreen render window (EGL, else OSMesa: no
 display needed), the camera set from pointsight's pinhole camera (eye, forward, up, vertical
-field of view, principal point as VTK's window centre); `vtkSelectVisiblePoints` then reads
-the z-buffer and keeps each point whose depth at its own pixel is within `ToleranceWorld` of
-the buffer's. The point's index rides along as point data, so the selection maps back.
+field of view, principal point as VTK's window centre), multisampling off;
+`vtkSelectVisiblePoints` then moves each point toward the eye along the view axis by
+`ToleranceWorld` and keeps it when it is nearer than the z-buffer at the pixel it then projects
+to. The point's index rides along as point data, so the selection maps back.
 
 Deviations from pointsight's `splat`: VTK's sprite is a square of `point_size` pixels where
 ours is a disc of radius `radius_px` (`point_size` = 2 × radius_px compares like for like);
@@ -68,6 +69,9 @@ def main():
     params = json.loads(args.params)
     point_size = float(params.get("point_size", "4"))
     depth_tolerance = float(params.get("depth_tolerance", "0.01"))
+    multisamples = int(params.get("multisamples", "0"))
+    if multisamples < 0:
+        raise SystemExit(f"vtk-zbuffer: multisamples={multisamples}: must be >= 0")
     width = int(params["width"]) if "width" in params else None
     height = int(params["height"]) if "height" in params else None
 
@@ -93,6 +97,10 @@ def main():
     ren.AddActor(actor)
     window = vtk.vtkRenderWindow()
     window.SetOffScreenRendering(1)
+    # Multisampling resolves the depth buffer across samples, so the buffer the selection reads
+    # is no longer the nearest point's depth per pixel (VTK's default here is 4 samples: against
+    # an exact one-pixel z-buffer the selected set falls from Jaccard 0.954 to 0.66).
+    window.SetMultiSamples(multisamples)
     window.AddRenderer(ren)
     print(f"vtk-zbuffer: render window {window.GetClassName()}", file=sys.stderr, flush=True)
     select = vtk.vtkSelectVisiblePoints()
