@@ -161,13 +161,13 @@ impl RayCaster {
         }
     }
 
-    /// [`RayCaster::cast`] for points of `primitive` (the seed traversal: spheres).
+    /// [`RayCaster::cast`] for points of `shape` (the seed traversal: spheres).
     fn cast_with(
         &self,
         rays: &RayList,
         camera: &Camera,
         params: &CastParams,
-        primitive: impl traverse::Primitive + Sync,
+        shape: impl traverse::PointShape + Sync,
     ) -> Result<Frame> {
         let (w, h) = (rays.width, rays.height);
         let mut pixel_point = vec![NONE; rays.len()];
@@ -184,7 +184,7 @@ impl RayCaster {
                         self.cast_packets(
                             rays,
                             camera,
-                            (params.radius, primitive),
+                            (params.radius, shape),
                             (xs, y0, rows),
                             out,
                             scratch,
@@ -225,7 +225,7 @@ impl RayCaster {
         &self,
         rays: &RayList,
         camera: &Camera,
-        (radius, primitive): (f64, impl traverse::Primitive),
+        (radius, shape): (f64, impl traverse::PointShape),
         (xs, y0, rows): (std::ops::Range<u32>, u32, u32),
         out: &mut [u32],
         scratch: &mut Scratch,
@@ -246,13 +246,8 @@ impl RayCaster {
                     at[m] = ((dy + ddy) * w + x + ddx) as usize;
                     m += 1;
                 }
-                let hits = traverse::cast_exact_packet(
-                    &self.tree,
-                    &packet[..m],
-                    radius,
-                    primitive,
-                    scratch,
-                );
+                let hits =
+                    traverse::cast_exact_packet(&self.tree, &packet[..m], radius, shape, scratch);
                 for i in 0..m {
                     out[at[i]] = hits[i].map_or(NONE, |h| h.1);
                 }

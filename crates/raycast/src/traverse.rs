@@ -29,9 +29,9 @@
 //!   the search once nothing nearer can follow. It returns the hit with the smallest entry
 //!   parameter (ties: lowest index), exactly what the brute force of [`crate::brute`] returns.
 //!
-//! The exact traversal takes the point's primitive ([`Primitive`]): seed 001's [`Sphere`], or
-//! an oriented [`Disc`] (beyond the seed, [`crate::hit::disc_entry`]); a disc lies inside its sphere,
-//! so the same enlarged bounds prune both soundly.
+//! The exact traversal takes the point's shape ([`PointShape`]): seed 001's [`Sphere`], or an
+//! oriented [`Disc`] (beyond the seed, [`crate::hit::disc_entry`]); a disc lies inside its
+//! sphere, so the same enlarged bounds prune both soundly.
 
 use crate::hit::{disc_entry, entry, hits};
 use crate::kdtree::{KdTree, NONE, Node};
@@ -48,7 +48,7 @@ pub enum Traversal {
 
 /// What a point is to a ray in the exact traversal: the ray parameter of its hit on node
 /// `at`'s point. A generic parameter, so each primitive gets its own compiled traversal.
-pub trait Primitive: Copy {
+pub trait PointShape: Copy {
     /// The hit parameter of `ray` on node `at`'s point (radius² `r2`), or `None`.
     fn entry(&self, ray: &Ray, n: &Node, at: u32, r2: f64) -> Option<f64>;
 }
@@ -57,7 +57,7 @@ pub trait Primitive: Copy {
 #[derive(Debug, Clone, Copy)]
 pub struct Sphere;
 
-impl Primitive for Sphere {
+impl PointShape for Sphere {
     #[inline(always)]
     fn entry(&self, ray: &Ray, n: &Node, _at: u32, r2: f64) -> Option<f64> {
         entry(&ray.o, &ray.d, &n.p, r2)
@@ -69,7 +69,7 @@ impl Primitive for Sphere {
 #[derive(Debug, Clone, Copy)]
 pub struct Disc<'a>(pub &'a [[f64; 3]]);
 
-impl Primitive for Disc<'_> {
+impl PointShape for Disc<'_> {
     #[inline(always)]
     fn entry(&self, ray: &Ray, n: &Node, at: u32, r2: f64) -> Option<f64> {
         disc_entry(&ray.o, &ray.d, &n.p, &self.0[at as usize], r2)
@@ -159,12 +159,12 @@ pub fn cast_exact(
     cast_exact_with(tree, ray, radius, Sphere, scratch)
 }
 
-/// [`cast_exact`] for points of `primitive`.
+/// [`cast_exact`] for points of `shape`.
 pub fn cast_exact_with(
     tree: &KdTree,
     ray: &Ray,
     radius: f64,
-    primitive: impl Primitive,
+    shape: impl PointShape,
     scratch: &mut Scratch,
 ) -> Option<(f64, u32)> {
     let nodes = &tree.nodes;
@@ -184,7 +184,7 @@ pub fn cast_exact_with(
             Some(t) if t <= best_t => {}
             _ => continue,
         }
-        if let Some(t) = primitive.entry(ray, n, at, r2)
+        if let Some(t) = shape.entry(ray, n, at, r2)
             && (t < best_t || (t == best_t && n.index < best))
         {
             best_t = t;
@@ -218,7 +218,7 @@ pub fn cast_exact_packet(
     tree: &KdTree,
     rays: &[Ray],
     radius: f64,
-    primitive: impl Primitive,
+    shape: impl PointShape,
     scratch: &mut Scratch,
 ) -> [Option<(f64, u32)>; PACKET] {
     let mut out = [None; PACKET];
@@ -251,7 +251,7 @@ pub fn cast_exact_packet(
                 _ => continue,
             }
             live |= 1 << i;
-            if let Some(t) = primitive.entry(ray, n, at, r2)
+            if let Some(t) = shape.entry(ray, n, at, r2)
                 && (t < best_t[i] || (t == best_t[i] && n.index < best[i]))
             {
                 best_t[i] = t;
