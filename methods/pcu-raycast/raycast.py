@@ -14,11 +14,17 @@ inscribed in the circle, and Embree intersects in floats.
 
 import argparse
 import json
+import os
 import sys
 import time
 
-import numpy as np
-import point_cloud_utils as pcu
+# numpy's OpenBLAS threads busy-wait between calls; the one product per view here (the rays'
+# rotation) gains nothing from them (measured on bunny-69451, 16 views: 6.14 s of CPU with
+# them, 4.23 s without, the same wall time).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+import point_cloud_utils as pcu  # noqa: E402
 
 
 def read_ply(path):
