@@ -2,8 +2,9 @@
 //! `lod` and `robustness` results equal goldens committed from revision 5c38c1a's output
 //! (`tests/data/golden/`, written by that revision's `pointsight run EXPERIMENT --quick`).
 //!
-//! Only the methods (and families), datasets and degradations the goldens have are compared
-//! (methods added since, built-in or external, add rows; so do new datasets and degradations); columns added since are ignored; a setting's label is compared as a set of
+//! Only the methods (and families) at the settings, datasets and degradations the goldens have
+//! are compared (methods and settings added since, built-in or external, add rows; so do new
+//! datasets and degradations); columns added since are ignored; a setting's label is compared as a set of
 //! `key=value` pairs (robustness wrote its pairs in its own order then, the registry's sorted
 //! label now). Runs when `POINTSIGHT_REAL_DATA=1` (set by `just test`, which fetches the
 //! meshes first); otherwise it says why it did nothing.
@@ -73,13 +74,20 @@ fn check(name: &str, produced: &Path) {
     let want = rows(&golden, &columns);
     let mut got = rows(produced, &columns);
     // The golden's methods (and families: a method may have gained settings of a new family,
-    // as HPR its log and expdecay kernels).
+    // as HPR its log and expdecay kernels) at the golden's settings (a setting added since
+    // adds rows: our ray cast at `primitive=disc`, run as point-cloud-utils' partner).
     let at = |c: &str| columns.iter().position(|x| x == c);
     if let Some(m) = at("method") {
-        let family = at("family");
-        let key = |r: &Vec<String>| (r[m].clone(), family.map(|f| r[f].clone()));
-        let methods: BTreeSet<(String, Option<String>)> = want.iter().map(key).collect();
-        got.retain(|r| methods.contains(&key(r)));
+        let (family, params) = (at("family"), at("params"));
+        let key = |r: &Vec<String>| {
+            (
+                r[m].clone(),
+                family.map(|f| r[f].clone()),
+                params.map(|p| r[p].clone()),
+            )
+        };
+        let settings: BTreeSet<_> = want.iter().map(key).collect();
+        got.retain(|r| settings.contains(&key(r)));
     }
     // Likewise the golden's datasets and degradations (datasets and degradations added since
     // add rows).

@@ -488,7 +488,7 @@ fn py3dtiles_lod_selection_shrinks_as_the_view_recedes() {
         .enumerate()
         .map(|(index, distance)| registry::kernel::View {
             index,
-            camera: cloud::Camera::new(
+            camera: Camera::new(
                 DVec3::new(0.0, 0.0, distance),
                 DVec3::ZERO,
                 DVec3::Y,
