@@ -10,7 +10,7 @@ use std::process::Command;
 const CSVS: &[(&str, &str)] = &[
     (
         "hull/results.csv",
-        "dataset,n_points,view,gamma,hull,perturb,seconds,n_visible,jaccard_vs_exact,f1_vs_reference,status",
+        "dataset,n_points,view,gamma,hull,perturb,seconds,samples,n_visible,jaccard_vs_exact,f1_vs_reference,status",
     ),
     (
         "visibility/results.csv",

@@ -226,5 +226,41 @@ fn the_time_budget_sets_how_many_runs_a_call_gets() {
         all.len() == once.len() && all.iter().all(|s| s == "3"),
         "{all:?}"
     );
+    // The hull experiment's own loop over hull implementations honours the same budget.
+    let hull_samples = |budget: &str| -> Vec<String> {
+        let out = root.join(format!("h-{budget}"));
+        ok(&[
+            "run",
+            "hull",
+            "--quick",
+            "--datasets",
+            "sphere-20000",
+            "--repeats",
+            "3",
+            "--time-budget",
+            budget,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        let mut r = csv::Reader::from_path(out.join("results.csv")).expect("results.csv");
+        let h = r.headers().unwrap().clone();
+        let col = |name: &str| h.iter().position(|c| c == name).expect(name);
+        let (samples, status) = (col("samples"), col("status"));
+        r.records()
+            .map(|rec| rec.unwrap())
+            .filter(|rec| &rec[status] == "ok")
+            .map(|rec| rec[samples].to_owned())
+            .collect()
+    };
+    let once = hull_samples("0");
+    assert!(
+        !once.is_empty() && once.iter().all(|s| s == "1"),
+        "{once:?}"
+    );
+    let all = hull_samples("inf");
+    assert!(
+        all.len() == once.len() && all.iter().all(|s| s == "3"),
+        "{all:?}"
+    );
     let _ = std::fs::remove_dir_all(&root);
 }

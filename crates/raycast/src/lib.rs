@@ -103,8 +103,9 @@ impl RayCaster {
         })
     }
 
-    /// Gives the points normals (one per point, any length but zero), for [`Primitive::Disc`].
-    pub fn with_normals(mut self, normals: &[DVec3]) -> Result<Self> {
+    /// Gives the points normals (one per point, any length but zero; `f64` or a cloud's `f32`),
+    /// for [`Primitive::Disc`].
+    pub fn with_normals<N: Copy + Into<DVec3>>(mut self, normals: &[N]) -> Result<Self> {
         if normals.len() != self.n_points {
             return Err(Error::InvalidParameter {
                 name: "normals",
@@ -113,6 +114,7 @@ impl RayCaster {
         }
         let mut unit = Vec::with_capacity(normals.len());
         for (i, nrm) in normals.iter().enumerate() {
+            let nrm: DVec3 = (*nrm).into();
             let len = nrm.length();
             if !(len > 0.0) || !len.is_finite() {
                 return Err(Error::InvalidParameter {
@@ -120,7 +122,7 @@ impl RayCaster {
                     reason: format!("normal {i} is {nrm}: not a direction"),
                 });
             }
-            unit.push((*nrm / len).to_array());
+            unit.push((nrm / len).to_array());
         }
         self.normals = Some(self.tree.in_node_order(&unit));
         Ok(self)

@@ -62,6 +62,7 @@
 //! help = "R = max|p - C| * 10^gamma"
 //! ```
 
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Read, Write};
@@ -106,6 +107,18 @@ pub fn estimated_normals(positions: &[cloud::glam::DVec3]) -> Result<Vec<Vec3>> 
         16.min(positions.len()),
         cloud::normals::Orientation::AwayFromCentroid,
     )?)
+}
+
+/// The normals protocol 2 sends (and our disc ray cast, its partner, uses): the cloud's own
+/// (`"dataset"`), else [`estimated_normals`] (`"estimated"`).
+pub fn cloud_normals(cloud: &cloud::PointCloud) -> Result<(Cow<'_, [Vec3]>, &'static str)> {
+    Ok(match &cloud.normals {
+        Some(n) => (Cow::Borrowed(&n[..]), "dataset"),
+        None => (
+            Cow::Owned(estimated_normals(&cloud.positions)?),
+            "estimated",
+        ),
+    })
 }
 
 /// A parameter of an external method.
@@ -495,19 +508,15 @@ impl ExternalMethod {
             cloud::io::ply_write::write_ply(path, &positions_only)?;
             return Ok(None);
         }
-        let (normals, origin) = match (normals, &cloud.normals) {
-            (Some(n), _) => (n.to_vec(), "given"),
-            (None, Some(n)) => (n.clone(), "dataset"),
-            (None, None) => (
-                estimated_normals(&cloud.positions).map_err(|e| {
-                    external_error(self.name, format!("cannot estimate normals to send: {e}"))
-                })?,
-                "estimated",
-            ),
+        let (normals, origin) = match normals {
+            Some(n) => (Cow::Borrowed(n), "given"),
+            None => cloud_normals(cloud).map_err(|e| {
+                external_error(self.name, format!("cannot estimate normals to send: {e}"))
+            })?,
         };
         let out = cloud::PointCloud {
             positions: cloud.positions.clone(),
-            normals: Some(normals),
+            normals: Some(normals.into_owned()),
             colors: cloud.colors.clone(),
             uvs: cloud.uvs.clone(),
             ..Default::default()

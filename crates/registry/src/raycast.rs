@@ -169,15 +169,8 @@ impl Method for RaycastMethod {
         let positions = &input.cloud.positions;
         let mut caster = RayCaster::new(positions)?;
         if primitive == Primitive::Disc {
-            let estimated;
-            let normals = match &input.cloud.normals {
-                Some(n) => n,
-                None => {
-                    estimated = crate::external::estimated_normals(positions)?;
-                    &estimated
-                }
-            };
-            let normals: Vec<cloud::glam::DVec3> = normals.iter().map(|n| n.as_dvec3()).collect();
+            // The normals an external disc caster is sent, so the pairing compares like with like.
+            let (normals, _) = crate::external::cloud_normals(input.cloud)?;
             caster = caster.with_normals(&normals)?;
         }
         Ok(Box::new(Prep {

@@ -3,7 +3,8 @@
 //!
 //! For each dataset, view, γ (R = max‖p − C‖·10^γ, linear kernel), hull implementation and
 //! perturbation k, `seconds` is the median of `--repeats` runs of flip + hull + mapping
-//! (`hpr::visible`), `jaccard_vs_exact` compares the visible set with the exact unperturbed
+//! (`hpr::visible`; fewer once the runs so far took `--time-budget` seconds, as in the
+//! measurement kernel), `jaccard_vs_exact` compares the visible set with the exact unperturbed
 //! answer (`own`, k = 0, same dataset, view and γ) and `f1_vs_reference` scores it against the
 //! mesh reference. A failure is a row with status `error: …` or `panic: …`.
 //!
@@ -76,6 +77,10 @@ pub struct Row {
     pub perturb: f64,
     /// Median seconds of flip + hull + mapping.
     pub seconds: f64,
+    /// Timed runs behind `seconds` (`--repeats`, fewer under `--time-budget`; 0 in reports
+    /// written before the column existed).
+    #[serde(default)]
+    pub samples: usize,
     /// Visible points found.
     pub n_visible: usize,
     /// Jaccard index against the exact unperturbed visible set.
@@ -194,6 +199,7 @@ impl Experiment for HullExperiment {
                                 hull: hull_name.to_string(),
                                 perturb,
                                 seconds: f64::NAN,
+                                samples: 0,
                                 n_visible: 0,
                                 jaccard_vs_exact: f64::NAN,
                                 f1_vs_reference: f64::NAN,
@@ -213,6 +219,15 @@ impl Experiment for HullExperiment {
                             let mut times = Vec::with_capacity(ctx.repeats);
                             let mut outcome = None;
                             for _ in 0..ctx.repeats.max(1) {
+                                // The time budget as the kernel applies it: no new run once
+                                // the runs so far took that long.
+                                let spent: f64 = times.iter().sum();
+                                if ctx
+                                    .time_budget
+                                    .is_some_and(|b| !times.is_empty() && spent >= b)
+                                {
+                                    break;
+                                }
                                 match hpr::visible(
                                     &ds.cloud.positions,
                                     cam.eye,
@@ -236,6 +251,7 @@ impl Experiment for HullExperiment {
                                         exacts.insert((view, gamma.to_bits()), visible.clone());
                                     }
                                     row.seconds = registry::timing::Timing::of(&times).median;
+                                    row.samples = times.len();
                                     row.n_visible = visible.len();
                                     row.f1_vs_reference = truth
                                         .as_ref()
@@ -280,6 +296,7 @@ impl Experiment for HullExperiment {
                             hull: CGAL.into(),
                             perturb: 0.0,
                             seconds: f64::NAN,
+                            samples: 0,
                             n_visible: 0,
                             jaccard_vs_exact: f64::NAN,
                             f1_vs_reference: f64::NAN,
@@ -289,6 +306,7 @@ impl Experiment for HullExperiment {
                             Ok(a) => {
                                 let visible = &a.output.visible;
                                 row.seconds = a.timing.median;
+                                row.samples = a.timing.samples;
                                 row.n_visible = visible.len();
                                 row.f1_vs_reference = truths[v.index]
                                     .as_ref()
@@ -554,7 +572,7 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
 
     let summary = format!(
         "HPR (linear kernel, R = max‖p − C‖·10^γ) with six convex hull implementations. \
-         `seconds`: median of {repeats} runs of flip + hull + mapping. `min Jaccard vs exact`: \
+         `seconds`: median of up to {repeats} runs of flip + hull + mapping (`samples`: how many; a call stops repeating once its runs took the time budget). `min Jaccard vs exact`: \
          the worst agreement with the exact visible set (`own`, k = 0) over the configurations. \
          Grid and skips: see the rows with status `error: skipped`.\n\n\
          **own vs Qhull (Qt), k = 0:** identical visible sets in {identical} of {} configurations; \
@@ -632,7 +650,7 @@ fn cgal_table(rows: &[Row], datasets: &[String], not_run: &[String], repeats: u6
         out.push_str(&format!(
             "**CGAL (`convex_hull_3`, exact predicates) in the same HPR, against ours (`own`, \
              k = 0)**, paired per view and γ: its own reported seconds of flip + hull + mapping \
-             (median of {repeats} runs) over ours; identical: the visible sets equal.\n\n{}\n",
+             (median of up to {repeats} runs, fewer under the time budget) over ours; identical: the visible sets equal.\n\n{}\n",
             markdown_table(
                 &[
                     "dataset",
@@ -759,6 +777,7 @@ mod tests {
             hull: hull.into(),
             perturb: 0.0,
             seconds,
+            samples: 3,
             n_visible: 5,
             jaccard_vs_exact: jaccard,
             f1_vs_reference: 0.9,

@@ -208,9 +208,11 @@ impl Experiment for RobustnessExperiment {
         if quick {
             &["bunny-69451", "bunny-scan-4", "bunny-mobile"]
         } else {
+            // The dragon through its two simulated scans (160k-173k points); its 871k-point
+            // sample under every degradation is left to `--datasets dragon-871414`, to keep the
+            // full benchmark within its hour.
             &[
                 "bunny-69451",
-                "dragon-871414",
                 "bunny-scan-4",
                 "dragon-scan-4",
                 "bunny-mobile",
