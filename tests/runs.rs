@@ -188,50 +188,12 @@ fn the_time_budget_sets_how_many_runs_a_call_gets() {
     let root = tmp("budget");
     let config = root.join("small.toml");
     std::fs::write(&config, SMALL).unwrap();
-    let samples = |budget: &str| -> Vec<String> {
-        let out = root.join(format!("b-{budget}"));
-        ok(&[
+    // Each row's (status, samples) from `run EXPERIMENT --quick ... --time-budget BUDGET`.
+    let rows = |experiment: &str, extra: &[&str], budget: &str| -> Vec<(String, String)> {
+        let out = root.join(format!("{experiment}-{budget}"));
+        let mut args = vec![
             "run",
-            "visibility",
-            "--quick",
-            "--datasets",
-            "sphere-20000",
-            "--config",
-            config.to_str().unwrap(),
-            "--repeats",
-            "3",
-            "--time-budget",
-            budget,
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        let mut r = csv::Reader::from_path(out.join("results.csv")).expect("results.csv");
-        let col = r
-            .headers()
-            .unwrap()
-            .iter()
-            .position(|h| h == "samples")
-            .expect("a samples column");
-        r.records()
-            .map(|rec| rec.unwrap()[col].to_owned())
-            .collect()
-    };
-    let once = samples("0");
-    assert!(
-        !once.is_empty() && once.iter().all(|s| s == "1"),
-        "{once:?}"
-    );
-    let all = samples("inf");
-    assert!(
-        all.len() == once.len() && all.iter().all(|s| s == "3"),
-        "{all:?}"
-    );
-    // The hull experiment's own loop over hull implementations honours the same budget.
-    let hull_samples = |budget: &str| -> Vec<String> {
-        let out = root.join(format!("h-{budget}"));
-        ok(&[
-            "run",
-            "hull",
+            experiment,
             "--quick",
             "--datasets",
             "sphere-20000",
@@ -241,26 +203,48 @@ fn the_time_budget_sets_how_many_runs_a_call_gets() {
             budget,
             "--out",
             out.to_str().unwrap(),
-        ]);
+        ];
+        args.extend_from_slice(extra);
+        ok(&args);
         let mut r = csv::Reader::from_path(out.join("results.csv")).expect("results.csv");
         let h = r.headers().unwrap().clone();
         let col = |name: &str| h.iter().position(|c| c == name).expect(name);
-        let (samples, status) = (col("samples"), col("status"));
+        let (status, samples) = (col("status"), col("samples"));
         r.records()
-            .map(|rec| rec.unwrap())
-            .filter(|rec| &rec[status] == "ok")
-            .map(|rec| rec[samples].to_owned())
+            .map(|rec| {
+                let rec = rec.unwrap();
+                (rec[status].to_owned(), rec[samples].to_owned())
+            })
             .collect()
     };
-    let once = hull_samples("0");
-    assert!(
-        !once.is_empty() && once.iter().all(|s| s == "1"),
-        "{once:?}"
-    );
-    let all = hull_samples("inf");
-    assert!(
-        all.len() == once.len() && all.iter().all(|s| s == "3"),
-        "{all:?}"
-    );
+    let check = |once: Vec<String>, all: Vec<String>| {
+        assert!(
+            !once.is_empty() && once.iter().all(|s| s == "1"),
+            "{once:?}"
+        );
+        assert!(
+            all.len() == once.len() && all.iter().all(|s| s == "3"),
+            "{all:?}"
+        );
+    };
+    // Every visibility row, through the measurement kernel.
+    let config = ["--config", config.to_str().unwrap()];
+    let every = |budget| -> Vec<String> {
+        rows("visibility", &config, budget)
+            .into_iter()
+            .map(|(_, samples)| samples)
+            .collect()
+    };
+    check(every("0"), every("inf"));
+    // The hull experiment's own loop over hull implementations honours the same budget (its
+    // skipped configurations are rows without runs).
+    let ran = |budget| -> Vec<String> {
+        rows("hull", &[], budget)
+            .into_iter()
+            .filter(|(status, _)| status == "ok")
+            .map(|(_, samples)| samples)
+            .collect()
+    };
+    check(ran("0"), ran("inf"));
     let _ = std::fs::remove_dir_all(&root);
 }

@@ -77,6 +77,21 @@ pub fn measure_within<T, E>(
     budget: Option<f64>,
     mut f: impl FnMut() -> Result<T, E>,
 ) -> Result<(T, Timing), E> {
+    measure_reported(repeats, budget, || {
+        let start = Instant::now();
+        let out = f()?;
+        Ok((out, start.elapsed().as_secs_f64()))
+    })
+}
+
+/// [`measure_within`] for a call that reports its own seconds (the part of its work being
+/// measured, e.g. HPR's flip + hull + mapping without the caller's bookkeeping): `f` returns
+/// its output and those seconds, and the budget counts them.
+pub fn measure_reported<T, E>(
+    repeats: usize,
+    budget: Option<f64>,
+    mut f: impl FnMut() -> Result<(T, f64), E>,
+) -> Result<(T, Timing), E> {
     let repeats = repeats.max(1);
     let mut times = Vec::with_capacity(repeats);
     let mut last = None;
@@ -85,9 +100,7 @@ pub fn measure_within<T, E>(
         if budget.is_some_and(|b| !times.is_empty() && spent >= b) {
             break;
         }
-        let start = Instant::now();
-        let out = f()?;
-        let t = start.elapsed().as_secs_f64();
+        let (out, t) = f()?;
         spent += t;
         times.push(t);
         last = Some(out);
@@ -102,6 +115,24 @@ pub fn measure_within<T, E>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn reported_seconds_are_the_timing_and_count_against_the_budget() {
+        let mut calls = 0;
+        let (last, t) = measure_reported(3, Some(1.0), || {
+            calls += 1;
+            Ok::<_, ()>((calls, 0.6))
+        })
+        .unwrap();
+        // 0.6 s after the first run, 1.2 s after the second: no third.
+        assert_eq!((last, t.samples, t.median), (2, 2, 0.6));
+        let (_, t) = measure_reported(3, None, || Ok::<_, ()>(((), 0.6))).unwrap();
+        assert_eq!(t.samples, 3);
+        assert_eq!(
+            measure_reported(3, None, || Err::<((), f64), _>("no")),
+            Err("no")
+        );
+    }
 
     #[test]
     fn statistics_of_known_samples() {

@@ -216,42 +216,32 @@ impl Experiment for HullExperiment {
                                 perturb,
                                 seed: SEED,
                             };
-                            let mut times = Vec::with_capacity(ctx.repeats);
-                            let mut outcome = None;
-                            for _ in 0..ctx.repeats.max(1) {
-                                // The time budget as the kernel applies it: no new run once
-                                // the runs so far took that long.
-                                let spent: f64 = times.iter().sum();
-                                if ctx
-                                    .time_budget
-                                    .is_some_and(|b| !times.is_empty() && spent >= b)
-                                {
-                                    break;
-                                }
-                                match hpr::visible(
-                                    &ds.cloud.positions,
-                                    cam.eye,
-                                    &params,
-                                    hull.as_ref(),
-                                ) {
-                                    Ok(v) => {
-                                        times.push(v.timings.total());
-                                        outcome = Some(Ok(v.visible));
-                                    }
-                                    Err(e) => {
-                                        outcome = Some(Err(e));
-                                        break;
-                                    }
-                                }
-                            }
-                            match outcome {
-                                Some(Ok(visible)) => {
+                            // Timed by HPR's own seconds (flip + hull + mapping), under the
+                            // time budget as the kernel's calls are.
+                            let measured = registry::timing::measure_reported(
+                                ctx.repeats,
+                                ctx.time_budget,
+                                || {
+                                    hpr::visible(
+                                        &ds.cloud.positions,
+                                        cam.eye,
+                                        &params,
+                                        hull.as_ref(),
+                                    )
+                                    .map(|v| {
+                                        let seconds = v.timings.total();
+                                        (v.visible, seconds)
+                                    })
+                                },
+                            );
+                            match measured {
+                                Ok((visible, timing)) => {
                                     if *hull_name == "own" && perturb == 0.0 {
                                         exact = Some(visible.clone());
                                         exacts.insert((view, gamma.to_bits()), visible.clone());
                                     }
-                                    row.seconds = registry::timing::Timing::of(&times).median;
-                                    row.samples = times.len();
+                                    row.seconds = timing.median;
+                                    row.samples = timing.samples;
                                     row.n_visible = visible.len();
                                     row.f1_vs_reference = truth
                                         .as_ref()
@@ -261,8 +251,7 @@ impl Experiment for HullExperiment {
                                             Score::of_sets(&visible, exact).jaccard();
                                     }
                                 }
-                                Some(Err(e)) => row.status = status_of(&e),
-                                None => row.status = "error: no run".into(),
+                                Err(e) => row.status = status_of(&e),
                             }
                             rows.push(row);
                         }
