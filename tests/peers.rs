@@ -177,6 +177,50 @@ fn pcu_raycast_agrees_with_our_raycast() {
     assert!(worst >= 0.99, "worst Jaccard {worst:.4} < 0.99");
 }
 
+#[test]
+fn the_peers_that_build_per_cloud_report_the_build_apart() {
+    // Embree's BVH and VTK's window come on the protocol's `built` line, and our ray caster's
+    // k-d tree is timed alone, so that the peers table gives both builds apart from the views.
+    for (method, sets) in [
+        ("pcu-raycast", &["width=160", "height=120"][..]),
+        ("vtk-zbuffer", &["width=160", "height=120"]),
+        ("raycast", &["width=160", "height=120", "primitive=disc"]),
+    ] {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let out = dir.path().join("v.txt");
+        let mut args = vec!["visible", "--dataset", "sphere-20000", "--view", "0"];
+        args.extend(["--method", method, "--out", out.to_str().expect("utf-8")]);
+        for s in sets {
+            args.extend(["--set", s]);
+        }
+        let run = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+            .args(&args)
+            .env("POINTSIGHT_METHODS", methods_dir())
+            .env("POINTSIGHT_DATA", "/nonexistent")
+            .output()
+            .expect("the pointsight binary runs");
+        let (stdout, err) = (
+            String::from_utf8_lossy(&run.stdout),
+            String::from_utf8_lossy(&run.stderr),
+        );
+        if !run.status.success() && err.contains("not installed") {
+            assert!(
+                std::env::var("CI").as_deref() != Ok("true"),
+                "peer {method} is not installed under CI=true: {err}"
+            );
+            continue;
+        }
+        assert!(run.status.success(), "{method}: {err}");
+        let build: f64 = stdout
+            .split_whitespace()
+            .find_map(|w| w.strip_prefix("build_seconds="))
+            .unwrap_or_else(|| panic!("{method} reports no build_seconds: {stdout}"))
+            .parse()
+            .expect("a number");
+        assert!(build > 0.0 && build < 60.0, "{method}: build {build} s");
+    }
+}
+
 /// `vtkSelectVisiblePoints`' documented rule (VTK's `vtkSelectVisiblePoints.cxx`), brute force
 /// in f64: every point drawn as a square sprite of `size` pixels centred on its projection
 /// (the pixels whose centres lie in the square: OpenGL's point rasterisation) into a z-buffer

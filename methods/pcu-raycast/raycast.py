@@ -4,7 +4,7 @@ Every point is an oriented disc (a surfel: a circle of `subdivs` triangles perpe
 normal, the dataset's normals or pointsight's estimates, sent by protocol 2) of radius
 `radius_factor` density spacings (the `--spacing` pointsight sends, the unit of its own
 `raycast`'s radius), or `radius` world units; Embree builds its BVH once per setting (timed
-apart, on standard error). Per view one ray per pixel centre (x + 0.5, y + 0.5) of the pinhole
+apart: the protocol's optional `built` line, and standard error). Per view one ray per pixel centre (x + 0.5, y + 0.5) of the pinhole
 camera, at the view's resolution or `width` x `height`; a point is visible when some ray's
 nearest hit is its disc. Against pointsight's `raycast`: its `primitive=disc` casts the same
 discs (exact circles, doubles; `primitive` here only says so, so that the two pair); its
@@ -96,8 +96,11 @@ def main():
     # The radius as a float32 array like the points: a scalar double is refused.
     radii = np.full(len(points), radius, dtype=np.float32)
     isect = pcu.RaySurfelIntersector(points, normals, r=radii, subdivs=subdivs)
+    built = time.perf_counter() - start
     print(f"pcu-raycast: BVH of {len(points)} surfels built in "
-          f"{time.perf_counter() - start:.6f} s (radius {radius:g})", file=sys.stderr, flush=True)
+          f"{built:.6f} s (radius {radius:g})", file=sys.stderr, flush=True)
+    # The protocol's optional first line: the build, reported apart from the per-view times.
+    print(json.dumps({"built": True, "seconds": built}), flush=True)
     for line in sys.stdin:
         try:
             cam = json.loads(line)["camera"]

@@ -12,7 +12,9 @@ Deviations from pointsight's `splat`: VTK's sprite is a square of `point_size` p
 ours is a disc of radius `radius_px` (`point_size` = 2 × radius_px compares like for like);
 VTK's depth tolerance is one world distance per view, `depth_tolerance` × the distance from the
 eye to the cloud's centre, where ours is relative per point. The render window's class is on the
-stderr log's first line (a test checks it is an offscreen one).
+stderr log's first line (a test checks it is an offscreen one). The set-up (VTK's objects, the
+window's GL context, a first draw that uploads the points) is timed once and reported on the
+protocol's optional `built` line, apart from the per-view times.
 """
 
 import argparse
@@ -76,6 +78,7 @@ def main():
     height = int(params["height"]) if "height" in params else None
 
     points = read_points(args.points)
+    start = time.perf_counter()
     centre = points.mean(axis=0)
     vpoints = vtk.vtkPoints()
     vpoints.SetData(numpy_to_vtk(points, deep=True))
@@ -108,6 +111,12 @@ def main():
     select.SetRenderer(ren)
     select.SetTolerance(0.0)
     radius = float(np.max(np.linalg.norm(points - centre, axis=1)))
+    # The per-cloud set-up, reported apart from the views (the protocol's optional first
+    # line): the VTK objects, the window's GL context and one draw, which uploads the points.
+    window.SetSize(64, 64)
+    ren.ResetCamera()
+    window.Render()
+    print(json.dumps({"built": True, "seconds": time.perf_counter() - start}), flush=True)
     for line in sys.stdin:
         try:
             cam = json.loads(line)["camera"]

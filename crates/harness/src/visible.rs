@@ -289,7 +289,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             parallel: false,
         };
         let (prepared, answers) = kernel::collect(&cell, ds.input());
-        let prepare_seconds = prepared?;
+        let preparation = prepared?;
         let kernel::Answer { output, timing } = answers
             .into_iter()
             .next()
@@ -299,7 +299,12 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         // An external program's timing is its own reported compute time (`registry::kernel`).
         let seconds = timing.median;
         output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
-        println!("prepare_seconds={prepare_seconds:.6} rays={}", output.rays);
+        println!(
+            "prepare_seconds={:.6}{} rays={}",
+            preparation.seconds,
+            build_text(&preparation),
+            output.rays
+        );
         if let Some(r) = &reference {
             println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
         }
@@ -342,12 +347,14 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         Err(e) if failure.is_none() => failure = Some(format!("view {}: {e}", view.index)),
         Err(_) => {}
     });
-    let prepare_seconds = prepared?;
+    let preparation = prepared?;
+    let prepare_seconds = preparation.seconds;
     if let Some(f) = failure {
         bail!(f);
     }
     println!(
-        "prepare_seconds={prepare_seconds:.6} views={} parallel_views={parallel}",
+        "prepare_seconds={prepare_seconds:.6}{} views={} parallel_views={parallel}",
+        build_text(&preparation),
         views.len(),
     );
     // The views' wall time, the per-dataset preparation excluded.
@@ -398,4 +405,11 @@ mod tests {
         assert!(parse_views("1,1", 3).is_err());
         assert!(parse_views("one", 3).is_err());
     }
+}
+
+/// ` build_seconds=T` when the method reported its own build seconds (an external program's
+/// `built` line), else nothing.
+fn build_text(p: &kernel::Preparation) -> String {
+    p.reported_seconds
+        .map_or(String::new(), |s| format!(" build_seconds={s:.6}"))
 }

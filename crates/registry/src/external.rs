@@ -18,7 +18,10 @@
 //!   does not gets its calls counted), and reads one line from its standard output:
 //!   `{"visible": [indices...], "seconds": T}` (or `"visible_file": PATH` naming a file of
 //!   indices, whitespace-separated), `T` the program's own compute seconds for that view, which
-//!   is what gets reported; or `{"error": MESSAGE}`. End of input means exit.
+//!   is what gets reported; or `{"error": MESSAGE}`. End of input means exit. Before its
+//!   first answer a program may write `{"built": true, "seconds": T}`: its own per-cloud set-up
+//!   (a BVH, a render window), reported apart from the per-view times
+//!   ([`Prepared::reported_build_seconds`]; again after a restart, the last one kept).
 //! - The LOD form (`kind = "lod"`, protocol 2): started once per cloud with `--lod --radius R`
 //!   appended too (R the full-detail splat radius, world units), the program builds its structure and says so on its first line, `{"built": true,
 //!   "seconds": T, "nodes": K, "bytes": B}` (its own build time); then per view and setting it
@@ -659,6 +662,9 @@ struct Running {
     /// Its input; `None` once closed (end of input means exit).
     stdin: Option<ChildStdin>,
     lines: Receiver<std::result::Result<String, String>>,
+    /// No line of it has been read yet (the visibility form's optional `built` line comes
+    /// first).
+    fresh: bool,
 }
 
 /// How long a program whose input was closed has to exit before it is killed.
@@ -789,6 +795,7 @@ impl Session {
             child,
             stdin: Some(stdin),
             lines: rx,
+            fresh: true,
         })
     }
 
@@ -867,6 +874,7 @@ impl Session {
                     drop(running);
                     return fail(&mut guard, why);
                 }
+                running.fresh = false;
             }
             *guard = Some(running);
         }
@@ -887,10 +895,22 @@ impl Session {
         if let Err(e) = sent {
             return fail(&mut guard, format!("the program is gone ({e})"));
         }
-        let line = match Self::receive(running, self.timeout) {
+        let mut start = start;
+        let mut line = match Self::receive(running, self.timeout) {
             Ok(line) => line,
             Err(why) => return fail(&mut guard, why),
         };
+        if std::mem::take(&mut running.fresh) && is_built_line(&line) {
+            // The visibility form's optional first line: the program's own set-up time.
+            if let Err(why) = self.greet(&line) {
+                return fail(&mut guard, why);
+            }
+            start = Instant::now();
+            line = match Self::receive(running, self.timeout) {
+                Ok(line) => line,
+                Err(why) => return fail(&mut guard, why),
+            };
+        }
         let wall = start.elapsed().as_secs_f64();
         match parse(&line) {
             Ok(()) => Ok(wall),
@@ -1001,6 +1021,13 @@ impl Session {
     }
 }
 
+/// A line that says `{"built": true, ...}` (cheap to ask: answers can be long).
+fn is_built_line(line: &str) -> bool {
+    line.len() < 4096
+        && serde_json::from_str::<serde_json::Value>(line)
+            .is_ok_and(|v| v.get("built").and_then(serde_json::Value::as_bool) == Some(true))
+}
+
 /// At most 200 characters of `s`.
 fn trunc(s: &str) -> String {
     let mut t: String = s.chars().take(200).collect();
@@ -1066,6 +1093,10 @@ impl Prepared for ExternalPrepared {
 
     fn visible_at(&self, view: usize, camera: &Camera) -> Result<Output> {
         self.ask(view, camera)
+    }
+
+    fn reported_build_seconds(&self) -> Option<f64> {
+        self.session.built.lock().ok()?.as_ref()?.0
     }
 }
 
@@ -1417,6 +1448,64 @@ mod tests {
             took >= EXIT_GRACE && took < EXIT_GRACE + Duration::from_secs(20),
             "{took:?}"
         );
+    }
+
+    #[test]
+    fn a_built_line_before_the_first_answer_is_its_build_time() {
+        // One program says how long its set-up took, once, before its first answer; another
+        // says nothing; a third sends a `built` line in place of an answer later (an error).
+        let script = |first: &str, later: &str| {
+            format!(
+                "import sys, json\n{first}\nfor k, line in enumerate(sys.stdin):\n    \
+                 json.loads(line)\n    {later}\n    \
+                 print(json.dumps({{'visible': [k], 'seconds': 0.5}}), flush=True)\n"
+            )
+        };
+        let built = "print(json.dumps({'built': True, 'seconds': 1.25}), flush=True)";
+        let manifest = "protocol = 2\ncommand = [\"python3\", \"m.py\"]\n";
+        let cloud = cloud::PointCloud {
+            positions: (0..20)
+                .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
+                .collect(),
+            ..Default::default()
+        };
+        let camera = test_camera();
+        let views = crate::kernel::View::all(&[camera, camera, camera]);
+        let run = |dir: &tempfile::TempDir| {
+            let m = ExternalMethod::load(dir.path()).unwrap();
+            let input = Input {
+                cloud: &cloud,
+                mesh: None,
+            };
+            let cell = crate::kernel::Cell::new(&m, &crate::Setting::parse(""), &views, 1);
+            crate::kernel::collect(&cell, input)
+        };
+        let (prep, answers) = run(&folder(manifest, &script(built, "pass")));
+        assert_eq!(prep.unwrap().reported_seconds, Some(1.25));
+        let visible: Vec<Vec<u32>> = answers
+            .iter()
+            .map(|(_, a)| a.as_ref().unwrap().output.visible.clone())
+            .collect();
+        assert_eq!(visible, [vec![0], vec![1], vec![2]], "the built line is no answer");
+        assert!(
+            answers
+                .iter()
+                .all(|(_, a)| a.as_ref().unwrap().timing.median == 0.5)
+        );
+        let (prep, answers) = run(&folder(manifest, &script("", "pass")));
+        assert_eq!(prep.unwrap().reported_seconds, None);
+        assert!(answers.iter().all(|(_, a)| a.is_ok()));
+        // A `built` line where view 1's answer belongs is not an answer.
+        let (_, answers) = run(&folder(
+            manifest,
+            &script(
+                built,
+                "if k == 1: print(json.dumps({'built': True, 'seconds': 2}), flush=True); continue",
+            ),
+        ));
+        assert!(answers[0].1.is_ok(), "{:?}", answers[0].1);
+        let err = answers[1].1.as_ref().unwrap_err();
+        assert!(err.contains("neither \"visible\""), "{err}");
     }
 
     #[test]

@@ -10,7 +10,8 @@
 //! experiments can write an error row and go on.
 //!
 //! The visibility form ([`run`]): the method is prepared once per cell (per-cloud state: a
-//! k-d tree, a BVH; parameters the method did not read are refused here), then each view is
+//! k-d tree, a BVH; parameters the method did not read are refused here; its wall time and
+//! an external program's own build seconds are the cell's [`Preparation`]), then each view is
 //! answered `repeats` times through [`crate::timing`], fewer once the cell's time budget (wall
 //! seconds) is spent; the timing is an external program's own reported seconds when it gives
 //! them. The level-of-detail form ([`run_lod`]): the method builds once
@@ -97,15 +98,27 @@ pub struct Answer {
     pub timing: Timing,
 }
 
+/// A cell's preparation, timed once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Preparation {
+    /// Wall seconds of [`Method::prepare`]: a built-in method's per-cloud state (its k-d tree,
+    /// estimated normals); for an external method, writing the points file it reads.
+    pub seconds: f64,
+    /// The structure's build alone ([`Prepared::reported_build_seconds`]: an external
+    /// program's `built` line, its BVH or render window; the ray caster's k-d tree), when the
+    /// method accounts for it.
+    pub reported_seconds: Option<f64>,
+}
+
 /// Prepares `cell.method` on `input` (refusing parameters it did not read), then answers each
 /// view: `each` gets every view of the cell, in order, with its answer or the error that
 /// stopped it (a failed preparation's error, for every view). Returns the preparation's
-/// seconds (one run), or its error once every view has been told.
+/// timing (one run), or its error once every view has been told.
 pub fn run<'a>(
     cell: &Cell<'_>,
     input: Input<'a>,
     mut each: impl FnMut(&View, std::result::Result<Answer, &Error>),
-) -> Result<f64> {
+) -> Result<Preparation> {
     let start = std::time::Instant::now();
     let prepared = prepare(cell.method, input, &cell.params);
     let prepare_seconds = start.elapsed().as_secs_f64();
@@ -141,7 +154,10 @@ pub fn run<'a>(
             }
         }
     }
-    Ok(prepare_seconds)
+    Ok(Preparation {
+        seconds: prepare_seconds,
+        reported_seconds: prepared.reported_build_seconds(),
+    })
 }
 
 /// Prepares `method` on `input`, rejecting parameters it does not read.
@@ -307,7 +323,7 @@ pub type Answers = Vec<(View, std::result::Result<Answer, String>)>;
 
 /// [`run`], with the answers collected: each view with its answer or its error's message, and
 /// the preparation's seconds or its error.
-pub fn collect(cell: &Cell<'_>, input: Input<'_>) -> (Result<f64>, Answers) {
+pub fn collect(cell: &Cell<'_>, input: Input<'_>) -> (Result<Preparation>, Answers) {
     let mut answers = Vec::with_capacity(cell.views.len());
     let prepared = run(cell, input, |view, answer| {
         answers.push((*view, answer.map_err(|e| e.to_string())));

@@ -102,6 +102,13 @@ pub trait Prepared: Sync {
         let _ = view;
         self.visible(camera)
     }
+    /// The build of the method's per-cloud structure alone, seconds, when it accounts for it:
+    /// an external program's `built` line (its BVH, its render window), the ray caster's k-d
+    /// tree (without the normals and density spacing, which a peer is sent ready); asked after
+    /// the views.
+    fn reported_build_seconds(&self) -> Option<f64> {
+        None
+    }
 }
 
 /// A visibility method.

@@ -59,6 +59,8 @@ struct Prep {
     width: Option<u32>,
     height: Option<u32>,
     rays: Mutex<Option<RayList>>,
+    /// The k-d tree's build (with the normals attached), seconds.
+    build_seconds: f64,
 }
 
 impl Prepared for Prep {
@@ -96,6 +98,10 @@ impl Prepared for Prep {
             detail: Vec::new(),
             score: None,
         })
+    }
+
+    fn reported_build_seconds(&self) -> Option<f64> {
+        Some(self.build_seconds)
     }
 }
 
@@ -167,12 +173,19 @@ impl Method for RaycastMethod {
             }
         };
         let positions = &input.cloud.positions;
-        let mut caster = RayCaster::new(positions)?;
-        if primitive == Primitive::Disc {
+        let normals = match primitive {
             // The normals an external disc caster is sent, so the pairing compares like with like.
-            let (normals, _) = crate::external::cloud_normals(input.cloud)?;
-            caster = caster.with_normals(&normals)?;
+            Primitive::Disc => Some(crate::external::cloud_normals(input.cloud)?.0),
+            Primitive::Sphere => None,
+        };
+        // The structure's build alone (the normals and the density spacing are inputs an
+        // external caster is sent too), as a peer reports its BVH's.
+        let start = std::time::Instant::now();
+        let mut caster = RayCaster::new(positions)?;
+        if let Some(normals) = &normals {
+            caster = caster.with_normals(normals)?;
         }
+        let build_seconds = start.elapsed().as_secs_f64();
         Ok(Box::new(Prep {
             caster,
             radius: radius(positions, params)?,
@@ -181,6 +194,7 @@ impl Method for RaycastMethod {
             width: params.get_opt("width")?,
             height: params.get_opt("height")?,
             rays: Mutex::new(None),
+            build_seconds,
         }))
     }
 }

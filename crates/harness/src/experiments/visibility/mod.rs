@@ -175,6 +175,49 @@ pub struct PeerRow {
     pub partner_f1: f64,
     /// Jaccard index of the two visible sets (NaN without a partner).
     pub jaccard: f64,
+    /// The peer's own build seconds for this cloud and setting (its `built` line; NaN when it
+    /// reported none).
+    #[serde(default = "nan")]
+    pub peer_build_seconds: f64,
+    /// The partner's structure build, seconds (the ray caster's k-d tree; else its whole
+    /// preparation).
+    #[serde(default = "nan")]
+    pub partner_build_seconds: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// One row of `builds.csv`: one method's preparation at one setting on one dataset (one row
+/// per shard that ran it).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct BuildRow {
+    /// Dataset.
+    pub dataset: String,
+    /// Method.
+    pub method: String,
+    /// Setting.
+    pub params: String,
+    /// The views this preparation answered.
+    pub views: usize,
+    /// Wall seconds of the preparation (one run): a built-in method's per-cloud state; for an
+    /// external method, writing the points file it reads (normals and spacing included).
+    pub prepare_seconds: f64,
+    /// The structure's build alone as the method accounts for it (an external program's
+    /// `built` line, the ray caster's k-d tree); NaN when it gives none.
+    pub build_seconds: f64,
+}
+
+impl BuildRow {
+    /// The build a pairing compares: the structure's own, else the whole preparation.
+    fn structure_seconds(&self, external: bool) -> f64 {
+        match (self.build_seconds.is_nan(), external) {
+            (false, _) => self.build_seconds,
+            (true, false) => self.prepare_seconds,
+            (true, true) => f64::NAN,
+        }
+    }
 }
 
 fn is_auto(params: &str) -> bool {
@@ -243,6 +286,7 @@ impl Experiment for VisibilityExperiment {
         let mut pixel_rows = Vec::new();
         let mut agreement = Vec::new();
         let mut peers = Vec::new();
+        let mut builds = Vec::new();
         let mut off_surface_meta = serde_json::Map::new();
         for (d_idx, name) in ctx.datasets.iter().enumerate() {
             let owned: Vec<usize> = (0..n_views)
@@ -291,6 +335,7 @@ impl Experiment for VisibilityExperiment {
             let mut kept: BTreeMap<usize, Vec<Run>> = BTreeMap::new();
             let mut ds_rows: Vec<Row> = Vec::new();
             let mut ds_pixels: Vec<PixelRow> = Vec::new();
+            let mut ds_builds: Vec<BuildRow> = Vec::new();
             let cells: usize = methods
                 .iter()
                 .map(|(_, s)| s.settings(ctx.quick).len())
@@ -307,7 +352,17 @@ impl Experiment for VisibilityExperiment {
                         budget: ctx.time_budget,
                         ..kernel::Cell::new(*m, setting, &kviews, ctx.repeats)
                     };
-                    let (_, answers) = kernel::collect(&cell, ds.input());
+                    let (prepared, answers) = kernel::collect(&cell, ds.input());
+                    if let Ok(p) = prepared {
+                        ds_builds.push(BuildRow {
+                            dataset: name.clone(),
+                            method: m.name().to_owned(),
+                            params: label.clone(),
+                            views: kviews.len(),
+                            prepare_seconds: p.seconds,
+                            build_seconds: p.reported_seconds.unwrap_or(f64::NAN),
+                        });
+                    }
                     for (v, outcome) in answers {
                         let (view, cam) = (v.index, v.camera);
                         let truth = truths.get(&view).and_then(Option::as_deref);
@@ -408,7 +463,7 @@ impl Experiment for VisibilityExperiment {
                 if truths.get(&view).is_some_and(Option::is_none) {
                     agreement.extend(agreement_rows(name, view, runs, &defaults));
                 }
-                peers.extend(peer_rows(name, view, runs, &ds_rows, &pairing));
+                peers.extend(peer_rows(name, view, runs, &ds_rows, &ds_builds, &pairing));
             }
             if let (Some(reference), Some(runs)) = (
                 reference
@@ -420,11 +475,13 @@ impl Experiment for VisibilityExperiment {
             }
             rows.extend(ds_rows);
             pixel_rows.extend(ds_pixels);
+            builds.extend(ds_builds);
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
         write_csv(&ctx.out_dir.join("agreement.csv"), &agreement)?;
         write_csv(&ctx.out_dir.join("peers.csv"), &peers)?;
+        write_csv(&ctx.out_dir.join("builds.csv"), &builds)?;
         not_run.sort();
         not_run.dedup();
         let sweeps: serde_json::Map<String, serde_json::Value> = methods
@@ -598,12 +655,19 @@ fn peer_rows(
     view: usize,
     runs: &[Run],
     rows: &[Row],
+    builds: &[BuildRow],
     pairing: &BTreeMap<(String, String), Option<(String, String)>>,
 ) -> Vec<PeerRow> {
     let mut out = Vec::new();
     let row = |method: &str, params: &str| {
         rows.iter()
             .find(|x| x.view == view && x.method == method && x.params == params)
+    };
+    let build = |method: &str, params: &str, external: bool| {
+        builds
+            .iter()
+            .find(|b| b.method == method && b.params == params)
+            .map_or(f64::NAN, |b| b.structure_seconds(external))
     };
     for peer in runs {
         let Some(paired) = pairing.get(&(peer.method.clone(), peer.params.clone())) else {
@@ -637,6 +701,8 @@ fn peer_rows(
             jaccard: ours.map_or(f64::NAN, |o| {
                 Score::of_sets(&peer.visible, &o.visible).jaccard()
             }),
+            peer_build_seconds: build(&peer.method, &peer.params, true),
+            partner_build_seconds: ours.map_or(f64::NAN, |o| build(&o.method, &o.params, false)),
         });
     }
     out

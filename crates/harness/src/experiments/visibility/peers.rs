@@ -248,6 +248,8 @@ mod tests {
             peer_f1: 0.9,
             partner_f1: 0.8,
             jaccard,
+            peer_build_seconds: f64::NAN,
+            partner_build_seconds: 0.25 * (view + 1) as f64,
         }
     }
 
@@ -277,7 +279,8 @@ mod tests {
             .find(|l| l.contains("cgal-hpr"))
             .expect("a cgal-hpr row");
         // Paired with hpr at its setting, two views, Jaccard median 0.75 and min 0.5, the
-        // ratio's geometric mean sqrt(2 x 4), per view 2 to 4, ΔF1 +0.1.
+        // ratio's geometric mean sqrt(2 x 4), per view 2 to 4, ΔF1 +0.1; ours built in 0.25 s
+        // and 0.5 s (the upper median), the peer reported no build.
         for part in [
             "hpr gamma=3;kernel=linear;perturb=0;seed=2007",
             "| 2 |",
@@ -286,6 +289,7 @@ mod tests {
             "2.83×",
             "2.00–4.00",
             "+0.1000",
+            "| 0.5000 | - |",
         ] {
             assert!(line.contains(part), "{part} in {line}");
         }

@@ -325,8 +325,12 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
              time) over ours, geometric mean over the views with its bootstrap 95 % interval \
              (views resampled, 10,000 times), then the lowest and highest view's; above 1 means \
              ours is faster. `ΔF1`: the peer's F1 minus ours, mean over the views [95 % \
-             interval]. A peer whose `peer_of` names no visibility method of ours has its own \
-             figures only.\n\n",
+             interval]. `build s`: the per-cloud structure's build, once per setting, apart \
+             from the per-view times (median over the views' cells): the peer's as its own \
+             `built` line reports it (Embree's BVH, VTK's render window and first draw; `-`: it \
+             builds nothing per cloud, or does not say), ours as our method accounts for it \
+             (the ray caster's k-d tree; else its whole preparation). A peer whose `peer_of` \
+             names no visibility method of ours has its own figures only.\n\n",
         );
         let rows: Vec<Vec<String>> = groups
             .iter()
@@ -377,6 +381,12 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                     .map(|p| p.peer_f1 - p.partner_f1)
                     .filter(|d| !d.is_nan())
                     .collect();
+                let build = |f: fn(&PeerRow) -> f64| {
+                    let mut b: Vec<f64> = ps.iter().map(|p| f(p)).filter(|x| !x.is_nan()).collect();
+                    b.sort_by(f64::total_cmp);
+                    b.get(b.len() / 2)
+                        .map_or("-".to_owned(), |x| format!("{x:.4}"))
+                };
                 let df1 = crate::stats::bootstrap_mean(&df1, 2007)
                     .map_or("-".to_owned(), |(m, lo, hi)| {
                         format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
@@ -398,6 +408,8 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                     ratio,
                     spread,
                     df1,
+                    build(|p| p.partner_build_seconds),
+                    build(|p| p.peer_build_seconds),
                 ]
             })
             .collect();
@@ -415,6 +427,8 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                 "time ratio [95 % CI]",
                 "ratio min–max",
                 "ΔF1 [95 % CI]",
+                "ours build s",
+                "peer build s",
             ],
             &rows,
         ));
@@ -783,13 +797,14 @@ pub(super) fn render(
             ", [agreement.csv](agreement.csv)"
         },
     );
-    let summary = if dir.join("peers.csv").exists() {
-        summary.replace(
-            "[pixels.csv](pixels.csv)",
-            "[pixels.csv](pixels.csv), [peers.csv](peers.csv)",
-        )
-    } else {
-        summary
-    };
+    let mut summary = summary;
+    for extra in ["builds.csv", "peers.csv"] {
+        if dir.join(extra).exists() {
+            summary = summary.replace(
+                "[pixels.csv](pixels.csv)",
+                &format!("[pixels.csv](pixels.csv), [{extra}]({extra})"),
+            );
+        }
+    }
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
 }
