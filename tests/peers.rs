@@ -299,31 +299,40 @@ fn vtk_zbuffer_follows_its_rule_and_agrees_with_our_splat_offscreen() {
     );
     let ds = harness::datasets::load("sphere-20000", Path::new("/nonexistent"))
         .expect("a synthetic dataset");
-    let (mut worst_rule, mut worst_splat) = (1.0f64, 1.0f64);
+    let (mut worst_rule, mut worst_splat, mut worst_disc) = (1.0f64, 1.0f64, 1.0f64);
     for view in [0, 4, 9, 13] {
         for radius_px in [1, 2] {
             let size = format!("point_size={}", 2 * radius_px);
             let radius = format!("radius_px={radius_px}");
             let common = ["depth_tolerance=0.01", "width=320", "height=240"];
             let peer_sets: Vec<&str> = std::iter::once(&size[..]).chain(common).collect();
-            let our_sets: Vec<&str> = std::iter::once(&radius[..]).chain(common).collect();
+            let disc_sets: Vec<&str> = std::iter::once(&radius[..]).chain(common).collect();
+            let our_sets: Vec<&str> = disc_sets.iter().copied().chain(["rule=sprite"]).collect();
             let Some(peer) = visible("vtk-zbuffer", "sphere-20000", view, &peer_sets) else {
                 return;
             };
             let camera = ds.views[view].with_resolution(320, 240).expect("a camera");
             let rule = vtk_rule(&ds.cloud.positions, &camera, 2 * radius_px, 0.01);
             let ours = visible("splat", "sphere-20000", view, &our_sets).expect("ours runs");
-            let (jr, js) = (jaccard(&peer, &rule), jaccard(&peer, &ours));
+            let disc = visible("splat", "sphere-20000", view, &disc_sets).expect("ours runs");
+            let (jr, js, jd) = (
+                jaccard(&peer, &rule),
+                jaccard(&peer, &ours),
+                jaccard(&peer, &disc),
+            );
             eprintln!(
                 "vtk-zbuffer: view {view} point_size {}: Jaccard {jr:.4} against its rule \
-                 ({} vs {} points), {js:.4} against splat radius_px {radius_px} ({} points)",
+                 ({} vs {} points), {js:.4} against splat rule=sprite radius_px {radius_px} ({} \
+                 points), {jd:.4} against the disc rule ({} points)",
                 2 * radius_px,
                 peer.len(),
                 rule.len(),
-                ours.len()
+                ours.len(),
+                disc.len()
             );
             worst_rule = worst_rule.min(jr);
             worst_splat = worst_splat.min(js);
+            worst_disc = worst_disc.min(jd);
         }
     }
     // VTK drives its rule exactly (measured 0.997 to 0.9997 with multisampling off; with VTK's
@@ -332,14 +341,17 @@ fn vtk_zbuffer_follows_its_rule_and_agrees_with_our_splat_offscreen() {
         worst_rule >= 0.99,
         "worst Jaccard against VTK's rule {worst_rule:.4}"
     );
-    // Against our splat the issue asks for 0.9; measured 0.72 to 0.80. The rule is another
-    // method: square sprites (with our relative tolerance the rule gives 0.79 to 0.81) and a
-    // tolerance applied by moving the point along the view axis, which also moves the pixel it
-    // is looked up at by up to 1 % of its distance from the image centre. This floor catches a
-    // regression, not that gap.
+    // Against our splat at VTK's rule (rule=sprite, what the peers table pairs it with) the
+    // issue asks for 0.9: measured 0.9979 to 0.9998 (VTK's 24-bit depth and f32 positions
+    // against ours). Against our default disc rule, another selection (discs at the point's
+    // pixel, a relative tolerance there), 0.72 to 0.80: a floor that catches a regression.
     assert!(
-        worst_splat >= 0.7,
-        "worst Jaccard against splat {worst_splat:.4} < 0.7"
+        worst_splat >= 0.99,
+        "worst Jaccard against splat rule=sprite {worst_splat:.4} < 0.99"
+    );
+    assert!(
+        worst_disc >= 0.7,
+        "worst Jaccard against the disc rule {worst_disc:.4} < 0.7"
     );
 }
 

@@ -8,10 +8,10 @@ field of view, principal point as VTK's window centre), multisampling off;
 `ToleranceWorld` and keeps it when it is nearer than the z-buffer at the pixel it then projects
 to. The point's index rides along as point data, so the selection maps back.
 
-Deviations from pointsight's `splat`: VTK's sprite is a square of `point_size` pixels where
-ours is a disc of radius `radius_px` (`point_size` = 2 × radius_px compares like for like);
-VTK's depth tolerance is one world distance per view, `depth_tolerance` × the distance from the
-eye to the cloud's centre, where ours is relative per point. The render window's class is on the
+Against pointsight's `splat`: this is its `rule=sprite` (a square of `point_size` = 2 ×
+`radius_px` pixels, one world tolerance per view, `depth_tolerance` × the distance from the eye
+to the cloud's centre), which the `rule` key here only names so that the two pair; its default
+disc rule (a disc of radius `radius_px`, a relative tolerance per point) is another selection. The render window's class is on the
 stderr log's first line (a test checks it is an offscreen one). The set-up (VTK's objects, the
 window's GL context, a first draw that uploads the points) is timed once and reported on the
 protocol's optional `built` line, apart from the per-view times.
@@ -71,6 +71,8 @@ def main():
     params = json.loads(args.params)
     point_size = float(params.get("point_size", "4"))
     depth_tolerance = float(params.get("depth_tolerance", "0.01"))
+    if params.get("rule", "sprite") != "sprite":
+        raise SystemExit(f"vtk-zbuffer: rule={params['rule']}: VTK draws square sprites (sprite only)")
     multisamples = int(params.get("multisamples", "0"))
     if multisamples < 0:
         raise SystemExit(f"vtk-zbuffer: multisamples={multisamples}: must be >= 0")

@@ -388,6 +388,13 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// ` build_seconds=T` when the method reported its own build seconds (an external program's
+/// `built` line), else nothing.
+fn build_text(p: &kernel::Preparation) -> String {
+    p.reported_seconds
+        .map_or(String::new(), |s| format!(" build_seconds={s:.6}"))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,11 +412,4 @@ mod tests {
         assert!(parse_views("1,1", 3).is_err());
         assert!(parse_views("one", 3).is_err());
     }
-}
-
-/// ` build_seconds=T` when the method reported its own build seconds (an external program's
-/// `built` line), else nothing.
-fn build_text(p: &kernel::Preparation) -> String {
-    p.reported_seconds
-        .map_or(String::new(), |s| format!(" build_seconds={s:.6}"))
 }

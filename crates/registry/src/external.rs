@@ -1486,7 +1486,11 @@ mod tests {
             .iter()
             .map(|(_, a)| a.as_ref().unwrap().output.visible.clone())
             .collect();
-        assert_eq!(visible, [vec![0], vec![1], vec![2]], "the built line is no answer");
+        assert_eq!(
+            visible,
+            [vec![0], vec![1], vec![2]],
+            "the built line is no answer"
+        );
         assert!(
             answers
                 .iter()

@@ -1,4 +1,5 @@
-//! `splat`: the point-only z-buffer baseline (`splat::visibility`).
+//! `splat`: the point-only z-buffer baseline (`splat::visibility`), with its disc rule or a
+//! GPU point renderer's (`rule=sprite`, `splat::sprite`).
 
 use std::sync::Mutex;
 
@@ -23,6 +24,11 @@ const PARAMS: &[ParamSpec] = &[
         key: "depth_tolerance",
         default: "0.01",
         help: "relative depth tolerance",
+    },
+    ParamSpec {
+        key: "rule",
+        default: "disc",
+        help: "disc (a disc of radius_px at the point's pixel, relative tolerance there) or sprite (a GPU point renderer's: a square of 2 x radius_px pixels at the exact projection, one world tolerance depth_tolerance x the eye's distance to the centroid along the view axis; VTK's vtkSelectVisiblePoints)",
     },
     ParamSpec {
         key: "width",
@@ -88,12 +94,24 @@ impl Method for SplatMethod {
 
     fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
         let d = SplatParams::default();
+        let rule = match params.get("rule", "disc".to_owned())?.as_str() {
+            "disc" => splat::Rule::Disc,
+            "sprite" => splat::Rule::Sprite,
+            other => {
+                return Err(Error::BadValue {
+                    key: "rule".into(),
+                    value: other.to_owned(),
+                    reason: "expected disc or sprite".into(),
+                });
+            }
+        };
         Ok(Box::new(Prep {
             splatter: Splatter::new(&input.cloud.positions)?,
             scratch: Mutex::new(SplatScratch::default()),
             params: SplatParams {
                 radius_px: params.get("radius_px", d.radius_px)?,
                 depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
+                rule,
             },
             width: params.get_opt("width")?,
             height: params.get_opt("height")?,

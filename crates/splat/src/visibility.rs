@@ -40,13 +40,28 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
+/// Which z-buffer selection rule.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Rule {
+    /// This module's: a disc of `radius_px` centred on the point's pixel, a relative tolerance
+    /// at the point's own pixel.
+    #[default]
+    Disc,
+    /// A GPU point renderer's ([`crate::sprite`]): a square sprite of 2 × `radius_px` pixels
+    /// at the exact projection, one world tolerance along the view axis.
+    Sprite,
+}
+
 /// Parameters of the splat baseline.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SplatParams {
-    /// Splat radius in pixels.
+    /// Splat radius in pixels (with [`Rule::Sprite`], half the sprite's side).
     pub radius_px: f64,
-    /// Relative depth tolerance.
+    /// Relative depth tolerance (with [`Rule::Sprite`], relative to the eye's distance to the
+    /// cloud's centroid).
     pub depth_tolerance: f64,
+    /// The selection rule.
+    pub rule: Rule,
 }
 
 impl Default for SplatParams {
@@ -54,6 +69,7 @@ impl Default for SplatParams {
         Self {
             radius_px: 2.0,
             depth_tolerance: 0.01,
+            rule: Rule::Disc,
         }
     }
 }
@@ -86,9 +102,9 @@ fn unpack_depth(v: u64) -> f32 {
 #[derive(Debug, Default)]
 pub struct SplatScratch {
     projected: Vec<(u16, u16, f32)>,
-    private: Vec<Vec<u64>>,
+    pub(crate) private: Vec<Vec<u64>>,
     horizontal: Vec<Vec<u64>>,
-    splatted: Vec<u64>,
+    pub(crate) splatted: Vec<u64>,
     depth: Vec<f32>,
 }
 
@@ -100,6 +116,8 @@ pub struct Splatter {
     pos: Vec<Vec3A>,
     /// Input index of each stored position.
     perm: Vec<u32>,
+    /// The points' mean (f64).
+    centroid: DVec3,
 }
 
 impl Splatter {
@@ -117,6 +135,7 @@ impl Splatter {
                 origin: DVec3::ZERO,
                 pos: Vec::new(),
                 perm: Vec::new(),
+                centroid: DVec3::ZERO,
             });
         }
         let bbox = cloud::Aabb::from_points(points).ok_or(cloud::Error::EmptyCloud)?;
@@ -136,7 +155,28 @@ impl Splatter {
             .par_iter()
             .map(|&i| Vec3A::from((points[i as usize] - origin).as_vec3()))
             .collect();
-        Ok(Self { origin, pos, perm })
+        let centroid = points.par_iter().copied().sum::<DVec3>() / points.len() as f64;
+        Ok(Self {
+            origin,
+            pos,
+            perm,
+            centroid,
+        })
+    }
+
+    /// Stored positions (relative to the bounding box's centre, f32, Morton order).
+    pub(crate) fn positions(&self) -> &[Vec3A] {
+        &self.pos
+    }
+
+    /// Input index of each stored position.
+    pub(crate) fn permutation(&self) -> &[u32] {
+        &self.perm
+    }
+
+    /// The points' mean.
+    pub fn centroid(&self) -> DVec3 {
+        self.centroid
     }
 
     /// Number of points.
@@ -156,6 +196,16 @@ impl Splatter {
         &self,
         camera: &Camera,
     ) -> impl Fn(Vec3A) -> Option<(u16, u16, f32)> + Sync + use<> {
+        let project = self.projector_f32(camera);
+        move |p: Vec3A| project(p).map(|(x, y, z)| (x as u16, y as u16, z))
+    }
+
+    /// [`Self::projector`] with the sub-pixel position: (x, y, depth) in [0, w) × [0, h).
+    #[inline(always)]
+    pub(crate) fn projector_f32(
+        &self,
+        camera: &Camera,
+    ) -> impl Fn(Vec3A) -> Option<(f32, f32, f32)> + Sync + use<> {
         let eye = Vec3A::from((camera.eye - self.origin).as_vec3());
         let (fwd, right, down) = (
             Vec3A::from(camera.forward().as_vec3()),
@@ -202,7 +252,7 @@ impl Splatter {
                     (if x >= w { x - w } else { x }, h * theta / PI, z)
                 }
             };
-            (z > 0.0 && x >= 0.0 && y >= 0.0 && x < w && y < h).then_some((x as u16, y as u16, z))
+            (z > 0.0 && x >= 0.0 && y >= 0.0 && x < w && y < h).then_some((x, y, z))
         }
     }
 
@@ -243,6 +293,9 @@ impl Splatter {
                 name: "width/height",
                 reason: format!("at most {} pixels a side, got {w}x{h}", OFF - 1),
             });
+        }
+        if params.rule == Rule::Sprite {
+            return crate::sprite::visibility(self, camera, params, scratch, pixels);
         }
         cloud::memory::ensure(
             self.memory_estimate(camera),
@@ -548,6 +601,7 @@ mod tests {
             let params = SplatParams {
                 radius_px,
                 depth_tolerance,
+                ..SplatParams::default()
             };
             let fast = splat_visibility(&scene.cloud.positions, &camera, &params).unwrap();
             assert_eq!(
@@ -623,6 +677,7 @@ mod tests {
         let params = SplatParams {
             radius_px: 1.5,
             depth_tolerance: 0.05,
+            ..SplatParams::default()
         };
         let v = splat_visibility(&scene.cloud.positions, &camera, &params).unwrap();
         let mut flags = vec![false; scene.cloud.len()];
