@@ -82,6 +82,54 @@ fn las_laz_round_trip_of_what_we_write() {
 }
 
 #[test]
+fn a_laz_of_several_chunks_decodes_in_parallel_as_on_one_thread() {
+    // 130,000 points: three LASzip chunks of 50,000 (the writer's default), so the chunk table
+    // passes the parallel decoder's checks; the answer must be the one-thread decoder's.
+    let n = 130_000;
+    let cloud = cloud::PointCloud {
+        positions: (0..n)
+            .map(|i| {
+                let t = f64::from(i) * 1e-3;
+                DVec3::new(t.sin() * 10.0, t.cos() * 7.0, t * 0.01)
+            })
+            .collect(),
+        colors: Some(
+            (0..n)
+                .map(|i| [(i % 251) as u8, (i % 13) as u8, 7])
+                .collect(),
+        ),
+        ..Default::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("many.laz");
+    cloud::io::las::write_las(&path, &cloud).unwrap();
+    let open = |one_thread| {
+        let options = cloud::io::las::LasOptions {
+            one_thread,
+            ..Default::default()
+        };
+        let stream = cloud::io::las::LasStream::open(&path, &options).unwrap();
+        let parallel = stream.parallel;
+        (
+            parallel,
+            cloud::io::las::read_las(&path, &options).unwrap().cloud,
+        )
+    };
+    let (parallel, many) = open(false);
+    let (one, single) = open(true);
+    assert!(
+        parallel && !one,
+        "the parallel decoder was {parallel}, the one-thread {one}"
+    );
+    assert_eq!(many.positions, single.positions);
+    assert_eq!(many.colors, single.colors);
+    assert_eq!(many.positions.len(), n as usize);
+    // A one-chunk file (the tiny one) stays on one thread.
+    let tiny = cloud::io::las::LasStream::open(&data("tiny.laz"), &Default::default()).unwrap();
+    assert!(!tiny.parallel);
+}
+
+#[test]
 fn pcd_ascii_binary_and_compressed_by_hand() {
     let local: Vec<DVec3> = expected()
         .iter()

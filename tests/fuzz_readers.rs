@@ -35,6 +35,30 @@ fn cases() -> u32 {
         })
 }
 
+/// A LAZ of three LASzip chunks (101,000 points: 50,000, 50,000, 1,000), which the reader
+/// decodes in parallel: its mutations reach the parallel decoder and the checks before it.
+fn several_chunks_laz() -> Vec<u8> {
+    let cloud = cloud::PointCloud {
+        positions: (0..101_000)
+            .map(|i| {
+                let t = f64::from(i) * 1e-3;
+                cloud::glam::DVec3::new(t.sin(), t.cos(), t * 0.01)
+            })
+            .collect(),
+        ..Default::default()
+    };
+    let dir = tempfile::tempdir().expect("a temp dir");
+    let path = dir.path().join("chunks.laz");
+    cloud::io::las::write_las(&path, &cloud).expect("written");
+    assert!(
+        cloud::io::las::LasStream::open(&path, &Default::default())
+            .expect("opens")
+            .parallel,
+        "the seed goes to the parallel decoder"
+    );
+    std::fs::read(&path).expect("read back")
+}
+
 /// The valid files the mutations start from.
 fn seeds(ext: &str) -> Vec<Vec<u8>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data");
@@ -69,7 +93,7 @@ fn seeds(ext: &str) -> Vec<Vec<u8>> {
             file("formats/tiny_compressed.pcd"),
         ],
         "las" => vec![file("formats/tiny.las")],
-        "laz" => vec![file("formats/tiny.laz")],
+        "laz" => vec![file("formats/tiny.laz"), several_chunks_laz()],
         "e57" => vec![file("formats/tiny.e57")],
         "jsonl" => vec![
             file("../../examples/own-data/scanner.jsonl"),

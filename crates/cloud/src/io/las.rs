@@ -1,4 +1,6 @@
-//! LAS and LAZ over the `las` crate (with its `laz` feature; cargo feature `formats`).
+//! LAS and LAZ over the `las` crate (with its `laz-parallel` feature; cargo feature `formats`).
+//! LAZ is decoded on every core (`laz`'s `ParLasZipDecompressor`, one chunk per thread) when
+//! its chunk table passes [`parallel_safe`]'s checks, else on one thread as before.
 //!
 //! Reading keeps the scaled coordinates (integer × scale + offset, as the header says), RGB
 //! (16-bit channels, kept as their high bytes), intensity and classification. Points are read
@@ -30,6 +32,9 @@ pub const CHUNK: u64 = 1 << 20;
 pub struct LasOptions {
     /// Keep only points of these classification codes (all when `None`).
     pub classes: Option<Vec<u8>>,
+    /// Decode LAZ on one thread even where the parallel decoder would be used (to compare the
+    /// two; the answer is the same).
+    pub one_thread: bool,
 }
 
 /// The bytes of the smallest LAS header (LAS 1.0 to 1.2, §2.2 of the specification).
@@ -115,38 +120,7 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
         ))
     };
     // The LASzip VLR.
-    let mut at = raw.header_size;
-    let mut items = None;
-    for _ in 0..raw.vlrs {
-        let mut head = [0u8; 54];
-        if at + 54 > len {
-            return bad(
-                at,
-                format!("the VLR at byte {at} runs past the end of the file"),
-            );
-        }
-        read_at(path, at, &mut head)?;
-        let user = &head[2..18];
-        let record_id = u16::from_le_bytes([head[18], head[19]]);
-        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
-        if user.starts_with(b"laszip encoded") && record_id == 22204 {
-            if length < 34 || at + 54 + length > len {
-                return bad(at, format!("the LASzip VLR has {length} bytes"));
-            }
-            let mut body = vec![0u8; length as usize];
-            read_at(path, at + 54, &mut body)?;
-            let n = u64::from(u16::from_le_bytes([body[32], body[33]]));
-            if n == 0 || 34 + 6 * n != length {
-                return bad(
-                    at + 54 + 32,
-                    format!("the LASzip VLR lists {n} items in {length} bytes (34 + 6 per item)"),
-                );
-            }
-            items = Some(n);
-        }
-        at += 54 + length;
-    }
-    if items.is_none() {
+    if laszip_vlr(path, raw, len)?.is_none() {
         return bad(
             raw.header_size,
             "a compressed point format without a LASzip VLR".to_owned(),
@@ -186,6 +160,108 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
         );
     }
     Ok(())
+}
+
+/// Whether a LAZ file (already through [`check_laz`]) may go to the parallel decoder: its
+/// chunk table, read and checked here, describes the points and bytes the file has, so that
+/// none of the decoder's assertions and buffer sizes can depend on a corrupt number. Any doubt
+/// is `false` (the sequential decoder then reads it, or reports what is wrong):
+/// - the LASzip VLR parses, its items' sizes add up to the header's record length, and its
+///   chunks are fixed-size with 1 ≤ chunk size ≤ points, or variable-size;
+/// - the chunk table's offset is recorded (not −1) and the table has at least two chunks;
+/// - fixed-size: ⌈points / chunk size⌉ chunks; variable-size: every chunk has ≥ 1 point and
+///   their sum is the point count;
+/// - every chunk has ≥ 1 byte and their sum fits in the point data.
+fn parallel_safe(path: &Path, raw: &RawHeader, len: u64) -> bool {
+    use std::io::{Seek, SeekFrom};
+    let Ok(Some(body)) = laszip_vlr(path, raw, len) else {
+        return false;
+    };
+    // The items' sizes (6 bytes each after the 34-byte head: type, size, version), in u64.
+    let item_bytes: u64 = body[34..]
+        .chunks_exact(6)
+        .map(|c| u64::from(u16::from_le_bytes([c[2], c[3]])))
+        .sum();
+    let Ok(vlr) = laz::LazVlr::from_buffer(&body) else {
+        return false;
+    };
+    let points = raw.points;
+    let variable = vlr.uses_variable_size_chunks();
+    let chunk_size = u64::from(vlr.chunk_size());
+    if item_bytes != raw.record || (!variable && !(1..=points).contains(&chunk_size)) {
+        return false;
+    }
+    let mut offset = [0u8; 8];
+    if read_at(path, raw.point_data, &mut offset).is_err() {
+        return false;
+    }
+    let table = i64::from_le_bytes(offset);
+    if u64::try_from(table).map_or(true, |t| t < raw.point_data + 8 || t + 8 > len) {
+        return false;
+    }
+    let Ok(mut file) = std::fs::File::open(path) else {
+        return false;
+    };
+    if file.seek(SeekFrom::Start(raw.point_data)).is_err() {
+        return false;
+    }
+    let Ok(chunks) = laz::laszip::ChunkTable::read_from(std::io::BufReader::new(&mut file), &vlr)
+    else {
+        return false;
+    };
+    let entries = chunks.as_ref();
+    let bytes: u64 = entries.iter().map(|e| e.byte_count).sum();
+    let data = len - raw.point_data - 8;
+    let counts_ok = if variable {
+        entries.iter().all(|e| e.point_count >= 1)
+            && entries.iter().map(|e| e.point_count).sum::<u64>() == points
+    } else {
+        entries.len() as u64 == points.div_ceil(chunk_size)
+    };
+    entries.len() >= 2 && counts_ok && entries.iter().all(|e| e.byte_count >= 1) && bytes <= data
+}
+
+/// The LASzip VLR's body (`None`: the file has none); an error when a VLR runs past the end
+/// of the file or the LASzip VLR has not the length its item count implies.
+fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>, ReadError> {
+    let bad = |at: u64, message: String| {
+        Err(ReadError::new(
+            path,
+            Location::Byte(at),
+            ReadErrorKind::BadHeader(message),
+        ))
+    };
+    let mut at = raw.header_size;
+    for _ in 0..raw.vlrs {
+        let mut head = [0u8; 54];
+        if at + 54 > len {
+            return bad(
+                at,
+                format!("the VLR at byte {at} runs past the end of the file"),
+            );
+        }
+        read_at(path, at, &mut head)?;
+        let user = &head[2..18];
+        let record_id = u16::from_le_bytes([head[18], head[19]]);
+        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
+        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+            if length < 34 || at + 54 + length > len {
+                return bad(at, format!("the LASzip VLR has {length} bytes"));
+            }
+            let mut body = vec![0u8; length as usize];
+            read_at(path, at + 54, &mut body)?;
+            let n = u64::from(u16::from_le_bytes([body[32], body[33]]));
+            if n == 0 || 34 + 6 * n != length {
+                return bad(
+                    at + 54 + 32,
+                    format!("the LASzip VLR lists {n} items in {length} bytes (34 + 6 per item)"),
+                );
+            }
+            return Ok(Some(body));
+        }
+        at += 54 + length;
+    }
+    Ok(None)
 }
 
 /// Reads a LAS or LAZ file whole.
@@ -252,6 +328,8 @@ pub struct LasStream {
     read: u64,
     /// Whether the points have RGB.
     pub with_color: bool,
+    /// Whether LAZ is decoded on every core ([`parallel_safe`]).
+    pub parallel: bool,
     classes: Option<Vec<u8>>,
 }
 
@@ -302,7 +380,22 @@ impl LasStream {
         if raw.compressed {
             check_laz(path, &raw, len)?;
         }
-        let reader = Reader::from_path(path).map_err(|e| {
+        // LAZ decoded on every core where the chunk table is one the parallel decoder cannot
+        // trip on (`laz`'s `ParLasZipDecompressor` asserts where the sequential one returns
+        // errors); every other file, and every LAS, the sequential reader as before.
+        let parallel = raw.compressed && !options.one_thread && parallel_safe(path, &raw, len);
+        let parallelism = if parallel {
+            las::LazParallelism::Yes
+        } else {
+            las::LazParallelism::No
+        };
+        let file = std::fs::File::open(path)
+            .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?;
+        let reader = Reader::with_options(
+            std::io::BufReader::new(file),
+            las::ReaderOptions::default().with_laz_parallelism(parallelism),
+        )
+        .map_err(|e| {
             ReadError::new(
                 path,
                 Location::File,
@@ -344,6 +437,7 @@ impl LasStream {
             announced,
             read: 0,
             with_color: header.point_format().has_color,
+            parallel,
             classes: options.classes.clone(),
         })
     }

@@ -206,6 +206,7 @@ fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadErro
             path,
             &las::LasOptions {
                 classes: options.classes.clone(),
+                ..las::LasOptions::default()
             },
         ),
         #[cfg(feature = "formats")]
