@@ -1103,6 +1103,10 @@ impl Prepared for ExternalPrepared {
 // ---- The LOD form. ----
 
 impl LodMethod for ExternalMethod {
+    fn scale(&self) -> crate::Scale {
+        // The manifest's `memory_bytes_per_point`, as for the visibility form.
+        Method::scale(self)
+    }
     fn name(&self) -> &'static str {
         self.name
     }

@@ -106,6 +106,11 @@ impl Prepared for Prep<'_> {
 }
 
 impl Method for HprConfidenceMethod {
+    fn scale(&self) -> crate::Scale {
+        // 1.25 times the peak per point measured at 10^7 points (1789 MB: a scale cell of the
+        // dragon at its default setting), less the cloud's 48.
+        crate::Scale::PerPoint(164)
+    }
     fn name(&self) -> &'static str {
         "hpr-confidence"
     }

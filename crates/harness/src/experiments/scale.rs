@@ -444,8 +444,9 @@ impl Experiment for ScaleExperiment {
                     not_run(format!("skipped: not installed: {why}"))
                 } else if per_point.is_none() && n > Scale::UNKNOWN_LIMIT {
                     not_run(format!(
-                        "refused: its memory per point is not declared (an external method: \
-                         memory_bytes_per_point in its method.toml), so it is not run above {} points",
+                        "refused: its memory per point is not declared (memory_bytes_per_point \
+                         in an external method's method.toml, Method::scale for a built-in one), \
+                         so it is not run above {} points",
                         Scale::UNKNOWN_LIMIT
                     ))
                 } else if let Err(e) = cloud::memory::ensure(
