@@ -226,7 +226,9 @@ fn the_peers_that_build_per_cloud_report_the_build_apart() {
 /// (the pixels whose centres lie in the square: OpenGL's point rasterisation) into a z-buffer
 /// of nearest depths; a point is kept when, moved toward the eye along the view axis by the
 /// world tolerance (the adapter's `depth_tolerance` × the eye's distance to the cloud's mean),
-/// it lies nearer than the buffer at the pixel the moved point projects to.
+/// it lies nearer than the buffer at the pixel the moved point projects to. Unlike our
+/// `splat::sprite`, which clips a point whose projection is outside the image whole, this draws
+/// the part of its sprite that is inside (the views here keep the cloud inside the image).
 fn vtk_rule(points: &[DVec3], camera: &Camera, size: usize, depth_tolerance: f64) -> Vec<u32> {
     let Model::Pinhole { fx, fy, cx, cy } = *camera.model() else {
         panic!("pinhole cameras only");

@@ -928,6 +928,14 @@ impl Session {
             ));
         }
         let num = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
+        if let Some(t) = v.get("seconds").filter(|t| !t.is_null())
+            && !t.as_f64().is_some_and(|t| t.is_finite() && t >= 0.0)
+        {
+            return Err(format!(
+                "its built line's \"seconds\" is not a number >= 0: {}",
+                trunc(line)
+            ));
+        }
         *self.built.lock().map_err(|_| "lock")? = Some((
             num("seconds"),
             LodSize {
@@ -1514,6 +1522,11 @@ mod tests {
         assert!(answers[0].1.is_ok(), "{:?}", answers[0].1);
         let err = answers[1].1.as_ref().unwrap_err();
         assert!(err.contains("neither \"visible\""), "{err}");
+        // A build time that is not a number >= 0 is refused, not recorded.
+        let lying = "print(json.dumps({'built': True, 'seconds': -1}), flush=True)";
+        let (_, answers) = run(&folder(manifest, &script(lying, "pass")));
+        let err = answers[0].1.as_ref().unwrap_err();
+        assert!(err.contains("not a number >= 0"), "{err}");
     }
 
     #[test]

@@ -86,8 +86,8 @@ impl Prepared for Prep<'_> {
 
 impl Method for HprApproxMethod {
     fn scale(&self) -> crate::Scale {
-        // 1.25 times the peak per point measured at 10^7 points (955 MB: a scale cell of the
-        // dragon at its default setting), less the cloud's 48.
+        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
+        // the dragon at its default setting peaked at 955 MB.
         crate::Scale::PerPoint(59)
     }
     fn name(&self) -> &'static str {

@@ -107,8 +107,8 @@ impl Prepared for Prep<'_> {
 
 impl Method for HprConfidenceMethod {
     fn scale(&self) -> crate::Scale {
-        // 1.25 times the peak per point measured at 10^7 points (1789 MB: a scale cell of the
-        // dragon at its default setting), less the cloud's 48.
+        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
+        // the dragon at its default setting peaked at 1789 MB.
         crate::Scale::PerPoint(164)
     }
     fn name(&self) -> &'static str {

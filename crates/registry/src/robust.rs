@@ -152,8 +152,8 @@ fn number_or_auto(params: &Params, key: &'static str) -> Result<Option<Option<f6
 
 impl Method for RobustMethod {
     fn scale(&self) -> crate::Scale {
-        // 1.25 times the peak per point measured at 10^7 points (1562 MB: a scale cell of the
-        // dragon at its default setting), less the cloud's 48.
+        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
+        // the dragon at its default setting peaked at 1562 MB.
         crate::Scale::PerPoint(135)
     }
     fn name(&self) -> &'static str {

@@ -137,8 +137,8 @@ impl<P: Sync> Prepared for Prep<'_, P> {
 
 impl Method for ScreenspaceMethod {
     fn scale(&self) -> crate::Scale {
-        // 1.25 times the peak per point measured at 10^7 points (687 MB: a scale cell of the
-        // dragon at its default setting), less the cloud's 48.
+        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
+        // the dragon at its default setting peaked at 687 MB.
         crate::Scale::PerPoint(26)
     }
     fn name(&self) -> &'static str {

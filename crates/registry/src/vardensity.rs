@@ -50,8 +50,8 @@ const PARAMS: &[ParamSpec] = &[
 
 impl Method for VardensityMethod {
     fn scale(&self) -> crate::Scale {
-        // 1.25 times the peak per point measured at 10^7 points (688 MB: a scale cell of the
-        // dragon at its default setting), less the cloud's 48.
+        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
+        // the dragon at its default setting peaked at 688 MB.
         crate::Scale::PerPoint(26)
     }
     fn name(&self) -> &'static str {

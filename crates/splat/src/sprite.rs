@@ -20,7 +20,8 @@
 //! separable minimum over `size` anchors, is the drawn buffer; the anchors of points near the
 //! top and left edges lie up to `size` pixels outside the image, and the buffer of anchors is
 //! that much larger. Points whose projection falls outside the image are not drawn (clipped
-//! whole, as OpenGL clips a point by its vertex). Projection in f32 as the disc rule's.
+//! whole, as OpenGL clips a point by its vertex). Projection in f32 as the disc rule's. Pinhole
+//! and orthographic cameras only (a spherical image has no view axis to shift along).
 
 use cloud::Camera;
 use cloud::glam::Vec3A;
@@ -68,6 +69,16 @@ pub(crate) fn visibility(
     pixels: bool,
 ) -> Result<SplatVisibility> {
     let size = sprite_size(params.radius_px)?;
+    if matches!(camera.model(), cloud::Model::Spherical) {
+        // Depth there is the distance to the eye, which a shift along the view axis does not
+        // lessen for points beside or behind it (and sprites would not wrap at the seam).
+        return Err(Error::InvalidParameter {
+            name: "rule",
+            reason: "rule=sprite takes pinhole and orthographic cameras (a GPU point renderer's \
+                     rule), not spherical ones: use rule=disc"
+                .into(),
+        });
+    }
     let (w, h) = (camera.width as usize, camera.height as usize);
     let (aw, ah) = (w + size, h + size);
     let threads = rayon::current_num_threads().max(1);
@@ -301,6 +312,24 @@ mod tests {
                 .visible
                 .is_empty()
         );
+        let spherical = Camera::look_at(
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            cloud::Model::Spherical,
+            64,
+            32,
+        )
+        .unwrap();
+        let params = SplatParams {
+            radius_px: 1.0,
+            depth_tolerance: 0.01,
+            rule: Rule::Sprite,
+        };
+        assert!(matches!(
+            splat_visibility(&pts, &spherical, &params),
+            Err(Error::InvalidParameter { name: "rule", .. })
+        ));
         for radius_px in [0.0, 0.3, 1.25, 65.0] {
             let params = SplatParams {
                 radius_px,

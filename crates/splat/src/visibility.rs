@@ -155,7 +155,8 @@ impl Splatter {
             .par_iter()
             .map(|&i| Vec3A::from((points[i as usize] - origin).as_vec3()))
             .collect();
-        let centroid = points.par_iter().copied().sum::<DVec3>() / points.len() as f64;
+        // Summed in order, so that it is the same to the bit from run to run.
+        let centroid = points.iter().copied().sum::<DVec3>() / points.len() as f64;
         Ok(Self {
             origin,
             pos,

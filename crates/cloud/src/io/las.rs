@@ -169,9 +169,10 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
 /// - the LASzip VLR parses, its items' sizes add up to the header's record length, and its
 ///   chunks are fixed-size with 1 ≤ chunk size ≤ points, or variable-size;
 /// - the chunk table's offset is recorded (not −1) and the table has at least two chunks;
-/// - fixed-size: ⌈points / chunk size⌉ chunks; variable-size: every chunk has ≥ 1 point and
-///   their sum is the point count;
-/// - every chunk has ≥ 1 byte and their sum fits in the point data.
+/// - fixed-size: ⌈points / chunk size⌉ chunks; variable-size: every chunk has 1 to 2^31 − 1
+///   points and their sum is the point count;
+/// - every chunk has 1 to 2^31 − 1 bytes and their sum fits between the table's offset and the
+///   table (sums checked for overflow).
 fn parallel_safe(path: &Path, raw: &RawHeader, len: u64) -> bool {
     use std::io::{Seek, SeekFrom};
     let Ok(Some(body)) = laszip_vlr(path, raw, len) else {
@@ -195,8 +196,10 @@ fn parallel_safe(path: &Path, raw: &RawHeader, len: u64) -> bool {
     if read_at(path, raw.point_data, &mut offset).is_err() {
         return false;
     }
-    let table = i64::from_le_bytes(offset);
-    if u64::try_from(table).map_or(true, |t| t < raw.point_data + 8 || t + 8 > len) {
+    let Ok(table) = u64::try_from(i64::from_le_bytes(offset)) else {
+        return false;
+    };
+    if table < raw.point_data + 8 || table + 8 > len {
         return false;
     }
     let Ok(mut file) = std::fs::File::open(path) else {
@@ -210,19 +213,28 @@ fn parallel_safe(path: &Path, raw: &RawHeader, len: u64) -> bool {
         return false;
     };
     let entries = chunks.as_ref();
-    let bytes: u64 = entries.iter().map(|e| e.byte_count).sum();
-    let data = len - raw.point_data - 8;
+    // `laz` decodes each count as an i32 and widens it: a negative one is near 2^64, so every
+    // count must be below 2^31 and the sums are checked (a wrapped sum could pass).
+    let small = |x: u64| (1..1 << 31).contains(&x);
+    let sum = |f: fn(&laz::laszip::ChunkTableEntry) -> u64| {
+        entries.iter().try_fold(0u64, |a, e| {
+            small(f(e)).then(|| a.checked_add(f(e))).flatten()
+        })
+    };
+    // The chunks lie between the table's offset field and the table.
+    let data = table - raw.point_data - 8;
     let counts_ok = if variable {
-        entries.iter().all(|e| e.point_count >= 1)
-            && entries.iter().map(|e| e.point_count).sum::<u64>() == points
+        sum(|e| e.point_count) == Some(points)
     } else {
         entries.len() as u64 == points.div_ceil(chunk_size)
     };
-    entries.len() >= 2 && counts_ok && entries.iter().all(|e| e.byte_count >= 1) && bytes <= data
+    entries.len() >= 2 && counts_ok && sum(|e| e.byte_count).is_some_and(|b| b <= data)
 }
 
-/// The LASzip VLR's body (`None`: the file has none); an error when a VLR runs past the end
-/// of the file or the LASzip VLR has not the length its item count implies.
+/// The LASzip VLR's body (`None`: the file has none): the first VLR whose user id is exactly
+/// `laszip encoded` (the bytes before its first NUL, as `las` reads it) and whose record id is
+/// 22204, the one `las` hands to `laz`. An error when any VLR runs past the end of the file or
+/// that one has not the length its item count implies.
 fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>, ReadError> {
     let bad = |at: u64, message: String| {
         Err(ReadError::new(
@@ -232,6 +244,7 @@ fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>,
         ))
     };
     let mut at = raw.header_size;
+    let mut found = None;
     for _ in 0..raw.vlrs {
         let mut head = [0u8; 54];
         if at + 54 > len {
@@ -242,9 +255,10 @@ fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>,
         }
         read_at(path, at, &mut head)?;
         let user = &head[2..18];
+        let user = &user[..user.iter().position(|&c| c == 0).unwrap_or(user.len())];
         let record_id = u16::from_le_bytes([head[18], head[19]]);
         let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
-        if user.starts_with(b"laszip encoded") && record_id == 22204 {
+        if found.is_none() && user == b"laszip encoded" && record_id == 22204 {
             if length < 34 || at + 54 + length > len {
                 return bad(at, format!("the LASzip VLR has {length} bytes"));
             }
@@ -257,11 +271,11 @@ fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>,
                     format!("the LASzip VLR lists {n} items in {length} bytes (34 + 6 per item)"),
                 );
             }
-            return Ok(Some(body));
+            found = Some(body);
         }
         at += 54 + length;
     }
-    Ok(None)
+    Ok(found)
 }
 
 /// Reads a LAS or LAZ file whole.
