@@ -25,7 +25,10 @@
 //!    chunk's halo radius of its box to that chunk's halo file. The k nearest neighbours
 //!    over chunk + halo are then the true ones, taken in `cloud::normals::canonical_knn`'s
 //!    order (which no tree changes), so the normals and the spacing sample's distances are
-//!    the in-memory ones, bit for bit;
+//!    the in-memory ones, bit for bit; when the normals' k is the halo's, the first pass's
+//!    query already gives the normal of every point whose ball lies inside its chunk (the same
+//!    neighbours in the same order), kept in a scratch file, and the halo pass searches only
+//!    the points near the borders;
 //! 4. each chunk is built in memory ([`crate::build::build`] on the chunk in its order: the
 //!    very subtree of the in-memory build) for its root, and the parents above the chunks
 //!    are made from the roots;
@@ -807,8 +810,14 @@ impl Builder<'_> {
         })?;
         let sample_entries: Vec<[f64; 3]> = sample.iter().map(|s| s.0.to_array()).collect();
         let sample_tree = kd_tree(&sample_entries)?;
-        // (a) Every chunk's halo radius.
+        // (a) Every chunk's halo radius. When the normals' k is the halo's, the one query per
+        // point also gives the normal of every point whose ball lies inside its chunk's box:
+        // its neighbours are its true ones, in `canonical_knn`'s order, so the normal is the
+        // one (c) would compute (bit for bit); it is kept in a scratch file (NaN: left to (c),
+        // which then searches only the points near the borders).
+        let single = estimate == Some(kk.get());
         let mut halo2 = vec![0.0f64; self.chunks.len()];
+        let mut early: Vec<Option<SpillFile>> = (0..self.chunks.len()).map(|_| None).collect();
         for (c, r2) in halo2.iter_mut().enumerate() {
             let set = self.chunks[c].set.clone();
             let l = self.load_file(&set)?;
@@ -816,23 +825,53 @@ impl Builder<'_> {
             let own = (entries.len() >= kk.get())
                 .then(|| kd_tree(&entries))
                 .transpose()?;
+            drop(entries);
             let bbox = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
             let overlap = set.overlap;
-            *r2 = cloud::normals::per_point_in_spatial_order(&l.positions, |i| {
+            let inside = |p: DVec3, d: f64| {
+                !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d)
+            };
+            let per_point = cloud::normals::per_point_in_spatial_order(&l.positions, |i| {
                 let p = l.positions[i];
-                let tree = own.as_ref().unwrap_or(&sample_tree);
-                let nn = tree
-                    .query(&p.to_array())
-                    .nearest_n::<SquaredEuclidean<f64>>(kk)
-                    .execute();
-                let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
-                let d = d2.sqrt();
-                let inside =
-                    !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d);
-                if inside { 0.0 } else { d2 }
-            })
-            .into_iter()
-            .fold(0.0, f64::max);
+                match own.as_ref().filter(|_| single) {
+                    Some(tree) => {
+                        let nb = cloud::normals::canonical_knn(tree, p, kk, |item| {
+                            l.index[item as usize]
+                        });
+                        let d2 = nb.last().map_or(f64::INFINITY, |x| x.0);
+                        if inside(p, d2.sqrt()) {
+                            let n = cloud::normals::covariance_normal(
+                                nb.iter().map(|x| l.positions[x.1 as usize]),
+                            );
+                            (0.0, Some(cloud::normals::orient(n, p - centroid)))
+                        } else {
+                            (d2, None)
+                        }
+                    }
+                    None => {
+                        let tree = own.as_ref().unwrap_or(&sample_tree);
+                        let nn = tree
+                            .query(&p.to_array())
+                            .nearest_n::<SquaredEuclidean<f64>>(kk)
+                            .execute();
+                        let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
+                        (if inside(p, d2.sqrt()) { 0.0 } else { d2 }, None)
+                    }
+                }
+            });
+            *r2 = per_point.iter().map(|x| x.0).fold(0.0, f64::max);
+            if single && own.is_some() {
+                let mut w = self.scratch.create(12).map_err(|e| self.io(e))?;
+                for (_, n) in &per_point {
+                    let n = n.unwrap_or(Vec3::NAN);
+                    let mut rec = [0u8; 12];
+                    for (a, v) in n.to_array().iter().enumerate() {
+                        rec[4 * a..4 * a + 4].copy_from_slice(&v.to_le_bytes());
+                    }
+                    w.push(&rec).map_err(|e| self.io(e))?;
+                }
+                early[c] = Some(w.finish().map_err(|e| self.io(e))?);
+            }
         }
         // Slack for the rounding of box distances against point distances.
         let slack = |r2: f64| r2 * (1.0 + 1e-9) + f64::MIN_POSITIVE;
@@ -923,7 +962,31 @@ impl Builder<'_> {
             if let Some(k) = estimate {
                 let k = NonZero::new(k).unwrap_or(kk);
                 let chunk = &l.positions[..m];
+                // The normals (a) found (NaN where it left them to this pass).
+                let known: Vec<Vec3> = match early[c].take() {
+                    Some(f) => {
+                        let mut r = f.reader(0, m as u64).map_err(|e| self.io(e))?;
+                        let mut rec = [0u8; 12];
+                        let mut out = Vec::with_capacity(m);
+                        while r.next_into(&mut rec).map_err(|e| self.io(e))? {
+                            let v = |a: usize| {
+                                f32::from_le_bytes([
+                                    rec[4 * a],
+                                    rec[4 * a + 1],
+                                    rec[4 * a + 2],
+                                    rec[4 * a + 3],
+                                ])
+                            };
+                            out.push(Vec3::new(v(0), v(1), v(2)));
+                        }
+                        out
+                    }
+                    None => vec![Vec3::NAN; m],
+                };
                 l.normals = cloud::normals::per_point_in_spatial_order(chunk, |i| {
+                    if let Some(&n) = known.get(i).filter(|n| !n.x.is_nan()) {
+                        return n;
+                    }
                     let p = chunk[i];
                     let nb =
                         cloud::normals::canonical_knn(&tree, p, k, |item| index[item as usize]);
