@@ -28,15 +28,9 @@ use cloud::glam::Vec3A;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::visibility::{SplatParams, SplatScratch, SplatVisibility, Splatter};
-
-const EMPTY: u64 = u64::MAX;
-
-#[inline]
-fn pack(depth: f32, index: u32) -> u64 {
-    // Positive finite f32 values order like their bit patterns.
-    (u64::from(depth.to_bits()) << 32) | u64::from(index)
-}
+use crate::visibility::{
+    EMPTY, SplatParams, SplatScratch, SplatVisibility, Splatter, nearest_per_cell,
+};
 
 /// The sprite's side in pixels for `radius_px`, which must make it a whole number of at least 1.
 pub fn sprite_size(radius_px: f64) -> Result<usize> {
@@ -92,39 +86,14 @@ pub(crate) fn visibility(
     let tolerance = (params.depth_tolerance * (splatter.centroid() - camera.eye).length()) as f32;
     let shift = Vec3A::from(camera.forward().as_vec3()) * tolerance;
 
-    // The nearest point per anchor, in a private buffer per thread, then merged.
-    let share = pos.len().div_ceil(threads).max(1);
-    scratch.private.resize_with(threads, Vec::new);
-    scratch
-        .private
-        .par_iter_mut()
-        .enumerate()
-        .for_each(|(t, out)| {
-            out.clear();
-            out.resize(aw * ah, EMPTY);
-            let start = (t * share).min(pos.len());
-            let end = ((t + 1) * share).min(pos.len());
-            for (k, &p) in pos[start..end].iter().enumerate() {
-                if let Some((x, y, z)) = project(p) {
-                    let ax = (anchor(x, size) + size as i64) as usize;
-                    let ay = (anchor(y, size) + size as i64) as usize;
-                    let i = ay * aw + ax;
-                    out[i] = out[i].min(pack(z, (start + k) as u32));
-                }
-            }
-        });
-    let (nearest, rest) = scratch.private.split_at_mut(1);
-    let nearest = &mut nearest[0];
-    nearest
-        .par_chunks_mut(4096)
-        .enumerate()
-        .for_each(|(c, chunk)| {
-            for other in rest.iter() {
-                for (a, &b) in chunk.iter_mut().zip(&other[c * 4096..]) {
-                    *a = (*a).min(b);
-                }
-            }
-        });
+    // The nearest point per anchor.
+    nearest_per_cell(pos, aw * ah, &mut scratch.private, |_, &p| {
+        project(p).map(|(x, y, z)| {
+            let ax = (anchor(x, size) + size as i64) as usize;
+            let ay = (anchor(y, size) + size as i64) as usize;
+            (ay * aw + ax, z)
+        })
+    });
     let nearest = &scratch.private[0];
 
     // Pixel (X, Y) shows the nearest of the anchors [X − size + 1, X] × [Y − size + 1, Y]

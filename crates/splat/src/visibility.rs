@@ -84,11 +84,11 @@ pub struct SplatVisibility {
     pub pixel_point: Vec<u32>,
 }
 
-const EMPTY: u64 = u64::MAX;
+pub(crate) const EMPTY: u64 = u64::MAX;
 const OFF: u16 = u16::MAX;
 
 #[inline]
-fn pack(depth: f32, index: u32) -> u64 {
+pub(crate) fn pack(depth: f32, index: u32) -> u64 {
     // Positive finite f32 values order like their bit patterns.
     (u64::from(depth.to_bits()) << 32) | u64::from(index)
 }
@@ -96,6 +96,44 @@ fn pack(depth: f32, index: u32) -> u64 {
 #[inline]
 fn unpack_depth(v: u64) -> f32 {
     f32::from_bits((v >> 32) as u32)
+}
+
+/// The nearest item per cell: `private[0]` becomes `cells` packed (depth, item index) minima,
+/// `EMPTY` where no item lands (`cell_of`: an item's cell and depth, or `None`). PERF: no
+/// atomics (x86 has no atomic minimum; a compare-and-swap loop per point cost 30 ms on 871k
+/// points): each thread keeps its share of the items in a private buffer, and the buffers are
+/// merged.
+pub(crate) fn nearest_per_cell<T: Sync>(
+    items: &[T],
+    cells: usize,
+    private: &mut Vec<Vec<u64>>,
+    cell_of: impl Fn(usize, &T) -> Option<(usize, f32)> + Sync,
+) {
+    let threads = rayon::current_num_threads().max(1);
+    let share = items.len().div_ceil(threads).max(1);
+    private.resize_with(threads, Vec::new);
+    private.par_iter_mut().enumerate().for_each(|(t, out)| {
+        out.clear();
+        out.resize(cells, EMPTY);
+        let start = (t * share).min(items.len());
+        let end = ((t + 1) * share).min(items.len());
+        for (i, item) in items[start..end].iter().enumerate() {
+            if let Some((k, z)) = cell_of(start + i, item) {
+                out[k] = out[k].min(pack(z, (start + i) as u32));
+            }
+        }
+    });
+    let (nearest, rest) = private.split_at_mut(1);
+    nearest[0]
+        .par_chunks_mut(4096)
+        .enumerate()
+        .for_each(|(c, chunk)| {
+            for other in rest.iter() {
+                for (a, &b) in chunk.iter_mut().zip(&other[c * 4096..]) {
+                    *a = (*a).min(b);
+                }
+            }
+        });
 }
 
 /// Buffers reused from one view to the next (no page faults on the hot path).
@@ -347,40 +385,10 @@ impl Splatter {
         let (rw, rh) = (rx1 - rx0 + 1, ry1 - ry0 + 1);
         let local = |x: u16, y: u16| (y as usize - ry0) * rw + (x as usize - rx0);
 
-        // The nearest point per pixel. PERF: no atomics (x86 has no atomic minimum; a
-        // compare-and-swap loop per point cost 30 ms on 871k points): each thread keeps its
-        // share of the points in a private buffer, and the buffers are merged.
-        let threads = rayon::current_num_threads().max(1);
-        let share = projected.len().div_ceil(threads).max(1);
-        scratch.private.resize_with(threads, Vec::new);
-        scratch
-            .private
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(t, out)| {
-                out.clear();
-                out.resize(rw * rh, EMPTY);
-                let start = (t * share).min(projected.len());
-                let end = ((t + 1) * share).min(projected.len());
-                for (i, &(x, y, z)) in projected[start..end].iter().enumerate() {
-                    if x != OFF {
-                        let k = local(x, y);
-                        out[k] = out[k].min(pack(z, (start + i) as u32));
-                    }
-                }
-            });
-        let (nearest, rest) = scratch.private.split_at_mut(1);
-        let nearest = &mut nearest[0];
-        nearest
-            .par_chunks_mut(4096)
-            .enumerate()
-            .for_each(|(c, chunk)| {
-                for other in rest.iter() {
-                    for (a, &b) in chunk.iter_mut().zip(&other[c * 4096..]) {
-                        *a = (*a).min(b);
-                    }
-                }
-            });
+        // The nearest point per pixel.
+        nearest_per_cell(projected, rw * rh, &mut scratch.private, |_, &(x, y, z)| {
+            (x != OFF).then(|| (local(x, y), z))
+        });
         let nearest = &scratch.private[0];
 
         // Pass 2: the disc filter, separably: for each row offset dy the disc spans a
