@@ -1413,6 +1413,28 @@ mod tests {
     /// End of input means exit: a program the caller is done with has its input closed and
     /// time to clean up (its temporary files), and one that does not exit is killed after
     /// [`EXIT_GRACE`].
+    /// Twenty points, not coplanar.
+    fn small_cloud() -> cloud::PointCloud {
+        cloud::PointCloud {
+            positions: (0..20)
+                .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
+                .collect(),
+            ..Default::default()
+        }
+    }
+
+    /// The external method in `dir` at its default setting over `views`, through the kernel.
+    fn run_cell(
+        dir: &tempfile::TempDir,
+        cloud: &cloud::PointCloud,
+        views: &[crate::kernel::View],
+    ) -> (Result<crate::kernel::Preparation>, crate::kernel::Answers) {
+        let m = ExternalMethod::load(dir.path()).unwrap();
+        let input = Input { cloud, mesh: None };
+        let cell = crate::kernel::Cell::new(&m, &crate::Setting::parse(""), views, 1);
+        crate::kernel::collect(&cell, input)
+    }
+
     #[test]
     fn a_finished_program_gets_end_of_input_then_a_kill() {
         let script = |after: &str| {
@@ -1423,24 +1445,12 @@ mod tests {
             )
         };
         let manifest = "protocol = 2\ncommand = [\"python3\", \"m.py\"]\n";
-        let positions: Vec<cloud::glam::DVec3> = (0..20)
-            .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
-            .collect();
-        let cloud = cloud::PointCloud {
-            positions,
-            ..Default::default()
-        };
+        let cloud = small_cloud();
         let camera = test_camera();
         let views = crate::kernel::View::all(&[camera, camera]);
         let run = |dir: &tempfile::TempDir| {
-            let m = ExternalMethod::load(dir.path()).unwrap();
-            let input = Input {
-                cloud: &cloud,
-                mesh: None,
-            };
-            let cell = crate::kernel::Cell::new(&m, &crate::Setting::parse(""), &views, 1);
             let start = Instant::now();
-            let (prepared, answers) = crate::kernel::collect(&cell, input);
+            let (prepared, answers) = run_cell(dir, &cloud, &views);
             prepared.unwrap();
             assert!(answers.iter().all(|(_, a)| a.is_ok()), "{answers:?}");
             start.elapsed()
@@ -1475,23 +1485,10 @@ mod tests {
         };
         let built = "print(json.dumps({'built': True, 'seconds': 1.25}), flush=True)";
         let manifest = "protocol = 2\ncommand = [\"python3\", \"m.py\"]\n";
-        let cloud = cloud::PointCloud {
-            positions: (0..20)
-                .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
-                .collect(),
-            ..Default::default()
-        };
+        let cloud = small_cloud();
         let camera = test_camera();
         let views = crate::kernel::View::all(&[camera, camera, camera]);
-        let run = |dir: &tempfile::TempDir| {
-            let m = ExternalMethod::load(dir.path()).unwrap();
-            let input = Input {
-                cloud: &cloud,
-                mesh: None,
-            };
-            let cell = crate::kernel::Cell::new(&m, &crate::Setting::parse(""), &views, 1);
-            crate::kernel::collect(&cell, input)
-        };
+        let run = |dir: &tempfile::TempDir| run_cell(dir, &cloud, &views);
         let (prep, answers) = run(&folder(manifest, &script(built, "pass")));
         assert_eq!(prep.unwrap().reported_seconds, Some(1.25));
         let visible: Vec<Vec<u32>> = answers
