@@ -269,7 +269,11 @@ fn every_experiment(root: &Path) {
             .filter(|r| r.starts_with(&format!("{m},")))
             .collect();
         assert_eq!(rows.len(), 1, "scale: {m} at 10^4 points: {rows:?}");
-        assert!(rows[0].ends_with(",ok"), "scale: {rows:?}");
+        // method,n_points,seconds,peak_rss_bytes,status,prepare_seconds
+        let fields: Vec<&str> = rows[0].split(',').collect();
+        assert_eq!(fields.get(4), Some(&"ok"), "scale: {rows:?}");
+        let prepare: f64 = fields[5].parse().expect("prepare_seconds");
+        assert!(prepare.is_finite() && prepare >= 0.0, "scale: {rows:?}");
     }
 }
 

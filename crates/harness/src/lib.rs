@@ -72,7 +72,14 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             setting,
         } => {
             let setting = registry::Setting::parse(&setting);
-            let out = experiments::scale::cell(&dataset, &method, &setting, n, &data_dir)?;
+            let out = experiments::scale::cell(
+                &dataset,
+                &method,
+                &setting,
+                n,
+                &data_dir,
+                experiments::scale::print_prepared,
+            )?;
             println!("{}", serde_json::to_string(&out)?);
         }
         Command::LodBuild {

@@ -89,6 +89,33 @@ pub struct Row {
     pub f1_vs_reference: f64,
     /// `ok`, `error: …` or `panic: …`.
     pub status: String,
+    /// SHA-256 of the visible set ([`visible_sha256`]); empty where the row has no answer (and
+    /// in reports written before the column existed).
+    #[serde(default)]
+    pub visible_sha256: String,
+}
+
+/// The SHA-256 (lowercase hex) of a visible set: its indices sorted ascending, each written in
+/// decimal and followed by `\n`. Equal sets give equal digests on every machine, so two runs'
+/// answers can be compared by their `results.csv` alone (`tests/hull_goldens.rs` compares them
+/// with digests from revision 5c38c1a).
+pub fn visible_sha256(visible: &[u32]) -> String {
+    use sha2::{Digest, Sha256};
+    let mut sorted = visible.to_vec();
+    sorted.sort_unstable();
+    let mut hasher = Sha256::new();
+    let mut line = String::new();
+    for i in sorted {
+        line.clear();
+        line.push_str(&i.to_string());
+        line.push('\n');
+        hasher.update(line.as_bytes());
+    }
+    hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Whether a configuration runs, or why not.
@@ -204,6 +231,7 @@ impl Experiment for HullExperiment {
                                 jaccard_vs_exact: f64::NAN,
                                 f1_vs_reference: f64::NAN,
                                 status: "ok".into(),
+                                visible_sha256: String::new(),
                             };
                             if let Err(why) = plan(name, hull_name, view, gamma, perturb, ctx.quick)
                             {
@@ -243,6 +271,7 @@ impl Experiment for HullExperiment {
                                     row.seconds = timing.median;
                                     row.samples = timing.samples;
                                     row.n_visible = visible.len();
+                                    row.visible_sha256 = visible_sha256(&visible);
                                     row.f1_vs_reference = truth
                                         .as_ref()
                                         .map_or(f64::NAN, |t| Score::of(&visible, t).f1());
@@ -290,6 +319,7 @@ impl Experiment for HullExperiment {
                             jaccard_vs_exact: f64::NAN,
                             f1_vs_reference: f64::NAN,
                             status: "ok".into(),
+                            visible_sha256: String::new(),
                         };
                         match answer {
                             Ok(a) => {
@@ -297,6 +327,7 @@ impl Experiment for HullExperiment {
                                 row.seconds = a.timing.median;
                                 row.samples = a.timing.samples;
                                 row.n_visible = visible.len();
+                                row.visible_sha256 = visible_sha256(visible);
                                 row.f1_vs_reference = truths[v.index]
                                     .as_ref()
                                     .map_or(f64::NAN, |t| Score::of(visible, t).f1());
@@ -771,6 +802,7 @@ mod tests {
             jaccard_vs_exact: jaccard,
             f1_vs_reference: 0.9,
             status: "ok".into(),
+            visible_sha256: String::new(),
         }
     }
 

@@ -6,7 +6,7 @@
 //! Adding an experiment is one module and one line in [`EXPERIMENTS`].
 
 mod background;
-mod hull;
+pub mod hull;
 pub(crate) mod lod;
 pub mod merge;
 mod reference;

@@ -16,13 +16,17 @@
 //! entry point a program that embeds the registry and registers its own methods forwards to,
 //! since the cells re-run the current executable), so `peak_rss_bytes` is the cell's own: its
 //! `VmHWM` (the sampled cloud plus what the method allocated) plus the largest peak of the
-//! programs it waited for (an external method: `getrusage(RUSAGE_CHILDREN)`), and a time cap
-//! can stop it. A cell is not started when the memory guard refuses its estimate
+//! programs it waited for (an external method: `getrusage(RUSAGE_CHILDREN)`), and time caps
+//! can stop it: the cap (40 s, quick 30 s) on the operation, counted from the line the cell
+//! prints when its input is ready ([`Prepared`]), and three times that on the preparation
+//! before it (sampling; a hull cell's flip; an LOD cell's normals), whose seconds are the row's
+//! `prepare_seconds`. A cell is not started when the memory guard refuses its estimate
 //! (`cloud::memory`, from the method's declared bytes per point, `registry::Scale`; a method
 //! that declares none, such as an external one without `memory_bytes_per_point`, is not run
-//! above 10^6 points), nor when the same method took more than a tenth of the cap at the
-//! previous size (time grows at least linearly: it would hit the cap); each such cell is a row
-//! saying so, as is a cell the cap stopped. A method may opt out (`registry::Scale::OptOut`);
+//! above 10^6 points), nor when the same method's time or preparation at the previous size,
+//! grown by the factor it grew over the step before (at least 1; 10 with one size), would
+//! exceed its cap ([`skip_reason`]); each such cell is a row saying so, as is a cell a cap
+//! stopped. A method may opt out (`registry::Scale::OptOut`);
 //! the report lists it with its reason. The plots fit a slope per method on log–log axes over
 //! the sizes that finished.
 
@@ -121,15 +125,49 @@ pub struct Row {
     pub peak_rss_bytes: u64,
     /// `ok`, `timeout after S s`, `skipped: ...`, `refused: ...`, `error: ...`.
     pub status: String,
+    /// Seconds the cell took to prepare its input before the operation (see
+    /// [`CellOutput::prepare_seconds`]); NaN when it did not get that far (and in reports
+    /// written before the column existed).
+    #[serde(default = "nan")]
+    pub prepare_seconds: f64,
 }
 
-/// What a cell process prints (one JSON line).
+/// What a cell process prints last (one JSON line).
 #[derive(Debug, Serialize, Deserialize)]
 pub struct CellOutput {
     /// Seconds (median of the runs).
     pub seconds: f64,
     /// Peak RSS of the process and of the largest child it waited for.
     pub peak_rss_bytes: u64,
+    /// Seconds the cell took to prepare its input: sampling the cloud, and for a hull cell its
+    /// flip, for an LOD cell the `lod` experiment's normals and spacing.
+    #[serde(default = "nan")]
+    pub prepare_seconds: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// The line a cell process prints when its input is ready (before the timed operation): the
+/// time cap of [`run_cell`] covers what comes after it, and the line's seconds are the row's
+/// `prepare_seconds`.
+#[derive(Debug, Serialize, Deserialize)]
+pub struct Prepared {
+    /// Always true: tells this line from the final [`CellOutput`].
+    pub prepared: bool,
+    /// Seconds the preparation took.
+    pub seconds: f64,
+}
+
+/// Prints the [`Prepared`] line on stdout and flushes it (the `on_prepared` of [`cell`] in a
+/// cell process).
+pub fn print_prepared(seconds: f64) {
+    use std::io::Write as _;
+    let line = serde_json::json!({ "prepared": true, "seconds": seconds });
+    let mut out = std::io::stdout().lock();
+    // A parent that stopped reading only loses the time cap's restart.
+    let _ = writeln!(out, "{line}").and_then(|()| out.flush());
 }
 
 fn sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
@@ -180,7 +218,7 @@ pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
         let n: u64 = arg("--n").context("scale-cell needs --n")?.parse()?;
         let setting = Setting::parse(&arg("--setting").unwrap_or_default());
         let data_dir = arg("--data-dir").map_or_else(|| data_dir.to_path_buf(), Into::into);
-        cell(&dataset, &method, &setting, n, &data_dir)
+        cell(&dataset, &method, &setting, n, &data_dir, print_prepared)
     };
     Some(match run().and_then(|o| Ok(serde_json::to_string(&o)?)) {
         Ok(line) => {
@@ -194,15 +232,26 @@ pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
     })
 }
 
-/// Runs one cell in this process: samples `n` points of the dataset's mesh, runs `method` at
-/// `setting`, returns its seconds and this process's peak RSS.
+/// Runs one cell in this process: samples `n` points of the dataset's mesh, calls
+/// `on_prepared` with the seconds the input took (sampling, and a hull cell's flip or an LOD
+/// cell's normals), runs `method` at `setting`, returns its seconds and this process's peak RSS.
 pub fn cell(
     dataset: &str,
     method: &str,
     setting: &Setting,
     n: u64,
     data_dir: &Path,
+    on_prepared: impl FnOnce(f64),
 ) -> Result<CellOutput> {
+    let started = Instant::now();
+    let mut on_prepared = Some(on_prepared);
+    let mut prepared = || {
+        let seconds = started.elapsed().as_secs_f64();
+        if let Some(f) = on_prepared.take() {
+            f(seconds);
+        }
+        seconds
+    };
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
     let mesh = crate::datasets::load_mesh_of(dataset, data_dir)?;
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
@@ -219,6 +268,7 @@ pub fn cell(
         index: 0,
         camera: cam,
     }];
+    let prepare_seconds;
     let seconds = if let Some(h) = method.strip_prefix("hull-") {
         let hull = hull::by_name(h)?;
         let mut flipped = hpr::transform::transform(
@@ -228,9 +278,11 @@ pub fn cell(
         )?
         .points;
         flipped.push(cam.eye.to_array());
+        prepare_seconds = prepared();
         let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
         t.median
     } else if let Ok(m) = registry::method(method) {
+        prepare_seconds = prepared();
         let input = registry::Input {
             cloud: &cloud,
             mesh: Some(&mesh),
@@ -245,6 +297,7 @@ pub fn cell(
         }
     } else if let Some((m, build)) = lod_cell(method) {
         let data = super::lod::lod_data(cloud)?;
+        prepare_seconds = prepared();
         let settings = [setting.clone()];
         let cell = kernel::LodCell {
             method: m,
@@ -270,6 +323,7 @@ pub fn cell(
     Ok(CellOutput {
         seconds,
         peak_rss_bytes: peak_rss(),
+        prepare_seconds,
     })
 }
 
@@ -282,7 +336,14 @@ fn lod_cell(name: &str) -> Option<(&'static dyn registry::lod::LodMethod, bool)>
     Some((registry::lod::method(m)?, build))
 }
 
-/// Runs a cell in a child process with a time cap.
+/// The cap on a cell's preparation (sampling the cloud, a hull cell's flip, an LOD cell's
+/// normals), which the operation's cap does not cover: this many times the operation's cap.
+const PREPARE_CAP_FACTOR: u32 = 3;
+
+/// Runs a cell in a child process with two time caps: `cap` on the operation (from the
+/// child's [`Prepared`] line on), `PREPARE_CAP_FACTOR` times it on the preparation before.
+/// The child's stdout and stderr are read by threads as it writes, so a chatty child cannot
+/// block on a full pipe.
 fn run_cell(
     dataset: &str,
     method: &str,
@@ -291,16 +352,17 @@ fn run_cell(
     data_dir: &Path,
     cap: Duration,
 ) -> Row {
-    let row = |seconds: f64, peak: u64, status: String| Row {
+    let row = |seconds: f64, peak: u64, status: String, prepare_seconds: f64| Row {
         method: method.to_owned(),
         n_points: n,
         seconds,
         peak_rss_bytes: peak,
         status,
+        prepare_seconds,
     };
     let exe = match std::env::current_exe() {
         Ok(e) => e,
-        Err(e) => return row(f64::NAN, 0, format!("error: {e}")),
+        Err(e) => return row(f64::NAN, 0, format!("error: {e}"), f64::NAN),
     };
     let child = Command::new(exe)
         .args([
@@ -321,20 +383,67 @@ fn run_cell(
         .spawn();
     let mut child = match child {
         Ok(c) => c,
-        Err(e) => return row(f64::NAN, 0, format!("error: cannot start the cell: {e}")),
+        Err(e) => {
+            return row(
+                f64::NAN,
+                0,
+                format!("error: cannot start the cell: {e}"),
+                f64::NAN,
+            );
+        }
     };
-    let start = Instant::now();
+    // stdout line by line (the prepared line restarts the clock); stderr kept whole, at most
+    // its last 64 KiB.
+    let (lines_tx, lines) = std::sync::mpsc::channel::<String>();
+    let stdout = child.stdout.take().map(|s| {
+        std::thread::spawn(move || {
+            use std::io::BufRead as _;
+            for line in std::io::BufReader::new(s).lines().map_while(Result::ok) {
+                if lines_tx.send(line).is_err() {
+                    break;
+                }
+            }
+        })
+    });
+    let stderr = child.stderr.take().map(|mut s| {
+        std::thread::spawn(move || {
+            let mut tail: Vec<u8> = Vec::new();
+            let mut buf = [0u8; 8192];
+            while let Ok(k) = s.read(&mut buf) {
+                if k == 0 {
+                    break;
+                }
+                tail.extend_from_slice(&buf[..k]);
+                if tail.len() > 1 << 17 {
+                    tail.drain(..tail.len() - (1 << 16));
+                }
+            }
+            String::from_utf8_lossy(&tail).into_owned()
+        })
+    });
+    let mut start = Instant::now();
+    let mut prepare_seconds = f64::NAN;
+    let mut out: Vec<String> = Vec::new();
+    let take_lines = |out: &mut Vec<String>, prepare_seconds: &mut f64, start: &mut Instant| {
+        for line in lines.try_iter() {
+            match serde_json::from_str::<Prepared>(&line) {
+                Ok(p) if p.prepared && prepare_seconds.is_nan() => {
+                    *prepare_seconds = p.seconds;
+                    *start = Instant::now();
+                }
+                _ => out.push(line),
+            }
+        }
+    };
     loop {
+        take_lines(&mut out, &mut prepare_seconds, &mut start);
         match child.try_wait() {
             Ok(Some(status)) => {
-                let mut out = String::new();
-                let mut err = String::new();
-                if let Some(mut s) = child.stdout.take() {
-                    let _ = s.read_to_string(&mut out);
+                if let Some(t) = stdout {
+                    let _ = t.join();
                 }
-                if let Some(mut s) = child.stderr.take() {
-                    let _ = s.read_to_string(&mut err);
-                }
+                take_lines(&mut out, &mut prepare_seconds, &mut start);
+                let err = stderr.and_then(|t| t.join().ok()).unwrap_or_default();
                 if !status.success() {
                     let last = err
                         .lines()
@@ -346,28 +455,84 @@ fn run_cell(
                         f64::NAN,
                         0,
                         format!("{}: {last}", if refused { "refused" } else { "error" }),
+                        prepare_seconds,
                     );
                 }
-                return match out.lines().last().map(serde_json::from_str::<CellOutput>) {
-                    Some(Ok(o)) => row(o.seconds, o.peak_rss_bytes, "ok".into()),
+                return match out.last().map(|l| serde_json::from_str::<CellOutput>(l)) {
+                    Some(Ok(o)) => row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds),
                     _ => row(
                         f64::NAN,
                         0,
-                        format!("error: unreadable cell output {out:?}"),
+                        format!("error: unreadable cell output {:?}", out.join("\n")),
+                        prepare_seconds,
                     ),
                 };
             }
             Ok(None) => {
-                if start.elapsed() > cap {
+                let preparing = prepare_seconds.is_nan();
+                let limit = if preparing {
+                    cap * PREPARE_CAP_FACTOR
+                } else {
+                    cap
+                };
+                if start.elapsed() > limit {
                     let _ = child.kill();
                     let _ = child.wait();
-                    return row(f64::NAN, 0, format!("timeout after {} s", cap.as_secs()));
+                    let status = if preparing {
+                        format!(
+                            "timeout: preparing the input took over {} s",
+                            limit.as_secs()
+                        )
+                    } else {
+                        format!("timeout after {} s", cap.as_secs())
+                    };
+                    return row(f64::NAN, 0, status, prepare_seconds);
                 }
                 std::thread::sleep(Duration::from_millis(20));
             }
-            Err(e) => return row(f64::NAN, 0, format!("error: {e}")),
+            Err(e) => return row(f64::NAN, 0, format!("error: {e}"), prepare_seconds),
         }
     }
+}
+
+/// Why a cell is not started, judging by the same method at the previous size (`previous`:
+/// seconds and prepare seconds there, NaN when it did not finish; `before`: the size before
+/// that): time grows by the factor it grew over the last step (at least 1), and a cell whose
+/// operation or preparation would so exceed its cap would only hit it. `None`: run it.
+fn skip_reason(
+    previous: Option<(f64, f64)>,
+    before: Option<(f64, f64)>,
+    n: u64,
+    cap: Duration,
+) -> Option<String> {
+    let (p, prep) = previous?;
+    if p.is_nan() {
+        return Some("skipped: the previous size did not finish".into());
+    }
+    let growth = |now: f64, then: Option<f64>| {
+        then.filter(|&t| t > 0.0 && t.is_finite())
+            .map_or(10.0, |t| (now / t).max(1.0))
+    };
+    let predicted = p * growth(p, before.map(|b| b.0));
+    if predicted > cap.as_secs_f64() {
+        return Some(format!(
+            "skipped: {p:.1} s at {} points, so about {predicted:.0} s here, over the {} s cap",
+            n / 10,
+            cap.as_secs()
+        ));
+    }
+    let prep_cap = (cap * PREPARE_CAP_FACTOR).as_secs_f64();
+    if prep.is_finite() {
+        let predicted = prep * growth(prep, before.map(|b| b.1));
+        if predicted > prep_cap {
+            return Some(format!(
+                "skipped: its input took {prep:.1} s to prepare at {} points, so about \
+                 {predicted:.0} s here, over the {prep_cap:.0} s cap on preparation",
+                n / 10
+            ));
+        }
+    }
+    None
 }
 
 /// Least-squares slope and intercept of log10 y against log10 x.
@@ -431,7 +596,9 @@ impl Experiment for ScaleExperiment {
                 Scale::PerPoint(b) => Some(*b),
                 Scale::Unknown => None,
             };
-            let mut previous: Option<f64> = None;
+            // (seconds, prepare seconds) at the previous size and the one before.
+            let mut previous: Option<(f64, f64)> = None;
+            let mut before: Option<(f64, f64)> = None;
             for &n in &sizes {
                 let not_run = |status: String| Row {
                     method: method.to_owned(),
@@ -439,6 +606,7 @@ impl Experiment for ScaleExperiment {
                     seconds: f64::NAN,
                     peak_rss_bytes: 0,
                     status,
+                    prepare_seconds: f64::NAN,
                 };
                 let row = if let Some(why) = &kind.unavailable {
                     not_run(format!("skipped: not installed: {why}"))
@@ -454,22 +622,13 @@ impl Experiment for ScaleExperiment {
                     &format!("{method} on {n} points"),
                 ) {
                     not_run(format!("refused: {e}"))
-                } else if let Some(p) =
-                    previous.filter(|&p| p.is_nan() || p > cap.as_secs_f64() / 10.0)
-                {
-                    not_run(if p.is_nan() {
-                        "skipped: the previous size did not finish".into()
-                    } else {
-                        format!(
-                            "skipped: {p:.1} s at {} points, so over the {} s cap here",
-                            n / 10,
-                            cap.as_secs()
-                        )
-                    })
+                } else if let Some(why) = skip_reason(previous, before, n, cap) {
+                    not_run(why)
                 } else {
                     run_cell(dataset, method, &kind.setting, n, &ctx.data_dir, cap)
                 };
-                previous = Some(row.seconds);
+                before = previous;
+                previous = Some((row.seconds, row.prepare_seconds));
                 rows.push(row);
                 bar.inc(1);
             }
@@ -482,6 +641,7 @@ impl Experiment for ScaleExperiment {
             "mesh_of": dataset,
             "view": 0,
             "cap_seconds": cap.as_secs(),
+            "prepare_cap_seconds": (cap * PREPARE_CAP_FACTOR).as_secs(),
             "repeats": "3 up to 10^6 points, 1 above",
             "cells": kinds.iter().map(|k| serde_json::json!({
                 "method": k.name,
@@ -558,6 +718,10 @@ impl Experiment for ScaleExperiment {
                     .map_or("-".into(), |r| format!("{:.3}", r.seconds)),
                 ok.iter()
                     .find(|r| r.n_points == largest)
+                    .filter(|r| r.prepare_seconds.is_finite())
+                    .map_or("-".into(), |r| format!("{:.2}", r.prepare_seconds)),
+                ok.iter()
+                    .find(|r| r.n_points == largest)
                     .map_or("-".into(), |r| {
                         format!("{:.0}", r.peak_rss_bytes as f64 / 1048576.0)
                     }),
@@ -605,8 +769,15 @@ impl Experiment for ScaleExperiment {
                 n = names[k]
             ));
         }
-        let opted_out: Vec<String> = crate::output::meta::RunMeta::read(dir)
-            .ok()
+        let meta = crate::output::meta::RunMeta::read(dir).ok();
+        let parameter = |key: &str| {
+            meta.as_ref()
+                .and_then(|m| m.parameters[key].as_u64())
+                .map_or("?".to_owned(), |v| v.to_string())
+        };
+        let (cap, prepare_cap) = (parameter("cap_seconds"), parameter("prepare_cap_seconds"));
+        let opted_out: Vec<String> = meta
+            .as_ref()
             .and_then(|m| m.parameters["opted_out"].as_array().cloned())
             .unwrap_or_default()
             .iter()
@@ -628,8 +799,13 @@ impl Experiment for ScaleExperiment {
              from the dragon mesh, view 0, one process per cell (peak RSS is the cell's own: \
              the sampled cloud plus the method, and the largest program it waited for). Slopes are least-squares fits of log10 against \
              log10 over the sizes that finished (1: linear; memory slopes are lowered by the \
-             process's fixed overhead at the small sizes). Cells not run or stopped say why.\n\n\
+             process's fixed overhead at the small sizes). `seconds` is the operation alone; \
+             `prepare s` the cell's input before it (sampling the cloud; a hull's flip; an LOD \
+             method's normals), under a cap of its own ({} s on the operation, {} s on the \
+             preparation). Cells not run or stopped say why.\n\n\
              {images}{}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
+            cap,
+            prepare_cap,
             markdown_table(
                 &[
                     "method",
@@ -638,6 +814,7 @@ impl Experiment for ScaleExperiment {
                     "sizes fitted",
                     "largest finished",
                     "seconds there",
+                    "prepare s there",
                     "peak MiB there",
                     "not finished",
                 ],
@@ -663,5 +840,44 @@ mod tests {
         assert!((intercept - 3e-8f64.log10()).abs() < 1e-9);
         assert!(fit(&pts[..1]).is_none());
         assert!(fit(&[(1e4, f64::NAN), (1e5, 1.0)]).is_none());
+    }
+
+    #[test]
+    fn a_cell_is_skipped_only_when_its_growth_would_pass_a_cap() {
+        let cap = Duration::from_secs(40);
+        // The first size always runs; a previous size that did not finish stops the method.
+        assert_eq!(skip_reason(None, None, 10_000, cap), None);
+        assert!(
+            skip_reason(Some((f64::NAN, 1.0)), None, 100_000, cap)
+                .unwrap()
+                .contains("did not finish")
+        );
+        // 4.4 s after 0.5 s (growth 8.8): about 39 s, under the cap; after 0.4 s (11x): over.
+        assert_eq!(
+            skip_reason(Some((4.4, 9.0)), Some((0.5, 1.0)), 10u64.pow(8), cap),
+            None
+        );
+        let why = skip_reason(Some((4.4, 9.0)), Some((0.4, 1.0)), 10u64.pow(8), cap).unwrap();
+        assert!(
+            why.contains("4.4 s at 10000000 points") && why.contains("48 s"),
+            "{why}"
+        );
+        // One size only: grows tenfold. Shrinking time counts as growth 1.
+        assert!(skip_reason(Some((4.1, 0.1)), None, 100, cap).is_some());
+        assert_eq!(skip_reason(Some((3.9, 0.1)), None, 100, cap), None);
+        assert_eq!(
+            skip_reason(Some((39.0, 0.1)), Some((50.0, 0.1)), 100, cap),
+            None
+        );
+        // The preparation has its own cap (three times the operation's).
+        let why = skip_reason(Some((1.0, 20.0)), Some((0.5, 1.0)), 100, cap).unwrap();
+        assert!(
+            why.contains("prepare") && why.contains("120 s cap"),
+            "{why}"
+        );
+        assert_eq!(
+            skip_reason(Some((1.0, 20.0)), Some((0.5, 10.0)), 100, cap),
+            None
+        );
     }
 }
