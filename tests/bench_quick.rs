@@ -10,7 +10,7 @@ use std::process::Command;
 const CSVS: &[(&str, &str)] = &[
     (
         "hull/results.csv",
-        "dataset,n_points,view,gamma,hull,perturb,seconds,samples,n_visible,jaccard_vs_exact,f1_vs_reference,status",
+        "dataset,n_points,view,gamma,hull,perturb,seconds,samples,n_visible,jaccard_vs_exact,f1_vs_reference,status,visible_sha256",
     ),
     (
         "visibility/results.csv",
@@ -22,7 +22,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "scale/results.csv",
-        "method,n_points,seconds,peak_rss_bytes,status",
+        "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds",
     ),
     (
         "lod/results.csv",
