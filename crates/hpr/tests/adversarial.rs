@@ -172,7 +172,7 @@ fn duplicates_in_shuffled_order_are_all_reported() {
     let base = noisy_sphere(400, 1.0, 0.1, 11);
     let eye = DVec3::new(0.0, 0.5, 3.0);
     let unique = certified(&base, eye, 3.0, 0);
-    // Every point three times, the copies scattered: indices 3i, 3i+1, 3i+2 are point
+    // Every point three times, in a shuffled order of the points: indices 3i, 3i+1, 3i+2 are point
     // (7i mod n) of the base cloud.
     let n = base.len();
     let mut dup = Vec::new();

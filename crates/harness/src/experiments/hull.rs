@@ -100,22 +100,10 @@ pub struct Row {
 /// answers can be compared by their `results.csv` alone (`tests/hull_goldens.rs` compares them
 /// with digests from revision 5c38c1a).
 pub fn visible_sha256(visible: &[u32]) -> String {
-    use sha2::{Digest, Sha256};
     let mut sorted = visible.to_vec();
     sorted.sort_unstable();
-    let mut hasher = Sha256::new();
-    let mut line = String::new();
-    for i in sorted {
-        line.clear();
-        line.push_str(&i.to_string());
-        line.push('\n');
-        hasher.update(line.as_bytes());
-    }
-    hasher
-        .finalize()
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
+    let text: String = sorted.iter().map(|i| format!("{i}\n")).collect();
+    crate::fetch::sha256_hex(text.as_bytes())
 }
 
 /// Whether a configuration runs, or why not.

@@ -241,15 +241,13 @@ pub fn cell(
     setting: &Setting,
     n: u64,
     data_dir: &Path,
-    on_prepared: impl FnOnce(f64),
+    on_prepared: impl Fn(f64),
 ) -> Result<CellOutput> {
     let started = Instant::now();
-    let mut on_prepared = Some(on_prepared);
-    let mut prepared = || {
+    // Each branch below calls it once its input is ready.
+    let ready = |on_prepared: &dyn Fn(f64)| {
         let seconds = started.elapsed().as_secs_f64();
-        if let Some(f) = on_prepared.take() {
-            f(seconds);
-        }
+        on_prepared(seconds);
         seconds
     };
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
@@ -263,7 +261,7 @@ pub fn cell(
     )?;
     let mut cloud = cloud::sample::sample_surface(&mesh, n, SEED)?;
     cloud.samples = None;
-    let repeats = if n <= 1_000_000 { 3 } else { 1 };
+    let repeats = repeats(n as u64);
     let views = [kernel::View {
         index: 0,
         camera: cam,
@@ -278,11 +276,11 @@ pub fn cell(
         )?
         .points;
         flipped.push(cam.eye.to_array());
-        prepare_seconds = prepared();
+        prepare_seconds = ready(&on_prepared);
         let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
         t.median
     } else if let Ok(m) = registry::method(method) {
-        prepare_seconds = prepared();
+        prepare_seconds = ready(&on_prepared);
         let input = registry::Input {
             cloud: &cloud,
             mesh: Some(&mesh),
@@ -297,7 +295,7 @@ pub fn cell(
         }
     } else if let Some((m, build)) = lod_cell(method) {
         let data = super::lod::lod_data(cloud)?;
-        prepare_seconds = prepared();
+        prepare_seconds = ready(&on_prepared);
         let settings = [setting.clone()];
         let cell = kernel::LodCell {
             method: m,
@@ -325,6 +323,12 @@ pub fn cell(
         peak_rss_bytes: peak_rss(),
         prepare_seconds,
     })
+}
+
+/// Timed runs of a cell's operation at `n` points (the median is its seconds): all of them
+/// fall under the cap.
+fn repeats(n: u64) -> usize {
+    if n <= 1_000_000 { 3 } else { 1 }
 }
 
 /// The LOD method of a `NAME-build` or `NAME-select` cell, and whether it is the build.
@@ -392,8 +396,8 @@ fn run_cell(
             );
         }
     };
-    // stdout line by line (the prepared line restarts the clock); stderr kept whole, at most
-    // its last 64 KiB.
+    // stdout line by line (the prepared line restarts the clock; the last other line is the
+    // answer); of stderr the last 64 to 128 KiB.
     let (lines_tx, lines) = std::sync::mpsc::channel::<String>();
     let stdout = child.stdout.take().map(|s| {
         std::thread::spawn(move || {
@@ -423,26 +427,26 @@ fn run_cell(
     });
     let mut start = Instant::now();
     let mut prepare_seconds = f64::NAN;
-    let mut out: Vec<String> = Vec::new();
-    let take_lines = |out: &mut Vec<String>, prepare_seconds: &mut f64, start: &mut Instant| {
+    let mut last: Option<String> = None;
+    let take_lines = |last: &mut Option<String>, prepare_seconds: &mut f64, start: &mut Instant| {
         for line in lines.try_iter() {
             match serde_json::from_str::<Prepared>(&line) {
                 Ok(p) if p.prepared && prepare_seconds.is_nan() => {
                     *prepare_seconds = p.seconds;
                     *start = Instant::now();
                 }
-                _ => out.push(line),
+                _ => *last = Some(line),
             }
         }
     };
     loop {
-        take_lines(&mut out, &mut prepare_seconds, &mut start);
+        take_lines(&mut last, &mut prepare_seconds, &mut start);
         match child.try_wait() {
             Ok(Some(status)) => {
                 if let Some(t) = stdout {
                     let _ = t.join();
                 }
-                take_lines(&mut out, &mut prepare_seconds, &mut start);
+                take_lines(&mut last, &mut prepare_seconds, &mut start);
                 let err = stderr.and_then(|t| t.join().ok()).unwrap_or_default();
                 if !status.success() {
                     let last = err
@@ -458,12 +462,15 @@ fn run_cell(
                         prepare_seconds,
                     );
                 }
-                return match out.last().map(|l| serde_json::from_str::<CellOutput>(l)) {
+                return match last.as_deref().map(serde_json::from_str::<CellOutput>) {
                     Some(Ok(o)) => row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds),
                     _ => row(
                         f64::NAN,
                         0,
-                        format!("error: unreadable cell output {:?}", out.join("\n")),
+                        format!(
+                            "error: unreadable cell output {:?}",
+                            last.unwrap_or_default()
+                        ),
                         prepare_seconds,
                     ),
                 };
