@@ -24,10 +24,10 @@
 //! (`cloud::memory`, from the method's declared bytes per point, `registry::Scale`; a method
 //! that declares none, such as an external one without `memory_bytes_per_point`, is not run
 //! above 10^6 points), nor when the same method's time or preparation at the previous size,
-//! grown by the factor it grew over the step before (at least 1; 10 with one size), would
-//! exceed its cap ([`skip_reason`]); each such cell is a row saying so, as is a cell a cap
-//! stopped. A method may opt out (`registry::Scale::OptOut`);
-//! the report lists it with its reason. The plots fit a slope per method on log–log axes over
+//! grown by the factor it grew over the step before (at least 1; 10 with one size) and times
+//! the runs the cell makes (3 up to 10^6 points), would exceed its cap ([`skip_reason`]);
+//! each such cell is a row saying so, as is a cell a cap stopped. A method may opt out
+//! (`registry::Scale::OptOut`); the report lists it with its reason. The plots fit a slope per method on log–log axes over
 //! the sizes that finished.
 
 use std::io::Read as _;
@@ -505,7 +505,8 @@ fn run_cell(
 /// Why a cell is not started, judging by the same method at the previous size (`previous`:
 /// seconds and prepare seconds there, NaN when it did not finish; `before`: the size before
 /// that): time grows by the factor it grew over the last step (at least 1), and a cell whose
-/// operation or preparation would so exceed its cap would only hit it. `None`: run it.
+/// [`repeats`] runs of the operation, or whose preparation, would so exceed its cap would only
+/// hit it. `None`: run it.
 fn skip_reason(
     previous: Option<(f64, f64)>,
     before: Option<(f64, f64)>,
@@ -520,11 +521,14 @@ fn skip_reason(
         then.filter(|&t| t > 0.0 && t.is_finite())
             .map_or(10.0, |t| (now / t).max(1.0))
     };
-    let predicted = p * growth(p, before.map(|b| b.0));
+    let runs = repeats(n);
+    let predicted = p * growth(p, before.map(|b| b.0)) * runs as f64;
     if predicted > cap.as_secs_f64() {
         return Some(format!(
-            "skipped: {p:.1} s at {} points, so about {predicted:.0} s here, over the {} s cap",
+            "skipped: {p:.1} s at {} points, so about {predicted:.0} s here for {runs} run{}, \
+             over the {} s cap",
             n / 10,
+            if runs == 1 { "" } else { "s" },
             cap.as_secs()
         ));
     }
@@ -869,11 +873,21 @@ mod tests {
             why.contains("4.4 s at 10000000 points") && why.contains("48 s"),
             "{why}"
         );
-        // One size only: grows tenfold. Shrinking time counts as growth 1.
-        assert!(skip_reason(Some((4.1, 0.1)), None, 100, cap).is_some());
-        assert_eq!(skip_reason(Some((3.9, 0.1)), None, 100, cap), None);
+        // One size only: grows tenfold. Shrinking time counts as growth 1 (sizes above 10^6:
+        // one run each).
+        let big = 10u64.pow(8);
+        assert!(skip_reason(Some((4.1, 0.1)), None, big, cap).is_some());
+        assert_eq!(skip_reason(Some((3.9, 0.1)), None, big, cap), None);
         assert_eq!(
-            skip_reason(Some((39.0, 0.1)), Some((50.0, 0.1)), 100, cap),
+            skip_reason(Some((39.0, 0.1)), Some((50.0, 0.1)), big, cap),
+            None
+        );
+        // Up to 10^6 points a cell makes three runs, all under the cap: 7 s doubling is 14 s a
+        // run, 42 s for three at 10^6 (skipped), 14 s for the one run at 10^7.
+        let why = skip_reason(Some((7.0, 0.1)), Some((3.5, 0.1)), 1_000_000, cap).unwrap();
+        assert!(why.contains("for 3 runs") && why.contains("42 s"), "{why}");
+        assert_eq!(
+            skip_reason(Some((7.0, 0.1)), Some((3.5, 0.1)), 10_000_000, cap),
             None
         );
         // The preparation has its own cap (three times the operation's).
