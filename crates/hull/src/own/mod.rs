@@ -152,7 +152,6 @@ fn build(points: &[P3], with_facets: bool) -> Result<(OwnHull, Stats), HullError
     perm.extend_from_slice(&simplex);
     perm.extend_from_slice(&order.indices);
     let local: Vec<P3> = perm.par_iter().map(|&i| points[i as usize]).collect();
-    let locals: Vec<u32> = (0..points.len() as u32).collect();
     let order_seconds = start.elapsed().as_secs_f64();
     let mut b = Builder::new(&local, [0, 1, 2, 3])?;
     b.stats.order_seconds = order_seconds;
@@ -164,10 +163,11 @@ fn build(points: &[P3], with_facets: bool) -> Result<(OwnHull, Stats), HullError
             .get(k + 1)
             .copied()
             .unwrap_or(order.indices.len());
-        let round = &locals[4 + round_start..4 + round_end];
+        // The round's points in the local (insertion-ordered) indexing: a range.
+        let round = 4 + round_start..4 + round_end;
         if round.len() < PARALLEL_ROUND || rayon::current_num_threads() < 2 {
-            for &i in round {
-                b.add(i, None)?;
+            for i in round {
+                b.add(i as u32, None)?;
             }
             continue;
         }
@@ -175,17 +175,18 @@ fn build(points: &[P3], with_facets: bool) -> Result<(OwnHull, Stats), HullError
         // inside the current hull is inside the final one: it is dropped here, exactly. The
         // others are inserted in order, starting from the facet they were found above.
         let (facets, pts, interior, last) = (&b.facets, b.pts, b.interior, b.last);
-        let located: Vec<(Vec<Hint>, usize)> = round
-            .par_chunks(LOCATE_CHUNK)
-            .enumerate()
-            .map(|(c, chunk)| {
+        let located: Vec<(Vec<Hint>, usize)> = (0..round.len().div_ceil(LOCATE_CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let from = round.start + c * LOCATE_CHUNK;
+                let chunk = from..(from + LOCATE_CHUNK).min(round.end);
                 let mut rng =
                     (0x9e37_79b9_7f4a_7c15u64 ^ (c as u64).wrapping_mul(0xbf58_476d_1ce4_e5b9)) | 1;
                 let mut steps = 0;
                 let mut start = last;
                 let mut out = Vec::with_capacity(chunk.len());
-                for &i in chunk {
-                    let q = &pts[i as usize];
+                for i in chunk {
+                    let q = &pts[i];
                     let f = walk(facets, pts, &interior, start, q, &mut rng, &mut steps)?;
                     start = f;
                     let v = facets[f as usize].v;
@@ -199,10 +200,10 @@ fn build(points: &[P3], with_facets: bool) -> Result<(OwnHull, Stats), HullError
             b.stats.walk_steps += steps;
             hints.extend(out);
         }
-        for (&i, &hint) in round.iter().zip(&hints) {
+        for (i, &hint) in round.zip(&hints) {
             match hint {
                 None => b.stats.dropped += 1,
-                Some(h) => b.add(i, Some(h))?,
+                Some(h) => b.add(i as u32, Some(h))?,
             }
         }
         hints.clear();
