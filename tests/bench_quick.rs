@@ -22,7 +22,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "scale/results.csv",
-        "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds",
+        "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds,detail",
     ),
     (
         "lod/results.csv",

@@ -17,39 +17,17 @@ use crate::rng::{RngExt, seeded};
 
 /// Samples `n` points on the surface of `mesh`, area-weighted, reproducibly from `seed`.
 pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Result<PointCloud> {
-    mesh.validate()?;
-    let mut cumulative = Vec::with_capacity(mesh.triangles.len());
-    let mut total = 0.0;
-    for t in 0..mesh.triangles.len() {
-        total += mesh.area(t);
-        cumulative.push(total);
-    }
-    if !(total > 0.0) {
-        return Err(Error::EmptyMesh);
-    }
-    let mut rng = seeded(seed, "sample-surface");
+    let mut sampler = SurfaceSampler::new(mesh, seed)?;
     let mut positions = Vec::with_capacity(n);
     let mut normals = Vec::with_capacity(n);
     let mut samples = Vec::with_capacity(n);
     let mut uvs = mesh.uvs.as_ref().map(|_| Vec::with_capacity(n));
     for _ in 0..n {
-        let target = rng.random::<f64>() * total;
-        // First triangle whose cumulative area exceeds the target; zero-area triangles are
-        // never chosen because their cumulative value equals their predecessor's.
-        let t = cumulative
-            .partition_point(|&c| c <= target)
-            .min(cumulative.len() - 1);
-        let r1: f64 = rng.random();
-        let r2: f64 = rng.random();
-        let s = r1.sqrt();
-        let w = [1.0 - s, s * (1.0 - r2), s * r2];
-        let [a, b, c] = mesh.corners(t);
-        positions.push(w[0] * a + w[1] * b + w[2] * c);
+        let sample = sampler.draw();
+        let (t, w) = (sample.triangle as usize, sample.barycentric);
+        positions.push(sample_position(mesh, &sample));
         normals.push(mesh.face_normal(t).as_vec3());
-        samples.push(SurfaceSample {
-            triangle: t as u32,
-            barycentric: w,
-        });
+        samples.push(sample);
         if let (Some(out), Some(mesh_uvs)) = (uvs.as_mut(), mesh.uvs.as_ref()) {
             let [ia, ib, ic] = mesh.triangles[t];
             let uv = mesh_uvs[ia as usize] * w[0] as f32
@@ -66,6 +44,65 @@ pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Result<PointCloud>
         samples: Some(samples),
         ..PointCloud::default()
     })
+}
+
+/// The draws of [`sample_surface`] one at a time, for clouds streamed rather than held: the
+/// `k`-th draw of a sampler made with `seed` is the `k`-th point of `sample_surface(mesh, n,
+/// seed)` for every `n` > `k`.
+pub struct SurfaceSampler<'a> {
+    mesh: &'a TriMesh,
+    cumulative: Vec<f64>,
+    total: f64,
+    rng: crate::rng::Rng,
+}
+
+impl<'a> SurfaceSampler<'a> {
+    /// A sampler of `mesh` (validated; an error when its area is zero).
+    pub fn new(mesh: &'a TriMesh, seed: u64) -> Result<Self> {
+        mesh.validate()?;
+        let mut cumulative = Vec::with_capacity(mesh.triangles.len());
+        let mut total = 0.0;
+        for t in 0..mesh.triangles.len() {
+            total += mesh.area(t);
+            cumulative.push(total);
+        }
+        if !(total > 0.0) {
+            return Err(Error::EmptyMesh);
+        }
+        Ok(Self {
+            mesh,
+            cumulative,
+            total,
+            rng: seeded(seed, "sample-surface"),
+        })
+    }
+
+    /// The next sample: its triangle and barycentric weights.
+    pub fn draw(&mut self) -> SurfaceSample {
+        let target = self.rng.random::<f64>() * self.total;
+        // First triangle whose cumulative area exceeds the target; zero-area triangles are
+        // never chosen because their cumulative value equals their predecessor's.
+        let t = self
+            .cumulative
+            .partition_point(|&c| c <= target)
+            .min(self.cumulative.len() - 1);
+        let r1: f64 = self.rng.random();
+        let r2: f64 = self.rng.random();
+        let s = r1.sqrt();
+        SurfaceSample {
+            triangle: t as u32,
+            barycentric: [1.0 - s, s * (1.0 - r2), s * r2],
+        }
+    }
+
+    /// Appends the positions of the next `count` samples to `out`.
+    pub fn positions_into(&mut self, count: usize, out: &mut Vec<DVec3>) {
+        out.reserve(count);
+        for _ in 0..count {
+            let sample = self.draw();
+            out.push(sample_position(self.mesh, &sample));
+        }
+    }
 }
 
 /// Position of a sample on its mesh (recomputed from the provenance).
@@ -120,6 +157,22 @@ mod tests {
             assert!((sample_position(&mesh, s) - *p).length() < 1e-12);
             assert!((s.barycentric.iter().sum::<f64>() - 1.0).abs() < 1e-12);
             assert!(s.barycentric.iter().all(|&w| (0.0..=1.0).contains(&w)));
+        }
+    }
+
+    #[test]
+    fn the_sampler_streams_the_same_points() {
+        let mesh = two_triangles();
+        let whole = sample_surface(&mesh, 1000, 7).unwrap();
+        let mut sampler = SurfaceSampler::new(&mesh, 7).unwrap();
+        let mut streamed = Vec::new();
+        for count in [1, 300, 699] {
+            sampler.positions_into(count, &mut streamed);
+        }
+        assert_eq!(streamed, whole.positions);
+        let flat = TriMesh::new(vec![DVec3::ZERO, DVec3::X, DVec3::X * 2.0], vec![[0, 1, 2]]);
+        if let Ok(flat) = flat {
+            assert!(SurfaceSampler::new(&flat, 7).is_err());
         }
     }
 

@@ -4,7 +4,7 @@
 //!
 //! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
 //! neighbour estimates oriented away from the centroid when it has none; the leaf radius
-//! `experiments::lod::REF_RADIUS` density spacings
+//! [`LEAF_RADIUS_SPACINGS`] density spacings (the `lod` experiment's `REF_RADIUS` is this)
 //! (`cloud::spacing::density_spacing`, k = 8, 20,000 points, seed 1); the file's colours when
 //! it has them (the experiment paints its own texture instead, which a file build cannot know).
 //!
@@ -27,6 +27,14 @@ pub const SPACING_SAMPLE: usize = 20_000;
 pub const SPACING_SEED: u64 = 1;
 /// Neighbours of an estimated normal.
 pub const NORMALS_K: usize = 16;
+
+/// The leaf radius in density spacings: the `lod` experiment's reference splat radius, defined
+/// here so that the experiments (the scale experiment's out-of-core cells) can call this module
+/// without it calling back.
+pub const LEAF_RADIUS_SPACINGS: f64 = 1.5;
+
+/// The LOD methods with an out-of-core build.
+pub const OUT_OF_CORE: &[&str] = &["qsplat"];
 
 /// What `lod-build` did.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -92,7 +100,7 @@ pub fn options(memory_limit: u64, has_normals: bool, colors: bool) -> Options {
             k: SPACING_K,
             sample: SPACING_SAMPLE,
             seed: SPACING_SEED,
-            factor: crate::experiments::lod::REF_RADIUS,
+            factor: LEAF_RADIUS_SPACINGS,
         },
         fail_after_bytes: None,
     }
@@ -120,7 +128,7 @@ pub fn build(
     out: &Path,
     progress: bool,
 ) -> Result<Built> {
-    if method != "qsplat" {
+    if !OUT_OF_CORE.contains(&method) {
         bail!("lod-build: method {method:?} has no out-of-core build yet (qsplat has)");
     }
     let start = Instant::now();

@@ -579,24 +579,20 @@ pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
     )
 }
 
-fn write_las_to(
-    partial: &Path,
-    path: &Path,
-    cloud: &PointCloud,
+/// A LAS 1.4 header for points in `min..=max` (point format 0, or 2 with colours), and its
+/// scale: the coordinates on an integer grid of [`las_scale`] around the box's centre.
+fn las_header(
+    min: DVec3,
+    max: DVec3,
+    colors: bool,
     compress: bool,
-) -> Result<f64, Error> {
-    let werr = |e: las::Error| Error::Write {
-        path: path.to_owned(),
-        source: std::io::Error::other(e.to_string()),
-    };
-    let bbox = cloud.bbox().ok_or(Error::EmptyCloud)?;
-    let scale = las_scale(bbox.min, bbox.max);
-    let center = bbox.center();
+) -> Result<(las::Header, f64), las::Error> {
+    let scale = las_scale(min, max);
+    let center = (min + max) * 0.5;
     // An offset that is a multiple of the scale keeps every coordinate on the integer grid.
     let offset = (center / scale).round() * scale;
     let mut builder = Builder::from((1, 4));
-    builder.point_format =
-        las::point::Format::new(if cloud.colors.is_some() { 2 } else { 0 }).map_err(werr)?;
+    builder.point_format = las::point::Format::new(if colors { 2 } else { 0 })?;
     builder.transforms = Vector {
         x: Transform {
             scale,
@@ -612,7 +608,95 @@ fn write_las_to(
         },
     };
     builder.point_format.is_compressed = compress;
-    let header = builder.into_header().map_err(werr)?;
+    Ok((builder.into_header()?, scale))
+}
+
+/// Writes positions as LAS (or LAZ, by the extension) without holding them: `next` appends
+/// the next batch to the vector it is given and says whether more follow. Every point must
+/// lie in `min..=max` (the header's grid is sized from them; a point outside, or one that is
+/// not finite, is an error). Whole or not at all; returns the scale and the points written.
+pub fn write_las_streamed(
+    path: &Path,
+    min: DVec3,
+    max: DVec3,
+    mut next: impl FnMut(&mut Vec<DVec3>) -> bool,
+) -> Result<(f64, u64), Error> {
+    let compress = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+    let werr = |e: las::Error| Error::Write {
+        path: path.to_owned(),
+        source: std::io::Error::other(e.to_string()),
+    };
+    if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+        return Err(Error::Write {
+            path: path.to_owned(),
+            source: std::io::Error::other(format!("the box {min} .. {max} is not a box")),
+        });
+    }
+    super::atomic::write_via(
+        path,
+        |partial| {
+            let (header, scale) = las_header(min, max, false, compress).map_err(werr)?;
+            let file = std::fs::File::create(partial).map_err(|source| Error::Write {
+                path: path.to_owned(),
+                source,
+            })?;
+            let mut writer = Writer::new(std::io::BufWriter::with_capacity(1 << 20, file), header)
+                .map_err(werr)?;
+            let mut batch = Vec::new();
+            let mut count = 0u64;
+            loop {
+                batch.clear();
+                let more = next(&mut batch);
+                for p in &batch {
+                    if !(p.is_finite() && p.cmpge(min).all() && p.cmple(max).all()) {
+                        return Err(Error::Write {
+                            path: path.to_owned(),
+                            source: std::io::Error::other(format!(
+                                "point {count} at {p} lies outside the announced box \
+                                 {min} .. {max}"
+                            )),
+                        });
+                    }
+                    writer
+                        .write_point(Point {
+                            x: p.x,
+                            y: p.y,
+                            z: p.z,
+                            ..Point::default()
+                        })
+                        .map_err(werr)?;
+                    count += 1;
+                }
+                if !more {
+                    break;
+                }
+            }
+            writer.close().map_err(werr)?;
+            Ok((scale, count))
+        },
+        |source| Error::Write {
+            path: path.to_owned(),
+            source,
+        },
+    )
+}
+
+fn write_las_to(
+    partial: &Path,
+    path: &Path,
+    cloud: &PointCloud,
+    compress: bool,
+) -> Result<f64, Error> {
+    let werr = |e: las::Error| Error::Write {
+        path: path.to_owned(),
+        source: std::io::Error::other(e.to_string()),
+    };
+    let bbox = cloud.bbox().ok_or(Error::EmptyCloud)?;
+    let (header, scale) =
+        las_header(bbox.min, bbox.max, cloud.colors.is_some(), compress).map_err(werr)?;
     let file = std::fs::File::create(partial).map_err(|source| Error::Write {
         path: path.to_owned(),
         source,
@@ -644,4 +728,63 @@ fn write_las_to(
     }
     writer.close().map_err(werr)?;
     Ok(scale)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_streamed_file_reads_back_like_a_whole_one() {
+        let dir = tempfile::tempdir().unwrap();
+        let positions: Vec<DVec3> = (0..2500)
+            .map(|i| {
+                let t = f64::from(i) * 0.01;
+                DVec3::new(t.sin() * 3.0, t.cos() * 2.0, t)
+            })
+            .collect();
+        let cloud = PointCloud {
+            positions: positions.clone(),
+            ..PointCloud::default()
+        };
+        let bbox = cloud.bbox().unwrap();
+        for name in ["s.las", "s.laz"] {
+            let whole = dir.path().join(format!("whole-{name}"));
+            let streamed = dir.path().join(name);
+            write_las(&whole, &cloud).unwrap();
+            let mut at = 0;
+            let (_, count) = write_las_streamed(&streamed, bbox.min, bbox.max, |batch| {
+                let end = (at + 1000).min(positions.len());
+                batch.extend_from_slice(&positions[at..end]);
+                at = end;
+                at < positions.len()
+            })
+            .unwrap();
+            assert_eq!(count, 2500);
+            let a = read_las(&whole, &LasOptions::default()).unwrap().cloud;
+            let b = read_las(&streamed, &LasOptions::default()).unwrap().cloud;
+            assert_eq!(a.positions, b.positions);
+        }
+    }
+
+    #[test]
+    fn a_point_outside_the_box_fails_and_leaves_no_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.laz");
+        let err = write_las_streamed(&path, DVec3::ZERO, DVec3::ONE, |batch| {
+            batch.push(DVec3::splat(0.5));
+            batch.push(DVec3::new(0.5, 2.0, 0.5));
+            false
+        })
+        .unwrap_err();
+        assert!(
+            err.to_string().contains("outside the announced box"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+        assert!(
+            write_las_streamed(&path, DVec3::ONE, DVec3::ZERO, |_| false).is_err(),
+            "an inverted box"
+        );
+    }
 }

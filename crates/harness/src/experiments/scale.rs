@@ -8,7 +8,10 @@
 //! implementation on HPR's flipped set (γ = 4, the eye included), which measures hulls and so
 //! calls `hull` directly; every registered LOD method's build (`NAME-build`) and selection
 //! (`NAME-select`) at its default setting, through the kernel's LOD form, on the cloud prepared
-//! as the `lod` experiment prepares it. `seconds` is the operation alone (median of 3 runs up
+//! as the `lod` experiment prepares it; each out-of-core LOD build (`NAME-build-ooc`,
+//! [`OOC_SUFFIX`]): the same samples written streamed as LAZ, then `pointsight lod-build` within
+//! [`OOC_LIMIT`], at 10^6 to 10^9 points (quick: 10^6) under caps of its own ([`OOC_CAP`]) and
+//! a disk check. `seconds` is the operation alone (median of 3 runs up
 //! to 10^6 points, one run above; sampling and per-cloud preparation excluded for per-view
 //! operations, included for builds, which are the operation).
 //!
@@ -71,6 +74,55 @@ pub struct CellKind {
     pub scale: Scale,
     /// Why it cannot run here (an external method that is not installed).
     pub unavailable: Option<String>,
+    /// An out-of-core LOD build (`NAME-build-ooc`): its own sizes, caps, memory limit and
+    /// disk check ([`OOC_LIMIT`], [`OOC_CAP`]).
+    pub out_of_core: bool,
+}
+
+/// Suffix of an out-of-core LOD build's cell: `pointsight lod-build` of a LAZ file the cell
+/// writes first (the dragon sampled as the other cells sample it, streamed, never held),
+/// within [`OOC_LIMIT`].
+pub const OOC_SUFFIX: &str = "-build-ooc";
+
+/// The memory limit of an out-of-core build cell (`lod-build --memory-limit`).
+pub const OOC_LIMIT: u64 = 1 << 30;
+
+/// The time cap of an out-of-core build cell (its preparation, writing the LAZ input, has
+/// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
+pub const OOC_CAP: Duration = Duration::from_secs(3600);
+
+/// Disk an out-of-core cell needs per point: measured at 10^7 points (13 chunks), the LAZ
+/// input took 11.4 bytes per point, the written file 6.8, and the build wrote 382 bytes per
+/// point of scratch files (written in all, an upper bound on what is on disk at once).
+pub const OOC_DISK_PER_POINT: u64 = 400;
+
+/// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
+fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
+    let top = if quick { 6 } else { 9 };
+    (6..=top)
+        .map(|e| 10u64.pow(e))
+        .filter(|&n| max_points.is_none_or(|m| n <= m))
+        .collect()
+}
+
+/// The folder an out-of-core cell writes its input, scratch and output in (removed after the
+/// cell by the process that started it, also when a cap stopped it).
+fn ooc_dir(data_dir: &Path, method: &str, n: u64) -> std::path::PathBuf {
+    data_dir.join(".scale-ooc").join(format!("{method}-{n}"))
+}
+
+/// Bytes free for an unprivileged user on the file system of `dir` (or of its nearest
+/// existing ancestor).
+fn disk_free(dir: &Path) -> Result<u64> {
+    let mut at = dir;
+    while !at.exists() {
+        at = at
+            .parent()
+            .context("no existing folder above the data folder")?;
+    }
+    let st = nix::sys::statvfs::statvfs(at)
+        .with_context(|| format!("free space of {}", at.display()))?;
+    Ok(st.blocks_available() as u64 * st.fragment_size() as u64)
 }
 
 /// Every cell kind, in report order: visibility methods, hulls, then each LOD method's build
@@ -90,6 +142,7 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
             setting: default_of(m.name()),
             scale: m.scale(),
             unavailable: m.availability().err(),
+            out_of_core: false,
         })
         .collect();
     out.extend(HULLS.iter().map(|&(h, bytes)| CellKind {
@@ -97,6 +150,7 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         setting: Setting::default(),
         scale: Scale::PerPoint(bytes),
         unavailable: None,
+        out_of_core: false,
     }));
     for m in registry::lod::all() {
         for part in ["build", "select"] {
@@ -105,9 +159,17 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
                 setting: default_of(m.name()),
                 scale: m.scale(),
                 unavailable: None,
+                out_of_core: false,
             });
         }
     }
+    out.extend(crate::lod_build::OUT_OF_CORE.iter().map(|m| CellKind {
+        name: format!("{m}{OOC_SUFFIX}"),
+        setting: Setting::default(),
+        scale: Scale::PerPoint(0),
+        unavailable: None,
+        out_of_core: true,
+    }));
     out
 }
 
@@ -130,6 +192,10 @@ pub struct Row {
     /// written before the column existed).
     #[serde(default = "nan")]
     pub prepare_seconds: f64,
+    /// What else the cell reports (an out-of-core build: its limit, chunks, rate and files);
+    /// empty for the others.
+    #[serde(default)]
+    pub detail: String,
 }
 
 /// What a cell process prints last (one JSON line).
@@ -143,6 +209,9 @@ pub struct CellOutput {
     /// flip, for an LOD cell the `lod` experiment's normals and spacing.
     #[serde(default = "nan")]
     pub prepare_seconds: f64,
+    /// See [`Row::detail`].
+    #[serde(default)]
+    pub detail: String,
 }
 
 fn nan() -> f64 {
@@ -253,6 +322,9 @@ pub fn cell(
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
     let mesh = crate::datasets::load_mesh_of(dataset, data_dir)?;
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
+    if let Some(m) = method.strip_suffix(OOC_SUFFIX) {
+        return ooc_cell(m, &mesh, &bbox, n, data_dir, || ready(&on_prepared));
+    }
     let cam = cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default())?[0];
     let n = usize::try_from(n)?;
     cloud::memory::ensure(
@@ -322,6 +394,70 @@ pub fn cell(
         seconds,
         peak_rss_bytes: peak_rss(),
         prepare_seconds,
+        detail: String::new(),
+    })
+}
+
+/// An out-of-core build cell: writes `n` points sampled from `mesh` (seed [`SEED`], the
+/// points the other cells hold) as LAZ without holding them, calls `ready` (the preparation
+/// ends there), then builds `method`'s file from it with `pointsight lod-build`'s code within
+/// [`OOC_LIMIT`]. One run: the build reads and decodes the file, which is the operation.
+fn ooc_cell(
+    method: &str,
+    mesh: &cloud::TriMesh,
+    bbox: &cloud::Aabb,
+    n: u64,
+    data_dir: &Path,
+    ready: impl FnOnce() -> f64,
+) -> Result<CellOutput> {
+    let dir = ooc_dir(data_dir, &format!("{method}{OOC_SUFFIX}"), n);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let outcome = ooc_build(method, mesh, bbox, n, &dir, ready);
+    let _ = std::fs::remove_dir_all(&dir);
+    outcome
+}
+
+/// [`ooc_cell`]'s work in `dir`, which the caller removes after.
+fn ooc_build(
+    method: &str,
+    mesh: &cloud::TriMesh,
+    bbox: &cloud::Aabb,
+    n: u64,
+    dir: &Path,
+    ready: impl FnOnce() -> f64,
+) -> Result<CellOutput> {
+    let input = dir.join("input.laz");
+    let mut sampler = cloud::sample::SurfaceSampler::new(mesh, SEED)?;
+    // A sample's weights sum to 1 only up to rounding: pad the box by a few ulps of its size.
+    let pad = cloud::glam::DVec3::splat((bbox.max - bbox.min).max_element() * 1e-9 + 1e-12);
+    let mut left = n;
+    cloud::io::las::write_las_streamed(&input, bbox.min - pad, bbox.max + pad, |batch| {
+        let k = left.min(1 << 16);
+        sampler.positions_into(k as usize, batch);
+        left -= k;
+        left > 0
+    })?;
+    let prepare_seconds = ready();
+    let out = dir.join(format!("{method}.lod"));
+    let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
+    let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
+    let mib = |b: u64| b as f64 / 1048576.0;
+    Ok(CellOutput {
+        seconds: built.seconds,
+        peak_rss_bytes: peak_rss(),
+        prepare_seconds,
+        detail: format!(
+            "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
+             LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB",
+            mib(OOC_LIMIT),
+            mib(built.peak_rss_bytes),
+            built.points as f64 / built.seconds / 1e6,
+            built.chunks,
+            built.top_levels,
+            mib(input_bytes),
+            mib(built.scratch_bytes),
+            mib(built.file_bytes),
+        ),
     })
 }
 
@@ -356,6 +492,23 @@ fn run_cell(
     data_dir: &Path,
     cap: Duration,
 ) -> Row {
+    let row = run_child(dataset, method, setting, n, data_dir, cap);
+    // An out-of-core cell's files, whether it finished, failed or was killed.
+    let dir = ooc_dir(data_dir, method, n);
+    if dir.exists() {
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+    row
+}
+
+fn run_child(
+    dataset: &str,
+    method: &str,
+    setting: &Setting,
+    n: u64,
+    data_dir: &Path,
+    cap: Duration,
+) -> Row {
     let row = |seconds: f64, peak: u64, status: String, prepare_seconds: f64| Row {
         method: method.to_owned(),
         n_points: n,
@@ -363,6 +516,7 @@ fn run_cell(
         peak_rss_bytes: peak,
         status,
         prepare_seconds,
+        detail: String::new(),
     };
     let exe = match std::env::current_exe() {
         Ok(e) => e,
@@ -463,7 +617,10 @@ fn run_cell(
                     );
                 }
                 return match last.as_deref().map(serde_json::from_str::<CellOutput>) {
-                    Some(Ok(o)) => row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds),
+                    Some(Ok(o)) => Row {
+                        detail: o.detail,
+                        ..row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds)
+                    },
                     _ => row(
                         f64::NAN,
                         0,
@@ -591,13 +748,26 @@ impl Experiment for ScaleExperiment {
             .context("scale needs a dataset with a mesh")?;
         crate::datasets::load_mesh_of(dataset, &ctx.data_dir)?;
         let cap = Duration::from_secs(if ctx.quick { 30 } else { 40 });
-        let sizes = sizes(ctx.quick, ctx.max_points);
+        let in_core_sizes = sizes(ctx.quick, ctx.max_points);
+        let ooc_sizes = ooc_sizes(ctx.quick, ctx.max_points);
         let kinds = cells(&ctx.sweeps);
-        let bar = crate::progress::bar((kinds.len() * sizes.len()) as u64, "scale");
+        let sizes_of = |kind: &CellKind| {
+            if kind.out_of_core {
+                &ooc_sizes
+            } else {
+                &in_core_sizes
+            }
+        };
+        let bar = crate::progress::bar(
+            kinds.iter().map(|k| sizes_of(k).len() as u64).sum(),
+            "scale",
+        );
         let mut rows = Vec::new();
         let mut opted_out = Vec::new();
         for kind in &kinds {
             let method = kind.name.as_str();
+            let sizes = sizes_of(kind);
+            let cap = if kind.out_of_core { OOC_CAP } else { cap };
             let per_point = match &kind.scale {
                 Scale::OptOut(why) => {
                     opted_out.push(serde_json::json!({"method": method, "reason": why}));
@@ -610,7 +780,7 @@ impl Experiment for ScaleExperiment {
             // (seconds, prepare seconds) at the previous size and the one before.
             let mut previous: Option<(f64, f64)> = None;
             let mut before: Option<(f64, f64)> = None;
-            for &n in &sizes {
+            for &n in sizes {
                 let not_run = |status: String| Row {
                     method: method.to_owned(),
                     n_points: n,
@@ -618,7 +788,9 @@ impl Experiment for ScaleExperiment {
                     peak_rss_bytes: 0,
                     status,
                     prepare_seconds: f64::NAN,
+                    detail: String::new(),
                 };
+                let needed_disk = n.saturating_mul(OOC_DISK_PER_POINT);
                 let row = if let Some(why) = &kind.unavailable {
                     not_run(format!("skipped: not installed: {why}"))
                 } else if per_point.is_none() && n > Scale::UNKNOWN_LIMIT {
@@ -628,10 +800,31 @@ impl Experiment for ScaleExperiment {
                          so it is not run above {} points",
                         Scale::UNKNOWN_LIMIT
                     ))
-                } else if let Err(e) = cloud::memory::ensure(
-                    u128::from(n) * u128::from(per_point.unwrap_or(0) + 48),
-                    &format!("{method} on {n} points"),
-                ) {
+                } else if kind.out_of_core
+                    && let Err(e) = cloud::memory::ensure(
+                        u128::from(OOC_LIMIT + (256 << 20)),
+                        &format!("{method} on {n} points within {} MiB", OOC_LIMIT >> 20),
+                    )
+                {
+                    not_run(format!("refused: {e}"))
+                } else if kind.out_of_core
+                    && let Some(free) = disk_free(&ctx.data_dir)
+                        .ok()
+                        .filter(|&free| free < needed_disk)
+                {
+                    not_run(format!(
+                        "skipped: the disk under {} has {:.1} GB free, the cell needs about \
+                         {:.1} GB ({OOC_DISK_PER_POINT} bytes per point: input, scratch, file)",
+                        ctx.data_dir.display(),
+                        free as f64 / 1e9,
+                        needed_disk as f64 / 1e9
+                    ))
+                } else if !kind.out_of_core
+                    && let Err(e) = cloud::memory::ensure(
+                        u128::from(n) * u128::from(per_point.unwrap_or(0) + 48),
+                        &format!("{method} on {n} points"),
+                    )
+                {
                     not_run(format!("refused: {e}"))
                 } else if let Some(why) = skip_reason(previous, before, n, cap) {
                     not_run(why)
@@ -647,7 +840,16 @@ impl Experiment for ScaleExperiment {
         bar.finish_and_clear();
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         Ok(serde_json::json!({
-            "sizes": sizes,
+            "sizes": in_core_sizes,
+            "out_of_core": {
+                "methods": crate::lod_build::OUT_OF_CORE,
+                "sizes": ooc_sizes,
+                "memory_limit_bytes": OOC_LIMIT,
+                "cap_seconds": OOC_CAP.as_secs(),
+                "prepare_cap_seconds": (OOC_CAP * PREPARE_CAP_FACTOR).as_secs(),
+                "disk_bytes_per_point": OOC_DISK_PER_POINT,
+                "input": "LAZ (point format 0) written streamed by the cell from the same seeded samples",
+            },
             "seed": SEED,
             "mesh_of": dataset,
             "view": 0,
@@ -672,7 +874,7 @@ impl Experiment for ScaleExperiment {
         let family = |m: &str| {
             if m.starts_with("hull-") {
                 1
-            } else if m.ends_with("-build") || m.ends_with("-select") {
+            } else if m.ends_with("-build") || m.ends_with("-select") || m.ends_with(OOC_SUFFIX) {
                 2
             } else {
                 0
@@ -800,6 +1002,20 @@ impl Experiment for ScaleExperiment {
                 )
             })
             .collect();
+        let ooc: Vec<String> = rows
+            .iter()
+            .filter(|r| r.method.ends_with(OOC_SUFFIX) && !r.detail.is_empty())
+            .map(|r| format!("- `{}`, {} points: {}\n", r.method, r.n_points, r.detail))
+            .collect();
+        let ooc = if ooc.is_empty() {
+            String::new()
+        } else {
+            format!(
+                "\nOut-of-core builds (`pointsight lod-build` of a LAZ file the cell wrote from \
+                 the same samples; `seconds` includes reading and decoding it):\n\n{}",
+                ooc.concat()
+            )
+        };
         let opted_out = if opted_out.is_empty() {
             String::new()
         } else {
@@ -814,7 +1030,7 @@ impl Experiment for ScaleExperiment {
              `prepare s` the cell's input before it (sampling the cloud; a hull's flip; an LOD \
              method's normals), under a cap of its own ({} s on the operation, {} s on the \
              preparation). Cells not run or stopped say why.\n\n\
-             {images}{}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
+             {images}{}{ooc}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
             cap,
             prepare_cap,
             markdown_table(
@@ -839,6 +1055,26 @@ impl Experiment for ScaleExperiment {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_out_of_core_cell_builds_from_its_own_laz_and_leaves_nothing() {
+        let mesh = cloud::synth::icosphere(3);
+        let bbox = mesh.bbox().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = ooc_cell("qsplat", &mesh, &bbox, 5_000, dir.path(), || 0.5).unwrap();
+        assert!(out.seconds > 0.0 && out.prepare_seconds == 0.5);
+        assert!(
+            out.detail.contains("1 chunks") && out.detail.contains("limit 1024 MiB"),
+            "{}",
+            out.detail
+        );
+        assert!(!ooc_dir(dir.path(), "qsplat-build-ooc", 5_000).exists());
+        assert!(ooc_cell("spt", &mesh, &bbox, 100, dir.path(), || 0.0).is_err());
+        assert!(!ooc_dir(dir.path(), "spt-build-ooc", 100).exists());
+        assert_eq!(ooc_sizes(true, None), vec![1_000_000]);
+        assert_eq!(ooc_sizes(false, Some(10u64.pow(8))).len(), 3);
+        assert!(disk_free(&dir.path().join("not/yet")).unwrap() > 0);
+    }
 
     #[test]
     fn the_fit_recovers_a_power_law() {

@@ -62,7 +62,7 @@ pub const DISTANCES: &[f64] = &[1.0, FAR_DISTANCE];
 /// The farther of [`DISTANCES`] (the LOD pages' default).
 pub const FAR_DISTANCE: f64 = 2.0;
 /// Reference splat radius, in density spacings.
-pub const REF_RADIUS: f64 = 1.5;
+pub const REF_RADIUS: f64 = crate::lod_build::LEAF_RADIUS_SPACINGS;
 /// Texture resolution of the procedural textures.
 pub const TEXTURE_SIZE: usize = 512;
 /// Seed of the random numbers (SRN, random baseline, marble texture).
