@@ -91,10 +91,11 @@ pub const OOC_LIMIT: u64 = 1 << 30;
 /// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
 pub const OOC_CAP: Duration = Duration::from_secs(3600);
 
-/// Disk an out-of-core cell needs per point: measured at 10^7 points (13 chunks), the LAZ
-/// input took 11.4 bytes per point, the written file 6.8, and the build wrote 382 bytes per
-/// point of scratch files (written in all, an upper bound on what is on disk at once).
-pub const OOC_DISK_PER_POINT: u64 = 400;
+/// Disk an out-of-core cell needs per point, an upper bound: the LAZ input takes 11 bytes per
+/// point and the written file 7; the build wrote 382 bytes per point of scratch files at 10^7
+/// points (13 chunks) and 604 at 10^8 (154 chunks), in all (what is on disk at once is less:
+/// 8.4 GB seen mid-build at 10^8, not its peak).
+pub const OOC_DISK_PER_POINT: u64 = 650;
 
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
