@@ -552,6 +552,13 @@ impl LasStream {
     }
 }
 
+/// True when `path` ends in `.laz` (any case): the writers compress then.
+fn is_laz(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("laz"))
+}
+
 /// The scale [`write_las`] uses for points in `min..=max`.
 pub fn las_scale(min: DVec3, max: DVec3) -> f64 {
     let half = ((max - min) * 0.5).max_element();
@@ -565,10 +572,7 @@ pub fn las_scale(min: DVec3, max: DVec3) -> f64 {
 /// Writes `cloud` as LAS (or LAZ, by the extension), whole or not at all
 /// ([`super::atomic`]); returns the scale used.
 pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
-    let compress = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+    let compress = is_laz(path);
     super::atomic::write_via(
         path,
         |partial| write_las_to(partial, path, cloud, compress),
@@ -621,10 +625,7 @@ pub fn write_las_streamed(
     max: DVec3,
     mut next: impl FnMut(&mut Vec<DVec3>) -> bool,
 ) -> Result<(f64, u64), Error> {
-    let compress = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+    let compress = is_laz(path);
     let werr = |e: las::Error| Error::Write {
         path: path.to_owned(),
         source: std::io::Error::other(e.to_string()),

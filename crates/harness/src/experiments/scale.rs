@@ -413,53 +413,44 @@ fn ooc_cell(
 ) -> Result<CellOutput> {
     let dir = ooc_dir(data_dir, &format!("{method}{OOC_SUFFIX}"), n);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
-    let outcome = ooc_build(method, mesh, bbox, n, &dir, ready);
+    // The work in a closure, so that the folder goes whatever it returns.
+    let outcome = (|| -> Result<CellOutput> {
+        let input = dir.join("input.laz");
+        let mut sampler = cloud::sample::SurfaceSampler::new(mesh, SEED)?;
+        // A sample's weights sum to 1 only up to rounding: pad the box by a few ulps of its size.
+        let pad = cloud::glam::DVec3::splat((bbox.max - bbox.min).max_element() * 1e-9 + 1e-12);
+        let mut left = n;
+        cloud::io::las::write_las_streamed(&input, bbox.min - pad, bbox.max + pad, |batch| {
+            let k = left.min(1 << 16);
+            sampler.positions_into(k as usize, batch);
+            left -= k;
+            left > 0
+        })?;
+        let prepare_seconds = ready();
+        let out = dir.join(format!("{method}.lod"));
+        let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
+        let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
+        let mib = |b: u64| b as f64 / 1048576.0;
+        Ok(CellOutput {
+            seconds: built.seconds,
+            peak_rss_bytes: peak_rss(),
+            prepare_seconds,
+            detail: format!(
+                "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
+                 LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB",
+                mib(OOC_LIMIT),
+                mib(built.peak_rss_bytes),
+                built.points as f64 / built.seconds / 1e6,
+                built.chunks,
+                built.top_levels,
+                mib(input_bytes),
+                mib(built.scratch_bytes),
+                mib(built.file_bytes),
+            ),
+        })
+    })();
     let _ = std::fs::remove_dir_all(&dir);
     outcome
-}
-
-/// [`ooc_cell`]'s work in `dir`, which the caller removes after.
-fn ooc_build(
-    method: &str,
-    mesh: &cloud::TriMesh,
-    bbox: &cloud::Aabb,
-    n: u64,
-    dir: &Path,
-    ready: impl FnOnce() -> f64,
-) -> Result<CellOutput> {
-    let input = dir.join("input.laz");
-    let mut sampler = cloud::sample::SurfaceSampler::new(mesh, SEED)?;
-    // A sample's weights sum to 1 only up to rounding: pad the box by a few ulps of its size.
-    let pad = cloud::glam::DVec3::splat((bbox.max - bbox.min).max_element() * 1e-9 + 1e-12);
-    let mut left = n;
-    cloud::io::las::write_las_streamed(&input, bbox.min - pad, bbox.max + pad, |batch| {
-        let k = left.min(1 << 16);
-        sampler.positions_into(k as usize, batch);
-        left -= k;
-        left > 0
-    })?;
-    let prepare_seconds = ready();
-    let out = dir.join(format!("{method}.lod"));
-    let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
-    let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
-    let mib = |b: u64| b as f64 / 1048576.0;
-    Ok(CellOutput {
-        seconds: built.seconds,
-        peak_rss_bytes: peak_rss(),
-        prepare_seconds,
-        detail: format!(
-            "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
-             LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB",
-            mib(OOC_LIMIT),
-            mib(built.peak_rss_bytes),
-            built.points as f64 / built.seconds / 1e6,
-            built.chunks,
-            built.top_levels,
-            mib(input_bytes),
-            mib(built.scratch_bytes),
-            mib(built.file_bytes),
-        ),
-    })
 }
 
 /// Timed runs of a cell's operation at `n` points (the median is its seconds): all of them
