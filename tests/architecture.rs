@@ -229,6 +229,11 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "renders every LOD method's splats (splat::render)",
     ),
     (
+        "experiments/lod/from_file.rs",
+        "splat",
+        "renders a built file's leaves and selections (splat::render::Canvas)",
+    ),
+    (
         "view/lod.rs",
         "splat",
         "the LOD page: each selection rendered by splat::render (PSNR, coverage), as `lod` does",

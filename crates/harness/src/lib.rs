@@ -343,7 +343,7 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
     }
     if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
         for (name, e) in &m.datasets {
-            let ready = [&e.cloud, &e.mesh]
+            let ready = [&e.cloud, &e.mesh, &e.lod_file]
                 .into_iter()
                 .flatten()
                 .all(|p| m.resolve(p).exists());

@@ -604,6 +604,29 @@ impl Lod {
         })
     }
 
+    /// A QSplat file written by `pointsight lod-build`, opened for selection without loading
+    /// it (`registry::lod_file`): each selection reads the pages its view needs through a
+    /// cache of at most `cache_bytes`; `build_seconds` is the time to open it.
+    #[staticmethod]
+    #[pyo3(signature = (path, cache_bytes=64 << 20))]
+    fn open_qsplat_file(py: Python<'_>, path: PathBuf, cache_bytes: u64) -> PyResult<Self> {
+        let m = registry::lod::method("qsplat")
+            .ok_or_else(|| PyRuntimeError::new_err("the registry has no qsplat"))?;
+        let (built, timing) = run(py, move || {
+            registry::timing::measure(1, || {
+                registry::lod_file::open_qsplat_file(&path, cache_bytes)
+            })
+            .map_err(|e| registry_err(m.name(), &e))
+        })?;
+        let size = built.size();
+        Ok(Self {
+            method: m,
+            data: registry::lod::LodData::none(0),
+            built,
+            build: registry::kernel::Built { timing, size },
+        })
+    }
+
     /// The splats drawn for each camera at one setting (`params`: the registry's KEY=VALUE
     /// pairs): per camera a dict of `centers`, `radii`, `normals`, `colors` arrays and the
     /// selection's `seconds` (median of `repeats` timed selections).
@@ -656,6 +679,10 @@ impl Lod {
                         .collect(),
                 )?;
                 d.set_item("seconds", s.timing.median)?;
+                if let Some(r) = s.reads {
+                    d.set_item("bytes_read", r.bytes_read)?;
+                    d.set_item("cache_bytes", r.cache_bytes)?;
+                }
                 Ok(d)
             })
             .collect()

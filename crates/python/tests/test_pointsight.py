@@ -348,3 +348,45 @@ def test_open3d_peer_through_the_external_protocol_if_installed(tmp_path):
     assert stdout.splitlines()[-1].startswith("method=open3d-hpr points=20000 visible=")
     run("visible", "--dataset", "sphere-20000", "--view", "3", "--method", "hpr", "--out", str(out_ours))
     np.testing.assert_array_equal(read_indices(out_peer), read_indices(out_ours))
+
+
+def test_qsplat_selected_from_a_built_file(tmp_path):
+    """A file `pointsight lod-build` wrote, opened with `QSplat.open`: the same splats as the
+    tree built in memory from the same points, normals and leaf radius, read through a
+    bounded cache."""
+    rng = np.random.default_rng(3)
+    n = 30000
+    p = rng.normal(size=(n, 3))
+    p /= np.linalg.norm(p, axis=1, keepdims=True)
+    p *= 1.0 + 0.01 * rng.random((n, 1))
+    normals = p / np.linalg.norm(p, axis=1, keepdims=True)
+    ply = tmp_path / "ball.ply"
+    with open(ply, "w") as f:
+        f.write("ply\nformat ascii 1.0\nelement vertex %d\n" % n)
+        for a in ("x", "y", "z"):
+            f.write(f"property double {a}\n")
+        for a in ("nx", "ny", "nz"):
+            f.write(f"property float {a}\n")
+        f.write("end_header\n")
+        for q, m in zip(p.tolist(), normals.astype(np.float32).astype(np.float64).tolist()):
+            f.write(" ".join(repr(v) for v in q + m) + "\n")
+    out = run("lod-build", "--cloud", str(ply), "--out", str(tmp_path / "ball.qsplat"))
+    radius = float(dict(kv.split("=") for kv in out.split())["leaf_radius"])
+    built = ps.QSplat.open(tmp_path / "ball.qsplat", cache_bytes=1 << 20)
+    assert len(built) > n
+    mem = ps.QSplat(p, normals.astype(np.float32).astype(np.float64), radius)
+    cams = [
+        ps.Camera.look_at("pinhole", eye, [0, 0, 0], [0, 1, 0], 320, 240, fov_y_deg=50)
+        for eye in ([0, 0, 4], [3, 1, -2], [0.2, 0.1, 1.6])
+    ]
+    for threshold in (0.5, 4.0):
+        got = built.select(cams, threshold)
+        want = mem.select(cams, threshold)
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g["centers"], w["centers"])
+            np.testing.assert_array_equal(g["radii"], w["radii"])
+            assert g["cache_bytes"] <= 1 << 20
+            assert "bytes_read" in g and "bytes_read" not in w
+    with pytest.raises(ValueError, match="corrupt|magic"):
+        (tmp_path / "bad.qsplat").write_bytes(b"not a qsplat file")
+        ps.QSplat.open(tmp_path / "bad.qsplat")

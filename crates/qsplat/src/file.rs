@@ -89,8 +89,35 @@ pub fn read(path: &Path) -> Result<QTree> {
     from_bytes(&bytes, &path.display().to_string())
 }
 
-/// Parses a tree; `name` labels errors.
-pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
+/// What the header says, checked against the file's length.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Header {
+    pub colored: bool,
+    pub n_points: u64,
+    pub n_words: u64,
+    pub root_center: DVec3,
+    pub root_radius: f64,
+    pub root_word: u32,
+}
+
+/// Byte offset of word `k`.
+pub(crate) fn word_offset(k: u64) -> u64 {
+    HEADER as u64 + 4 * k
+}
+
+/// Byte offset of the root's colour (the colours follow the words); word `k`'s is 2 (k + 1)
+/// bytes after it.
+pub(crate) fn colors_offset(n_words: u64) -> u64 {
+    word_offset(n_words)
+}
+
+/// The header's bytes.
+pub(crate) const HEADER_BYTES: usize = HEADER;
+
+/// Parses the header at the start of `b` for a file of `file_len` bytes (the counts must fit
+/// it exactly, so nothing is allocated from a count the file cannot back); `name` labels
+/// errors.
+pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header> {
     let corrupt = |offset: usize, reason: String| Error::Corrupt {
         path: name.to_owned(),
         offset: offset as u64,
@@ -134,13 +161,16 @@ pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
         )
         .and_then(|v| v.checked_add(if colored { 2 } else { 0 }))
         .ok_or_else(|| corrupt(24, "word count overflows".into()))?;
-    if expected != b.len() as u64 {
+    if expected != file_len {
         return Err(corrupt(
             24,
-            format!(
-                "{n_words} words need {expected} bytes, the file has {}",
-                b.len()
-            ),
+            format!("{n_words} words need {expected} bytes, the file has {file_len}"),
+        ));
+    }
+    if usize::try_from(n_words).is_err() {
+        return Err(corrupt(
+            24,
+            format!("{n_words} words do not fit in memory addresses"),
         ));
     }
     let root_center = DVec3::new(f64_at(32)?, f64_at(40)?, f64_at(48)?);
@@ -149,11 +179,26 @@ pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
         return Err(corrupt(32, "root sphere is not finite and positive".into()));
     }
     let root_word = u32_at(64)?;
-    let n = n_words as usize;
-    let words: Vec<u32> = (0..n)
-        .map(|k| u32_at(HEADER + 4 * k))
-        .collect::<Result<_>>()?;
-    let (root_color, colors) = if colored {
+    Ok(Header {
+        colored,
+        n_points,
+        n_words,
+        root_center,
+        root_radius,
+        root_word,
+    })
+}
+
+/// Parses a tree; `name` labels errors.
+pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
+    let h = parse_header(b, b.len() as u64, name)?;
+    let n = h.n_words as usize;
+    let word = |k: usize| -> u32 {
+        let o = HEADER + 4 * k;
+        u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+    };
+    let words: Vec<u32> = (0..n).map(word).collect();
+    let (root_color, colors) = if h.colored {
         let base = HEADER + 4 * n;
         let c = |k: usize| -> u16 { u16::from_le_bytes([b[base + 2 * k], b[base + 2 * k + 1]]) };
         (c(0), Some((0..n).map(|k| c(k + 1)).collect()))
@@ -161,10 +206,10 @@ pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
         (0, None)
     };
     let tree = QTree {
-        n_points,
-        root_center,
-        root_radius,
-        root_word,
+        n_points: h.n_points,
+        root_center: h.root_center,
+        root_radius: h.root_radius,
+        root_word: h.root_word,
         words,
         colors,
         root_color,

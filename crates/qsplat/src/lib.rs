@@ -8,7 +8,8 @@
 //! ([`tree`]), with a compact file format ([`file`]) and the view-dependent traversal that
 //! decides what to draw ([`traverse`]: frustum and back-face culling, recursion while the
 //! projected size exceeds a threshold in pixels). [`ooc`] writes the same file out of core,
-//! within a memory limit, for clouds larger than memory.
+//! within a memory limit, for clouds larger than memory; [`paged`] selects from a built file
+//! without loading it.
 //!
 //! Points need normals; leaves are spheres of a given radius around the points (the original
 //! uses each vertex's distance to its mesh neighbours; a cloud has no mesh, so the harness
@@ -19,6 +20,7 @@ pub mod build;
 pub mod error;
 pub mod file;
 pub mod ooc;
+pub mod paged;
 pub mod quant;
 pub mod traverse;
 pub mod tree;
@@ -26,7 +28,8 @@ pub mod tree;
 use cloud::PointCloud;
 
 pub use error::{Error, Result};
-pub use traverse::{Splat, TraverseParams, traverse};
+pub use paged::PagedTree;
+pub use traverse::{Splat, TraverseParams, leaves, traverse, traverse_nodes};
 pub use tree::QTree;
 
 /// Builds and quantises the QSplat tree of `cloud` (which must have normals); colours are kept

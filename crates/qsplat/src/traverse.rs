@@ -80,39 +80,151 @@ fn frustum(camera: &Camera) -> [(DVec3, f64); 5] {
     ]
 }
 
+/// The root of a tree: its sphere (stored in full), word and colour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Root {
+    /// Sphere centre.
+    pub center: DVec3,
+    /// Sphere radius.
+    pub radius: f64,
+    /// Its word (the sphere bits unused).
+    pub word: u32,
+    /// Its colour (RGB565).
+    pub color: u16,
+}
+
+/// Where a traversal reads a tree's words: the in-memory [`QTree`] or a built file read on
+/// demand ([`crate::paged::PagedTree`]).
+pub trait Nodes {
+    /// Why a word could not be read.
+    type Error;
+    /// The root.
+    fn root(&self) -> Root;
+    /// Words after the root.
+    fn word_count(&self) -> usize;
+    /// Whether the tree has colours.
+    fn colored(&self) -> bool;
+    /// Word `at` (`at < word_count()`).
+    fn word(&mut self, at: usize) -> Result<u32, Self::Error>;
+    /// The colour of word `at` (`at < word_count()`; only asked when [`Nodes::colored`]).
+    fn color(&mut self, at: usize) -> Result<u16, Self::Error>;
+    /// A word the traversal cannot use (`at`: its position, or `usize::MAX` for the root):
+    /// `Some` error to stop with, or `None` to skip the rest of that group silently (a
+    /// validated in-memory tree never has one).
+    fn corrupt(&self, at: usize, reason: &str) -> Option<Self::Error>;
+}
+
+impl Nodes for &QTree {
+    type Error = std::convert::Infallible;
+    fn root(&self) -> Root {
+        Root {
+            center: self.root_center,
+            radius: self.root_radius,
+            word: self.root_word,
+            color: self.root_color,
+        }
+    }
+    fn word_count(&self) -> usize {
+        self.words.len()
+    }
+    fn colored(&self) -> bool {
+        self.colors.is_some()
+    }
+    fn word(&mut self, at: usize) -> Result<u32, Self::Error> {
+        Ok(self.words[at])
+    }
+    fn color(&mut self, at: usize) -> Result<u16, Self::Error> {
+        Ok(self.colors.as_ref().map_or(0, |c| c[at]))
+    }
+    fn corrupt(&self, _at: usize, _reason: &str) -> Option<Self::Error> {
+        None
+    }
+}
+
 /// The splats `tree` draws for `camera`.
 pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<Splat> {
-    let planes = frustum(camera);
     let mut out = Vec::new();
-    let Some(root) = Word::unpack(tree.root_word) else {
-        return out;
-    };
-    // Stack entries: (node word position or usize::MAX for the root, decoded sphere, word,
-    // position of its children group, inside-frustum flag, depth).
-    struct Item {
-        center: DVec3,
-        radius: f64,
-        word: Word,
-        color: u16,
-        children_at: usize,
-        inside: bool,
-        depth: u16,
+    match walk(&mut &*tree, Some((camera, params)), |s| out.push(s)) {
+        Ok(()) => out,
+        Err(never) => match never {},
     }
+}
+
+/// [`traverse`] on any [`Nodes`] (a built file read on demand).
+pub fn traverse_nodes<N: Nodes>(
+    nodes: &mut N,
+    camera: &Camera,
+    params: &TraverseParams,
+) -> Result<Vec<Splat>, N::Error> {
+    let mut out = Vec::new();
+    walk(nodes, Some((camera, params)), |s| out.push(s))?;
+    Ok(out)
+}
+
+/// Every leaf of the tree, decoded, depth first (the full-detail splats, for a reference
+/// render of a tree whose points are not in memory); returns how many.
+pub fn leaves<N: Nodes>(nodes: &mut N, mut emit: impl FnMut(Splat)) -> Result<u64, N::Error> {
+    let mut count = 0u64;
+    walk(nodes, None, |s| {
+        count += 1;
+        emit(s);
+    })?;
+    Ok(count)
+}
+
+/// A node on the traversal's stack: its decoded sphere, word and colour.
+struct Item {
+    center: DVec3,
+    radius: f64,
+    word: Word,
+    color: u16,
+    /// Position of its children's group.
+    children_at: usize,
+    /// Inside every frustum plane (its subtree is not tested again).
+    inside: bool,
+    depth: u16,
+}
+
+/// The depth-first traversal: for a camera, the cut of the module's documentation; without
+/// one, every leaf (no culling, no level of detail). Positions only grow along a path and at
+/// most one node per word is visited, so a damaged tree cannot make it loop.
+fn walk<N: Nodes>(
+    nodes: &mut N,
+    view: Option<(&Camera, &TraverseParams)>,
+    mut emit: impl FnMut(Splat),
+) -> Result<(), N::Error> {
+    let planes = view.map(|(camera, _)| frustum(camera));
+    let root = nodes.root();
+    let n = nodes.word_count();
+    let Some(word) = Word::unpack(root.word) else {
+        return nodes
+            .corrupt(usize::MAX, "bad root tree bits")
+            .map_or(Ok(()), Err);
+    };
     let mut stack = vec![Item {
-        center: tree.root_center,
-        radius: tree.root_radius,
-        word: root,
-        color: tree.root_color,
+        center: root.center,
+        radius: root.radius,
+        word,
+        color: root.color,
         children_at: 0,
         inside: false,
         depth: 0,
     }];
-    while let Some(it) = stack.pop() {
-        let mut inside = it.inside;
-        if params.frustum_cull && !inside {
+    let mut visited = 0usize;
+    while let Some(mut it) = stack.pop() {
+        visited += 1;
+        if visited > n + 1 {
+            return nodes
+                .corrupt(it.children_at, "more nodes reached than the tree has words")
+                .map_or(Ok(()), Err);
+        }
+        if let (Some((_, params)), Some(planes)) = (view, &planes)
+            && params.frustum_cull
+            && !it.inside
+        {
             let mut all_in = true;
             let mut out_of_one = false;
-            for (n, d) in &planes {
+            for (n, d) in planes {
                 let s = n.dot(it.center) - d;
                 if s < -it.radius {
                     out_of_one = true;
@@ -125,66 +237,108 @@ pub fn traverse(tree: &QTree, camera: &Camera, params: &TraverseParams) -> Vec<S
             if out_of_one {
                 continue;
             }
-            inside = all_in;
+            it.inside = all_in;
         }
-        let v = it.center - camera.eye;
-        let dist = v.length();
         let normal = quant::decode_normal(it.word.normal);
-        if params.backface_cull && dist > it.radius {
-            let sin_cone = quant::decode_cone_sin(it.word.cone);
-            if normal.dot(v) > sin_cone * dist + it.radius {
-                continue;
+        let mut refine = it.word.children > 0;
+        if let Some((camera, params)) = view {
+            let v = it.center - camera.eye;
+            let dist = v.length();
+            if params.backface_cull && dist > it.radius {
+                let sin_cone = quant::decode_cone_sin(it.word.cone);
+                if normal.dot(v) > sin_cone * dist + it.radius {
+                    continue;
+                }
             }
+            let depth = v.dot(camera.forward()).max(1e-12);
+            let projected = 2.0 * it.radius / camera.pixel_size_at(depth);
+            refine = refine && projected > params.threshold_px;
         }
-        let depth = v.dot(camera.forward()).max(1e-12);
-        let projected = 2.0 * it.radius / camera.pixel_size_at(depth);
-        if it.word.children == 0 || projected <= params.threshold_px {
-            let color = if tree.colors.is_some() {
-                quant::decode_rgb565(it.color)
-            } else {
-                [180, 180, 180]
-            };
-            out.push(Splat {
-                center: it.center,
-                radius: it.radius,
-                normal,
-                color,
-                level: it.depth,
-            });
+        if refine {
+            // Depth first, children in order: pushed last to first.
+            let from = stack.len();
+            push_children(nodes, &it, n, &mut stack)?;
+            stack[from..].reverse();
             continue;
         }
-        // Children: the group at `children_at`, after its offset word if it has one.
-        let group = it.children_at;
-        let first = group + usize::from(it.word.grandchildren);
-        let mut grand_at = if it.word.grandchildren {
-            tree.words[group] as usize
+        let color = if nodes.colored() {
+            quant::decode_rgb565(it.color)
         } else {
-            0
+            [180, 180, 180]
         };
-        let mut kids = Vec::with_capacity(4);
-        for at in first..first + usize::from(it.word.children) {
-            let Some(w) = Word::unpack(tree.words[at]) else {
-                break;
-            };
-            let Some((c, r)) = quant::decode_sphere(w.sphere, it.center, it.radius) else {
-                break;
-            };
-            let color = tree.colors.as_ref().map_or(0, |cs| cs[at]);
-            kids.push(Item {
-                center: c,
-                radius: r,
-                word: w,
-                color,
-                children_at: grand_at,
-                inside,
-                depth: it.depth + 1,
-            });
-            if w.children > 0 {
-                grand_at += usize::from(w.grandchildren) + w.children as usize;
-            }
-        }
-        // Depth first, children in order.
-        stack.extend(kids.into_iter().rev());
+        emit(Splat {
+            center: it.center,
+            radius: it.radius,
+            normal,
+            color,
+            level: it.depth,
+        });
     }
-    out
+    Ok(())
+}
+
+/// Pushes the children of `it` (the group at `it.children_at`, after its offset word if it has
+/// one) in order, their spheres decoded relative to its; a word that cannot be used stops with
+/// [`Nodes::corrupt`]'s error or ends the group.
+fn push_children<N: Nodes>(
+    nodes: &mut N,
+    it: &Item,
+    n: usize,
+    stack: &mut Vec<Item>,
+) -> Result<(), N::Error> {
+    let group = it.children_at;
+    let first = group + usize::from(it.word.grandchildren);
+    let end = first + usize::from(it.word.children);
+    if end > n {
+        return nodes
+            .corrupt(group, "a group runs past the end")
+            .map_or(Ok(()), Err);
+    }
+    let mut grand_at = if it.word.grandchildren {
+        let at = nodes.word(group)? as usize;
+        if at < end || at >= n {
+            return nodes
+                .corrupt(group, "an offset points outside the words after its group")
+                .map_or(Ok(()), Err);
+        }
+        at
+    } else {
+        0
+    };
+    for at in first..end {
+        let Some(w) = Word::unpack(nodes.word(at)?) else {
+            return nodes
+                .corrupt(at, "grandchildren without children")
+                .map_or(Ok(()), Err);
+        };
+        let Some((center, radius)) = quant::decode_sphere(w.sphere, it.center, it.radius) else {
+            return nodes
+                .corrupt(at, "sphere index out of range")
+                .map_or(Ok(()), Err);
+        };
+        if u32::from(w.normal) >= quant::NORMAL_CODES {
+            return nodes
+                .corrupt(at, "normal code out of range")
+                .map_or(Ok(()), Err);
+        }
+        if w.children > 0 && !it.word.grandchildren {
+            return nodes
+                .corrupt(at, "a node has children but its group has no offset")
+                .map_or(Ok(()), Err);
+        }
+        let color = if nodes.colored() { nodes.color(at)? } else { 0 };
+        stack.push(Item {
+            center,
+            radius,
+            word: w,
+            color,
+            children_at: grand_at,
+            inside: it.inside,
+            depth: it.depth.saturating_add(1),
+        });
+        if w.children > 0 {
+            grand_at += usize::from(w.grandchildren) + usize::from(w.children);
+        }
+    }
+    Ok(())
 }

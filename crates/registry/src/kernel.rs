@@ -235,6 +235,8 @@ pub struct Selection {
     pub splats: Vec<Splat>,
     /// Median and spread of the selections.
     pub timing: Timing,
+    /// What the last selection read from storage (a structure selected from a file).
+    pub reads: Option<crate::lod::Reads>,
 }
 
 /// Builds `cell.method` on `input` once (`build_repeats` timed builds), then, for each setting
@@ -310,6 +312,7 @@ pub fn select_lod(
                     Ok(Selection {
                         splats: selector.splats(),
                         timing: own_or_wall(reported, wall),
+                        reads: selector.reads(),
                     }),
                 ),
                 Err(e) => each(k, v, Err(&e)),

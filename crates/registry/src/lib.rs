@@ -21,6 +21,7 @@ pub mod hpr_confidence;
 pub mod image_score;
 pub mod kernel;
 pub mod lod;
+pub mod lod_file;
 pub mod params;
 mod plugins;
 pub mod raycast;

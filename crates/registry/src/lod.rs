@@ -192,6 +192,20 @@ impl LodData {
         })
     }
 
+    /// The data of a structure not built from points in memory (a built file,
+    /// [`crate::lod_file`]): no points, whose selectors read nothing from it.
+    pub fn none(seed: u64) -> Self {
+        Self {
+            cloud: PointCloud::default(),
+            normals: Vec::new(),
+            albedo: Vec::new(),
+            uvs: Vec::new(),
+            texture: None,
+            radius: 0.0,
+            seed,
+        }
+    }
+
     /// The borrowed view the methods build on.
     pub fn input(&self) -> LodInput<'_> {
         LodInput {
@@ -246,8 +260,24 @@ pub trait LodSelector {
     fn reported_seconds(&self) -> Option<f64> {
         None
     }
+    /// What the last selection read from storage, for selectors that read a file as they go
+    /// (`crate::lod_file`); `None`: everything is in memory.
+    fn reads(&self) -> Option<Reads> {
+        None
+    }
     /// The last selection as splats (not timed).
     fn splats(&self) -> Vec<Splat>;
+}
+
+/// What a selection from a file read and held.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Reads {
+    /// Bytes read from the file by the selection.
+    pub bytes_read: u64,
+    /// Bytes of file pages the selector's cache holds after it.
+    pub cache_bytes: u64,
+    /// Bytes of the selection itself (the method's splats).
+    pub selection_bytes: u64,
 }
 
 /// An 8-bit colour as an albedo in [0, 1]³.
@@ -256,7 +286,7 @@ pub fn albedo(c: [u8; 3]) -> Vec3 {
 }
 
 /// Reads a setting, then checks that every key was read.
-fn read<T>(
+pub(crate) fn read<T>(
     params: &Params,
     method: &str,
     specs: &[ParamSpec],
@@ -275,7 +305,7 @@ struct QsplatSel<'s> {
     last: Vec<qsplat::traverse::Splat>,
 }
 
-const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
+pub(crate) const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
     key: "threshold_px",
     default: "2",
     help: "a node is drawn when its projected diameter is below this many pixels",
@@ -336,15 +366,17 @@ impl LodSelector for QsplatSel<'_> {
         Ok(())
     }
     fn splats(&self) -> Vec<Splat> {
-        self.last
-            .iter()
-            .map(|s| Splat {
-                center: s.center,
-                radius: s.radius as f32,
-                normal: s.normal.as_vec3(),
-                albedo: albedo(s.color),
-            })
-            .collect()
+        self.last.iter().map(qsplat_splat).collect()
+    }
+}
+
+/// A QSplat splat as a splat to render.
+pub(crate) fn qsplat_splat(s: &qsplat::Splat) -> Splat {
+    Splat {
+        center: s.center,
+        radius: s.radius as f32,
+        normal: s.normal.as_vec3(),
+        albedo: albedo(s.color),
     }
 }
 

@@ -9,7 +9,8 @@
 //! are measured against that).
 //!
 //! Parallelism: splats are binned into 32 × 32 pixel tiles by their screen bounding box; tiles
-//! are drawn independently with rayon.
+//! are drawn independently with rayon. [`Canvas`] draws batch by batch into the same image, for
+//! more splats than memory holds at once.
 
 use cloud::Camera;
 use cloud::glam::{DVec3, Vec3};
@@ -71,95 +72,144 @@ struct Screen {
 
 /// Renders `splats` as seen by `camera`.
 pub fn render(splats: &[Splat], camera: &Camera, params: &RenderParams) -> Image {
-    let (w, h) = (camera.width, camera.height);
-    let ambient = params.ambient.clamp(0.0, 1.0);
-    let screen: Vec<Screen> = splats
-        .par_iter()
-        .filter_map(|s| {
-            let p = camera.project(s.center)?;
-            let r = (s.radius as f64 / camera.pixel_size_at(p.depth)).max(0.5) as f32;
-            let (x, y) = (p.x as f32, p.y as f32);
-            if x + r < 0.0 || y + r < 0.0 || x - r > w as f32 || y - r > h as f32 {
-                return None;
-            }
-            let to_eye = (camera.ray_origin_for(s.center) - s.center)
-                .normalize_or_zero()
-                .as_vec3();
-            let shade = ambient + (1.0 - ambient) * s.normal.dot(to_eye).abs();
-            let c = (s.albedo * shade).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
-            Some(Screen {
-                x,
-                y,
-                r,
-                depth: p.depth as f32,
-                color: [c.x as u8, c.y as u8, c.z as u8],
+    let mut canvas = Canvas::new(camera, params);
+    canvas.draw(splats);
+    canvas.finish()
+}
+
+/// An image drawn batch by batch: [`Canvas::draw`] any number of times, then
+/// [`Canvas::finish`]; the image is [`render`]'s of all the batches' splats in order (the
+/// nearer splat wins a pixel, the earlier one a tie), so a cloud larger than memory can be
+/// rendered by streaming it (the `lod` experiment's reference for a built file). Memory: the
+/// image's depth and colour, plus one batch.
+#[derive(Debug, Clone)]
+pub struct Canvas {
+    camera: Camera,
+    params: RenderParams,
+    tiles_x: usize,
+    /// Per tile: its depths and colours, row-major within the tile.
+    tiles: Vec<(Vec<f32>, Vec<[u8; 3]>)>,
+}
+
+impl Canvas {
+    /// An empty image (the background) for `camera`.
+    pub fn new(camera: &Camera, params: &RenderParams) -> Self {
+        let (w, h) = (camera.width, camera.height);
+        let tiles_x = w.div_ceil(TILE) as usize;
+        let tiles_y = h.div_ceil(TILE) as usize;
+        let tiles = (0..tiles_x * tiles_y)
+            .map(|t| {
+                let (ox, oy) = ((t % tiles_x) as u32 * TILE, (t / tiles_x) as u32 * TILE);
+                let size = (TILE.min(w - ox) * TILE.min(h - oy)) as usize;
+                (vec![f32::INFINITY; size], vec![params.background; size])
             })
-        })
-        .collect();
-    let tiles_x = w.div_ceil(TILE) as usize;
-    let tiles_y = h.div_ceil(TILE) as usize;
-    let mut bins: Vec<Vec<u32>> = vec![Vec::new(); tiles_x * tiles_y];
-    for (k, s) in screen.iter().enumerate() {
-        let tx0 = ((s.x - s.r).max(0.0) as u32 / TILE) as usize;
-        let ty0 = ((s.y - s.r).max(0.0) as u32 / TILE) as usize;
-        let tx1 = (((s.x + s.r).min(w as f32 - 1.0)) as u32 / TILE) as usize;
-        let ty1 = (((s.y + s.r).min(h as f32 - 1.0)) as u32 / TILE) as usize;
-        for ty in ty0..=ty1.min(tiles_y - 1) {
-            for tx in tx0..=tx1.min(tiles_x - 1) {
-                bins[ty * tiles_x + tx].push(k as u32);
-            }
+            .collect();
+        Self {
+            camera: *camera,
+            params: *params,
+            tiles_x,
+            tiles,
         }
     }
-    let tiles: Vec<(usize, Vec<f32>, Vec<[u8; 3]>)> = bins
-        .par_iter()
-        .enumerate()
-        .map(|(t, list)| {
-            let (ox, oy) = ((t % tiles_x) as u32 * TILE, (t / tiles_x) as u32 * TILE);
-            let (tw, th) = (TILE.min(w - ox), TILE.min(h - oy));
-            let mut depth = vec![f32::INFINITY; (tw * th) as usize];
-            let mut color = vec![params.background; (tw * th) as usize];
-            for &k in list {
-                let s = &screen[k as usize];
-                let x0 = (s.x - s.r).floor().max(ox as f32) as u32;
-                let y0 = (s.y - s.r).floor().max(oy as f32) as u32;
-                let x1 = ((s.x + s.r).ceil() as u32).min(ox + tw);
-                let y1 = ((s.y + s.r).ceil() as u32).min(oy + th);
-                let r2 = s.r * s.r;
-                for y in y0..y1 {
-                    let dy = y as f32 + 0.5 - s.y;
-                    for x in x0..x1 {
-                        let dx = x as f32 + 0.5 - s.x;
-                        if dx * dx + dy * dy > r2 {
-                            continue;
-                        }
-                        let i = ((y - oy) * tw + (x - ox)) as usize;
-                        if s.depth < depth[i] {
-                            depth[i] = s.depth;
-                            color[i] = s.color;
+
+    /// Draws `splats` over what is drawn.
+    pub fn draw(&mut self, splats: &[Splat]) {
+        let camera = &self.camera;
+        let (w, h) = (camera.width, camera.height);
+        let ambient = self.params.ambient.clamp(0.0, 1.0);
+        let screen: Vec<Screen> = splats
+            .par_iter()
+            .filter_map(|s| {
+                let p = camera.project(s.center)?;
+                let r = (s.radius as f64 / camera.pixel_size_at(p.depth)).max(0.5) as f32;
+                let (x, y) = (p.x as f32, p.y as f32);
+                if x + r < 0.0 || y + r < 0.0 || x - r > w as f32 || y - r > h as f32 {
+                    return None;
+                }
+                let to_eye = (camera.ray_origin_for(s.center) - s.center)
+                    .normalize_or_zero()
+                    .as_vec3();
+                let shade = ambient + (1.0 - ambient) * s.normal.dot(to_eye).abs();
+                let c = (s.albedo * shade).clamp(Vec3::ZERO, Vec3::ONE) * 255.0;
+                Some(Screen {
+                    x,
+                    y,
+                    r,
+                    depth: p.depth as f32,
+                    color: [c.x as u8, c.y as u8, c.z as u8],
+                })
+            })
+            .collect();
+        let tiles_x = self.tiles_x;
+        let tiles_y = self.tiles.len() / tiles_x.max(1);
+        let mut bins: Vec<Vec<u32>> = vec![Vec::new(); self.tiles.len()];
+        for (k, s) in screen.iter().enumerate() {
+            let tx0 = ((s.x - s.r).max(0.0) as u32 / TILE) as usize;
+            let ty0 = ((s.y - s.r).max(0.0) as u32 / TILE) as usize;
+            let tx1 = (((s.x + s.r).min(w as f32 - 1.0)) as u32 / TILE) as usize;
+            let ty1 = (((s.y + s.r).min(h as f32 - 1.0)) as u32 / TILE) as usize;
+            for ty in ty0..=ty1.min(tiles_y - 1) {
+                for tx in tx0..=tx1.min(tiles_x - 1) {
+                    bins[ty * tiles_x + tx].push(k as u32);
+                }
+            }
+        }
+        self.tiles
+            .par_iter_mut()
+            .zip(bins.par_iter())
+            .enumerate()
+            .for_each(|(t, ((depth, color), list))| {
+                let (ox, oy) = ((t % tiles_x) as u32 * TILE, (t / tiles_x) as u32 * TILE);
+                let (tw, th) = (TILE.min(w - ox), TILE.min(h - oy));
+                for &k in list {
+                    let s = &screen[k as usize];
+                    let x0 = (s.x - s.r).floor().max(ox as f32) as u32;
+                    let y0 = (s.y - s.r).floor().max(oy as f32) as u32;
+                    let x1 = ((s.x + s.r).ceil() as u32).min(ox + tw);
+                    let y1 = ((s.y + s.r).ceil() as u32).min(oy + th);
+                    let r2 = s.r * s.r;
+                    for y in y0..y1 {
+                        let dy = y as f32 + 0.5 - s.y;
+                        for x in x0..x1 {
+                            let dx = x as f32 + 0.5 - s.x;
+                            if dx * dx + dy * dy > r2 {
+                                continue;
+                            }
+                            let i = ((y - oy) * tw + (x - ox)) as usize;
+                            if s.depth < depth[i] {
+                                depth[i] = s.depth;
+                                color[i] = s.color;
+                            }
                         }
                     }
                 }
-            }
-            (t, depth, color)
-        })
-        .collect();
-    let mut rgb = vec![0u8; (w * h * 3) as usize];
-    let mut covered = vec![false; (w * h) as usize];
-    for (t, depth, color) in tiles {
-        let (ox, oy) = ((t % tiles_x) as u32 * TILE, (t / tiles_x) as u32 * TILE);
-        let tw = TILE.min(w - ox);
-        for (i, (d, c)) in depth.iter().zip(&color).enumerate() {
-            let (x, y) = (ox + i as u32 % tw, oy + i as u32 / tw);
-            let k = (y * w + x) as usize;
-            rgb[3 * k..3 * k + 3].copy_from_slice(c);
-            covered[k] = d.is_finite();
-        }
+            });
     }
-    Image {
-        width: w,
-        height: h,
-        rgb,
-        covered,
+
+    /// The image.
+    pub fn finish(self) -> Image {
+        let (w, h) = (self.camera.width, self.camera.height);
+        let mut rgb = vec![0u8; (w * h * 3) as usize];
+        let mut covered = vec![false; (w * h) as usize];
+        for (t, (depth, color)) in self.tiles.iter().enumerate() {
+            let (ox, oy) = (
+                (t % self.tiles_x) as u32 * TILE,
+                (t / self.tiles_x) as u32 * TILE,
+            );
+            let tw = TILE.min(w - ox);
+            for (i, (d, c)) in depth.iter().zip(color).enumerate() {
+                let (x, y) = (ox + i as u32 % tw, oy + i as u32 / tw);
+                let k = (y * w + x) as usize;
+                rgb[3 * k..3 * k + 3].copy_from_slice(c);
+                covered[k] = d.is_finite();
+            }
+        }
+        Image {
+            width: w,
+            height: h,
+            rgb,
+            covered,
+        }
     }
 }
 
@@ -177,6 +227,31 @@ mod tests {
             64,
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_canvas_drawn_in_batches_is_the_whole_render() {
+        // Many overlapping splats, ties included (equal depths: the earlier one wins).
+        let splats: Vec<Splat> = (0..5_000)
+            .map(|i| {
+                let a = i as f64 * 0.37;
+                Splat {
+                    center: DVec3::new(a.cos() * 1.5, a.sin() * 1.0, (i % 7) as f64 * 0.1),
+                    radius: 0.05 + (i % 5) as f32 * 0.03,
+                    normal: Vec3::new(a.sin() as f32, 0.0, a.cos() as f32).normalize(),
+                    albedo: Vec3::new((i % 3) as f32 / 2.0, (i % 11) as f32 / 10.0, 0.5),
+                }
+            })
+            .collect();
+        let whole = render(&splats, &cam(), &RenderParams::default());
+        for batch in [1, 7, 1_000, 4_999] {
+            let mut canvas = Canvas::new(&cam(), &RenderParams::default());
+            for part in splats.chunks(batch) {
+                canvas.draw(part);
+            }
+            assert_eq!(canvas.finish(), whole, "batches of {batch}");
+        }
+        assert!(whole.covered.iter().filter(|&&c| c).count() > 1_000);
     }
 
     #[test]

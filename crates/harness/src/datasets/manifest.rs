@@ -18,6 +18,10 @@
 //! mesh = "bunny.obj"
 //! sample = { n = 50000, seed = 7 }  # points sampled from the mesh instead of a cloud file
 //! view_spec = { count = 8, distance = 2.0, width = 1280, height = 720 }
+//!
+//! [datasets.statue-qsplat]
+//! lod_file = "statue.qsplat"        # a QSplat file `pointsight lod-build` wrote: the `lod`
+//!                                   # experiment selects from it without loading it
 //! ```
 //!
 //! Without `views` or `view_spec` a dataset gets the Fibonacci views of the built-in datasets
@@ -95,6 +99,9 @@ pub struct Entry {
     pub cloud: Option<PathBuf>,
     /// The mesh file.
     pub mesh: Option<PathBuf>,
+    /// A QSplat file built by `pointsight lod-build`, instead of a cloud: only the `lod`
+    /// experiment reads it, selecting from the file without loading it.
+    pub lod_file: Option<PathBuf>,
     /// Sample the mesh instead of reading a cloud.
     pub sample: Option<Sample>,
     /// One line for `pointsight datasets`.
@@ -145,21 +152,42 @@ impl Manifest {
                     path.display()
                 );
             }
-            match (&e.cloud, &e.sample, &e.mesh) {
-                (Some(_), None, _) | (None, Some(_), Some(_)) => {}
-                (Some(_), Some(_), _) => {
+            if e.lod_file.is_some() {
+                if e.cloud.is_some() || e.sample.is_some() || e.mesh.is_some() {
                     bail!(
-                        "{}: dataset {name}: give cloud or sample, not both",
+                        "{}: dataset {name}: lod_file is the whole dataset; give no cloud, \
+                         mesh or sample with it",
                         path.display()
-                    )
+                    );
                 }
-                (None, Some(_), None) => {
-                    bail!("{}: dataset {name}: sample needs a mesh", path.display())
+                if e.views
+                    .as_deref()
+                    .is_some_and(|v| v.as_os_str() == "scanners")
+                {
+                    bail!(
+                        "{}: dataset {name}: views = \"scanners\" needs an E57 cloud, not a \
+                         lod_file",
+                        path.display()
+                    );
                 }
-                (None, None, _) => bail!(
-                    "{}: dataset {name} needs a cloud file, or a mesh and sample = {{ n = ... }}",
-                    path.display()
-                ),
+            } else {
+                match (&e.cloud, &e.sample, &e.mesh) {
+                    (Some(_), None, _) | (None, Some(_), Some(_)) => {}
+                    (Some(_), Some(_), _) => {
+                        bail!(
+                            "{}: dataset {name}: give cloud or sample, not both",
+                            path.display()
+                        )
+                    }
+                    (None, Some(_), None) => {
+                        bail!("{}: dataset {name}: sample needs a mesh", path.display())
+                    }
+                    (None, None, _) => bail!(
+                        "{}: dataset {name} needs a cloud file, a mesh and sample = {{ n = ... }}, \
+                     or a lod_file",
+                        path.display()
+                    ),
+                }
             }
             if e.views.is_some() && e.view_spec.is_some() {
                 bail!(
@@ -224,6 +252,22 @@ impl Manifest {
     }
 }
 
+/// Where entry `e`'s views come from.
+pub fn views_from(m: &Manifest, e: &Entry) -> ViewsFrom {
+    match (&e.views, &e.view_spec) {
+        (Some(v), _) if v.as_os_str() == "scanners" => ViewsFrom::Scanners,
+        (Some(v), _) => ViewsFrom::File(m.resolve(v)),
+        (None, Some(vs)) => ViewsFrom::Spec(ViewSpec {
+            n_views: vs.count,
+            distance_factor: vs.distance,
+            width: vs.width,
+            height: vs.height,
+            ..ViewSpec::default()
+        }),
+        (None, None) => ViewsFrom::Spec(ViewSpec::default()),
+    }
+}
+
 /// The file dataset a manifest entry describes.
 pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDataset> {
     let format = match &e.format {
@@ -235,18 +279,7 @@ pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDatas
         })?),
         None => None,
     };
-    let views = match (&e.views, &e.view_spec) {
-        (Some(v), _) if v.as_os_str() == "scanners" => ViewsFrom::Scanners,
-        (Some(v), _) => ViewsFrom::File(m.resolve(v)),
-        (None, Some(vs)) => ViewsFrom::Spec(ViewSpec {
-            n_views: vs.count,
-            distance_factor: vs.distance,
-            width: vs.width,
-            height: vs.height,
-            ..ViewSpec::default()
-        }),
-        (None, None) => ViewsFrom::Spec(ViewSpec::default()),
-    };
+    let views = views_from(m, e);
     Ok(FileDataset {
         name: name.to_owned(),
         description: if e.description.is_empty() {

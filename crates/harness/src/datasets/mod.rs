@@ -7,25 +7,30 @@
 //! [`degrade`], the one place that does it. The real meshes and `pointsight fetch` are
 //! [`crate::fetch`]'s.
 //!
+//! A manifest dataset may instead be a built LOD file ([`lod_file`], the `lod` experiment's
+//! alone).
+//!
 //! Layers: `manifest` → `builtin`, `files` → `degraded`; this module looks names up over
 //! them; none of them imports it back but for the [`Dataset`] type.
 
 pub mod builtin;
 pub mod degraded;
 pub mod files;
+pub mod lod_file;
 pub mod manifest;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use cloud::glam::DVec3;
 use cloud::{Camera, PointCloud, TriMesh};
 
 pub use builtin::{DatasetInfo, REGISTRY, Source};
 pub use degraded::{Degraded, degrade};
 pub use files::{FileDataset, ViewsFrom, load_files, read_mesh};
-use manifest::{Manifest, manifest_dataset};
+pub use lod_file::LodFileDataset;
+use manifest::{Manifest, manifest_dataset, views_from};
 
 /// The manifest of this process (`--manifest`, or `pointsight.toml`), set once at start.
 static MANIFEST: OnceLock<Option<Manifest>> = OnceLock::new();
@@ -201,10 +206,34 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
     if let Some(m) = manifest()
         && let Some(e) = m.datasets.get(name)
     {
+        if e.lod_file.is_some() {
+            bail!(
+                "dataset {name} of {} is a built QSplat file (lod_file), not points: only the \
+                 lod experiment selects from it",
+                m.path.display()
+            );
+        }
         return load_files(&manifest_dataset(m, name, e)?)
             .with_context(|| format!("dataset {name} of {}", m.path.display()));
     }
     builtin::load(info(name)?, data_dir)
+}
+
+/// The built LOD file of dataset `name` when the manifest gives it one (`lod_file`), opened
+/// with its views; `None` for a dataset of points.
+pub fn lod_file(name: &str) -> Result<Option<LodFileDataset>> {
+    let Some(m) = manifest() else {
+        return Ok(None);
+    };
+    let Some(e) = m.datasets.get(name) else {
+        return Ok(None);
+    };
+    let Some(path) = &e.lod_file else {
+        return Ok(None);
+    };
+    lod_file::open(name, &m.resolve(path), &views_from(m, e))
+        .with_context(|| format!("dataset {name} of {}", m.path.display()))
+        .map(Some)
 }
 
 /// The mesh of dataset `name` alone (without sampling its cloud, where that can be avoided).

@@ -130,14 +130,19 @@ impl Context {
                 .map(|c| ds.camera_from_world(c))
                 .collect();
         }
+        self.record_files(&ds.files);
+        Ok(ds)
+    }
+
+    /// Records user files a dataset came from, for the run metadata.
+    pub fn record_files(&self, source: &[crate::datasets::SourceFile]) {
         if let Ok(mut files) = self.files.lock() {
-            for f in &ds.files {
+            for f in source {
                 if !files.contains(f) {
                     files.push(f.clone());
                 }
             }
         }
-        Ok(ds)
     }
 }
 

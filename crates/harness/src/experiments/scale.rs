@@ -166,7 +166,8 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
     }
     out.extend(crate::lod_build::OUT_OF_CORE.iter().map(|m| CellKind {
         name: format!("{m}{OOC_SUFFIX}"),
-        setting: Setting::default(),
+        // The setting of the selection from the built file.
+        setting: default_of(m),
         scale: Scale::PerPoint(0),
         unavailable: None,
         out_of_core: true,
@@ -323,10 +324,16 @@ pub fn cell(
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
     let mesh = crate::datasets::load_mesh_of(dataset, data_dir)?;
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
-    if let Some(m) = method.strip_suffix(OOC_SUFFIX) {
-        return ooc_cell(m, &mesh, &bbox, n, data_dir, || ready(&on_prepared));
-    }
     let cam = cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default())?[0];
+    if let Some(m) = method.strip_suffix(OOC_SUFFIX) {
+        let view = kernel::View {
+            index: 0,
+            camera: cam,
+        };
+        return ooc_cell(m, &mesh, &bbox, n, data_dir, (setting, &view), || {
+            ready(&on_prepared)
+        });
+    }
     let n = usize::try_from(n)?;
     cloud::memory::ensure(
         48 * n as u128,
@@ -403,12 +410,17 @@ pub fn cell(
 /// points the other cells hold) as LAZ without holding them, calls `ready` (the preparation
 /// ends there), then builds `method`'s file from it with `pointsight lod-build`'s code within
 /// [`OOC_LIMIT`]. One run: the build reads and decodes the file, which is the operation.
+/// Then the built file is selected from without loading it (`registry::lod_file`, a cache of
+/// [`super::lod::FILE_CACHE_BYTES`]) at `select`'s setting and view, through the kernel,
+/// [`repeats`] timed runs: its time, splats and reads go in the detail, beside the in-memory
+/// `NAME-select` cell's.
 fn ooc_cell(
     method: &str,
     mesh: &cloud::TriMesh,
     bbox: &cloud::Aabb,
     n: u64,
     data_dir: &Path,
+    select: (&Setting, &kernel::View),
     ready: impl FnOnce() -> f64,
 ) -> Result<CellOutput> {
     let dir = ooc_dir(data_dir, &format!("{method}{OOC_SUFFIX}"), n);
@@ -431,13 +443,34 @@ fn ooc_cell(
         let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
         let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
         let mib = |b: u64| b as f64 / 1048576.0;
+        let (setting, view) = select;
+        let file = registry::lod_file::open_qsplat_file(&out, super::lod::FILE_CACHE_BYTES)?;
+        let m = registry::lod::method(method).context("no such LOD method")?;
+        let settings = [setting.clone()];
+        let views = [*view];
+        let cell = kernel::LodCell {
+            method: m,
+            settings: &settings,
+            views: &views,
+            repeats: repeats(n),
+            build_repeats: 1,
+        };
+        let data = registry::lod::LodData::none(SEED);
+        let mut selection = None;
+        kernel::select_lod(&cell, file.as_ref(), &data.input(), |_, _, s| {
+            selection = Some(s.map_err(|e| anyhow::anyhow!("selection from the file: {e}")));
+        });
+        let s = selection.context("the kernel made no selection")??;
+        let reads = s.reads.unwrap_or_default();
         Ok(CellOutput {
             seconds: built.seconds,
             peak_rss_bytes: peak_rss(),
             prepare_seconds,
             detail: format!(
                 "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
-                 LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB",
+                 LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB; selection from the file \
+                 ({}, view 0): {:.3} ms median of {}, {} splats, read {:.1} MiB, cache {:.1} \
+                 MiB, peak after {:.0} MiB",
                 mib(OOC_LIMIT),
                 mib(built.peak_rss_bytes),
                 built.points as f64 / built.seconds / 1e6,
@@ -446,6 +479,13 @@ fn ooc_cell(
                 mib(input_bytes),
                 mib(built.scratch_bytes),
                 mib(built.file_bytes),
+                setting.label(),
+                s.timing.median * 1e3,
+                s.timing.samples,
+                s.splats.len(),
+                mib(reads.bytes_read),
+                mib(reads.cache_bytes),
+                mib(peak_rss()),
             ),
         })
     })();
@@ -1053,7 +1093,21 @@ mod tests {
         let mesh = cloud::synth::icosphere(3);
         let bbox = mesh.bbox().unwrap();
         let dir = tempfile::tempdir().unwrap();
-        let out = ooc_cell("qsplat", &mesh, &bbox, 5_000, dir.path(), || 0.5).unwrap();
+        let view = kernel::View {
+            index: 0,
+            camera: cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default()).unwrap()[0],
+        };
+        let setting = Setting::parse("threshold_px=2");
+        let out = ooc_cell(
+            "qsplat",
+            &mesh,
+            &bbox,
+            5_000,
+            dir.path(),
+            (&setting, &view),
+            || 0.5,
+        )
+        .unwrap();
         assert!(out.seconds > 0.0 && out.prepare_seconds == 0.5);
         assert!(
             out.detail.contains("1 chunks") && out.detail.contains("limit 1024 MiB"),
@@ -1061,7 +1115,18 @@ mod tests {
             out.detail
         );
         assert!(!ooc_dir(dir.path(), "qsplat-build-ooc", 5_000).exists());
-        assert!(ooc_cell("spt", &mesh, &bbox, 100, dir.path(), || 0.0).is_err());
+        assert!(
+            ooc_cell(
+                "spt",
+                &mesh,
+                &bbox,
+                100,
+                dir.path(),
+                (&setting, &view),
+                || 0.0
+            )
+            .is_err()
+        );
         assert!(!ooc_dir(dir.path(), "spt-build-ooc", 100).exists());
         assert_eq!(ooc_sizes(true, None), vec![1_000_000]);
         assert_eq!(ooc_sizes(false, Some(10u64.pow(8))).len(), 3);

@@ -20,6 +20,7 @@ the values at the time of the call.
 from __future__ import annotations
 
 import json
+import os
 from typing import Any, Iterable, Optional, Sequence, Union
 
 import numpy as np
@@ -418,6 +419,16 @@ class QSplat(Lod):
 
     def select(self, camera: Any, threshold_px: float = 2.0, **kw: Any) -> Union[dict, list]:
         return super().select(camera, threshold_px=threshold_px, **kw)
+
+    @classmethod
+    def open(cls, path: Union[str, "os.PathLike[str]"], *, cache_bytes: int = 64 << 20) -> "QSplat":
+        """A QSplat file written by ``pointsight lod-build``, selected from without loading it:
+        each selection reads the pages its view needs through a cache of at most
+        `cache_bytes`; its dicts also give `bytes_read` (by a view's first selection) and
+        `cache_bytes` (held after it). `radius` is 0: the file's leaves carry their own."""
+        q = cls.__new__(cls)
+        q._native = _native.Lod.open_qsplat_file(os.fspath(path), int(cache_bytes))
+        return q
 
 
 class SequentialPointTree(Lod):

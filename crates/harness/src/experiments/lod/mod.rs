@@ -35,7 +35,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::Result;
+use anyhow::{Context as _, Result};
 use cloud::{Camera, PointCloud};
 use registry::Setting;
 use registry::image_score::{hole_fraction, psnr, ssim};
@@ -46,12 +46,14 @@ use splat::render::{Image, RenderParams, render};
 
 use super::{Context, Experiment, markdown_table};
 
+mod from_file;
 pub mod noise;
 mod srn_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{Panel, compose};
 use crate::output::{distinct, read_csv, write_atomic, write_csv};
 use crate::progress;
+pub use from_file::{CACHE_BYTES as FILE_CACHE_BYTES, FileRead};
 pub use srn_table::SrnRow;
 
 /// Views per dataset.
@@ -97,6 +99,32 @@ pub struct Row {
     /// `ok`, or `error: …` for a build or selection that failed (metrics NaN).
     #[serde(default = "ok_status")]
     pub status: String,
+}
+
+impl Row {
+    /// A row of no measurement yet (metrics NaN) with its status.
+    pub fn new(
+        dataset: String,
+        view: usize,
+        distance: f64,
+        method: String,
+        params: String,
+        status: String,
+    ) -> Self {
+        Self {
+            dataset,
+            view,
+            distance,
+            method,
+            params,
+            points_rendered: 0,
+            seconds: f64::NAN,
+            psnr: f64::NAN,
+            ssim: f64::NAN,
+            hole_fraction: f64::NAN,
+            status,
+        }
+    }
 }
 
 fn ok_status() -> String {
@@ -209,6 +237,43 @@ fn panel(title: String, img: &Image) -> Panel {
     }
 }
 
+/// Renders a selection, scores it against the reference into `row`; returns the render.
+fn score(row: &mut Row, s: &kernel::Selection, reference: &Image, camera: &Camera) -> Image {
+    let img = render(&s.splats, camera, &render_params());
+    row.points_rendered = s.splats.len();
+    row.seconds = s.timing.median;
+    row.psnr = psnr(reference, &img);
+    row.ssim = ssim(reference, &img);
+    row.hole_fraction = hole_fraction(reference, &img);
+    img
+}
+
+/// The kernel's views of the experiment and the (view, distance) of each.
+type ViewsAt = (Vec<kernel::View>, Vec<(usize, f64)>);
+
+/// Every (view, distance) of the experiment, in that order, as the kernel's views, with the
+/// (view, distance) of each.
+fn views_at(cameras: &[Camera]) -> Result<ViewsAt> {
+    let mut views = Vec::new();
+    let mut at = Vec::new();
+    for view in 0..N_VIEWS {
+        let camera = cameras.get(view).with_context(|| {
+            format!(
+                "the lod experiment needs {N_VIEWS} views; the dataset has {}",
+                cameras.len()
+            )
+        })?;
+        for &factor in DISTANCES {
+            views.push(kernel::View {
+                index: view,
+                camera: at_distance(camera, factor)?,
+            });
+            at.push((view, factor));
+        }
+    }
+    Ok((views, at))
+}
+
 fn measure_dataset(
     ctx: &Context,
     name: &str,
@@ -226,17 +291,7 @@ fn measure_dataset(
     let n = data.cloud.len();
     let full = data.full_splats();
     // Every (view, distance), in that order, with its reference render.
-    let mut views = Vec::new();
-    let mut at = Vec::new();
-    for view in 0..N_VIEWS {
-        for &factor in DISTANCES {
-            views.push(kernel::View {
-                index: view,
-                camera: at_distance(ds.view(view)?, factor)?,
-            });
-            at.push((view, factor));
-        }
-    }
+    let (views, at) = views_at(&ds.views)?;
     let references: Vec<Image> = views
         .iter()
         .map(|v| render(&full, &v.camera, &render_params()))
@@ -261,28 +316,17 @@ fn measure_dataset(
         let mut levels: Vec<Panel> = Vec::new();
         let built = kernel::run_lod(&cell, &input, |k, v, selection| {
             let (view, distance) = at[v];
-            let mut row = Row {
-                dataset: name.to_owned(),
+            let mut row = Row::new(
+                name.to_owned(),
                 view,
                 distance,
-                method: m.name().to_owned(),
-                params: settings[k].label(),
-                points_rendered: 0,
-                seconds: f64::NAN,
-                psnr: f64::NAN,
-                ssim: f64::NAN,
-                hole_fraction: f64::NAN,
-                status: "ok".into(),
-            };
+                m.name().to_owned(),
+                settings[k].label(),
+                "ok".into(),
+            );
             match selection {
                 Ok(s) => {
-                    let img = render(&s.splats, &views[v].camera, &render_params());
-                    let reference = &references[v];
-                    row.points_rendered = s.splats.len();
-                    row.seconds = s.timing.median;
-                    row.psnr = psnr(reference, &img);
-                    row.ssim = ssim(reference, &img);
-                    row.hole_fraction = hole_fraction(reference, &img);
+                    let img = score(&mut row, &s, &references[v], &views[v].camera);
                     // Three levels per method in the strip: the finest, the middle and the
                     // coarsest setting, at view 0 and the near distance.
                     let last = settings.len() - 1;
@@ -315,19 +359,14 @@ fn measure_dataset(
                     for (v, &(view, distance)) in at.iter().enumerate() {
                         ds_rows.push((
                             v,
-                            Row {
-                                dataset: name.to_owned(),
+                            Row::new(
+                                name.to_owned(),
                                 view,
                                 distance,
-                                method: m.name().to_owned(),
-                                params: setting.label(),
-                                points_rendered: 0,
-                                seconds: f64::NAN,
-                                psnr: f64::NAN,
-                                ssim: f64::NAN,
-                                hole_fraction: f64::NAN,
-                                status: format!("error: build: {e}"),
-                            },
+                                m.name().to_owned(),
+                                setting.label(),
+                                format!("error: build: {e}"),
+                            ),
                         ));
                     }
                 }
@@ -340,7 +379,16 @@ fn measure_dataset(
     // Rows in (view, distance, method, setting) order: the loop ran method by method.
     ds_rows.sort_by_key(|(v, _)| *v);
     rows.extend(ds_rows.into_iter().map(|(_, r)| r));
-    // Layout: the reference, then each method's three levels on one row of four.
+    write_strip(
+        ctx,
+        name,
+        strip,
+        &methods.iter().map(|(m, _)| m.name()).collect::<Vec<_>>(),
+    )
+}
+
+/// `strip_NAME.png`: the reference, then each method's three levels, one row of four each.
+fn write_strip(ctx: &Context, name: &str, strip: Vec<Panel>, methods: &[&str]) -> Result<()> {
     let mut panels = Vec::new();
     let reference = strip.first().cloned();
     for (k, pnl) in strip.into_iter().enumerate().skip(1) {
@@ -356,11 +404,7 @@ fn measure_dataset(
         4,
         &format!(
             "{name}, view 0: the full-cloud reference, then {} at three levels (rows)",
-            methods
-                .iter()
-                .map(|(m, _)| m.name())
-                .collect::<Vec<_>>()
-                .join(", ")
+            methods.join(", ")
         ),
         &ctx.out_dir.join(format!("strip_{name}.png")),
     )
@@ -386,11 +430,24 @@ impl Experiment for LodExperiment {
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let mut rows = Vec::new();
         let mut builds = Vec::new();
+        let mut reads = Vec::new();
         for name in &ctx.datasets {
-            measure_dataset(ctx, name, &mut rows, &mut builds)?;
+            match crate::datasets::lod_file(name)? {
+                Some(mut file) => {
+                    if let Some(p) = &ctx.views {
+                        file.views = cloud::io::views::read_views(p)?;
+                    }
+                    ctx.record_files(&file.files);
+                    from_file::measure(ctx, &file, &mut rows, &mut reads)?;
+                }
+                None => measure_dataset(ctx, name, &mut rows, &mut builds)?,
+            }
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("builds.csv"), &builds)?;
+        if !reads.is_empty() {
+            write_csv(&ctx.out_dir.join("file_reads.csv"), &reads)?;
+        }
         let srn_rows = srn_table::measure(ctx)?;
         write_csv(&ctx.out_dir.join("srn_table.csv"), &srn_rows)?;
         Ok(serde_json::json!({
@@ -424,7 +481,19 @@ impl Experiment for LodExperiment {
             .unwrap_or(super::REPEATS as u64);
         let not_run: Vec<String> =
             serde_json::from_value(parameters["methods_not_run"].clone()).unwrap_or_default();
-        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run)
+        let reads_path = dir.join("file_reads.csv");
+        let reads: Vec<FileRead> = if reads_path.exists() {
+            read_csv(&reads_path)?
+        } else {
+            Vec::new()
+        };
+        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run)?;
+        if reads.is_empty() {
+            return Ok(());
+        }
+        let mut summary = std::fs::read_to_string(dir.join("summary.md"))?;
+        summary.push_str(&from_file::table(&reads));
+        write_atomic(&dir.join("summary.md"), summary.as_bytes())
     }
 }
 
