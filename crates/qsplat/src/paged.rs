@@ -19,7 +19,7 @@
 //! file and after their group, at most one visit per word), and a failure is
 //! [`Error::Corrupt`] with the byte offset.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::VecDeque;
 use std::fs::File;
 use std::os::unix::fs::FileExt;
 use std::path::Path;
@@ -47,11 +47,12 @@ pub struct PagedTree {
     pub bytes_read: u64,
 }
 
-/// Cached pages, first in, first out.
+/// Cached pages, first in, first out, indexed by page number (a file of 10^9 points has
+/// about 10^5 pages: the index is small beside the pages).
 #[derive(Debug)]
 struct Cache {
-    words: HashMap<usize, Vec<u32>>,
-    colors: HashMap<usize, Vec<u16>>,
+    words: Vec<Option<Vec<u32>>>,
+    colors: Vec<Option<Vec<u16>>>,
     /// (is a colour page, page) in the order they were read.
     order: VecDeque<(bool, usize)>,
     bytes: u64,
@@ -71,14 +72,20 @@ impl PagedTree {
         let mut head = vec![0u8; file::HEADER_BYTES.min(len as usize)];
         file.read_exact_at(&mut head, 0).map_err(io)?;
         let header = file::parse_header(&head, len, &name)?;
+        // The counts fit the file's length, so the page index is at most 1/8192 of it.
+        let pages = (header.n_words as usize).div_ceil(PAGE_WORDS);
         let mut tree = Self {
             file,
             name,
             header,
             root_color: 0,
             cache: Cache {
-                words: HashMap::new(),
-                colors: HashMap::new(),
+                words: vec![None; pages],
+                colors: if header.colored {
+                    vec![None; pages]
+                } else {
+                    Vec::new()
+                },
                 order: VecDeque::new(),
                 bytes: 0,
                 limit: cache_bytes.max(MIN_CACHE),
@@ -128,9 +135,9 @@ impl PagedTree {
     /// Page `page` of the words (or of the colours), read when not cached.
     fn page(&mut self, colors: bool, page: usize) -> Result<()> {
         let cached = if colors {
-            self.cache.colors.contains_key(&page)
+            self.cache.colors.get(page).is_some_and(Option::is_some)
         } else {
-            self.cache.words.contains_key(&page)
+            self.cache.words.get(page).is_some_and(Option::is_some)
         };
         if cached {
             return Ok(());
@@ -148,9 +155,17 @@ impl PagedTree {
                 break;
             };
             let freed = if c {
-                self.cache.colors.remove(&p).map_or(0, |v| 2 * v.len())
+                self.cache
+                    .colors
+                    .get_mut(p)
+                    .and_then(Option::take)
+                    .map_or(0, |v| 2 * v.len())
             } else {
-                self.cache.words.remove(&p).map_or(0, |v| 4 * v.len())
+                self.cache
+                    .words
+                    .get_mut(p)
+                    .and_then(Option::take)
+                    .map_or(0, |v| 4 * v.len())
             };
             self.cache.bytes -= freed as u64;
         }
@@ -168,13 +183,17 @@ impl PagedTree {
                 .chunks_exact(2)
                 .map(|b| u16::from_le_bytes([b[0], b[1]]))
                 .collect();
-            self.cache.colors.insert(page, v);
+            if let Some(slot) = self.cache.colors.get_mut(page) {
+                *slot = Some(v);
+            }
         } else {
             let v = raw
                 .chunks_exact(4)
                 .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
                 .collect();
-            self.cache.words.insert(page, v);
+            if let Some(slot) = self.cache.words.get_mut(page) {
+                *slot = Some(v);
+            }
         }
         self.cache.order.push_back((colors, page));
         self.cache.bytes += page_bytes;
@@ -204,21 +223,31 @@ impl Nodes for PagedTree {
 
     fn word(&mut self, at: usize) -> Result<u32> {
         let (page, k) = (at / PAGE_WORDS, at % PAGE_WORDS);
+        if let Some(Some(p)) = self.cache.words.get(page)
+            && let Some(&w) = p.get(k)
+        {
+            return Ok(w);
+        }
         self.page(false, page)?;
         self.cache
             .words
-            .get(&page)
-            .and_then(|p| p.get(k).copied())
+            .get(page)
+            .and_then(|p| p.as_ref()?.get(k).copied())
             .ok_or_else(|| self.corrupt_error(at, "word outside the file"))
     }
 
     fn color(&mut self, at: usize) -> Result<u16> {
         let (page, k) = (at / PAGE_WORDS, at % PAGE_WORDS);
+        if let Some(Some(p)) = self.cache.colors.get(page)
+            && let Some(&c) = p.get(k)
+        {
+            return Ok(c);
+        }
         self.page(true, page)?;
         self.cache
             .colors
-            .get(&page)
-            .and_then(|p| p.get(k).copied())
+            .get(page)
+            .and_then(|p| p.as_ref()?.get(k).copied())
             .ok_or_else(|| self.corrupt_error(at, "colour outside the file"))
     }
 

@@ -138,11 +138,7 @@ pub(super) fn measure(
                     file_bytes,
                 });
                 if v == 0 && (k == 0 || k == settings.len() / 2 || k == last) {
-                    let title = format!(
-                        "qsplat from the file {}: {} splats",
-                        row.params,
-                        s.splats.len()
-                    );
+                    let title = format!("qsplat {}: {} splats", row.params, s.splats.len());
                     strip.push(panel(title, &img).crop(crop.0, crop.1, crop.2, crop.3));
                 }
             }
