@@ -100,6 +100,15 @@ fn out_of_core_equals_in_memory_within_the_limit() {
         );
         // Several chunks (the library's tests force two levels above them).
         assert!(field(&stdout, "chunks") >= 4.0, "{stdout}");
+        // The scratch's peak on disk is part of what it wrote in all.
+        let (peak_disk, written) = (
+            field(&stdout, "scratch_peak_bytes"),
+            field(&stdout, "scratch_bytes"),
+        );
+        assert!(
+            peak_disk > 0.0 && peak_disk < written,
+            "scratch peak {peak_disk}, written {written}: {stdout}"
+        );
         let peak = field(&stdout, "peak_rss_bytes");
         assert!(
             peak <= ((limit_mib + 64) << 20) as f64,

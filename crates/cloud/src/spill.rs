@@ -18,7 +18,15 @@ pub struct Scratch {
     dir: PathBuf,
     next: AtomicU64,
     written: Arc<AtomicU64>,
+    usage: Arc<Usage>,
     fail_after: Option<u64>,
+}
+
+/// Bytes in the scratch files now, and the most there were at once.
+#[derive(Debug, Default)]
+struct Usage {
+    live: AtomicU64,
+    peak: AtomicU64,
 }
 
 impl Scratch {
@@ -35,6 +43,7 @@ impl Scratch {
             dir,
             next: AtomicU64::new(0),
             written: Arc::new(AtomicU64::new(0)),
+            usage: Arc::new(Usage::default()),
             fail_after: None,
         })
     }
@@ -55,6 +64,13 @@ impl Scratch {
         self.written.load(Ordering::Relaxed)
     }
 
+    /// The most bytes the scratch files held at once (records pushed, less the files removed
+    /// since): what the disk must have room for, where [`Scratch::bytes_written`] counts every
+    /// byte ever written.
+    pub fn peak_bytes(&self) -> u64 {
+        self.usage.peak.load(Ordering::Relaxed)
+    }
+
     /// A new file of records of `record` bytes.
     pub fn create(&self, record: usize) -> io::Result<SpillWriter> {
         let k = self.next.fetch_add(1, Ordering::Relaxed);
@@ -62,10 +78,15 @@ impl Scratch {
         let file = File::create(&path)?;
         Ok(SpillWriter {
             out: BufWriter::with_capacity(1 << 20, file),
-            file: Arc::new(Removed(path)),
+            file: Arc::new(Removed {
+                path,
+                bytes: AtomicU64::new(0),
+                usage: Arc::clone(&self.usage),
+            }),
             record,
             count: 0,
             written: Arc::clone(&self.written),
+            pending: 0,
             fail_after: self.fail_after,
         })
     }
@@ -77,13 +98,20 @@ impl Drop for Scratch {
     }
 }
 
-/// A path removed when the last handle goes.
+/// A path removed when the last handle goes, its bytes then taken off the scratch's usage.
 #[derive(Debug)]
-struct Removed(PathBuf);
+struct Removed {
+    path: PathBuf,
+    bytes: AtomicU64,
+    usage: Arc<Usage>,
+}
 
 impl Drop for Removed {
     fn drop(&mut self) {
-        let _ = std::fs::remove_file(&self.0);
+        let _ = std::fs::remove_file(&self.path);
+        self.usage
+            .live
+            .fetch_sub(self.bytes.load(Ordering::Relaxed), Ordering::Relaxed);
     }
 }
 
@@ -95,10 +123,28 @@ pub struct SpillWriter {
     record: usize,
     count: u64,
     written: Arc<AtomicU64>,
+    /// Bytes pushed but not yet counted in the scratch's usage (counted by the MiB, so that
+    /// the shared counters are not touched per record).
+    pending: u64,
     fail_after: Option<u64>,
 }
 
+/// Bytes a writer pushes between updates of the scratch's usage.
+const USAGE_STEP: u64 = 1 << 20;
+
 impl SpillWriter {
+    /// Adds the pending bytes to the file's and the scratch's usage.
+    fn count_usage(&mut self) {
+        if self.pending == 0 {
+            return;
+        }
+        let usage = &self.file.usage;
+        let live = usage.live.fetch_add(self.pending, Ordering::Relaxed) + self.pending;
+        usage.peak.fetch_max(live, Ordering::Relaxed);
+        self.file.bytes.fetch_add(self.pending, Ordering::Relaxed);
+        self.pending = 0;
+    }
+
     /// Appends one record (`bytes.len()` must be the record size).
     pub fn push(&mut self, bytes: &[u8]) -> io::Result<()> {
         debug_assert_eq!(bytes.len(), self.record);
@@ -114,6 +160,10 @@ impl SpillWriter {
         }
         self.out.write_all(bytes)?;
         self.count += 1;
+        self.pending += bytes.len() as u64;
+        if self.pending >= USAGE_STEP {
+            self.count_usage();
+        }
         Ok(())
     }
 
@@ -135,8 +185,9 @@ impl SpillWriter {
     /// Finishes the file.
     pub fn finish(mut self) -> io::Result<SpillFile> {
         self.out.flush()?;
+        self.count_usage();
         Ok(SpillFile {
-            file: self.file,
+            file: Arc::clone(&self.file),
             record: self.record,
             count: self.count,
         })
@@ -144,7 +195,14 @@ impl SpillWriter {
 
     /// A reader of this file while it is still being written (records up to those flushed).
     pub fn reader_from(&self, start: u64) -> io::Result<SpillReader> {
-        open_reader(&self.file.0, self.record, start, u64::MAX)
+        open_reader(&self.file.path, self.record, start, u64::MAX)
+    }
+}
+
+impl Drop for SpillWriter {
+    fn drop(&mut self) {
+        // Bytes pushed count until the file is removed, finished or not.
+        self.count_usage();
     }
 }
 
@@ -178,7 +236,7 @@ impl SpillFile {
                 ),
             ));
         }
-        open_reader(&self.file.0, self.record, start, count)
+        open_reader(&self.file.path, self.record, start, count)
     }
 }
 
@@ -229,6 +287,31 @@ impl SpillReader {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_peak_counts_what_is_on_disk_at_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let scratch = Scratch::beside(&dir.path().join("x.qsplat")).unwrap();
+        let fill = |mib: u64| {
+            let mut w = scratch.create(1024).unwrap();
+            for _ in 0..mib * 1024 {
+                w.push(&[7u8; 1024]).unwrap();
+            }
+            w
+        };
+        let a = fill(3).finish().unwrap();
+        let b = fill(2);
+        assert_eq!(scratch.peak_bytes(), 5 << 20);
+        drop(a);
+        drop(b); // unfinished: its bytes count until it goes
+        let c = fill(4).finish().unwrap();
+        assert_eq!(scratch.bytes_written(), 9 << 20);
+        assert_eq!(scratch.peak_bytes(), 5 << 20);
+        let d = fill(2).finish().unwrap();
+        assert_eq!(scratch.peak_bytes(), 6 << 20);
+        drop((c, d));
+        assert_eq!(scratch.usage.live.load(Ordering::Relaxed), 0);
+    }
 
     #[test]
     fn records_round_trip_and_everything_is_removed() {

@@ -171,7 +171,8 @@ pub enum Command {
     /// limit: out of core when the cloud does not fit (scratch files in a hidden folder beside
     /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints
     /// one line: `points=N seconds=T points_per_second=R peak_rss_bytes=B chunks=C
-    /// top_levels=L leaf_radius=X file_bytes=F`.
+    /// top_levels=L leaf_radius=X file_bytes=F scratch_bytes=S scratch_peak_bytes=P` (S: written
+    /// to scratch in all; P: the most on disk at once).
     LodBuild {
         /// The point file.
         #[arg(long)]

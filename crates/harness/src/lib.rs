@@ -98,7 +98,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             };
             println!(
                 "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
-                 top_levels={} leaf_radius={:e} file_bytes={}",
+                 top_levels={} leaf_radius={:e} file_bytes={} scratch_bytes={} \
+                 scratch_peak_bytes={}",
                 built.points,
                 built.seconds,
                 built.points as f64 / built.seconds.max(1e-9),
@@ -106,7 +107,9 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 built.chunks,
                 built.top_levels,
                 built.leaf_radius,
-                built.file_bytes
+                built.file_bytes,
+                built.scratch_bytes,
+                built.scratch_peak_bytes
             );
         }
         Command::Inspect {

@@ -57,6 +57,8 @@ pub struct Built {
     pub file_bytes: u64,
     /// Bytes written to scratch files.
     pub scratch_bytes: u64,
+    /// The most bytes the scratch files held at once.
+    pub scratch_peak_bytes: u64,
 }
 
 /// A size: a number of bytes, optionally with a unit (`B`, `KiB`, `MiB`, `GiB`, `TiB`; `K`,
@@ -211,6 +213,7 @@ pub fn build(
         leaf_radius: summary.leaf_radius,
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
         scratch_bytes: summary.scratch_bytes,
+        scratch_peak_bytes: summary.scratch_peak_bytes,
     })
 }
 
@@ -236,6 +239,7 @@ pub fn build_in_memory(cloud_path: &Path, out: &Path) -> Result<Built> {
         leaf_radius: radius,
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
         scratch_bytes: 0,
+        scratch_peak_bytes: 0,
     })
 }
 

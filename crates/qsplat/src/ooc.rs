@@ -149,6 +149,8 @@ pub struct Summary {
     pub leaf_radius: f64,
     /// Bytes written to scratch files.
     pub scratch_bytes: u64,
+    /// The most bytes the scratch files held at once (`cloud::spill::Scratch::peak_bytes`).
+    pub scratch_peak_bytes: u64,
 }
 
 /// The build's stages, for progress reports (each with a count of points, or levels for
@@ -337,6 +339,7 @@ pub fn build_file(
         summary.largest_chunk = n;
         summary.leaf_radius = radius;
         summary.scratch_bytes = scratch.bytes_written();
+        summary.scratch_peak_bytes = scratch.peak_bytes();
         return Ok(summary);
     }
     // 2. Split down to chunks.
@@ -419,6 +422,7 @@ pub fn build_file(
     // 6. Assemble.
     b.assemble(root, root_word, out)?;
     summary.scratch_bytes = scratch.bytes_written();
+    summary.scratch_peak_bytes = scratch.peak_bytes();
     Ok(summary)
 }
 

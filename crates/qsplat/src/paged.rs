@@ -72,7 +72,7 @@ impl PagedTree {
         let mut head = vec![0u8; file::HEADER_BYTES.min(len as usize)];
         file.read_exact_at(&mut head, 0).map_err(io)?;
         let header = file::parse_header(&head, len, &name)?;
-        // The counts fit the file's length, so the page index is at most 1/8192 of it.
+        // The counts fit the file's length; the index costs 24 bytes per 64 KiB page.
         let pages = (header.n_words as usize).div_ceil(PAGE_WORDS);
         let mut tree = Self {
             file,

@@ -91,11 +91,11 @@ pub const OOC_LIMIT: u64 = 1 << 30;
 /// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
 pub const OOC_CAP: Duration = Duration::from_secs(3600);
 
-/// Disk an out-of-core cell needs per point, an upper bound: the LAZ input takes 11 bytes per
-/// point and the written file 7; the build wrote 382 bytes per point of scratch files at 10^7
-/// points (13 chunks) and 604 at 10^8 (154 chunks), in all (what is on disk at once is less:
-/// 8.4 GB seen mid-build at 10^8, not its peak).
-pub const OOC_DISK_PER_POINT: u64 = 650;
+/// Disk an out-of-core cell needs per point: the LAZ input takes 11.4 bytes per point and
+/// the written file 6.8; the scratch files held at most 120.7 bytes per point at once at 10^7
+/// points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks; `Scratch::peak_bytes`),
+/// of 382 and 604 written in all: 139 in all, and a quarter more for margin.
+pub const OOC_DISK_PER_POINT: u64 = 175;
 
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
@@ -468,7 +468,8 @@ fn ooc_cell(
             prepare_seconds,
             detail: format!(
                 "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
-                 LAZ {:.0} MiB, scratch {:.0} MiB, file {:.0} MiB; selection from the file \
+                 LAZ {:.0} MiB, scratch {:.0} MiB written, {:.0} MiB at most, file {:.0} MiB; \
+                 selection from the file \
                  ({}, view 0): {:.3} ms median of {}, {} splats, read {:.1} MiB, cache {:.1} \
                  MiB, peak after {:.0} MiB",
                 mib(OOC_LIMIT),
@@ -478,6 +479,7 @@ fn ooc_cell(
                 built.top_levels,
                 mib(input_bytes),
                 mib(built.scratch_bytes),
+                mib(built.scratch_peak_bytes),
                 mib(built.file_bytes),
                 setting.label(),
                 s.timing.median * 1e3,
@@ -1114,6 +1116,16 @@ mod tests {
             "{}",
             out.detail
         );
+        // The built file was selected from.
+        let splats: u64 = out
+            .detail
+            .split("ms median of ")
+            .nth(1)
+            .and_then(|t| t.split(", ").nth(1))
+            .and_then(|t| t.strip_suffix(" splats"))
+            .and_then(|t| t.parse().ok())
+            .unwrap_or(0);
+        assert!(splats > 0 && splats <= 5_000, "{}", out.detail);
         assert!(!ooc_dir(dir.path(), "qsplat-build-ooc", 5_000).exists());
         assert!(
             ooc_cell(
