@@ -286,7 +286,7 @@ pub fn albedo(c: [u8; 3]) -> Vec3 {
 }
 
 /// Reads a setting, then checks that every key was read.
-pub(crate) fn read<T>(
+fn read<T>(
     params: &Params,
     method: &str,
     specs: &[ParamSpec],
@@ -305,7 +305,7 @@ struct QsplatSel<'s> {
     last: Vec<qsplat::traverse::Splat>,
 }
 
-pub(crate) const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
+const QSPLAT_PARAMS: &[ParamSpec] = &[ParamSpec {
     key: "threshold_px",
     default: "2",
     help: "a node is drawn when its projected diameter is below this many pixels",
@@ -346,18 +346,23 @@ impl LodBuilt for QsplatBuilt {
         _input: &'s LodInput<'s>,
         params: &Params,
     ) -> Result<Box<dyn LodSelector + 's>> {
-        let threshold_px = read(params, "qsplat", QSPLAT_PARAMS, |p| {
-            p.get("threshold_px", 2.0)
-        })?;
         Ok(Box::new(QsplatSel {
             tree: &self.0,
-            params: qsplat::TraverseParams {
-                threshold_px,
-                ..Default::default()
-            },
+            params: qsplat_params(params)?,
             last: Vec::new(),
         }))
     }
+}
+
+/// The traversal a `qsplat` setting asks for (the in-memory tree's and a built file's).
+pub(crate) fn qsplat_params(params: &Params) -> Result<qsplat::TraverseParams> {
+    let threshold_px = read(params, "qsplat", QSPLAT_PARAMS, |p| {
+        p.get("threshold_px", 2.0)
+    })?;
+    Ok(qsplat::TraverseParams {
+        threshold_px,
+        ..Default::default()
+    })
 }
 
 impl LodSelector for QsplatSel<'_> {

@@ -17,9 +17,9 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use splat::render::Splat;
 
+use crate::Params;
 use crate::error::{Error, Result};
-use crate::lod::{LodBuilt, LodSelector, LodSize, Reads, qsplat_splat, read};
-use crate::{ParamSpec, Params};
+use crate::lod::{LodBuilt, LodSelector, LodSize, Reads, qsplat_params, qsplat_splat};
 
 /// The file's structure: its path, cache, and header.
 struct FileBuilt {
@@ -37,9 +37,6 @@ struct FileSel {
     /// The view of the last selection.
     camera: Option<Camera>,
 }
-
-/// The settings of a file selection: `qsplat`'s.
-const PARAMS: &[ParamSpec] = crate::lod::QSPLAT_PARAMS;
 
 fn qsplat_err(e: qsplat::Error) -> Error {
     Error::Unsupported(format!("qsplat file: {e}"))
@@ -98,14 +95,11 @@ impl LodBuilt for FileBuilt {
         _input: &'s crate::lod::LodInput<'s>,
         params: &Params,
     ) -> Result<Box<dyn LodSelector + 's>> {
-        let threshold_px = read(params, "qsplat", PARAMS, |p| p.get("threshold_px", 2.0))?;
+        let params = qsplat_params(params)?;
         let tree = qsplat::PagedTree::open(&self.path, self.cache_bytes).map_err(qsplat_err)?;
         Ok(Box::new(FileSel {
             tree,
-            params: qsplat::TraverseParams {
-                threshold_px,
-                ..Default::default()
-            },
+            params,
             last: Vec::new(),
             reads: Reads::default(),
             camera: None,

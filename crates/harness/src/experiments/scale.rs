@@ -99,8 +99,12 @@ pub const OOC_DISK_PER_POINT: u64 = 175;
 
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
-    let top = if quick { 6 } else { 9 };
-    (6..=top)
+    decades(6, if quick { 6 } else { 9 }, max_points)
+}
+
+/// 10^from to 10^to, those above `max_points` left out.
+fn decades(from: u32, to: u32, max_points: Option<u64>) -> Vec<u64> {
+    (from..=to)
         .map(|e| 10u64.pow(e))
         .filter(|&n| max_points.is_none_or(|m| n <= m))
         .collect()
@@ -242,11 +246,7 @@ pub fn print_prepared(seconds: f64) {
 }
 
 fn sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
-    let top = if quick { 6 } else { 8 };
-    (4..=top)
-        .map(|e| 10u64.pow(e))
-        .filter(|&n| max_points.is_none_or(|m| n <= m))
-        .collect()
+    decades(4, if quick { 6 } else { 8 }, max_points)
 }
 
 /// Peak resident set size of this process (`VmHWM`) plus that of the largest child process it
