@@ -256,7 +256,13 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
     (
         "lod_build.rs",
         "qsplat",
-        "pointsight lod-build writes QSplat files out of core (qsplat::ooc)",
+        "pointsight lod-build writes QSplat files out of core (qsplat::ooc) and prepares the \
+         points of the SPT build (qsplat::ooc::prepare)",
+    ),
+    (
+        "lod_build.rs",
+        "spt",
+        "pointsight lod-build writes sequential point tree files out of core (spt::ooc)",
     ),
     // Scale's cells.
     (

@@ -1,5 +1,5 @@
-//! `pointsight lod-build` in a child process: the out-of-core QSplat file equals the in-memory
-//! one byte for byte, the process's peak memory (VmHWM) stays within the limit + 64 MiB, the
+//! `pointsight lod-build` in a child process: the out-of-core QSplat and sequential point tree
+//! files equal the in-memory ones byte for byte, the process's peak memory (VmHWM) stays within the limit + 64 MiB, the
 //! scratch folder beside `--out` is gone afterwards, and bad input (a limit too small, a
 //! truncated LAZ, a LAS whose header lies about its point count) fails with a message naming
 //! the cause and leaves no output file.
@@ -62,14 +62,23 @@ fn entries(dir: &Path) -> Vec<String> {
 
 #[test]
 fn out_of_core_equals_in_memory_within_the_limit() {
+    for method in ["qsplat", "spt"] {
+        equal_within_the_limit(method);
+    }
+}
+
+#[allow(clippy::unwrap_used)] // a test's helper: a failure is the test failing
+fn equal_within_the_limit(method: &str) {
     let dir = tempfile::tempdir().unwrap();
     let laz = dir.path().join("sheet.laz");
     write_cloud(&laz, 400_000);
-    let mem = dir.path().join("mem.qsplat");
+    let mem = dir.path().join("mem.lod");
     let run = pointsight(&[
         "lod-build",
         "--cloud",
         laz.to_str().unwrap(),
+        "--method",
+        method,
         "--in-memory",
         "--out",
         mem.to_str().unwrap(),
@@ -82,11 +91,13 @@ fn out_of_core_equals_in_memory_within_the_limit() {
     let want = std::fs::read(&mem).unwrap();
     {
         let limit_mib = 80u64;
-        let out = dir.path().join(format!("ooc{limit_mib}.qsplat"));
+        let out = dir.path().join(format!("ooc{limit_mib}.lod"));
         let run = pointsight(&[
             "lod-build",
             "--cloud",
             laz.to_str().unwrap(),
+            "--method",
+            method,
             "--memory-limit",
             &format!("{limit_mib}MiB"),
             "--out",
@@ -99,7 +110,7 @@ fn out_of_core_equals_in_memory_within_the_limit() {
             String::from_utf8_lossy(&run.stderr)
         );
         // Several chunks (the library's tests force two levels above them).
-        assert!(field(&stdout, "chunks") >= 4.0, "{stdout}");
+        assert!(field(&stdout, "chunks") >= 4.0, "{method}: {stdout}");
         // The scratch's peak on disk is part of what it wrote in all.
         let (peak_disk, written) = (
             field(&stdout, "scratch_peak_bytes"),
@@ -112,16 +123,16 @@ fn out_of_core_equals_in_memory_within_the_limit() {
         let peak = field(&stdout, "peak_rss_bytes");
         assert!(
             peak <= ((limit_mib + 64) << 20) as f64,
-            "peak {peak} over {limit_mib} MiB + 64 MiB: {stdout}"
+            "{method}: peak {peak} over {limit_mib} MiB + 64 MiB: {stdout}"
         );
         let got = std::fs::read(&out).unwrap();
-        assert!(got == want, "limit {limit_mib} MiB: the bytes differ");
+        assert!(
+            got == want,
+            "{method}, limit {limit_mib} MiB: the bytes differ"
+        );
     }
     // No scratch folder is left.
-    assert_eq!(
-        entries(dir.path()),
-        ["mem.qsplat", "ooc80.qsplat", "sheet.laz"]
-    );
+    assert_eq!(entries(dir.path()), ["mem.lod", "ooc80.lod", "sheet.laz"]);
 }
 
 #[test]
@@ -129,26 +140,33 @@ fn bad_input_fails_naming_the_cause_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let laz = dir.path().join("sheet.laz");
     write_cloud(&laz, 20_000);
-    let out = dir.path().join("out.qsplat");
-    let fails = |cloud: &Path, limit: &str, message: &str| {
+    let out = dir.path().join("out.lod");
+    let fails_with = |method: &str, cloud: &Path, limit: &str, message: &str| {
         let run = pointsight(&[
             "lod-build",
             "--cloud",
             cloud.to_str().unwrap(),
+            "--method",
+            method,
             "--memory-limit",
             limit,
             "--out",
             out.to_str().unwrap(),
         ]);
         let err = String::from_utf8_lossy(&run.stderr).into_owned();
-        assert!(!run.status.success(), "{limit} should fail");
-        assert!(err.contains(message), "{err:?} lacks {message:?}");
+        assert!(!run.status.success(), "{method} {limit} should fail");
+        assert!(err.contains(message), "{method}: {err:?} lacks {message:?}");
         assert!(!out.exists());
         let left: Vec<String> = entries(dir.path())
             .into_iter()
             .filter(|e| e.starts_with('.'))
             .collect();
         assert!(left.is_empty(), "left behind: {left:?}");
+    };
+    let fails = |cloud: &Path, limit: &str, message: &str| {
+        for method in ["qsplat", "spt"] {
+            fails_with(method, cloud, limit, message);
+        }
     };
     fails(
         &laz,

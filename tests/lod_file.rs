@@ -3,7 +3,7 @@
 //! loading it (rows in `results.csv`, reads in `file_reads.csv`, the reference streamed from
 //! its leaves), and the experiments that need points refuse it by name.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 use cloud::glam::DVec3;
@@ -60,27 +60,30 @@ fn write_cloud(path: &Path, n: usize) {
     cloud::io::las::write_las(path, &c).expect("the LAZ is written");
 }
 
-#[test]
-fn the_lod_experiment_selects_from_a_built_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
-    write_cloud(&d.join("ball.laz"), 120_000);
+/// `lod-build` of `ball.laz` by `method` at 80 MiB into `file`, then `run lod --quick` on it as
+/// the dataset `name`; returns the output folder.
+#[allow(clippy::unwrap_used)] // a test's helper: a failure is the test failing
+fn build_and_run(d: &Path, method: &str, file: &str, name: &str) -> PathBuf {
     ok(&pointsight(
         &[
             "lod-build",
             "--cloud",
             "ball.laz",
+            "--method",
+            method,
             "--memory-limit",
             "80MiB",
             "--out",
-            "ball.qsplat",
+            file,
         ],
         d,
     ));
     std::fs::write(
         d.join("pointsight.toml"),
-        "[datasets.ball-built]\nlod_file = \"ball.qsplat\"\n\
-         view_spec = { count = 8, width = 200, height = 150 }\n",
+        format!(
+            "[datasets.{name}]\nlod_file = \"{file}\"\n\
+             view_spec = {{ count = 8, width = 200, height = 150 }}\n"
+        ),
     )
     .unwrap();
     ok(&pointsight(
@@ -89,7 +92,7 @@ fn the_lod_experiment_selects_from_a_built_file() {
             "lod",
             "--quick",
             "--datasets",
-            "ball-built",
+            name,
             "--out",
             "out",
             "--repeats",
@@ -97,7 +100,18 @@ fn the_lod_experiment_selects_from_a_built_file() {
         ],
         d,
     ));
-    let out = d.join("out");
+    d.join("out")
+}
+
+/// Per setting of `results.csv` in `out`, in order: (setting, [splats, PSNR, holes] summed
+/// over the views, views), every row `method` and ok with 1..=`max_points` splats; and the
+/// rows.
+#[allow(clippy::unwrap_used)] // a test's helper: a failure is the test failing
+fn per_setting(
+    out: &Path,
+    expect: &str,
+    max_points: usize,
+) -> (Vec<(String, [f64; 3], f64)>, usize) {
     let mut rows = csv::Reader::from_path(out.join("results.csv")).unwrap();
     let headers = rows.headers().unwrap().clone();
     let col = |name: &str| headers.iter().position(|h| h == name).unwrap();
@@ -110,14 +124,13 @@ fn the_lod_experiment_selects_from_a_built_file() {
         col("params"),
     );
     let mut n = 0;
-    // Per setting: (splats, PSNR, holes) summed over the views.
     let mut per: Vec<(String, [f64; 3], f64)> = Vec::new();
     for r in rows.records() {
         let r = r.unwrap();
-        assert_eq!(&r[method], "qsplat");
+        assert_eq!(&r[method], expect);
         assert_eq!(&r[status], "ok");
         let pts: usize = r[points].parse().unwrap();
-        assert!(pts > 0 && pts <= 120_000, "{pts} splats");
+        assert!(pts > 0 && pts <= max_points, "{pts} splats");
         let v = [
             pts as f64,
             r[psnr].parse().unwrap(),
@@ -134,6 +147,16 @@ fn the_lod_experiment_selects_from_a_built_file() {
         }
         n += 1;
     }
+    (per, n)
+}
+
+#[test]
+fn the_lod_experiment_selects_from_a_built_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_cloud(&d.join("ball.laz"), 120_000);
+    let out = build_and_run(d, "qsplat", "ball.qsplat", "ball-built");
+    let (per, n) = per_setting(&out, "qsplat", 120_000);
     // 8 views × 2 distances × the quick sweep's settings.
     assert!(n >= 32 && n % 16 == 0, "{n} rows");
     let mean = |k: usize, j: usize| per[k].1[j] / per[k].2;
@@ -214,4 +237,25 @@ fn experiments_that_need_points_refuse_a_built_file_and_mistakes_are_named() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("lod_file is the whole dataset"), "{err}");
+}
+
+#[test]
+fn the_lod_experiment_cuts_a_built_sequential_point_tree() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    write_cloud(&d.join("ball.laz"), 120_000);
+    let out = build_and_run(d, "spt", "ball.spt", "ball-spt");
+    let (per, _) = per_setting(&out, "spt", 120_000);
+    assert!(per.len() >= 2, "{per:?}");
+    let mean = |k: usize, j: usize| per[k].1[j] / per[k].2;
+    let (finest, coarsest) = (0, per.len() - 1);
+    // Measured: ε = 0.5 px 28,868 splats, 15.5 dB, no holes; ε = 8 px 96 splats, 6.0 dB.
+    assert!(mean(finest, 1) > 12.0, "{per:?}");
+    assert!(mean(finest, 2) < 0.01, "holes {per:?}");
+    assert!(mean(coarsest, 0) < mean(finest, 0) / 4.0, "{per:?}");
+    assert!(mean(coarsest, 1) + 5.0 < mean(finest, 1), "{per:?}");
+    let reads = std::fs::read_to_string(out.join("file_reads.csv")).unwrap();
+    assert!(reads.lines().count() > per.len(), "{reads}");
+    let strip = image::open(out.join("strip_ball-spt.png")).unwrap();
+    assert!(strip.width() > 200);
 }

@@ -22,6 +22,28 @@ pub struct Scratch {
     fail_after: Option<u64>,
 }
 
+/// Points per chunk an out-of-core build can hold under `memory_limit`, when it needs
+/// `reserve` bytes beside its chunk and `per_point` bytes a point of it; `Err` (the reason,
+/// naming the least limit) when that is below `min_chunk` points.
+pub fn chunk_capacity(
+    memory_limit: u64,
+    reserve: u64,
+    per_point: u64,
+    min_chunk: u64,
+) -> Result<u64, String> {
+    let cap = memory_limit.saturating_sub(reserve) / per_point.max(1);
+    if cap < min_chunk {
+        return Err(format!(
+            "{} is below what the out-of-core build can work in ({}: {} of buffers and \
+             chunks of at least {min_chunk} points at {per_point} bytes a point)",
+            crate::memory::human(u128::from(memory_limit)),
+            crate::memory::human(u128::from(reserve + min_chunk * per_point)),
+            crate::memory::human(u128::from(reserve)),
+        ));
+    }
+    Ok(cap)
+}
+
 /// Bytes in the scratch files now, and the most there were at once.
 #[derive(Debug, Default)]
 struct Usage {
@@ -73,11 +95,16 @@ impl Scratch {
 
     /// A new file of records of `record` bytes.
     pub fn create(&self, record: usize) -> io::Result<SpillWriter> {
+        self.create_buffered(record, 1 << 20)
+    }
+
+    /// [`Scratch::create`] with a write buffer of `buffer` bytes (for many files at once).
+    pub fn create_buffered(&self, record: usize, buffer: usize) -> io::Result<SpillWriter> {
         let k = self.next.fetch_add(1, Ordering::Relaxed);
         let path = self.dir.join(format!("{k}.bin"));
         let file = File::create(&path)?;
         Ok(SpillWriter {
-            out: BufWriter::with_capacity(1 << 20, file),
+            out: BufWriter::with_capacity(buffer.max(record), file),
             file: Arc::new(Removed {
                 path,
                 bytes: AtomicU64::new(0),
@@ -195,7 +222,7 @@ impl SpillWriter {
 
     /// A reader of this file while it is still being written (records up to those flushed).
     pub fn reader_from(&self, start: u64) -> io::Result<SpillReader> {
-        open_reader(&self.file.path, self.record, start, u64::MAX)
+        open_reader(&self.file.path, self.record, start, u64::MAX, 1 << 20)
     }
 }
 
@@ -227,6 +254,16 @@ impl SpillFile {
 
     /// Reads records `start..start + count`.
     pub fn reader(&self, start: u64, count: u64) -> io::Result<SpillReader> {
+        self.reader_buffered(start, count, 1 << 20)
+    }
+
+    /// [`SpillFile::reader`] with a read buffer of `buffer` bytes (for many files at once).
+    pub fn reader_buffered(
+        &self,
+        start: u64,
+        count: u64,
+        buffer: usize,
+    ) -> io::Result<SpillReader> {
         if start.checked_add(count).is_none_or(|end| end > self.count) {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
@@ -236,15 +273,21 @@ impl SpillFile {
                 ),
             ));
         }
-        open_reader(&self.file.path, self.record, start, count)
+        open_reader(&self.file.path, self.record, start, count, buffer)
     }
 }
 
-fn open_reader(path: &Path, record: usize, start: u64, count: u64) -> io::Result<SpillReader> {
+fn open_reader(
+    path: &Path,
+    record: usize,
+    start: u64,
+    count: u64,
+    buffer: usize,
+) -> io::Result<SpillReader> {
     let mut file = File::open(path)?;
     file.seek(SeekFrom::Start(start * record as u64))?;
     Ok(SpillReader {
-        input: BufReader::with_capacity(1 << 20, file),
+        input: BufReader::with_capacity(buffer.max(record), file),
         pos: start,
         left: count,
         record: record as u64,

@@ -177,7 +177,7 @@ pub enum Command {
         /// The point file.
         #[arg(long)]
         cloud: PathBuf,
-        /// The LOD method (qsplat).
+        /// The LOD method (qsplat, spt).
         #[arg(long, default_value = "qsplat")]
         method: String,
         /// Peak memory of the build, like 512MiB or 4GiB.

@@ -90,7 +90,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             in_memory,
         } => {
             let built = if in_memory {
-                lod_build::build_in_memory(&cloud, &out)?
+                lod_build::build_in_memory(&cloud, &method, &out)?
             } else {
                 let limit = lod_build::parse_size(&memory_limit)?;
                 let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());

@@ -1,6 +1,6 @@
 //! `pointsight lod-build`: an LOD method's file built from a point file within a memory limit
-//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`), the same bytes as the
-//! in-memory build when it does.
+//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`; `spt::ooc` after
+//! `qsplat::ooc::prepare`), the same bytes as the in-memory build when it does.
 //!
 //! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
 //! neighbour estimates oriented away from the centroid when it has none; the leaf radius
@@ -34,7 +34,7 @@ pub const NORMALS_K: usize = 16;
 pub const LEAF_RADIUS_SPACINGS: f64 = 1.5;
 
 /// The LOD methods with an out-of-core build.
-pub const OUT_OF_CORE: &[&str] = &["qsplat"];
+pub const OUT_OF_CORE: &[&str] = &["qsplat", "spt"];
 
 /// What `lod-build` did.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -47,7 +47,7 @@ pub struct Built {
     pub peak_rss_bytes: u64,
     /// Chunks (1: built in memory).
     pub chunks: u64,
-    /// Levels above the chunks.
+    /// Levels above the chunks (qsplat); nodes above the chunks (spt).
     pub top_levels: u32,
     /// Largest halo, points.
     pub largest_halo: u64,
@@ -123,6 +123,10 @@ pub fn peak_rss() -> u64 {
 
 /// Builds `method`'s file of the cloud in `cloud_path` into `out` within `memory_limit`
 /// bytes (`progress`: a bar on a terminal). The public entry a scale cell calls.
+///
+/// `spt`: the points are prepared by `qsplat::ooc::prepare` (the same normals and leaf radius
+/// as the QSplat build, out of core) and piped into `spt::ooc` (leaf diameter twice the
+/// radius, as the `lod` experiment gives SPT), one stage after the other under the same limit.
 pub fn build(
     cloud_path: &Path,
     method: &str,
@@ -131,40 +135,62 @@ pub fn build(
     progress: bool,
 ) -> Result<Built> {
     if !OUT_OF_CORE.contains(&method) {
-        bail!("lod-build: method {method:?} has no out-of-core build yet (qsplat has)");
+        bail!(
+            "lod-build: method {method:?} has no out-of-core build (these have: {OUT_OF_CORE:?})"
+        );
     }
     let start = Instant::now();
     let is_las = cloud::io::Format::of_path(cloud_path) == Some(cloud::io::Format::Las);
     let bar = progress.then(|| crate::progress::bar(0, "reading"));
-    let mut report = |stage: Stage, count: u64| {
+    let set = |msg: &'static str, count: u64| {
         if let Some(b) = &bar {
-            let msg = match stage {
-                Stage::Read => "reading",
-                Stage::Split => "splitting into chunks",
-                Stage::Neighbours => "normals and spacing",
-                Stage::Build => "building chunk roots",
-                Stage::Encode => "encoding chunks",
-                Stage::Write => "writing levels",
-            };
             if b.message() != msg {
                 b.set_message(msg);
             }
             b.set_position(count);
         }
     };
-    let summary = if is_las {
-        let mut stream =
+    let mut report = |stage: Stage, count: u64| {
+        set(
+            match stage {
+                Stage::Read => "reading",
+                Stage::Split => "splitting into chunks",
+                Stage::Neighbours => "normals and spacing",
+                Stage::Build => "building chunk roots",
+                Stage::Encode => "encoding chunks",
+                Stage::Write => "writing levels",
+            },
+            count,
+        );
+    };
+    let mut las_stream = None;
+    let mut loaded = None;
+    let (has_normals, colors) = if is_las {
+        let stream =
             cloud::io::las::LasStream::open(cloud_path, &cloud::io::las::LasOptions::default())?;
         if let Some(b) = &bar {
             b.set_length(stream.announced);
         }
         let colors = stream.with_color;
-        let opts = options(memory_limit, false, colors);
-        let mut chunk = cloud::PointCloud {
-            colors: colors.then(Vec::new),
-            ..cloud::PointCloud::default()
-        };
-        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+        las_stream = Some(stream);
+        (false, colors)
+    } else {
+        let c = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?.cloud;
+        if let Some(b) = &bar {
+            b.set_length(c.len() as u64);
+        }
+        let flags = (c.normals.is_some(), c.colors.is_some());
+        loaded = Some(c);
+        flags
+    };
+    let opts = options(memory_limit, has_normals, colors);
+    let mut chunk = cloud::PointCloud {
+        colors: colors.then(Vec::new),
+        ..cloud::PointCloud::default()
+    };
+    let mut at = 0usize;
+    let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+        if let Some(stream) = las_stream.as_mut() {
             chunk.positions.clear();
             if let Some(c) = chunk.colors.as_mut() {
                 c.clear();
@@ -178,17 +204,7 @@ pub fn build(
                 color: chunk.colors.as_ref().map_or([0; 3], |c| c[i]),
             }));
             Ok(more)
-        };
-        ooc::build_file(&mut source, &opts, out, &mut report)?
-    } else {
-        let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
-        let c = loaded.cloud;
-        if let Some(b) = &bar {
-            b.set_length(c.len() as u64);
-        }
-        let opts = options(memory_limit, c.normals.is_some(), c.colors.is_some());
-        let mut at = 0usize;
-        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+        } else if let Some(c) = loaded.as_ref() {
             let end = (at + (1 << 16)).min(c.len());
             batch.extend((at..end).map(|i| Point {
                 position: c.positions[i],
@@ -197,38 +213,119 @@ pub fn build(
             }));
             at = end;
             Ok(at < c.len())
+        } else {
+            Ok(false)
+        }
+    };
+    let built = if method == "spt" {
+        let mut spt_build = spt::ooc::Builder::new(
+            &spt::ooc::Options {
+                memory_limit,
+                colors,
+                fail_after_bytes: None,
+            },
+            out,
+        )?;
+        let mut failed: Option<spt::Error> = None;
+        let mut batch = Vec::new();
+        let mut sink = |pts: &[Point], index: &[u64]| -> qsplat::Result<()> {
+            batch.clear();
+            batch.extend(pts.iter().zip(index).map(|(p, &i)| spt::ooc::Point {
+                position: p.position,
+                normal: p.normal,
+                color: p.color,
+                index: i,
+            }));
+            spt_build.push(&batch).map_err(|e| {
+                let text = e.to_string();
+                failed = Some(e);
+                qsplat::Error::InvalidParameter {
+                    name: "spt",
+                    reason: text,
+                }
+            })
         };
-        ooc::build_file(&mut source, &opts, out, &mut report)?
+        let prepared = ooc::prepare(&mut source, &opts, out, &mut report, &mut sink);
+        if let Some(e) = failed {
+            return Err(e.into());
+        }
+        let prepared = prepared?;
+        drop(loaded.take());
+        let summary = spt_build.finish(
+            2.0 * prepared.leaf_radius,
+            &mut |stage: spt::ooc::Stage, count: u64| {
+                set(
+                    match stage {
+                        spt::ooc::Stage::Count => "counting octree cells",
+                        spt::ooc::Stage::Distribute => "distributing to chunks",
+                        spt::ooc::Stage::Build => "building chunks",
+                        spt::ooc::Stage::Merge => "merging the sorted list",
+                    },
+                    count,
+                );
+            },
+        )?;
+        Built {
+            points: summary.points,
+            seconds: 0.0,
+            peak_rss_bytes: 0,
+            chunks: summary.chunks,
+            top_levels: summary.top_nodes as u32,
+            largest_halo: prepared.largest_halo,
+            leaf_radius: prepared.leaf_radius,
+            file_bytes: 0,
+            scratch_bytes: summary.scratch_bytes + prepared.scratch_bytes,
+            scratch_peak_bytes: prepared.scratch_peak_bytes.max(summary.scratch_peak_bytes),
+        }
+    } else {
+        let summary = ooc::build_file(&mut source, &opts, out, &mut report)?;
+        Built {
+            points: summary.points,
+            seconds: 0.0,
+            peak_rss_bytes: 0,
+            chunks: summary.chunks,
+            top_levels: summary.top_levels,
+            largest_halo: summary.largest_halo,
+            leaf_radius: summary.leaf_radius,
+            file_bytes: 0,
+            scratch_bytes: summary.scratch_bytes,
+            scratch_peak_bytes: summary.scratch_peak_bytes,
+        }
     };
     if let Some(b) = bar {
         b.finish_and_clear();
     }
     Ok(Built {
-        points: summary.points,
         seconds: start.elapsed().as_secs_f64(),
         peak_rss_bytes: peak_rss(),
-        chunks: summary.chunks,
-        top_levels: summary.top_levels,
-        largest_halo: summary.largest_halo,
-        leaf_radius: summary.leaf_radius,
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
-        scratch_bytes: summary.scratch_bytes,
-        scratch_peak_bytes: summary.scratch_peak_bytes,
+        ..built
     })
 }
 
 /// The in-memory build of the same file (the whole cloud read, then
 /// `qsplat::ooc::in_memory`): the reference the out-of-core build equals, and the baseline
 /// of its rate and memory.
-pub fn build_in_memory(cloud_path: &Path, out: &Path) -> Result<Built> {
+pub fn build_in_memory(cloud_path: &Path, method: &str, out: &Path) -> Result<Built> {
+    if !OUT_OF_CORE.contains(&method) {
+        bail!("lod-build: method {method:?} has no file (these have: {OUT_OF_CORE:?})");
+    }
     let start = Instant::now();
     let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
     let c = loaded.cloud;
     let n = c.len() as u64;
     let opts = options(u64::MAX, c.normals.is_some(), c.colors.is_some());
     let positions: Vec<DVec3> = c.positions;
-    let (tree, radius) = ooc::in_memory(positions, c.normals, c.colors, &opts)?;
-    qsplat::file::write(&tree, out)?;
+    let radius = if method == "spt" {
+        let (normals, radius) = ooc::prepare_in_memory(&positions, c.normals, &opts)?;
+        let spt = spt::ooc::in_memory(positions, normals, c.colors, 2.0 * radius)?;
+        spt::file::write(&spt, out)?;
+        radius
+    } else {
+        let (tree, radius) = ooc::in_memory(positions, c.normals, c.colors, &opts)?;
+        qsplat::file::write(&tree, out)?;
+        radius
+    };
     Ok(Built {
         points: n,
         seconds: start.elapsed().as_secs_f64(),

@@ -627,6 +627,31 @@ impl Lod {
         })
     }
 
+    /// A built LOD file written by `pointsight lod-build` (QSplat or sequential point tree, told
+    /// by its magic), opened for selection without loading it (`registry::lod_file`); `method`
+    /// says which.
+    #[staticmethod]
+    #[pyo3(signature = (path, cache_bytes=64 << 20))]
+    fn open_file(py: Python<'_>, path: PathBuf, cache_bytes: u64) -> PyResult<Self> {
+        let (built, timing, name) = run(py, move || {
+            let info =
+                registry::lod_file::file_info(&path).map_err(|e| registry_err("lod file", &e))?;
+            let (built, timing) =
+                registry::timing::measure(1, || registry::lod_file::open_file(&path, cache_bytes))
+                    .map_err(|e| registry_err(info.method, &e))?;
+            Ok((built, timing, info.method))
+        })?;
+        let m = registry::lod::method(name)
+            .ok_or_else(|| PyRuntimeError::new_err(format!("the registry has no {name}")))?;
+        let size = built.size();
+        Ok(Self {
+            method: m,
+            data: registry::lod::LodData::none(0),
+            built,
+            build: registry::kernel::Built { timing, size },
+        })
+    }
+
     /// The splats drawn for each camera at one setting (`params`: the registry's KEY=VALUE
     /// pairs): per camera a dict of `centers`, `radii`, `normals`, `colors` arrays and the
     /// selection's `seconds` (median of `repeats` timed selections).

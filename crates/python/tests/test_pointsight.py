@@ -390,3 +390,20 @@ def test_qsplat_selected_from_a_built_file(tmp_path):
     with pytest.raises(ValueError, match="corrupt|magic"):
         (tmp_path / "bad.qsplat").write_bytes(b"not a qsplat file")
         ps.QSplat.open(tmp_path / "bad.qsplat")
+    # The same cloud as a sequential point tree, cut from its file: the in-memory tree's
+    # cuts, splat for splat.
+    run("lod-build", "--cloud", str(ply), "--method", "spt", "--out", str(tmp_path / "ball.spt"))
+    tree = ps.SequentialPointTree.open(tmp_path / "ball.spt")
+    assert tree.method == "spt" and len(tree) > n
+    mem = ps.SequentialPointTree(p, normals.astype(np.float32).astype(np.float64), 2.0 * radius)
+    for eps in (0.5, 4.0):
+        got = tree.select(cams, eps)
+        want = mem.select(cams, eps)
+        for g, w in zip(got, want):
+            assert len(g["centers"]) > 0
+            np.testing.assert_array_equal(g["centers"], w["centers"])
+            np.testing.assert_array_equal(g["radii"], w["radii"])
+            np.testing.assert_array_equal(g["normals"], w["normals"])
+            assert g["bytes_read"] > 0
+    with pytest.raises(ValueError, match="not a sequential point tree"):
+        ps.SequentialPointTree.open(tmp_path / "ball.qsplat")

@@ -39,6 +39,10 @@
 //!    each level is, left to right, the top nodes' groups and the chunks' segments of that
 //!    level, their offsets moved to their place.
 //!
+//! [`prepare`] stops after step 3 and hands every point with its normal (and the leaf radius)
+//! to a sink instead: the preparation another method's out-of-core build starts from (the
+//! harness pipes it into `spt::ooc`).
+//!
 //! Deviations: none in the output. Each chunk is built twice (once for its root, once to
 //! encode it), which costs time but no memory or disk.
 //!
@@ -173,38 +177,48 @@ pub enum Stage {
 
 /// Points per chunk under `memory_limit`, or the error naming why the limit is too small.
 pub fn chunk_capacity(memory_limit: u64) -> Result<u64> {
-    let cap = memory_limit.saturating_sub(RESERVE) / BYTES_PER_POINT;
-    if cap < MIN_CHUNK {
-        return Err(Error::InvalidParameter {
+    cloud::spill::chunk_capacity(memory_limit, RESERVE, BYTES_PER_POINT, MIN_CHUNK).map_err(
+        |reason| Error::InvalidParameter {
             name: "memory_limit",
-            reason: format!(
-                "{} is below what the out-of-core build can work in ({}: {} of buffers and \
-                 chunks of at least {MIN_CHUNK} points at {BYTES_PER_POINT} bytes a point)",
-                cloud::memory::human(u128::from(memory_limit)),
-                cloud::memory::human(u128::from(RESERVE + MIN_CHUNK * BYTES_PER_POINT)),
-                cloud::memory::human(u128::from(RESERVE)),
-            ),
-        });
-    }
-    Ok(cap)
+            reason,
+        },
+    )
 }
 
 /// The in-memory build the out-of-core one equals: normals and leaf radius by the rules of
-/// `opts`, then [`crate::build_tree`]; returns the tree and the leaf radius.
+/// `opts` ([`prepare_in_memory`]), then [`crate::build_tree`]; returns the tree and the leaf
+/// radius.
 pub fn in_memory(
     positions: Vec<DVec3>,
     normals: Option<Vec<Vec3>>,
     colors: Option<Vec<[u8; 3]>>,
     opts: &Options,
 ) -> Result<(QTree, f64)> {
+    let (normals, radius) = prepare_in_memory(&positions, normals, opts)?;
+    let cloud = cloud::PointCloud {
+        positions,
+        normals: Some(normals),
+        colors: if opts.colors { colors } else { None },
+        ..cloud::PointCloud::default()
+    };
+    Ok((crate::build_tree(&cloud, radius)?, radius))
+}
+
+/// The normals and the leaf radius of a cloud in memory by the rules of `opts`: the given
+/// normals or `cloud::normals::estimate_normals`, the fixed radius or the density spacing's.
+pub fn prepare_in_memory(
+    positions: &[DVec3],
+    normals: Option<Vec<Vec3>>,
+    opts: &Options,
+) -> Result<(Vec<Vec3>, f64)> {
     if positions.is_empty() {
         return Err(Error::EmptyCloud);
     }
-    cloud::points::check_finite(&positions)?;
+    cloud::points::check_finite(positions)?;
     let normals = match opts.normals {
         Normals::Given => normals.ok_or(Error::MissingNormals)?,
         Normals::Estimate { k } => cloud::normals::estimate_normals(
-            &positions,
+            positions,
             k.min(positions.len()),
             cloud::normals::Orientation::AwayFromCentroid,
         )?,
@@ -216,15 +230,28 @@ pub fn in_memory(
             sample,
             seed,
             factor,
-        } => factor * cloud::spacing::density_spacing(&positions, k, sample, seed)?,
+        } => factor * cloud::spacing::density_spacing(positions, k, sample, seed)?,
     };
-    let cloud = cloud::PointCloud {
-        positions,
-        normals: Some(normals),
-        colors: if opts.colors { colors } else { None },
-        ..cloud::PointCloud::default()
-    };
-    Ok((crate::build_tree(&cloud, radius)?, radius))
+    Ok((normals, radius))
+}
+
+/// Where prepared points go: a batch of points (their normals set) and their indices in the
+/// input.
+pub type Sink<'a> = &'a mut dyn FnMut(&[Point], &[u64]) -> Result<()>;
+
+/// Steps 1 to 3 of [`build_file`] alone: every point of `source` with its normal (given or
+/// estimated, the very normals the QSplat build uses) handed to `sink` chunk by chunk (in no
+/// particular order, with its index in the input), and the leaf radius in the summary. What
+/// another method's out-of-core build (the harness pipes it into `spt::ooc`) needs from the
+/// same preparation; within the same memory limit and with the same scratch rules.
+pub fn prepare(
+    source: &mut dyn FnMut(&mut Vec<Point>) -> Result<bool>,
+    opts: &Options,
+    out: &Path,
+    progress: &mut dyn FnMut(Stage, u64),
+    sink: Sink<'_>,
+) -> Result<Summary> {
+    run(source, opts, out, progress, Some(sink))
 }
 
 /// Builds the QSplat file of the points `source` yields (batches into the vector it is given,
@@ -235,6 +262,17 @@ pub fn build_file(
     opts: &Options,
     out: &Path,
     progress: &mut dyn FnMut(Stage, u64),
+) -> Result<Summary> {
+    run(source, opts, out, progress, None)
+}
+
+/// [`build_file`], or [`prepare`] with a sink.
+fn run(
+    source: &mut dyn FnMut(&mut Vec<Point>) -> Result<bool>,
+    opts: &Options,
+    out: &Path,
+    progress: &mut dyn FnMut(Stage, u64),
+    mut sink: Option<Sink<'_>>,
 ) -> Result<Summary> {
     if let Radius::Fixed(r) = opts.radius
         && (!(r > 0.0) || !r.is_finite())
@@ -328,6 +366,23 @@ pub fn build_file(
         // It fits: the in-memory build.
         let chunk = b.load_file(&all)?;
         drop(all);
+        if let Some(sink) = sink.as_mut() {
+            let (normals, radius) = prepare_in_memory(&chunk.positions, Some(chunk.normals), opts)?;
+            let pts: Vec<Point> = (0..chunk.positions.len())
+                .map(|i| Point {
+                    position: chunk.positions[i],
+                    normal: normals[i],
+                    color: chunk.colors[i],
+                })
+                .collect();
+            sink(&pts, &chunk.index)?;
+            summary.chunks = 1;
+            summary.largest_chunk = n;
+            summary.leaf_radius = radius;
+            summary.scratch_bytes = scratch.bytes_written();
+            summary.scratch_peak_bytes = scratch.peak_bytes();
+            return Ok(summary);
+        }
         let (tree, radius) = in_memory(
             chunk.positions,
             Some(chunk.normals),
@@ -408,6 +463,24 @@ pub fn build_file(
         });
     }
     summary.leaf_radius = b.leaf_radius;
+    if let Some(sink) = sink.as_mut() {
+        for c in &b.chunks {
+            let l = b.load_file(&c.set)?;
+            let pts: Vec<Point> = (0..l.positions.len())
+                .map(|i| Point {
+                    position: l.positions[i],
+                    normal: l.normals[i],
+                    color: l.colors[i],
+                })
+                .collect();
+            sink(&pts, &l.index)?;
+        }
+        summary.chunks = b.chunks.len() as u64;
+        summary.largest_chunk = b.chunks.iter().map(|c| c.set.count).max().unwrap_or(0);
+        summary.scratch_bytes = scratch.bytes_written();
+        summary.scratch_peak_bytes = scratch.peak_bytes();
+        return Ok(summary);
+    }
     // 4. The chunks' roots and the top tree above them (children come before parents).
     b.done = 0;
     b.build_top()?;

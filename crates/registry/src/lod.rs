@@ -433,12 +433,27 @@ impl LodBuilt for SptBuilt {
         _input: &'s LodInput<'s>,
         params: &Params,
     ) -> Result<Box<dyn LodSelector + 's>> {
-        let pixels = read(params, "spt", SPT_PARAMS, |p| p.get("epsilon_px", 1.0))?;
+        let pixels = spt_pixels(params)?;
         Ok(Box::new(SptSel {
             spt: &self.0,
             pixels,
             entries: Vec::new(),
         }))
+    }
+}
+
+/// The error in pixels an `spt` setting asks for (the in-memory tree's and a built file's).
+pub(crate) fn spt_pixels(params: &Params) -> Result<f64> {
+    read(params, "spt", SPT_PARAMS, |p| p.get("epsilon_px", 1.0))
+}
+
+/// A sequential point tree's splat as the renderer's.
+pub(crate) fn spt_splat(s: &spt::Splat) -> Splat {
+    Splat {
+        center: s.center,
+        radius: s.radius as f32,
+        normal: s.normal,
+        albedo: s.color,
     }
 }
 
@@ -454,12 +469,7 @@ impl LodSelector for SptSel<'_> {
         self.spt
             .splats(&self.entries)
             .iter()
-            .map(|s| Splat {
-                center: s.center,
-                radius: s.radius as f32,
-                normal: s.normal,
-                albedo: s.color,
-            })
+            .map(spt_splat)
             .collect()
     }
 }

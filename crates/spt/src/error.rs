@@ -20,6 +20,24 @@ pub enum Error {
         /// Why.
         reason: String,
     },
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file is not a sequential point tree or is damaged.
+    #[error("{path}: corrupt sequential point tree file at byte {offset}: {reason}")]
+    Corrupt {
+        /// The file.
+        path: String,
+        /// Byte offset of the problem.
+        offset: u64,
+        /// What is wrong.
+        reason: String,
+    },
 }
 
 /// Result alias of the `spt` crate.

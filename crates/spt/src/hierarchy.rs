@@ -3,8 +3,10 @@
 //!
 //! An octree over the points (seed 002 §5.3.1): a cell is split into its eight octants until one
 //! point is left; chains of cells with a single occupied octant are collapsed, so every inner
-//! node has two to eight children; coincident points are split by position in the list. Each
-//! node approximates its subtree by a disc:
+//! node has two to eight children; coincident points are split by position in the list (the
+//! octant partition is stable, so a cell's points keep the input order and the split depends on
+//! the cell's points alone, which lets the out-of-core build, [`crate::ooc`], build a cell by
+//! itself). Each node approximates its subtree by a disc:
 //! - centre c: the mean of its points; normal n: the normalised mean of its points' normals;
 //!   diameter d: that of the sphere around c enclosing its children's spheres (leaves: the
 //!   leaf diameter given);
@@ -100,25 +102,78 @@ pub fn build(input: &Input<'_>) -> Hierarchy {
         max: DVec3::ZERO,
     });
     let origin = bbox.center();
-    let half = 0.5 * bbox.extent().max_element().max(1e-300);
     let mut items: Vec<u32> = (0..input.positions.len() as u32).collect();
-    let nodes = build_cell(
-        input,
-        origin,
-        &mut items,
-        bbox.center(),
-        half * (1.0 + 1e-9),
-    );
+    let (center, half) = root_cell(&bbox);
+    let nodes = build_cell(input, origin, &mut items, center, half, COLLAPSE);
     Hierarchy { origin, nodes }
 }
 
-/// Builds the subtree of the points `items`, all inside the cube (centre, half side).
-fn build_cell(
+/// The root cube of the points' box: its centre and half side.
+pub fn root_cell(bbox: &cloud::Aabb) -> (DVec3, f64) {
+    let half = 0.5 * bbox.extent().max_element().max(1e-300);
+    (bbox.center(), half * (1.0 + 1e-9))
+}
+
+/// Octant levels a cell's points may share before they count as coincident.
+pub const COLLAPSE: u32 = 64;
+
+/// The octant of `p` in the cube centred at `c`.
+#[inline(always)]
+pub fn octant(p: DVec3, c: DVec3) -> usize {
+    usize::from(p.x >= c.x) | (usize::from(p.y >= c.y) << 1) | (usize::from(p.z >= c.z) << 2)
+}
+
+/// The centre of octant `o` of the cube (centre `c`, half side `h`); its half side is `h / 2`.
+#[inline(always)]
+pub fn octant_center(c: DVec3, h: f64, o: usize) -> DVec3 {
+    c + DVec3::new(
+        if o & 1 != 0 { 0.5 * h } else { -0.5 * h },
+        if o & 2 != 0 { 0.5 * h } else { -0.5 * h },
+        if o & 4 != 0 { 0.5 * h } else { -0.5 * h },
+    )
+}
+
+/// Stable partition of `items` by octant (a counting sort); returns the counts.
+fn partition_octants(
+    input: &Input<'_>,
+    items: &mut [u32],
+    c: DVec3,
+    tmp: &mut Vec<u32>,
+) -> [usize; 8] {
+    let mut counts = [0usize; 8];
+    for &i in items.iter() {
+        counts[octant(input.positions[i as usize], c)] += 1;
+    }
+    if counts.contains(&items.len()) {
+        return counts;
+    }
+    let mut at = [0usize; 8];
+    for o in 1..8 {
+        at[o] = at[o - 1] + counts[o - 1];
+    }
+    tmp.clear();
+    tmp.resize(items.len(), 0);
+    for &i in items.iter() {
+        let o = octant(input.positions[i as usize], c);
+        tmp[at[o]] = i;
+        at[o] += 1;
+    }
+    items.copy_from_slice(tmp);
+    counts
+}
+
+/// Builds the subtree of the points `items`, all inside the cube (centre, half side), in the
+/// arena order of [`build`] (children before parents, the root last): the call [`build`] makes
+/// for every cell with two or more occupied octants, `budget` the octant levels left before the
+/// points count as coincident ([`COLLAPSE`] at such a cell; fewer when the out-of-core build
+/// starts inside a chain of single-octant cells).
+pub fn build_cell(
     input: &Input<'_>,
     origin: DVec3,
     items: &mut [u32],
     center: DVec3,
     half: f64,
+    budget: u32,
 ) -> Vec<Node> {
     if items.len() == 1 {
         return vec![leaf(input, origin, items[0])];
@@ -126,29 +181,16 @@ fn build_cell(
     // Partition into octants; collapse single-octant chains; split coincident points by list.
     let mut groups: Vec<(usize, usize, DVec3)> = Vec::new();
     let (mut c, mut h) = (center, half);
-    for _ in 0..64 {
-        let octant = |i: &u32| {
-            let p = input.positions[*i as usize];
-            usize::from(p.x >= c.x)
-                | (usize::from(p.y >= c.y) << 1)
-                | (usize::from(p.z >= c.z) << 2)
-        };
-        items.sort_unstable_by_key(octant);
+    let mut tmp = Vec::new();
+    for _ in 0..budget.max(1) {
+        let counts = partition_octants(input, items, c, &mut tmp);
         groups.clear();
         let mut start = 0;
-        while start < items.len() {
-            let o = octant(&items[start]);
-            let mut end = start;
-            while end < items.len() && octant(&items[end]) == o {
-                end += 1;
+        for (o, &k) in counts.iter().enumerate() {
+            if k > 0 {
+                groups.push((start, start + k, octant_center(c, h, o)));
+                start += k;
             }
-            let oc = c + DVec3::new(
-                if o & 1 != 0 { 0.5 * h } else { -0.5 * h },
-                if o & 2 != 0 { 0.5 * h } else { -0.5 * h },
-                if o & 4 != 0 { 0.5 * h } else { -0.5 * h },
-            );
-            groups.push((start, end, oc));
-            start = end;
         }
         if groups.len() > 1 {
             break;
@@ -156,6 +198,7 @@ fn build_cell(
         c = groups[0].2;
         h *= 0.5;
     }
+    drop(tmp);
     if groups.len() == 1 {
         // Coincident points: halves by list position.
         let m = items.len() / 2;
@@ -177,12 +220,12 @@ fn build_cell(
         use rayon::prelude::*;
         slices
             .into_par_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h))
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
             .collect()
     } else {
         slices
             .into_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h))
+            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
             .collect()
     };
     let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
@@ -227,6 +270,11 @@ fn leaf(input: &Input<'_>, origin: DVec3, i: u32) -> Node {
 
 fn parent_of(nodes: &[Node], children: Vec<u32>) -> Node {
     let kids: Vec<&Node> = children.iter().map(|&k| &nodes[k as usize]).collect();
+    parent_of_kids(&kids, children)
+}
+
+/// The parent of the nodes `kids` (whose arena indices are `children`).
+pub fn parent_of_kids(kids: &[&Node], children: Vec<u32>) -> Node {
     let leaves: u32 = kids.iter().map(|k| k.leaves).sum();
     let w = |k: &Node| k.leaves as f32 / leaves as f32;
     let center: Vec3 = kids.iter().map(|k| k.center * w(k)).sum();
@@ -244,8 +292,8 @@ fn parent_of(nodes: &[Node], children: Vec<u32>) -> Node {
             .fold(0.0f32, f32::max);
     let lo = kids.iter().fold(Vec3::INFINITY, |a, k| a.min(k.lo));
     let hi = kids.iter().fold(Vec3::NEG_INFINITY, |a, k| a.max(k.hi));
-    let e_p = perpendicular_error(center, normal, &kids);
-    let e_t = tangential_error(center, normal, diameter, &kids);
+    let e_p = perpendicular_error(center, normal, kids);
+    let e_t = tangential_error(center, normal, diameter, kids);
     let e_g = (e_p * e_p + e_t * e_t)
         .sqrt()
         .max(kids.iter().map(|k| k.e_g).fold(0.0, f32::max));

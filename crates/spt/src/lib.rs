@@ -4,7 +4,10 @@
 //! [`hierarchy`] builds the octree of discs with the error metrics e_p (eq. 5.1, 5.2), e_t and
 //! e_g (eq. 5.5); [`list`] flattens it into the list sorted by r_max that a view cuts with a
 //! sequential scan of a prefix; [`recursive`] is the depth-first traversal of §5.3.3 that the
-//! scan must reproduce exactly (a property test checks it for random views and thresholds).
+//! scan must reproduce exactly (a property test checks it for random views and thresholds);
+//! [`file`] stores the list as a view reads it; [`ooc`] builds that file out of core, the same
+//! bytes as the in-memory build; [`paged`] cuts it from the file, reading only the prefix a
+//! view needs.
 //!
 //! The threshold ε is the image-space error e_g / r in radians; [`epsilon_for_pixels`] converts
 //! a tolerance in pixels for a camera. Splats are drawn with the node's diameter d (screen size
@@ -16,8 +19,11 @@
 //! a node when it is below or the node is a leaf, which is what this crate does.
 
 pub mod error;
+pub mod file;
 pub mod hierarchy;
 pub mod list;
+pub mod ooc;
+pub mod paged;
 pub mod recursive;
 
 use cloud::glam::{DVec3, Vec3};
@@ -48,6 +54,8 @@ pub struct Spt {
     hierarchy: Hierarchy,
     quant: Quantized,
     list: SequentialList,
+    leaf_diameter: f64,
+    colors: bool,
 }
 
 /// Builds the tree of `cloud` (which must have normals) with leaf discs of `leaf_diameter`.
@@ -81,6 +89,8 @@ pub fn build(cloud: &PointCloud, leaf_diameter: f64) -> Result<Spt> {
         hierarchy,
         quant,
         list,
+        leaf_diameter,
+        colors: cloud.colors.is_some(),
     })
 }
 
@@ -89,7 +99,7 @@ pub fn epsilon_for_pixels(camera: &Camera, px: f64) -> f64 {
     px / camera.focal_px()
 }
 
-fn check(eye: DVec3, epsilon: f64) -> Result<f32> {
+pub(crate) fn check(eye: DVec3, epsilon: f64) -> Result<f32> {
     if !eye.is_finite() {
         return Err(Error::InvalidParameter {
             name: "eye",
@@ -109,6 +119,11 @@ impl Spt {
     /// The hierarchy.
     pub fn hierarchy(&self) -> &Hierarchy {
         &self.hierarchy
+    }
+
+    /// The leaf discs' diameter.
+    pub fn leaf_diameter(&self) -> f64 {
+        self.leaf_diameter
     }
 
     /// The sequential list.

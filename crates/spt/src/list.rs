@@ -34,7 +34,7 @@ use crate::hierarchy::Hierarchy;
 pub const GRID: f64 = 65_535.0;
 
 /// A box on the 16-bit grid.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[repr(C)]
 pub struct QBox {
     /// Lower corner (rounded down).
@@ -74,39 +74,58 @@ pub struct Quantized {
     pub e2: Vec<f32>,
 }
 
+/// The 16-bit grid over an object: the world position of its origin and its step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Grid {
+    /// The hierarchy's local origin (node positions are relative to it).
+    pub local: DVec3,
+    /// World position of the grid's origin.
+    pub origin: DVec3,
+    /// World size of one grid step.
+    pub cell: f64,
+}
+
+impl Grid {
+    /// The grid over the root's box `lo..hi` (local, f32) of a hierarchy with origin `local`.
+    pub fn new(local: DVec3, lo: Vec3, hi: Vec3) -> Self {
+        let extent = (hi - lo).as_dvec3().max_element();
+        Self {
+            local,
+            origin: local + lo.as_dvec3(),
+            cell: (extent / GRID).max(f64::MIN_POSITIVE),
+        }
+    }
+
+    /// A node's box on the grid (rounded outwards).
+    pub fn qbox(&self, n: &crate::hierarchy::Node) -> QBox {
+        let q = |x: f64, up: bool| {
+            let g = (x / self.cell).clamp(0.0, GRID);
+            (if up { g.ceil() } else { g.floor() }) as u16
+        };
+        let a = self.local + n.lo.as_dvec3() - self.origin;
+        let b = self.local + n.hi.as_dvec3() - self.origin;
+        QBox {
+            lo: [q(a.x, false), q(a.y, false), q(a.z, false)],
+            hi: [q(b.x, true), q(b.y, true), q(b.z, true)],
+        }
+    }
+
+    /// A node's e_g² in grid units.
+    pub fn e2(&self, n: &crate::hierarchy::Node) -> f32 {
+        (f64::from(n.e_g) / self.cell).powi(2) as f32
+    }
+}
+
 impl Quantized {
     /// Quantises the hierarchy's boxes and errors.
     pub fn new(h: &Hierarchy) -> Self {
         let root = &h.nodes[h.root()];
-        let lo = h.origin + root.lo.as_dvec3();
-        let extent = (root.hi - root.lo).as_dvec3().max_element();
-        let cell = (extent / GRID).max(f64::MIN_POSITIVE);
-        let q = |x: f64, up: bool| {
-            let g = (x / cell).clamp(0.0, GRID);
-            (if up { g.ceil() } else { g.floor() }) as u16
-        };
-        let boxes = h
-            .nodes
-            .iter()
-            .map(|n| {
-                let a = h.origin + n.lo.as_dvec3() - lo;
-                let b = h.origin + n.hi.as_dvec3() - lo;
-                QBox {
-                    lo: [q(a.x, false), q(a.y, false), q(a.z, false)],
-                    hi: [q(b.x, true), q(b.y, true), q(b.z, true)],
-                }
-            })
-            .collect();
-        let e2 = h
-            .nodes
-            .iter()
-            .map(|n| (f64::from(n.e_g) / cell).powi(2) as f32)
-            .collect();
+        let grid = Grid::new(h.origin, root.lo, root.hi);
         Self {
-            origin: lo,
-            cell,
-            boxes,
-            e2,
+            origin: grid.origin,
+            cell: grid.cell,
+            boxes: h.nodes.iter().map(|n| grid.qbox(n)).collect(),
+            e2: h.nodes.iter().map(|n| grid.e2(n)).collect(),
         }
     }
 
@@ -138,6 +157,34 @@ pub struct Group {
     pub start: u32,
     /// One past the last entry.
     pub end: u32,
+}
+
+/// The scan of [`SequentialList::cut_into`] over a block of consecutive groups read from
+/// elsewhere (a file, [`crate::paged`]): `entries` holds the groups' entries, the first of them
+/// list entry `first`; the selected entries' list indices are appended to `out`. Returns the
+/// entries tested.
+pub fn scan_block(
+    groups: &[Group],
+    entries: &[Entry],
+    first: usize,
+    eye: Vec3,
+    eps2: f32,
+    out: &mut Vec<u32>,
+) -> usize {
+    let mut tested = 0;
+    for g in groups {
+        if !refined(&g.b, g.e2, eye, eps2) {
+            continue;
+        }
+        let (s, e) = (g.start as usize, g.end as usize);
+        tested += e - s;
+        for (i, entry) in entries[s - first..e - first].iter().enumerate() {
+            if !refined(&entry.b, entry.e2, eye, eps2) {
+                out.push((s + i) as u32);
+            }
+        }
+    }
+    tested
 }
 
 /// What one cut did.

@@ -1,12 +1,13 @@
-//! A dataset that is a built LOD file (the manifest's `lod_file`): a QSplat file that
-//! `pointsight lod-build` wrote, which the `lod` experiment selects from without loading it
-//! (`registry::lod_file`); the other experiments need points and refuse it by name.
+//! A dataset that is a built LOD file (the manifest's `lod_file`): a QSplat or sequential point
+//! tree file that `pointsight lod-build` wrote (told apart by its magic), which the `lod`
+//! experiment selects from without loading it (`registry::lod_file`); the other experiments
+//! need points and refuse it by name.
 //!
-//! The file's coordinates are world coordinates (no recentring: the traversal decodes in
-//! f64). Its views are the manifest's views file (world coordinates), or the Fibonacci set of
-//! its `view_spec` around the box of the root sphere (centre ± radius on each axis), the only
-//! bounds the file keeps; so they are not the views of the cloud the file was built from
-//! unless a views file gives them.
+//! The file's coordinates are world coordinates (no recentring). Its views are the manifest's
+//! views file (world coordinates), or the Fibonacci set of its `view_spec` around the bounds
+//! the file keeps (QSplat: the root sphere's box, centre ± radius on each axis; SPT: the leaf
+//! discs' box); so they are not the views of the cloud the file was built from unless a views
+//! file gives them.
 
 use std::path::{Path, PathBuf};
 
@@ -23,6 +24,8 @@ pub struct LodFileDataset {
     pub name: String,
     /// The file.
     pub path: PathBuf,
+    /// The method that built it (`qsplat`, `spt`).
+    pub method: &'static str,
     /// Its points (leaves).
     pub n_points: u64,
     /// Its viewpoints, world coordinates.
@@ -31,23 +34,15 @@ pub struct LodFileDataset {
     pub files: Vec<SourceFile>,
 }
 
-/// Opens the QSplat file at `path` (its header checked) with views from `views`.
+/// Opens the LOD file at `path` (its header checked) with views from `views`.
 pub fn open(name: &str, path: &Path, views: &ViewsFrom) -> Result<LodFileDataset> {
-    let info =
-        registry::lod_file::qsplat_file_info(path).with_context(|| format!("dataset {name}"))?;
+    let info = registry::lod_file::file_info(path).with_context(|| format!("dataset {name}"))?;
     let mut files = vec![SourceFile {
         path: path.to_owned(),
         sha256: crate::fetch::sha256_file(path)?,
     }];
     let views = match views {
-        ViewsFrom::Spec(spec) => {
-            let r = cloud::glam::DVec3::splat(info.root_radius);
-            let bbox = cloud::Aabb {
-                min: info.root_center - r,
-                max: info.root_center + r,
-            };
-            cloud::views::fibonacci_views(&bbox, spec)?
-        }
+        ViewsFrom::Spec(spec) => cloud::views::fibonacci_views(&info.bounds, spec)?,
         ViewsFrom::File(p) => {
             files.push(SourceFile {
                 path: p.clone(),
@@ -61,6 +56,7 @@ pub fn open(name: &str, path: &Path, views: &ViewsFrom) -> Result<LodFileDataset
     Ok(LodFileDataset {
         name: name.to_owned(),
         path: path.to_owned(),
+        method: info.method,
         n_points: info.n_points,
         views,
         files,

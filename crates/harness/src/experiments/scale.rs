@@ -91,11 +91,26 @@ pub const OOC_LIMIT: u64 = 1 << 30;
 /// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
 pub const OOC_CAP: Duration = Duration::from_secs(3600);
 
-/// Disk an out-of-core cell needs per point: the LAZ input takes 11.4 bytes per point and
-/// the written file 6.8; the scratch files held at most 120.7 bytes per point at once at 10^7
-/// points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks; `Scratch::peak_bytes`),
-/// of 382 and 604 written in all: 139 in all, and a quarter more for margin.
+/// Disk a `qsplat` out-of-core cell needs per point: the LAZ input takes 11.4 bytes per point
+/// and the written file 6.8; the scratch files held at most 120.7 bytes per point at once at
+/// 10^7 points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks;
+/// `Scratch::peak_bytes`), of 382 and 604 written in all: 139 in all, and a quarter more for
+/// margin.
 pub const OOC_DISK_PER_POINT: u64 = 175;
+
+/// Disk an `spt` out-of-core cell needs per point: the LAZ (11.4), the preparation's scratch
+/// (120.7, as QSplat's) while the points it hands on are written (47), then the sorted runs
+/// (about 91) beside the file (84.6 at 10^7): about 188, and a quarter more for margin.
+pub const SPT_OOC_DISK_PER_POINT: u64 = 235;
+
+/// Disk the out-of-core cell of `method` needs per point.
+fn ooc_disk_per_point(method: &str) -> u64 {
+    if method.starts_with("spt") {
+        SPT_OOC_DISK_PER_POINT
+    } else {
+        OOC_DISK_PER_POINT
+    }
+}
 
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
@@ -444,7 +459,7 @@ fn ooc_cell(
         let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
         let mib = |b: u64| b as f64 / 1048576.0;
         let (setting, view) = select;
-        let file = registry::lod_file::open_qsplat_file(&out, super::lod::FILE_CACHE_BYTES)?;
+        let file = registry::lod_file::open_file(&out, super::lod::FILE_CACHE_BYTES)?;
         let m = registry::lod::method(method).context("no such LOD method")?;
         let settings = [setting.clone()];
         let views = [*view];
@@ -467,7 +482,7 @@ fn ooc_cell(
             peak_rss_bytes: peak_rss(),
             prepare_seconds,
             detail: format!(
-                "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} top levels, \
+                "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} {}, \
                  LAZ {:.0} MiB, scratch {:.0} MiB written, {:.0} MiB at most, file {:.0} MiB; \
                  selection from the file \
                  ({}, view 0): {:.3} ms median of {}, {} splats, read {:.1} MiB, cache {:.1} \
@@ -477,6 +492,11 @@ fn ooc_cell(
                 built.points as f64 / built.seconds / 1e6,
                 built.chunks,
                 built.top_levels,
+                if method == "spt" {
+                    "top nodes"
+                } else {
+                    "top levels"
+                },
                 mib(input_bytes),
                 mib(built.scratch_bytes),
                 mib(built.scratch_peak_bytes),
@@ -824,7 +844,8 @@ impl Experiment for ScaleExperiment {
                     prepare_seconds: f64::NAN,
                     detail: String::new(),
                 };
-                let needed_disk = n.saturating_mul(OOC_DISK_PER_POINT);
+                let disk_per_point = ooc_disk_per_point(method);
+                let needed_disk = n.saturating_mul(disk_per_point);
                 let row = if let Some(why) = &kind.unavailable {
                     not_run(format!("skipped: not installed: {why}"))
                 } else if per_point.is_none() && n > Scale::UNKNOWN_LIMIT {
@@ -848,7 +869,7 @@ impl Experiment for ScaleExperiment {
                 {
                     not_run(format!(
                         "skipped: the disk under {} has {:.1} GB free, the cell needs about \
-                         {:.1} GB ({OOC_DISK_PER_POINT} bytes per point: input, scratch, file)",
+                         {:.1} GB ({disk_per_point} bytes per point: input, scratch, file)",
                         ctx.data_dir.display(),
                         free as f64 / 1e9,
                         needed_disk as f64 / 1e9
@@ -882,6 +903,7 @@ impl Experiment for ScaleExperiment {
                 "cap_seconds": OOC_CAP.as_secs(),
                 "prepare_cap_seconds": (OOC_CAP * PREPARE_CAP_FACTOR).as_secs(),
                 "disk_bytes_per_point": OOC_DISK_PER_POINT,
+                "spt_disk_bytes_per_point": SPT_OOC_DISK_PER_POINT,
                 "input": "LAZ (point format 0) written streamed by the cell from the same seeded samples",
             },
             "seed": SEED,

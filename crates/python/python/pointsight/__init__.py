@@ -442,6 +442,18 @@ class SequentialPointTree(Lod):
     def select(self, camera: Any, epsilon_px: float = 1.0, **kw: Any) -> Union[dict, list]:
         return super().select(camera, epsilon_px=epsilon_px, **kw)
 
+    @classmethod
+    def open(cls, path: Union[str, "os.PathLike[str]"]) -> "SequentialPointTree":
+        """A sequential point tree file written by ``pointsight lod-build --method spt``, cut
+        without loading it: each selection reads the prefix of the list its view needs, block
+        by block, and the splats it selects; its dicts also give `bytes_read` (by a view's
+        first selection). `radius` is 0: the file's discs carry their own."""
+        q = cls.__new__(cls)
+        q._native = _native.Lod.open_file(os.fspath(path))
+        if q._native.method != "spt":
+            raise ValueError(f"{os.fspath(path)}: a {q._native.method} file, not a sequential point tree")
+        return q
+
     @staticmethod
     def epsilon_for_pixels(camera: Camera, px: float) -> float:
         """ε (world units per unit distance) for `px` pixels of error through `camera`."""

@@ -1,14 +1,16 @@
-//! The `lod` experiment on a dataset that is a built QSplat file (the manifest's `lod_file`):
-//! selection from the file without loading it, through the same kernel
-//! (`registry::kernel::select_lod` on `registry::lod_file`), rows in the same `results.csv`
-//! (method `qsplat`), plus `file_reads.csv`: per selection, the bytes it read from the file,
-//! the bytes the page cache held after it and the bytes of the selection itself, so that
-//! selection memory can be read against what the view draws.
+//! The `lod` experiment on a dataset that is a built LOD file (the manifest's `lod_file`, a
+//! QSplat or sequential point tree file): selection from the file without loading it, through
+//! the same kernel (`registry::kernel::select_lod` on `registry::lod_file`), rows in the same
+//! `results.csv` (method `qsplat` or `spt`), plus `file_reads.csv`: per selection, the bytes
+//! it read from the file, the bytes the page cache held after it (0 for SPT, which keeps no
+//! cache) and the bytes of the selection itself, so that selection memory can be read against
+//! what the view draws.
 //!
-//! The reference is every leaf of the file (its decoded, quantised spheres: the file keeps no
-//! other positions), streamed in batches of [`LEAF_BATCH`] into one `splat::render::Canvas`
-//! per view, so the reference of a cloud larger than memory is rendered within the cache, the
-//! canvases and one batch.
+//! The reference is every leaf of the file (QSplat: its decoded, quantised spheres; SPT: its
+//! leaf discs; the files keep no other positions), streamed in batches of [`LEAF_BATCH`] into
+//! one `splat::render::Canvas` per view, so the reference of a cloud larger than memory is
+//! rendered within the cache, the canvases and one batch (SPT: and the list of its leaf
+//! entries, 4 bytes a point).
 
 use anyhow::Result;
 use registry::kernel;
@@ -53,7 +55,7 @@ pub struct FileRead {
     pub file_bytes: u64,
 }
 
-/// Measures `qsplat` from the file of `ds`.
+/// Measures the method that built the file of `ds` from it.
 pub(super) fn measure(
     ctx: &Context,
     ds: &LodFileDataset,
@@ -73,13 +75,12 @@ pub(super) fn measure(
         .iter()
         .map(|v| Canvas::new(&v.camera, &render_params()))
         .collect();
-    let leaves =
-        registry::lod_file::qsplat_file_leaves(&ds.path, CACHE_BYTES, LEAF_BATCH, |batch| {
-            for c in &mut canvases {
-                c.draw(batch);
-            }
-            bar.inc(batch.len() as u64);
-        })?;
+    let leaves = registry::lod_file::file_leaves(&ds.path, CACHE_BYTES, LEAF_BATCH, |batch| {
+        for c in &mut canvases {
+            c.draw(batch);
+        }
+        bar.inc(batch.len() as u64);
+    })?;
     bar.finish_and_clear();
     let references: Vec<Image> = canvases.into_iter().map(Canvas::finish).collect();
     let crop = covered_box(&references[0], 8);
@@ -90,15 +91,15 @@ pub(super) fn measure(
         )
         .crop(crop.0, crop.1, crop.2, crop.3),
     ];
-    let method = registry::lod::method("qsplat")
-        .ok_or_else(|| anyhow::anyhow!("the registry has no qsplat"))?;
+    let method = registry::lod::method(ds.method)
+        .ok_or_else(|| anyhow::anyhow!("the registry has no {}", ds.method))?;
     let settings = ctx
         .sweeps
         .methods
-        .get("qsplat")
+        .get(ds.method)
         .map(|s| s.settings(ctx.quick).to_vec())
         .unwrap_or_default();
-    let built = registry::lod_file::open_qsplat_file(&ds.path, CACHE_BYTES)?;
+    let built = registry::lod_file::open_file(&ds.path, CACHE_BYTES)?;
     let file_bytes = built.size().bytes as u64;
     let data = LodData::none(SEED);
     let input = data.input();
@@ -138,12 +139,12 @@ pub(super) fn measure(
                     file_bytes,
                 });
                 if v == 0 && (k == 0 || k == settings.len() / 2 || k == last) {
-                    let title = format!("qsplat {}: {} splats", row.params, s.splats.len());
+                    let title = format!("{} {}: {} splats", ds.method, row.params, s.splats.len());
                     strip.push(panel(title, &img).crop(crop.0, crop.1, crop.2, crop.3));
                 }
             }
             Err(e) => {
-                eprintln!("lod: {name} qsplat {} view {view}: {e}", row.params);
+                eprintln!("lod: {name} {} {} view {view}: {e}", ds.method, row.params);
                 row.status = format!("error: {e}");
             }
         }
@@ -152,7 +153,8 @@ pub(super) fn measure(
     ds_rows.sort_by_key(|(v, _)| *v);
     rows.extend(ds_rows.into_iter().map(|(_, r)| r));
     debug_assert_eq!(views.len(), N_VIEWS * super::DISTANCES.len());
-    write_strip(ctx, name, strip, &["qsplat (from the file)"])
+    let label = format!("{} (from the file)", ds.method);
+    write_strip(ctx, name, strip, &[label.as_str()])
 }
 
 /// The summary's section on selections from files: means over the views per dataset,
@@ -189,11 +191,14 @@ pub(super) fn table(reads: &[FileRead]) -> String {
         })
         .collect();
     format!(
-        "\n## Selection from built files\n\nDatasets that are a QSplat file (`lod_file`): each \
-         view's selection reads the file's pages it needs through a cache of {} MiB; the \
-         reference is the file's leaves, streamed. Means over the views; `read` is what a \
-         view's first selection read (the cache keeps pages from the views before it); \
-         `selection ms` is the median of the timed runs, the repeats served from the cache.\n\n{}",
+        "\n## Selection from built files\n\nDatasets that are a built file (`lod_file`). A QSplat \
+         file: each view's selection reads the pages it needs through a cache of {} MiB (the \
+         cache keeps pages from the views before it; the repeats are served from it). A \
+         sequential point tree's: each cut reads the prefix of the list its view needs block \
+         by block, then the splats it selected, and keeps no cache (0 MiB; the repeats read \
+         again, from the operating system's page cache). The reference is the file's leaves, \
+         streamed. Means over the views; `read` is what a view's first selection read; \
+         `selection ms` is the median of the timed runs.\n\n{}",
         CACHE_BYTES >> 20,
         super::markdown_table(
             &[

@@ -1,0 +1,310 @@
+//! The file of a sequential point tree: the sorted list as a view scans it, then the splats.
+//!
+//! Dachsbacher et al. (2003, §4) keep the tree as one array in GPU memory; this file is that
+//! array (with this crate's quantised boxes, [`crate::list`]) so that a cut needs only a
+//! *prefix* of it: the groups whose parent could be refined somewhere on the object, and their
+//! entries, come first.
+//!
+//! Layout (little-endian):
+//! - header, [`HEADER`] bytes: magic `PSSPTREE`; version (u32, 1); flags (u32, bit 0:
+//!   colours); points, groups, entries (u64 each); the hierarchy's local origin (3 × f64); the
+//!   grid's origin (3 × f64) and step (f64); the leaf diameter (f64); the root's box (6 × u16)
+//!   and 4 zero bytes;
+//! - groups, 24 bytes each: the parent's box (6 × u16), its e_g² (f32), the first and one past
+//!   the last entry (u32 each), sorted by e_g² descending after the root's group (whose e_g² is
+//!   +∞);
+//! - entries, 16 bytes each: the node's box (6 × u16) and e_g² (f32);
+//! - splats, 28 bytes an entry: centre relative to the local origin (3 × f32), radius (f32),
+//!   normal (3 × f32);
+//! - with colours, 12 bytes an entry: the mean colour in [0, 1] (3 × f32).
+//!
+//! [`parse_header`] checks the magic and version and that the counts fit the file's length
+//! (nothing is allocated from a count the file cannot back); [`crate::paged`] checks every
+//! group, entry and splat as a cut reads it. Any failure is [`Error::Corrupt`] with the byte
+//! offset.
+
+use std::path::Path;
+
+use cloud::glam::DVec3;
+
+use crate::Spt;
+use crate::error::{Error, Result};
+use crate::list::{Entry, Group, QBox};
+
+/// The file's magic.
+pub const MAGIC: &[u8; 8] = b"PSSPTREE";
+/// The format's version.
+pub const VERSION: u32 = 1;
+/// Bytes of the header.
+pub const HEADER: usize = 8 + 4 + 4 + 3 * 8 + 3 * 8 + 3 * 8 + 8 + 8 + 12 + 4;
+/// Bytes of a group.
+pub const GROUP: usize = 24;
+/// Bytes of an entry.
+pub const ENTRY: usize = 16;
+/// Bytes of an entry's splat.
+pub const SPLAT: usize = 28;
+/// Bytes of an entry's colour.
+pub const COLOR: usize = 12;
+
+/// What the header says.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Header {
+    /// Colours stored.
+    pub colors: bool,
+    /// Points (leaves).
+    pub points: u64,
+    /// Groups.
+    pub groups: u64,
+    /// Entries (nodes).
+    pub entries: u64,
+    /// The hierarchy's local origin.
+    pub local: DVec3,
+    /// The grid's origin.
+    pub grid_origin: DVec3,
+    /// The grid's step.
+    pub cell: f64,
+    /// The leaf discs' diameter.
+    pub leaf_diameter: f64,
+    /// The root's box.
+    pub root: QBox,
+}
+
+impl Header {
+    /// Bytes of the whole file.
+    pub fn file_bytes(&self) -> Option<u64> {
+        let per_entry = (ENTRY + SPLAT + if self.colors { COLOR } else { 0 }) as u64;
+        self.groups
+            .checked_mul(GROUP as u64)?
+            .checked_add(self.entries.checked_mul(per_entry)?)?
+            .checked_add(HEADER as u64)
+    }
+
+    /// Byte offsets of the groups, entries, splats and colours.
+    pub fn sections(&self) -> [u64; 4] {
+        let g = HEADER as u64;
+        let e = g + self.groups * GROUP as u64;
+        let s = e + self.entries * ENTRY as u64;
+        let c = s + self.entries * SPLAT as u64;
+        [g, e, s, c]
+    }
+
+    /// The header's bytes.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut b = Vec::with_capacity(HEADER);
+        b.extend_from_slice(MAGIC);
+        b.extend_from_slice(&VERSION.to_le_bytes());
+        b.extend_from_slice(&u32::from(self.colors).to_le_bytes());
+        for v in [self.points, self.groups, self.entries] {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        for v in self
+            .local
+            .to_array()
+            .into_iter()
+            .chain(self.grid_origin.to_array())
+        {
+            b.extend_from_slice(&v.to_le_bytes());
+        }
+        b.extend_from_slice(&self.cell.to_le_bytes());
+        b.extend_from_slice(&self.leaf_diameter.to_le_bytes());
+        push_box(&mut b, &self.root);
+        b.extend_from_slice(&[0; 4]);
+        b
+    }
+}
+
+fn push_box(b: &mut Vec<u8>, q: &QBox) {
+    for v in q.lo.iter().chain(&q.hi) {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// Appends a group's bytes.
+pub fn push_group(b: &mut Vec<u8>, g: &Group) {
+    push_box(b, &g.b);
+    b.extend_from_slice(&g.e2.to_le_bytes());
+    b.extend_from_slice(&g.start.to_le_bytes());
+    b.extend_from_slice(&g.end.to_le_bytes());
+}
+
+/// Appends an entry's bytes.
+pub fn push_entry(b: &mut Vec<u8>, e: &Entry) {
+    push_box(b, &e.b);
+    b.extend_from_slice(&e.e2.to_le_bytes());
+}
+
+/// Appends a node's splat bytes (centre relative to the local origin, radius, normal).
+pub fn push_splat(b: &mut Vec<u8>, n: &crate::hierarchy::Node) {
+    for v in n.center.to_array() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+    b.extend_from_slice(&n.radius().to_le_bytes());
+    for v in n.normal.to_array() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// Appends a node's colour bytes.
+pub fn push_color(b: &mut Vec<u8>, n: &crate::hierarchy::Node) {
+    for v in n.color.to_array() {
+        b.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// The header of `spt`'s file.
+pub fn header_of(spt: &Spt) -> Header {
+    Header {
+        colors: spt.colors,
+        points: u64::from(spt.hierarchy.nodes[spt.hierarchy.root()].leaves),
+        groups: spt.list.groups.len() as u64,
+        entries: spt.list.entries.len() as u64,
+        local: spt.hierarchy.origin,
+        grid_origin: spt.quant.origin,
+        cell: spt.quant.cell,
+        leaf_diameter: spt.leaf_diameter,
+        root: spt.quant.boxes[spt.hierarchy.root()],
+    }
+}
+
+/// Serialises `spt`.
+pub fn to_bytes(spt: &Spt) -> Vec<u8> {
+    let h = header_of(spt);
+    let mut b = h.to_bytes();
+    b.reserve(h.file_bytes().unwrap_or(0) as usize);
+    for g in &spt.list.groups {
+        push_group(&mut b, g);
+    }
+    for e in &spt.list.entries {
+        push_entry(&mut b, e);
+    }
+    for &n in &spt.list.node {
+        push_splat(&mut b, &spt.hierarchy.nodes[n as usize]);
+    }
+    if spt.colors {
+        for &n in &spt.list.node {
+            push_color(&mut b, &spt.hierarchy.nodes[n as usize]);
+        }
+    }
+    b
+}
+
+/// Writes `spt` to `path`, whole or not at all.
+pub fn write(spt: &Spt, path: &Path) -> Result<()> {
+    cloud::io::atomic::write(path, &to_bytes(spt)).map_err(|source| Error::Io {
+        path: path.display().to_string(),
+        source,
+    })
+}
+
+struct Cursor<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl Cursor<'_> {
+    fn take<const N: usize>(&mut self) -> [u8; N] {
+        let mut out = [0u8; N];
+        if let Some(s) = self.bytes.get(self.at..self.at + N) {
+            out.copy_from_slice(s);
+        }
+        self.at += N;
+        out
+    }
+    fn u16(&mut self) -> u16 {
+        u16::from_le_bytes(self.take())
+    }
+    fn u32(&mut self) -> u32 {
+        u32::from_le_bytes(self.take())
+    }
+    fn u64(&mut self) -> u64 {
+        u64::from_le_bytes(self.take())
+    }
+    fn f64(&mut self) -> f64 {
+        f64::from_le_bytes(self.take())
+    }
+    fn dvec3(&mut self) -> DVec3 {
+        DVec3::new(self.f64(), self.f64(), self.f64())
+    }
+    fn qbox(&mut self) -> QBox {
+        QBox {
+            lo: [self.u16(), self.u16(), self.u16()],
+            hi: [self.u16(), self.u16(), self.u16()],
+        }
+    }
+}
+
+/// Parses and checks a header from the first [`HEADER`] bytes of a file of `len` bytes.
+pub fn parse_header(bytes: &[u8], len: u64, path: &str) -> Result<Header> {
+    let corrupt = |offset: u64, reason: String| Error::Corrupt {
+        path: path.to_string(),
+        offset,
+        reason,
+    };
+    if bytes.len() < HEADER {
+        return Err(corrupt(
+            0,
+            format!("{len} bytes is shorter than the header ({HEADER})"),
+        ));
+    }
+    if &bytes[..8] != MAGIC {
+        return Err(corrupt(
+            0,
+            "not a sequential point tree file (bad magic)".into(),
+        ));
+    }
+    let mut c = Cursor { bytes, at: 8 };
+    let version = c.u32();
+    if version != VERSION {
+        return Err(corrupt(
+            8,
+            format!("version {version}, this reads {VERSION}"),
+        ));
+    }
+    let flags = c.u32();
+    if flags > 1 {
+        return Err(corrupt(12, format!("unknown flags {flags:#x}")));
+    }
+    let h = Header {
+        colors: flags & 1 != 0,
+        points: c.u64(),
+        groups: c.u64(),
+        entries: c.u64(),
+        local: c.dvec3(),
+        grid_origin: c.dvec3(),
+        cell: c.f64(),
+        leaf_diameter: c.f64(),
+        root: c.qbox(),
+    };
+    if h.file_bytes() != Some(len) {
+        return Err(corrupt(
+            16,
+            format!(
+                "{} groups and {} entries do not make a file of {len} bytes",
+                h.groups, h.entries
+            ),
+        ));
+    }
+    if h.points == 0 || h.entries < h.points || h.groups == 0 || h.entries > u64::from(u32::MAX) {
+        return Err(corrupt(
+            16,
+            format!(
+                "{} points, {} groups, {} entries is not a tree",
+                h.points, h.groups, h.entries
+            ),
+        ));
+    }
+    let positive = |x: f64| x > 0.0 && x.is_finite();
+    let ordered = (0..3).all(|k| h.root.lo[k] <= h.root.hi[k]);
+    if !(h.local.is_finite()
+        && h.grid_origin.is_finite()
+        && positive(h.cell)
+        && positive(h.leaf_diameter)
+        && ordered)
+    {
+        return Err(corrupt(
+            40,
+            "origin, grid step, leaf diameter or root box out of range".into(),
+        ));
+    }
+    Ok(h)
+}

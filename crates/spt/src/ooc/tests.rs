@@ -1,0 +1,227 @@
+//! The out-of-core build against the in-memory one: the same bytes, several limits, points in
+//! any order, coincident points; a full disk; bad limits and inputs; the file read back.
+
+use cloud::rng::{RngExt, seeded};
+
+use super::*;
+
+/// A wavy sheet with clusters of coincident points (different normals and colours), points
+/// one ulp apart, a dense knot (a chain of single-octant cells above the chunks) and far
+/// outliers.
+fn cloud(n: usize, seed: u64) -> Vec<Point> {
+    let mut rng = seeded(seed, "spt-ooc-test");
+    let mut pts: Vec<Point> = Vec::with_capacity(n);
+    while pts.len() < n {
+        let (x, y) = (rng.random::<f64>(), rng.random::<f64>());
+        let mut p = DVec3::new(x, y, 0.1 * (6.0 * x).sin() * (4.0 * y).cos());
+        let r = rng.random::<f64>();
+        if r < 0.0005 {
+            p += DVec3::new(0.0, 0.0, 3.0 + rng.random::<f64>());
+        } else if r < 0.15 {
+            // The knot: 15 % of the points within 1e-4 of one spot.
+            p = DVec3::new(0.3, 0.6, 0.05) + 1e-4 * DVec3::new(x, y, rng.random::<f64>());
+        }
+        let copies = if rng.random::<f64>() < 0.02 { 5 } else { 1 };
+        for c in 0..copies {
+            let q = if c == 4 {
+                DVec3::new(p.x.next_up(), p.y, p.z)
+            } else {
+                p
+            };
+            let index = pts.len() as u64;
+            pts.push(Point {
+                position: q,
+                normal: Vec3::new(rng.random::<f32>() - 0.5, rng.random::<f32>() - 0.5, 1.0)
+                    .normalize(),
+                color: [rng.random(), rng.random(), (c * 50) as u8],
+                index,
+            });
+        }
+    }
+    pts.truncate(n);
+    pts
+}
+
+fn limit(chunk: u64) -> u64 {
+    RESERVE + chunk * BYTES_PER_POINT
+}
+
+fn options(chunk: u64, colors: bool) -> Options {
+    Options {
+        memory_limit: limit(chunk),
+        colors,
+        fail_after_bytes: None,
+    }
+}
+
+fn in_memory_spt(pts: &[Point], colors: bool) -> Spt {
+    in_memory(
+        pts.iter().map(|p| p.position).collect(),
+        pts.iter().map(|p| p.normal).collect(),
+        colors.then(|| pts.iter().map(|p| p.color).collect()),
+        0.004,
+    )
+    .unwrap()
+}
+
+fn out_of_core(pts: &[Point], opts: &Options, out: &Path) -> Result<Summary> {
+    let mut b = Builder::new(opts, out)?;
+    for batch in pts.chunks(7_000) {
+        b.push(batch)?;
+    }
+    b.finish(0.004, &mut |_, _| {})
+}
+
+fn same_bytes(pts: &[Point], colors: bool, chunks: &[u64]) {
+    let dir = tempfile::tempdir().unwrap();
+    let want = file::to_bytes(&in_memory_spt(pts, colors));
+    for &chunk in chunks {
+        let out = dir.path().join("t.spt");
+        let s = out_of_core(pts, &options(chunk, colors), &out).unwrap();
+        if (chunk as usize) < pts.len() {
+            assert!(s.chunks >= 5 && s.top_nodes >= 2 && s.runs >= 2, "{s:?}");
+        } else {
+            assert_eq!(s.chunks, 1);
+        }
+        let got = std::fs::read(&out).unwrap();
+        assert_eq!(got.len(), want.len(), "chunk {chunk}: {s:?}");
+        let first = got.iter().zip(&want).position(|(a, b)| a != b);
+        assert_eq!(first, None, "chunk {chunk}: {s:?}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+}
+
+#[test]
+fn the_same_bytes_as_in_memory_at_several_limits() {
+    let pts = cloud(60_000, 1);
+    same_bytes(&pts, true, &[MIN_CHUNK, 11_000, 100_000]);
+    same_bytes(&pts, false, &[MIN_CHUNK]);
+}
+
+#[test]
+fn points_in_any_order_give_the_same_bytes() {
+    let pts = cloud(30_000, 2);
+    let want = file::to_bytes(&in_memory_spt(&pts, true));
+    let mut shuffled = pts.clone();
+    let mut rng = seeded(9, "shuffle");
+    for i in (1..shuffled.len()).rev() {
+        shuffled.swap(i, rng.random_range(0..=i));
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    out_of_core(&shuffled, &options(MIN_CHUNK, true), &out).unwrap();
+    assert!(std::fs::read(&out).unwrap() == want);
+}
+
+#[test]
+fn the_file_cuts_as_the_tree_does() {
+    let pts = cloud(20_000, 3);
+    let spt = in_memory_spt(&pts, true);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    out_of_core(&pts, &options(MIN_CHUNK, true), &out).unwrap();
+    let mut f = crate::paged::PagedTree::open(&out).unwrap();
+    assert_eq!(f.header().entries, spt.len() as u64);
+    assert_eq!(f.header().points, 20_000);
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    for eye in [
+        DVec3::new(0.5, 0.5, 2.0),
+        DVec3::new(3.0, -1.0, 0.5),
+        DVec3::new(0.3, 0.6, 0.06),
+    ] {
+        for eps in [0.0, 1e-3, 1e-2, 0.1] {
+            let sa = spt.cut_into(eye, eps, &mut a).unwrap();
+            let sb = f.cut_into(eye, eps, &mut b).unwrap();
+            assert_eq!(a, b);
+            assert_eq!(sa, sb);
+            assert_eq!(spt.splats(&a), f.splats(&b).unwrap());
+        }
+    }
+}
+
+#[test]
+fn truncated_and_lying_files_are_refused_when_opened() {
+    let pts = cloud(5_000, 4);
+    let bytes = file::to_bytes(&in_memory_spt(&pts, true));
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("t.spt");
+    let open = |b: &[u8]| {
+        std::fs::write(&path, b).unwrap();
+        crate::paged::PagedTree::open(&path)
+    };
+    assert!(open(&bytes).is_ok());
+    for cut in [0, 10, file::HEADER, bytes.len() - 1] {
+        let e = open(&bytes[..cut]).unwrap_err();
+        assert!(matches!(e, Error::Corrupt { .. }), "{e}");
+    }
+    let mut lying = bytes.clone();
+    lying[24..32].copy_from_slice(&u64::MAX.to_le_bytes());
+    assert!(matches!(open(&lying), Err(Error::Corrupt { .. })));
+    let mut magic = bytes.clone();
+    magic[0] = b'X';
+    assert!(open(&magic).unwrap_err().to_string().contains("magic"));
+    assert!(matches!(
+        crate::paged::PagedTree::open(Path::new("/nonexistent/x.spt")),
+        Err(Error::Io { .. })
+    ));
+}
+
+#[test]
+fn a_full_disk_is_an_error_and_leaves_nothing() {
+    let pts = cloud(30_000, 5);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    for after in [1_000u64, 1_000_000, 2_500_000, 4_000_000] {
+        let opts = Options {
+            fail_after_bytes: Some(after),
+            ..options(MIN_CHUNK, true)
+        };
+        let e = out_of_core(&pts, &opts, &out).unwrap_err();
+        match &e {
+            Error::Io { source, .. } => {
+                assert_eq!(source.kind(), io::ErrorKind::StorageFull, "{e}")
+            }
+            other => panic!("{other}"),
+        }
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}
+
+#[test]
+fn bad_limits_and_inputs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    let small = Options {
+        memory_limit: 16 << 20,
+        ..options(0, false)
+    };
+    let e = out_of_core(&cloud(100, 6), &small, &out).err().unwrap();
+    assert!(e.to_string().contains("below what"), "{e}");
+    let opts = options(MIN_CHUNK, false);
+    assert!(matches!(
+        out_of_core(&[], &opts, &out),
+        Err(Error::EmptyCloud)
+    ));
+    let mut pts = cloud(100, 6);
+    pts[7].position.y = f64::NAN;
+    assert!(matches!(
+        out_of_core(&pts, &opts, &out),
+        Err(Error::Cloud(cloud::Error::NonFinite { index: 7 }))
+    ));
+    let mut pts = cloud(10_000, 6);
+    pts[3].index = 5;
+    let e = out_of_core(&pts, &opts, &out).unwrap_err();
+    assert!(e.to_string().contains("given twice or missing"), "{e}");
+    let mut pts = cloud(10_000, 6);
+    pts[3].index = 10_000;
+    let e = out_of_core(&pts, &opts, &out).unwrap_err();
+    assert!(e.to_string().contains("must be 0..10000"), "{e}");
+    // More coincident points than a chunk holds.
+    let mut pts = cloud(10_000, 6);
+    for p in &mut pts[..5_000] {
+        p.position = DVec3::splat(0.25);
+    }
+    let e = out_of_core(&pts, &opts, &out).unwrap_err();
+    assert!(e.to_string().contains("coincident"), "{e}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
