@@ -113,9 +113,19 @@ impl Header {
     }
 }
 
-fn push_box(b: &mut Vec<u8>, q: &QBox) {
+/// Appends a box's bytes (6 × u16).
+pub(crate) fn push_box(b: &mut Vec<u8>, q: &QBox) {
     for v in q.lo.iter().chain(&q.hi) {
         b.extend_from_slice(&v.to_le_bytes());
+    }
+}
+
+/// A box from its bytes (the first 12 of `r`).
+pub(crate) fn box_of(r: &[u8]) -> QBox {
+    let u = |o: usize| u16::from_le_bytes([r[o], r[o + 1]]);
+    QBox {
+        lo: [u(0), u(2), u(4)],
+        hi: [u(6), u(8), u(10)],
     }
 }
 

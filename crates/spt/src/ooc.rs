@@ -752,7 +752,7 @@ impl Builder {
         let mut rec = Vec::with_capacity(GREC);
         for gr in &batch.groups {
             rec.clear();
-            push_box(&mut rec, &gr.b);
+            file::push_box(&mut rec, &gr.b);
             rec.extend_from_slice(&gr.e2.to_le_bytes());
             rec.extend_from_slice(&gr.gid.to_le_bytes());
             rec.push(gr.count as u8);
@@ -991,12 +991,6 @@ const GREC: usize = 12 + 4 + 8 + 1;
 /// Bytes of an entry in a run: the file's entry, splat and colour.
 const ENTRY_REC: usize = file::ENTRY + file::SPLAT + file::COLOR;
 
-fn push_box(b: &mut Vec<u8>, q: &QBox) {
-    for v in q.lo.iter().chain(&q.hi) {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-}
-
 fn push_entry_rec(b: &mut Vec<u8>, q: &QBox, e2: f32, n: &Node, colors: bool) {
     file::push_entry(b, &Entry { b: *q, e2 });
     file::push_splat(b, n);
@@ -1061,12 +1055,8 @@ struct Head {
 
 impl Head {
     fn of(r: &[u8; GREC], run: usize) -> Self {
-        let u = |o: usize| u16::from_le_bytes([r[o], r[o + 1]]);
         Self {
-            b: QBox {
-                lo: [u(0), u(2), u(4)],
-                hi: [u(6), u(8), u(10)],
-            },
+            b: file::box_of(r),
             e2: f32::from_le_bytes([r[12], r[13], r[14], r[15]]),
             gid: u64::from_le_bytes(r[16..24].try_into().unwrap_or([0; 8])),
             count: r[24],

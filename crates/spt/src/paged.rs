@@ -99,7 +99,7 @@ impl PagedTree {
         for j in 0..k {
             let r = &self.raw[j * file::GROUP..(j + 1) * file::GROUP];
             let g = Group {
-                b: qbox(r),
+                b: file::box_of(r),
                 e2: f32::from_le_bytes([r[12], r[13], r[14], r[15]]),
                 start: u32::from_le_bytes([r[16], r[17], r[18], r[19]]),
                 end: u32::from_le_bytes([r[20], r[21], r[22], r[23]]),
@@ -148,7 +148,7 @@ impl PagedTree {
         for j in 0..to - from {
             let r = &self.raw[j * file::ENTRY..(j + 1) * file::ENTRY];
             let e = Entry {
-                b: qbox(r),
+                b: file::box_of(r),
                 e2: f32::from_le_bytes([r[12], r[13], r[14], r[15]]),
             };
             if !(ordered(&e.b) && e.e2 >= 0.0 && e.e2.is_finite()) {
@@ -282,14 +282,6 @@ impl PagedTree {
             each(&s);
         }
         Ok(n)
-    }
-}
-
-fn qbox(r: &[u8]) -> QBox {
-    let u = |o: usize| u16::from_le_bytes([r[o], r[o + 1]]);
-    QBox {
-        lo: [u(0), u(2), u(4)],
-        hi: [u(6), u(8), u(10)],
     }
 }
 
