@@ -366,30 +366,26 @@ fn run(
         // It fits: the in-memory build.
         let chunk = b.load_file(&all)?;
         drop(all);
-        if let Some(sink) = sink.as_mut() {
+        let radius = if let Some(sink) = sink.as_mut() {
             let (normals, radius) = prepare_in_memory(&chunk.positions, Some(chunk.normals), opts)?;
-            let pts: Vec<Point> = (0..chunk.positions.len())
-                .map(|i| Point {
-                    position: chunk.positions[i],
-                    normal: normals[i],
-                    color: chunk.colors[i],
-                })
-                .collect();
-            sink(&pts, &chunk.index)?;
-            summary.chunks = 1;
-            summary.largest_chunk = n;
-            summary.leaf_radius = radius;
-            summary.scratch_bytes = scratch.bytes_written();
-            summary.scratch_peak_bytes = scratch.peak_bytes();
-            return Ok(summary);
-        }
-        let (tree, radius) = in_memory(
-            chunk.positions,
-            Some(chunk.normals),
-            Some(chunk.colors),
-            opts,
-        )?;
-        crate::file::write(&tree, out)?;
+            emit(
+                sink,
+                &chunk.positions,
+                &normals,
+                &chunk.colors,
+                &chunk.index,
+            )?;
+            radius
+        } else {
+            let (tree, radius) = in_memory(
+                chunk.positions,
+                Some(chunk.normals),
+                Some(chunk.colors),
+                opts,
+            )?;
+            crate::file::write(&tree, out)?;
+            radius
+        };
         summary.chunks = 1;
         summary.largest_chunk = n;
         summary.leaf_radius = radius;
@@ -466,14 +462,7 @@ fn run(
     if let Some(sink) = sink.as_mut() {
         for c in &b.chunks {
             let l = b.load_file(&c.set)?;
-            let pts: Vec<Point> = (0..l.positions.len())
-                .map(|i| Point {
-                    position: l.positions[i],
-                    normal: l.normals[i],
-                    color: l.colors[i],
-                })
-                .collect();
-            sink(&pts, &l.index)?;
+            emit(sink, &l.positions, &l.normals, &l.colors, &l.index)?;
         }
         summary.chunks = b.chunks.len() as u64;
         summary.largest_chunk = b.chunks.iter().map(|c| c.set.count).max().unwrap_or(0);
@@ -497,6 +486,24 @@ fn run(
     summary.scratch_bytes = scratch.bytes_written();
     summary.scratch_peak_bytes = scratch.peak_bytes();
     Ok(summary)
+}
+
+/// Hands prepared points (with their input indices) to a [`prepare`] sink.
+fn emit(
+    sink: &mut Sink<'_>,
+    positions: &[DVec3],
+    normals: &[Vec3],
+    colors: &[[u8; 3]],
+    index: &[u64],
+) -> Result<()> {
+    let pts: Vec<Point> = (0..positions.len())
+        .map(|i| Point {
+            position: positions[i],
+            normal: normals[i],
+            color: colors[i],
+        })
+        .collect();
+    sink(&pts, index)
 }
 
 /// Bytes of a point on disk: position, normal, colour, index in the input.
