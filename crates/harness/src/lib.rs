@@ -5,7 +5,7 @@
 //!   meshes;
 //! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
-//! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
+//! - [`output`]: atomic files, CSV, run metadata, plots, the report page; [`rss`]: peak memory;
 //! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
 //!   every method's visible set; [`cli`], [`run`] (the dispatcher) and [`commands`] (their
 //!   bodies): the `pointsight` command.
@@ -21,6 +21,7 @@ pub mod fetch;
 pub mod lod_build;
 pub mod output;
 pub mod progress;
+pub mod rss;
 pub mod shard;
 pub mod stats;
 pub mod view;
@@ -108,12 +109,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             out,
             in_memory,
         } => commands::lod::lod_build(&cloud, &method, &memory_limit, &out, in_memory)?,
-        Command::ScaleCell {
-            dataset,
-            method,
-            n,
-            setting,
-        } => commands::experiments::scale_cell(&dataset, &method, &setting, n, &data_dir)?,
+        Command::ScaleCell(cell) => commands::experiments::scale_cell(&cell, &data_dir)?,
         Command::Run {
             experiment,
             datasets,

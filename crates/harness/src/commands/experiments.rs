@@ -177,24 +177,8 @@ pub fn tables(reports: &Path) -> Result<()> {
 }
 
 /// `pointsight scale-cell`: one cell of the scale experiment, its JSON line on standard output.
-pub fn scale_cell(
-    dataset: &str,
-    method: &str,
-    setting: &str,
-    n: u64,
-    data_dir: &Path,
-) -> Result<()> {
-    let setting = registry::Setting::parse(setting);
-    let out = experiments::scale::cell(
-        dataset,
-        method,
-        &setting,
-        n,
-        data_dir,
-        experiments::scale::print_prepared,
-    )?;
-    println!("{}", serde_json::to_string(&out)?);
-    Ok(())
+pub fn scale_cell(cell: &experiments::scale::child::CellArgs, data_dir: &Path) -> Result<()> {
+    experiments::scale::child::run_in_this_process(cell, data_dir)
 }
 
 /// The sweeps (built-in, external methods', `--config`'s) and repeats of `flags`.
