@@ -14,7 +14,8 @@
 # - pcl-voxel: Debian's libpcl-dev (about 400 packages, 1.1 GB installed, 150 s on the
 #   development machine), then builds methods/pcl-voxel/pcl_voxel;
 # - py3dtiles-lod: py3dtiles with its PLY reader (`py3dtiles[ply]`, PyPI) into .venv.
-# Debian packages go in with --no-install-recommends.
+# Debian packages go in with --no-install-recommends. The peers share one protocol helper per
+# language in methods/_shared/ (the Python peers import it, the C++ ones include it).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 as_root() {
@@ -34,6 +35,8 @@ apt_install() {
   as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
     "${missing[@]}" >/dev/null
 }
+# The C++ peers' shared protocol helper (header-only): a change rebuilds them.
+protocol_hpp=methods/_shared/pointsight_protocol.hpp
 timed() {
   local name=$1 start=$SECONDS
   shift
@@ -53,7 +56,8 @@ open3d() {
 cgal() {
   apt_install g++ libcgal-dev libgmp-dev libmpfr-dev
   local dir=methods/cgal-hpr
-  if [ ! -x "$dir/cgal_hpr" ] || [ "$dir/cgal_hpr.cpp" -nt "$dir/cgal_hpr" ]; then
+  if [ ! -x "$dir/cgal_hpr" ] || [ "$dir/cgal_hpr.cpp" -nt "$dir/cgal_hpr" ] \
+    || [ "$protocol_hpp" -nt "$dir/cgal_hpr" ]; then
     echo "peers: building $dir/cgal_hpr"
     # No FMA contraction: the flipped coordinates must be bit-identical to pointsight's.
     g++ -O2 -std=c++17 -ffp-contract=off -DNDEBUG -o "$dir/cgal_hpr.tmp" "$dir/cgal_hpr.cpp" \
@@ -85,7 +89,8 @@ pcl() {
   apt_install g++ libpcl-dev
   local dir=methods/pcl-voxel inc
   inc=$(ls -d /usr/include/pcl-1.* | sort -V | tail -1)
-  if [ ! -x "$dir/pcl_voxel" ] || [ "$dir/pcl_voxel.cpp" -nt "$dir/pcl_voxel" ]; then
+  if [ ! -x "$dir/pcl_voxel" ] || [ "$dir/pcl_voxel.cpp" -nt "$dir/pcl_voxel" ] \
+    || [ "$protocol_hpp" -nt "$dir/pcl_voxel" ]; then
     echo "peers: building $dir/pcl_voxel"
     g++ -O2 -std=c++17 -DNDEBUG -I"$inc" -I/usr/include/eigen3 -o "$dir/pcl_voxel.tmp" \
       "$dir/pcl_voxel.cpp" -lpcl_filters -lpcl_common

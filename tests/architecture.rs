@@ -1,8 +1,10 @@
 //! ARCHITECTURE.md's dependency invariants, checked from the crates' manifests: method crates
 //! depend on `cloud` only (and `hpr` and `robustvis` on `hull`), the registry and the Python
 //! package never on the harness, and only the harness does command lines, plots, CSV and
-//! progress bars; and from the harness's sources: which of its modules may name method crates
-//! ([`MAY_NAME`]), and that its modules import each other without cycles.
+//! progress bars; from the harness's sources: which of its modules may name method crates
+//! ([`MAY_NAME`]); and from every workspace crate's sources: that its modules import each
+//! other without circles, and that no source file outside tests is over [`MAX_LINES`] lines
+//! (both but for [`EXEMPT_CYCLES`] and [`EXEMPT_LONG`]).
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -422,15 +424,23 @@ fn method_crates_named(code: &str) -> Vec<&'static str> {
         .collect()
 }
 
-/// A harness source file: its path under `src/` and its module path (`experiments::lod` for
+/// A crate's source file: its path under `src/` and its module path (`experiments::lod` for
 /// `experiments/lod/mod.rs`; empty for `lib.rs`).
+#[derive(Clone)]
 struct Source {
     file: String,
     module: Vec<String>,
     code: String,
+    /// Lines of the file as written.
+    lines: usize,
 }
 
 fn harness_sources() -> Vec<Source> {
+    crate_sources("harness")
+}
+
+/// Every source file under `crates/NAME/src/`, tests included.
+fn crate_sources(name: &str) -> Vec<Source> {
     fn walk(dir: &Path, root: &Path, out: &mut Vec<Source>) {
         let mut entries: Vec<_> = std::fs::read_dir(dir)
             .expect("readable source folder")
@@ -451,11 +461,15 @@ fn harness_sources() -> Vec<Source> {
                     module: module_of(&file),
                     file,
                     code: code_only(&text),
+                    lines: text.lines().count(),
                 });
             }
         }
     }
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(name)
+        .join("src");
     let mut out = Vec::new();
     walk(&root, &root, &mut out);
     out
@@ -615,6 +629,130 @@ fn sibling_edges(sources: &[Source]) -> BTreeSet<(Vec<String>, Vec<String>)> {
     edges
 }
 
+/// Every cycle of `edges` as the set of its modules (`crate` for the root): the strongly
+/// connected components of more than one module.
+fn cycles(edges: &BTreeSet<(Vec<String>, Vec<String>)>) -> BTreeSet<BTreeSet<String>> {
+    let nodes: BTreeSet<&Vec<String>> = edges.iter().flat_map(|(a, b)| [a, b]).collect();
+    let reach = |from: &Vec<String>| -> BTreeSet<Vec<String>> {
+        let mut seen = BTreeSet::new();
+        let mut stack = vec![from.clone()];
+        while let Some(n) = stack.pop() {
+            for (_, m) in edges.iter().filter(|(a, _)| *a == n) {
+                if seen.insert(m.clone()) {
+                    stack.push(m.clone());
+                }
+            }
+        }
+        seen
+    };
+    let reachable: BTreeMap<&Vec<String>, BTreeSet<Vec<String>>> =
+        nodes.iter().map(|&n| (n, reach(n))).collect();
+    let name = |m: &Vec<String>| {
+        if m.is_empty() {
+            "crate".to_owned()
+        } else {
+            m.join("::")
+        }
+    };
+    nodes
+        .iter()
+        .map(|&n| {
+            nodes
+                .iter()
+                .filter(|&&m| m == n || (reachable[n].contains(m) && reachable[m].contains(n)))
+                .map(|m| name(m))
+                .collect::<BTreeSet<String>>()
+        })
+        .filter(|c| c.len() > 1)
+        .collect()
+}
+
+/// `sources` without their tests: the files of modules declared `#[cfg(test)] mod NAME;` (and
+/// the modules below them) dropped, inline `#[cfg(test)] mod NAME { ... }` blanked. A test
+/// module's imports are no dependency of the code it tests.
+fn without_tests(sources: Vec<Source>) -> Vec<Source> {
+    const ATTR: &str = "#[cfg(test)]";
+    let mut test_modules: Vec<Vec<String>> = Vec::new();
+    let mut out = Vec::new();
+    for mut src in sources {
+        let mut code = src.code.clone();
+        let mut from = 0;
+        while let Some(k) = code[from..].find(ATTR) {
+            let at = from + k;
+            from = at + ATTR.len();
+            let rest = code[from..].trim_start();
+            let rest = rest
+                .strip_prefix("pub(crate) ")
+                .or_else(|| rest.strip_prefix("pub "))
+                .unwrap_or(rest);
+            let Some(decl) = rest.strip_prefix("mod ") else {
+                continue;
+            };
+            let name = ident_at(decl, 0);
+            let after = decl[name.len()..].trim_start();
+            if after.starts_with(';') {
+                let mut m = src.module.clone();
+                m.push(name.to_owned());
+                test_modules.push(m);
+            } else if after.starts_with('{') {
+                let open = code.len() - after.len();
+                let mut depth = 0;
+                let mut close = code.len();
+                for (i, ch) in code[open..].char_indices() {
+                    match ch {
+                        '{' => depth += 1,
+                        '}' => {
+                            depth -= 1;
+                            if depth == 0 {
+                                close = open + i + 1;
+                                break;
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                let blank: String = code[at..close]
+                    .chars()
+                    .map(|c| if c == '\n' { '\n' } else { ' ' })
+                    .collect();
+                code.replace_range(at..close, &blank);
+            }
+        }
+        src.code = code;
+        out.push(src);
+    }
+    out.retain(|s| !test_modules.iter().any(|t| s.module.starts_with(t)));
+    out
+}
+
+/// The workspace's crates (the folders of `crates/`).
+fn workspace_crates() -> Vec<String> {
+    dependencies().into_keys().collect()
+}
+
+/// The import circles a crate may have while it is being reshaped, each the modules of one
+/// circle. The registry's reshaping (issue 40: a card per method, one file per adapter, a
+/// catalogue file) removes `lod` ↔ `plugins` (the LOD plugins' table lives in `lod.rs`, and
+/// `plugins.rs` asks `lod` whether a name is taken) and deletes this entry.
+const EXEMPT_CYCLES: &[(&str, &[&str])] = &[("registry", &["lod", "plugins"])];
+
+/// The longest a source file may be: one concept per module.
+const MAX_LINES: usize = 900;
+
+/// Files over [`MAX_LINES`] while they are being split, with their crate. The registry's
+/// reshaping (issue 40) splits `external.rs` (manifest, session and wire, points, the two
+/// adapters) and deletes this entry.
+const EXEMPT_LONG: &[(&str, &str)] = &[("registry", "external.rs")];
+
+/// The files of `sources` outside tests over `max` lines: (file, lines).
+fn long_files(sources: Vec<Source>, max: usize) -> Vec<(String, usize)> {
+    without_tests(sources)
+        .into_iter()
+        .filter(|s| s.lines > max)
+        .map(|s| (s.file, s.lines))
+        .collect()
+}
+
 /// A cycle of `edges` (its modules, the first repeated at the end), if there is one.
 fn find_cycle(edges: &BTreeSet<(Vec<String>, Vec<String>)>) -> Option<Vec<String>> {
     let nodes: BTreeSet<&Vec<String>> = edges.iter().flat_map(|(a, b)| [a, b]).collect();
@@ -710,6 +848,67 @@ fn harness_modules_import_each_other_without_cycles() {
     }
 }
 
+#[test]
+fn no_crate_has_an_import_circle_between_its_modules() {
+    let mut found: BTreeSet<(String, BTreeSet<String>)> = BTreeSet::new();
+    let crates = workspace_crates();
+    assert!(
+        crates.len() >= 14 && crates.contains(&"cloud".to_owned()),
+        "{crates:?}"
+    );
+    for krate in &crates {
+        let sources = without_tests(crate_sources(krate));
+        assert!(!sources.is_empty(), "{krate} has sources");
+        for cycle in cycles(&sibling_edges(&sources)) {
+            found.insert((krate.clone(), cycle));
+        }
+    }
+    let exempt: BTreeSet<(String, BTreeSet<String>)> = EXEMPT_CYCLES
+        .iter()
+        .map(|(k, c)| (k.to_string(), c.iter().map(|m| m.to_string()).collect()))
+        .collect();
+    let new: Vec<_> = found.difference(&exempt).collect();
+    let gone: Vec<_> = exempt.difference(&found).collect();
+    assert!(
+        new.is_empty(),
+        "modules import each other in a circle (crate, modules): {new:?}"
+    );
+    assert!(
+        gone.is_empty(),
+        "EXEMPT_CYCLES lists circles that are gone: {gone:?}"
+    );
+}
+
+#[test]
+fn no_source_file_outside_tests_is_over_the_limit() {
+    let mut found: BTreeSet<(String, String)> = BTreeSet::new();
+    let mut counted = 0;
+    for krate in workspace_crates() {
+        let sources = crate_sources(&krate);
+        counted += sources.len();
+        for (file, lines) in long_files(sources, MAX_LINES) {
+            println!("{krate}/src/{file}: {lines} lines");
+            found.insert((krate.clone(), file));
+        }
+    }
+    assert!(counted > 100, "{counted} files");
+    let exempt: BTreeSet<(String, String)> = EXEMPT_LONG
+        .iter()
+        .map(|(k, f)| (k.to_string(), f.to_string()))
+        .collect();
+    let new: Vec<_> = found.difference(&exempt).collect();
+    let gone: Vec<_> = exempt.difference(&found).collect();
+    assert!(
+        new.is_empty(),
+        "source files over {MAX_LINES} lines (split them along their concepts; a test \
+         module of a long file can go to a tests.rs of its own): {new:?}"
+    );
+    assert!(
+        gone.is_empty(),
+        "EXEMPT_LONG lists files that are no longer long: {gone:?}"
+    );
+}
+
 /// The scanners on made-up sources: they find what they must, so the checks above can fail.
 #[test]
 fn the_module_checks_catch_violations() {
@@ -717,6 +916,7 @@ fn the_module_checks_catch_violations() {
         file: file.to_owned(),
         module: module_of(file),
         code: code_only(text),
+        lines: text.lines().count(),
     };
     // Method crates: in code, not in comments, strings or local modules of the same name.
     assert_eq!(
@@ -766,4 +966,51 @@ fn the_module_checks_catch_violations() {
         source("b.rs", "pub struct X;"),
     ];
     assert_eq!(find_cycle(&sibling_edges(&inline)), None);
+    // Every circle, as its modules.
+    let three = [
+        source("lib.rs", "mod a; mod b; mod c; mod d;"),
+        source("a.rs", "use crate::b::X;"),
+        source("b.rs", "use crate::c::Y;"),
+        source("c.rs", "use crate::a::Z; use crate::d::W;"),
+        source("d.rs", "pub struct W;"),
+    ];
+    let set = |names: &[&str]| names.iter().map(|n| n.to_string()).collect::<BTreeSet<_>>();
+    assert_eq!(
+        cycles(&sibling_edges(&three)),
+        BTreeSet::from([set(&["a", "b", "c"])])
+    );
+    // Tests are no dependency: a test module's file and an inline test module import freely.
+    let tested = [
+        source("lib.rs", "mod a; mod b;"),
+        source(
+            "a.rs",
+            "use crate::b::X;\n#[cfg(test)]\nmod tests;\nfn f() {}",
+        ),
+        source("a/tests.rs", "use crate::b::Y;"),
+        source(
+            "b.rs",
+            "pub struct X;\n#[cfg(test)]\nmod tests {\n    use crate::a::f;\n}\n",
+        ),
+    ];
+    let with_tests = sibling_edges(&tested);
+    assert_eq!(
+        cycles(&with_tests),
+        BTreeSet::from([set(&["a", "b"])]),
+        "{with_tests:?}"
+    );
+    let kept = without_tests(tested.to_vec());
+    assert_eq!(kept.len(), 3);
+    assert!(cycles(&sibling_edges(&kept)).is_empty());
+    assert!(kept[2].code.contains("pub struct X;") && !kept[2].code.contains("use"));
+    // Long files: counted as written, tests' files left out.
+    let long = [
+        source("lib.rs", &"fn f() {}\n".repeat(901)),
+        source("ok.rs", &"fn f() {}\n".repeat(900)),
+        source("x.rs", "#[cfg(test)]\nmod tests;"),
+        source("x/tests.rs", &"fn f() {}\n".repeat(2000)),
+    ];
+    assert_eq!(
+        long_files(long.to_vec(), MAX_LINES),
+        vec![("lib.rs".to_owned(), 901)]
+    );
 }

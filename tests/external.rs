@@ -38,6 +38,14 @@ fn the_example_method_keeps_the_visible_contract() {
     for f in ["method.toml", "zbuffer.py"] {
         std::fs::copy(example.join(f), folder.join(f)).unwrap();
     }
+    // The protocol helper it imports, where it looks for it (a methods folder's `_shared/`).
+    let shared = dir.path().join("_shared");
+    std::fs::create_dir_all(&shared).unwrap();
+    std::fs::copy(
+        example.join("../_shared/pointsight_protocol.py"),
+        shared.join("pointsight_protocol.py"),
+    )
+    .unwrap();
     let listing = pointsight(dir.path(), &["methods"]);
     let text = String::from_utf8_lossy(&listing.stdout);
     assert!(

@@ -5,25 +5,12 @@ the camera's resolution, the nearest one; those points are visible. No splat, no
 the simplest image-space visibility, and a template for your own method (see ../README.md).
 """
 
-import argparse
-import json
-import struct
+import os
 import sys
 import time
 
-
-def read_points(path):
-    """The binary little-endian PLY pointsight writes: `x y z` doubles."""
-    with open(path, "rb") as f:
-        n = None
-        while True:
-            line = f.readline().decode("ascii").strip()
-            if line.startswith("element vertex"):
-                n = int(line.split()[2])
-            if line == "end_header":
-                break
-        data = f.read(24 * n)
-    return [struct.unpack_from("<ddd", data, 24 * k) for k in range(n)]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_shared"))
+import pointsight_protocol as protocol  # noqa: E402
 
 
 def visible(points, cam, scale):
@@ -50,24 +37,20 @@ def visible(points, cam, scale):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--points", required=True)
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--protocol", type=int, default=1)
-    args = ap.parse_args()
-    params = json.loads(args.params)
+    args, params = protocol.arguments()
     scale = int(params.get("scale", "1"))
-    points = read_points(args.points)
-    for line in sys.stdin:
-        request = json.loads(line)
+    points = protocol.read_xyz(args.points)
+
+    def answer(request):
         cam = request["camera"]
         if cam["model"] != "pinhole":
-            print(json.dumps({"error": f"pinhole cameras only, got {cam['model']}"}), flush=True)
-            continue
+            return {"error": f"pinhole cameras only, got {cam['model']}"}
         start = time.perf_counter()
         vis = visible(points, cam, scale)
         seconds = time.perf_counter() - start
-        print(json.dumps({"visible": vis, "seconds": seconds}), flush=True)
+        return {"visible": vis, "seconds": seconds}
+
+    protocol.serve(answer)
 
 
 if __name__ == "__main__":

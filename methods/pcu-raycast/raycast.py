@@ -12,8 +12,6 @@ default spheres are another primitive. The disc here is a polygon of `subdivs` t
 inscribed in the circle, and Embree intersects in floats.
 """
 
-import argparse
-import json
 import os
 import sys
 import time
@@ -26,24 +24,13 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 import point_cloud_utils as pcu  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_shared"))
+import pointsight_protocol as protocol  # noqa: E402
+
 
 def read_ply(path):
-    """x y z doubles and nx ny nz floats from pointsight's binary little-endian PLY."""
-    with open(path, "rb") as f:
-        n, props, in_vertex = None, [], False
-        while True:
-            words = f.readline().decode("ascii").split()
-            if not words:
-                continue
-            if words[0] == "element":
-                in_vertex = words[1] == "vertex"
-                if in_vertex:
-                    n = int(words[2])
-            elif words[0] == "property" and in_vertex:
-                props.append((words[2], {"double": "<f8", "float": "<f4", "uchar": "u1"}[words[1]]))
-            elif words[0] == "end_header":
-                break
-        rows = np.frombuffer(f.read(n * np.dtype(props).itemsize), dtype=np.dtype(props), count=n)
+    """x y z and nx ny nz from pointsight's points file, as float32."""
+    rows = protocol.read_rows(path)
     points = np.stack([rows["x"], rows["y"], rows["z"]], axis=1).astype(np.float32)
     if "nx" not in rows.dtype.names:
         raise SystemExit("pcu-raycast needs normals: declare protocol = 2 in method.toml")
@@ -72,14 +59,7 @@ def pixel_rays(cam, width, height):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--points", required=True)
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--protocol", type=int, default=1)
-    ap.add_argument("--normals", default="dataset")
-    ap.add_argument("--spacing", type=float, default=None)
-    args = ap.parse_args()
-    params = json.loads(args.params)
+    args, params = protocol.arguments()
     points, normals = read_ply(args.points)
     if "radius" in params:
         radius = float(params["radius"])
@@ -100,21 +80,21 @@ def main():
     print(f"pcu-raycast: BVH of {len(points)} surfels built in "
           f"{built:.6f} s (radius {radius:g})", file=sys.stderr, flush=True)
     # The protocol's optional first line: the build, reported apart from the per-view times.
-    print(json.dumps({"built": True, "seconds": built}), flush=True)
-    for line in sys.stdin:
-        try:
-            cam = json.loads(line)["camera"]
-            w, h = width or cam["width"], height or cam["height"]
-            o, d = pixel_rays(cam, w, h)
-            t0 = time.perf_counter()
-            # point-cloud-utils 0.3x returns (point ids, distances), whatever its docstring says.
-            a, b = isect.intersect_rays(o, d)
-            pid = np.asarray(a if np.issubdtype(np.asarray(a).dtype, np.integer) else b)
-            visible = np.unique(pid[pid >= 0])
-            seconds = time.perf_counter() - t0
-            print(json.dumps({"visible": visible.tolist(), "seconds": seconds}), flush=True)
-        except (ValueError, KeyError) as e:
-            print(json.dumps({"error": str(e)}), flush=True)
+    protocol.built(built)
+
+    def answer(request):
+        cam = request["camera"]
+        w, h = width or cam["width"], height or cam["height"]
+        o, d = pixel_rays(cam, w, h)
+        t0 = time.perf_counter()
+        # point-cloud-utils 0.3x returns (point ids, distances), whatever its docstring says.
+        a, b = isect.intersect_rays(o, d)
+        pid = np.asarray(a if np.issubdtype(np.asarray(a).dtype, np.integer) else b)
+        visible = np.unique(pid[pid >= 0])
+        seconds = time.perf_counter() - t0
+        return {"visible": visible.tolist(), "seconds": seconds}
+
+    protocol.serve(answer)
 
 
 if __name__ == "__main__":

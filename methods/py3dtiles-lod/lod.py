@@ -17,7 +17,6 @@ would also drop tiles outside the view, which changes the count, not the image);
 sphere is the box's circumscribed sphere.
 """
 
-import argparse
 import json
 import math
 import os
@@ -30,23 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-
-def read_ply(path):
-    with open(path, "rb") as f:
-        n, props, in_vertex = None, [], False
-        while True:
-            words = f.readline().decode("ascii").split()
-            if not words:
-                continue
-            if words[0] == "element":
-                in_vertex = words[1] == "vertex"
-                if in_vertex:
-                    n = int(words[2])
-            elif words[0] == "property" and in_vertex:
-                props.append((words[2], {"double": "<f8", "float": "<f4", "uchar": "u1"}[words[1]]))
-            elif words[0] == "end_header":
-                break
-        return np.frombuffer(f.read(n * np.dtype(props).itemsize), dtype=np.dtype(props), count=n)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_shared"))
+import pointsight_protocol as protocol  # noqa: E402
 
 
 def mat(t):
@@ -88,19 +72,11 @@ def cut(tile, eye, k, sse_px, base_radius, out):
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--points", required=True)
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--protocol", type=int, default=2)
-    ap.add_argument("--normals", default=None)
-    ap.add_argument("--spacing", default=None)
-    ap.add_argument("--radius", type=float, default=None)
-    ap.add_argument("--lod", action="store_true")
-    args = ap.parse_args()
+    args, _ = protocol.arguments()
     if not args.lod:
-        print(json.dumps({"error": "py3dtiles-lod speaks the LOD form only (kind = lod)"}), flush=True)
+        protocol.send({"error": "py3dtiles-lod speaks the LOD form only (kind = lod)"})
         return
-    rows = read_ply(args.points)
+    rows = protocol.read_rows(args.points)
     n = len(rows)
     base_radius = args.radius or 0.0
     start = time.perf_counter()
@@ -130,39 +106,36 @@ def main():
             root = Tile(json.load(f)["root"], np.eye(4), "REPLACE", tiles)
         seconds = time.perf_counter() - start
         nbytes = sum(p.stat().st_size for p in Path(tiles).rglob("*") if p.is_file())
-        print(json.dumps({"built": True, "seconds": seconds, "nodes": root.count(), "bytes": nbytes}),
-              flush=True)
-        for line in sys.stdin:
-            try:
-                req = json.loads(line)
-                cam = req["camera"]
-                params = req.get("params", {})
-                sse_px = float(params.get("sse_px", "16"))
-                t0 = time.perf_counter()
-                eye = np.array(cam["eye"], dtype=np.float64)
-                if cam["model"] == "pinhole":
-                    k = cam["height"] / (2.0 * math.tan(math.radians(cam["fov_y_deg"]) / 2.0))
-                else:
-                    raise ValueError(f"py3dtiles-lod takes pinhole cameras, not {cam['model']}")
-                picked = []
-                cut(root, eye, k, sse_px, base_radius, picked)
-                if picked:
-                    idx = np.concatenate([p[0] for p in picked])
-                    rad = np.concatenate([np.full(len(p[0]), p[1]) for p in picked])
-                    # A point in several selected tiles (the root's preview) is drawn once, at its
-                    # smallest radius.
-                    order = np.lexsort((rad, idx))
-                    idx, rad = idx[order], rad[order]
-                    first = np.ones(len(idx), dtype=bool)
-                    first[1:] = idx[1:] != idx[:-1]
-                    idx, rad = idx[first], rad[first]
-                else:
-                    idx, rad = np.zeros(0, np.int64), np.zeros(0)
-                seconds = time.perf_counter() - t0
-                print(json.dumps({"visible": idx.tolist(), "radius": rad.tolist(), "seconds": seconds}),
-                      flush=True)
-            except (ValueError, KeyError) as e:
-                print(json.dumps({"error": str(e)}), flush=True)
+        protocol.built(seconds, nodes=root.count(), bytes=nbytes)
+
+        def answer(req):
+            cam = req["camera"]
+            params = req.get("params", {})
+            sse_px = float(params.get("sse_px", "16"))
+            t0 = time.perf_counter()
+            eye = np.array(cam["eye"], dtype=np.float64)
+            if cam["model"] == "pinhole":
+                k = cam["height"] / (2.0 * math.tan(math.radians(cam["fov_y_deg"]) / 2.0))
+            else:
+                raise ValueError(f"py3dtiles-lod takes pinhole cameras, not {cam['model']}")
+            picked = []
+            cut(root, eye, k, sse_px, base_radius, picked)
+            if picked:
+                idx = np.concatenate([p[0] for p in picked])
+                rad = np.concatenate([np.full(len(p[0]), p[1]) for p in picked])
+                # A point in several selected tiles (the root's preview) is drawn once, at its
+                # smallest radius.
+                order = np.lexsort((rad, idx))
+                idx, rad = idx[order], rad[order]
+                first = np.ones(len(idx), dtype=bool)
+                first[1:] = idx[1:] != idx[:-1]
+                idx, rad = idx[first], rad[first]
+            else:
+                idx, rad = np.zeros(0, np.int64), np.zeros(0)
+            seconds = time.perf_counter() - t0
+            return {"visible": idx.tolist(), "radius": rad.tolist(), "seconds": seconds}
+
+        protocol.serve(answer)
     finally:
         shutil.rmtree(work, ignore_errors=True)
 

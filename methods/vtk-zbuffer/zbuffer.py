@@ -17,8 +17,6 @@ window's GL context, a first draw that uploads the points) is timed once and rep
 protocol's optional `built` line, apart from the per-view times.
 """
 
-import argparse
-import json
 import os
 import sys
 import time
@@ -29,35 +27,19 @@ import numpy as np  # noqa: E402
 import vtk  # noqa: E402
 from vtk.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy  # noqa: E402
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_shared"))
+import pointsight_protocol as protocol  # noqa: E402
+
 
 def read_points(path):
-    with open(path, "rb") as f:
-        n, props, in_vertex = None, [], False
-        while True:
-            words = f.readline().decode("ascii").split()
-            if not words:
-                continue
-            if words[0] == "element":
-                in_vertex = words[1] == "vertex"
-                if in_vertex:
-                    n = int(words[2])
-            elif words[0] == "property" and in_vertex:
-                props.append((words[2], {"double": "<f8", "float": "<f4", "uchar": "u1"}[words[1]]))
-            elif words[0] == "end_header":
-                break
-        rows = np.frombuffer(f.read(n * np.dtype(props).itemsize), dtype=np.dtype(props), count=n)
+    rows = protocol.read_rows(path)
     return np.stack([rows["x"], rows["y"], rows["z"]], axis=1).astype(np.float64)
 
 
 def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--points")
-    ap.add_argument("--params", default="{}")
-    ap.add_argument("--protocol", type=int, default=1)
-    ap.add_argument("--normals", default=None)
-    ap.add_argument("--spacing", default=None)
-    ap.add_argument("--window-class", action="store_true", help="print the window class, exit")
-    args = ap.parse_args()
+    args, params = protocol.arguments(
+        lambda ap: ap.add_argument("--window-class", action="store_true", help="print the window class, exit")
+    )
     if args.window_class:
         window = vtk.vtkRenderWindow()
         window.SetOffScreenRendering(1)
@@ -68,7 +50,6 @@ def main():
         return
     if args.points is None:
         raise SystemExit("vtk-zbuffer: --points FILE is required")
-    params = json.loads(args.params)
     point_size = float(params.get("point_size", "4"))
     depth_tolerance = float(params.get("depth_tolerance", "0.01"))
     if params.get("rule", "sprite") != "sprite":
@@ -118,39 +99,39 @@ def main():
     window.SetSize(64, 64)
     ren.ResetCamera()
     window.Render()
-    print(json.dumps({"built": True, "seconds": time.perf_counter() - start}), flush=True)
-    for line in sys.stdin:
-        try:
-            cam = json.loads(line)["camera"]
-            if cam["model"] != "pinhole":
-                raise ValueError(f"vtk-zbuffer takes pinhole cameras, not {cam['model']}")
-            w, h = width or cam["width"], height or cam["height"]
-            sx, sy = w / cam["width"], h / cam["height"]
-            cx, cy = cam["cx"] * sx, cam["cy"] * sy
-            m = np.array(cam["camera_to_world"], dtype=np.float64)
-            eye, forward, down = m[:3, 3], m[:3, 2], m[:3, 1]
-            window.SetSize(w, h)
-            vc = ren.GetActiveCamera()
-            vc.SetPosition(*eye)
-            vc.SetFocalPoint(*(eye + forward))
-            vc.SetViewUp(*(-down))
-            vc.SetViewAngle(float(cam["fov_y_deg"]))
-            # Principal point: VTK's window centre, in [-1, 1] (y up).
-            vc.SetWindowCenter(-(cx - w / 2) / (w / 2), (cy - h / 2) / (h / 2))
-            distance = float(np.linalg.norm(centre - eye))
-            near = max(distance - radius, 1e-3 * distance)
-            vc.SetClippingRange(near, distance + radius)
-            select.SetToleranceWorld(depth_tolerance * distance)
-            t0 = time.perf_counter()
-            window.Render()
-            select.Modified()
-            select.Update()
-            out = select.GetOutput().GetPointData().GetArray("index")
-            visible = np.sort(vtk_to_numpy(out)) if out is not None else np.array([], np.int64)
-            seconds = time.perf_counter() - t0
-            print(json.dumps({"visible": visible.tolist(), "seconds": seconds}), flush=True)
-        except (ValueError, KeyError) as e:
-            print(json.dumps({"error": str(e)}), flush=True)
+    protocol.built(time.perf_counter() - start)
+
+    def answer(request):
+        cam = request["camera"]
+        if cam["model"] != "pinhole":
+            raise ValueError(f"vtk-zbuffer takes pinhole cameras, not {cam['model']}")
+        w, h = width or cam["width"], height or cam["height"]
+        sx, sy = w / cam["width"], h / cam["height"]
+        cx, cy = cam["cx"] * sx, cam["cy"] * sy
+        m = np.array(cam["camera_to_world"], dtype=np.float64)
+        eye, forward, down = m[:3, 3], m[:3, 2], m[:3, 1]
+        window.SetSize(w, h)
+        vc = ren.GetActiveCamera()
+        vc.SetPosition(*eye)
+        vc.SetFocalPoint(*(eye + forward))
+        vc.SetViewUp(*(-down))
+        vc.SetViewAngle(float(cam["fov_y_deg"]))
+        # Principal point: VTK's window centre, in [-1, 1] (y up).
+        vc.SetWindowCenter(-(cx - w / 2) / (w / 2), (cy - h / 2) / (h / 2))
+        distance = float(np.linalg.norm(centre - eye))
+        near = max(distance - radius, 1e-3 * distance)
+        vc.SetClippingRange(near, distance + radius)
+        select.SetToleranceWorld(depth_tolerance * distance)
+        t0 = time.perf_counter()
+        window.Render()
+        select.Modified()
+        select.Update()
+        out = select.GetOutput().GetPointData().GetArray("index")
+        visible = np.sort(vtk_to_numpy(out)) if out is not None else np.array([], np.int64)
+        seconds = time.perf_counter() - t0
+        return {"visible": visible.tolist(), "seconds": seconds}
+
+    protocol.serve(answer)
 
 
 if __name__ == "__main__":

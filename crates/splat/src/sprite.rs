@@ -28,7 +28,7 @@ use cloud::glam::Vec3A;
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::visibility::{
+use crate::splatter::{
     EMPTY, SplatParams, SplatScratch, SplatVisibility, Splatter, nearest_per_cell,
 };
 
@@ -161,7 +161,8 @@ mod tests {
     use cloud::synth::sphere_scene;
 
     use super::*;
-    use crate::visibility::{Rule, splat_visibility};
+    use crate::splatter::Rule;
+    use crate::visibility::splat_visibility;
 
     /// Naive reference: each sprite drawn pixel by pixel, each point tested (same f32
     /// projection as the fast path).
