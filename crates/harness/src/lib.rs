@@ -2,8 +2,6 @@
 //!
 //! - [`datasets`]: the datasets (built-in table, user files, manifests); [`fetch`]: the real
 //!   meshes;
-//! - [`methods`]: the method registry (one adapter per method), `--set` parameters;
-//! - [`score`]: precision, recall, F1, Jaccard against a ground truth;
 //! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
@@ -24,11 +22,6 @@ pub mod shard;
 pub mod stats;
 pub mod view;
 pub mod visible;
-
-/// The method registry (its own crate, shared with the Python package).
-pub use registry as methods;
-/// Precision, recall, F1, Jaccard (the registry's, shared with the Python package).
-pub use registry::score;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -367,24 +360,24 @@ fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
 
 /// `pointsight methods`.
 fn list_methods() -> Result<()> {
-    for m in methods::all() {
+    let show = |m: &registry::Card, prefix: &str| {
         match m.availability() {
-            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
-            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
+            Ok(()) => println!("{:<10} {}", m.name, m.summary),
+            Err(why) => println!("{:<10} {} [{why}]", m.name, m.summary),
         }
-        for p in m.params() {
-            println!("    --set {}=…  (default {}) {}", p.key, p.default, p.help);
+        for p in m.params {
+            println!(
+                "    {prefix}{}=…  (default {}) {}",
+                p.key, p.default, p.help
+            );
         }
+    };
+    for m in registry::visibility_cards() {
+        show(m, "--set ");
     }
     println!("level of detail (experiment lod; sweeps keys):");
-    for m in registry::lod::all() {
-        match m.availability() {
-            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
-            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
-        }
-        for p in m.params() {
-            println!("    {}=…  (default {}) {}", p.key, p.default, p.help);
-        }
+    for m in registry::lod_cards() {
+        show(m, "");
     }
     Ok(())
 }

@@ -39,7 +39,7 @@ use std::process::{Command, ExitCode, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result, bail};
-use registry::{Scale, Setting, kernel};
+use registry::{Memory as Scale, Setting, kernel};
 use serde::{Deserialize, Serialize};
 
 use super::{Context, Experiment, markdown_table};
@@ -155,12 +155,12 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
             .and_then(registry::MethodSweep::default_setting)
             .unwrap_or_default()
     };
-    let mut out: Vec<CellKind> = registry::all()
+    let mut out: Vec<CellKind> = registry::visibility_cards()
         .into_iter()
         .map(|m| CellKind {
-            name: m.name().to_owned(),
-            setting: default_of(m.name()),
-            scale: m.scale(),
+            name: m.name.to_owned(),
+            setting: default_of(m.name),
+            scale: m.memory.clone(),
             unavailable: m.availability().err(),
             out_of_core: false,
         })
@@ -172,12 +172,12 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         unavailable: None,
         out_of_core: false,
     }));
-    for m in registry::lod::all() {
+    for m in registry::lod_cards() {
         for part in ["build", "select"] {
             out.push(CellKind {
-                name: format!("{}-{part}", m.name()),
-                setting: default_of(m.name()),
-                scale: m.scale(),
+                name: format!("{}-{part}", m.name),
+                setting: default_of(m.name),
+                scale: m.memory.clone(),
                 unavailable: None,
                 out_of_core: false,
             });
@@ -374,7 +374,7 @@ pub fn cell(
         prepare_seconds = ready(&on_prepared);
         let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
         t.median
-    } else if let Ok(m) = registry::method(method) {
+    } else if let Some(m) = registry::card_named(method).filter(|m| !m.is_lod()) {
         prepare_seconds = ready(&on_prepared);
         let input = registry::Input {
             cloud: &cloud,
@@ -460,7 +460,7 @@ fn ooc_cell(
         let mib = |b: u64| b as f64 / 1048576.0;
         let (setting, view) = select;
         let file = registry::lod_file::open_file(&out, super::lod::FILE_CACHE_BYTES)?;
-        let m = registry::lod::method(method).context("no such LOD method")?;
+        let m = registry::card(method)?;
         let settings = [setting.clone()];
         let views = [*view];
         let cell = kernel::LodCell {
@@ -522,12 +522,12 @@ fn repeats(n: u64) -> usize {
 }
 
 /// The LOD method of a `NAME-build` or `NAME-select` cell, and whether it is the build.
-fn lod_cell(name: &str) -> Option<(&'static dyn registry::lod::LodMethod, bool)> {
+fn lod_cell(name: &str) -> Option<(&'static registry::Card, bool)> {
     let (m, build) = name
         .strip_suffix("-build")
         .map(|m| (m, true))
         .or_else(|| name.strip_suffix("-select").map(|m| (m, false)))?;
-    Some((registry::lod::method(m)?, build))
+    Some((registry::card_named(m).filter(|m| m.is_lod())?, build))
 }
 
 /// The cap on a cell's preparation (sampling the cloud, a hull cell's flip, an LOD cell's
