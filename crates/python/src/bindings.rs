@@ -724,7 +724,7 @@ impl Lod {
     /// The method's name.
     #[getter]
     fn method(&self) -> &'static str {
-        self.method.name()
+        self.method.name
     }
 
     /// Nodes or entries of the built structure.

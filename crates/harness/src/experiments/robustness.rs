@@ -603,13 +603,17 @@ impl Experiment for RobustnessExperiment {
             d.dedup();
             d
         };
+        // The full render first, then the methods in the order the rows give them.
+        let mut lod_methods: Vec<&str> = vec!["full"];
+        for r in &lod {
+            if !lod_methods.contains(&r.method.as_str()) {
+                lod_methods.push(&r.method);
+            }
+        }
         for ds in &lod_sets {
             for (metric, file_metric) in [("PSNR (dB)", "psnr"), ("SSIM", "ssim")] {
                 let mut series = Vec::new();
-                for (color, method) in ["full", "qsplat", "spt", "srn", "random"]
-                    .iter()
-                    .enumerate()
-                {
+                for (color, method) in lod_methods.iter().enumerate() {
                     let mut points = Vec::new();
                     for &sigma in LOD_NOISE {
                         let vals: Vec<f64> = lod
@@ -656,7 +660,7 @@ impl Experiment for RobustnessExperiment {
                 text.push_str(&format!("![{ds}: LOD {metric}]({file})\n\n"));
             }
             for &sigma in LOD_NOISE {
-                for method in ["full", "qsplat", "spt", "srn", "random"] {
+                for &method in &lod_methods {
                     let rs: Vec<&LodRow> = lod
                         .iter()
                         .filter(|r| {
