@@ -144,7 +144,12 @@ fn view_lod_and_the_lod_kernel_run_the_same_default() {
         index: 0,
         camera: *ds.view(0).expect("view 0"),
     }];
-    let data = harness::experiments::lod::lod_data(ds.cloud.clone()).expect("LOD data");
+    // A texture, which SRN's importance needs.
+    let texture =
+        srn::texture::Texture::new(2, 2, vec![[10, 200, 30], [0, 0, 0], [255; 3], [90; 3]])
+            .expect("a texture");
+    let data =
+        registry::lod::LodData::prepare(ds.cloud.clone(), Some(texture), 1.0, 7).expect("LOD data");
     let sweeps = Sweeps::resolve(None).expect("the sweeps");
     for card in registry::lod_cards() {
         let default = card.default_setting();
