@@ -140,7 +140,7 @@ def test_the_issue_example_and_masks():
     p32 = p.astype(np.float32)
     np.testing.assert_array_equal(ps.hpr(p32, [0, 0, 10]), ps.hpr(p32.astype(np.float64), [0, 0, 10]))
     # Fortran order and non-contiguous views are converted once.
-    np.testing.assert_array_equal(ps.hpr(np.asfortranarray(p), [0, 0, 10]), v)
+    np.testing.assert_array_equal(ps.hpr(np.asfortranarray(p), [0, 0, 10], gamma=3), v)
     many = ps.hpr_many(p, [[0, 0, 10], [10, 0, 0]], gamma=3)
     np.testing.assert_array_equal(many[0], v)
     s = ps.score(v, v, len(p))

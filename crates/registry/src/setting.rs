@@ -1,4 +1,4 @@
-//! A setting: one method's parameters as typed values (`--set` key to [`Value`]), and its label,
+//! A setting: one method's parameters as typed values (parameter key to [`Value`]), and its label,
 //! the CSV `params` column: `k=v` pairs sorted by key and joined by `;`, the same text
 //! [`crate::params::Params::canonical`] gives; [`Setting::parse`] reads a label back.
 
@@ -53,7 +53,7 @@ impl Value {
     }
 }
 
-/// One setting: `--set` key to typed value.
+/// One setting: parameter key to typed value.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Setting(pub BTreeMap<String, Value>);
 
