@@ -264,20 +264,34 @@ fn xyz_file(dir: &Path, name: &str, points: &[[f64; 3]]) -> PathBuf {
     path
 }
 
+/// `visible` of `method` on `cloud` from `eye`; HPR at Katz's γ = 3 (these results are for a
+/// fixed γ: its default, `auto`, estimates the cloud's spacing from neighbours a three-point
+/// cloud does not have).
 fn visible(cloud: &Path, eye: &str, method: &str, out: &Path) -> Output {
-    pointsight(&[
-        "visible".as_ref(),
-        "--cloud".as_ref(),
-        cloud.as_os_str(),
-        "--eye".as_ref(),
-        eye.as_ref(),
-        "--target".as_ref(),
-        "0,0,0".as_ref(),
-        "--method".as_ref(),
-        method.as_ref(),
-        "--out".as_ref(),
-        out.as_os_str(),
-    ])
+    let gamma: &[&std::ffi::OsStr] = if method == "hpr" {
+        &["--set".as_ref(), "gamma=3".as_ref()]
+    } else {
+        &[]
+    };
+    pointsight(
+        &[
+            &[
+                "visible".as_ref(),
+                "--cloud".as_ref(),
+                cloud.as_os_str(),
+                "--eye".as_ref(),
+                eye.as_ref(),
+                "--target".as_ref(),
+                "0,0,0".as_ref(),
+                "--method".as_ref(),
+                method.as_ref(),
+                "--out".as_ref(),
+                out.as_os_str(),
+            ],
+            gamma,
+        ]
+        .concat(),
+    )
 }
 
 fn visible_set(out: &Path) -> Vec<usize> {

@@ -8,7 +8,7 @@ use cloud::glam::DVec3;
 use cloud::synth::{SpherePlane, sphere_point_visible};
 use cloud::{Camera, Model};
 use harness::datasets::{self, Dataset};
-use registry::score::Score;
+use registry::scoring::Score;
 use registry::{Output, Params, kernel};
 
 fn load(name: &str) -> Dataset {
@@ -28,7 +28,7 @@ fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<O
         camera: *camera,
     }];
     let cell = kernel::Cell {
-        method: registry::method(method).expect("a registered method"),
+        method: registry::card(method).expect("a registered method"),
         params: Params::parse(set).expect("valid parameters"),
         views: &views,
         repeats: 1,

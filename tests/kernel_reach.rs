@@ -1,8 +1,11 @@
-//! One measurement path: a throwaway visibility method and a throwaway LOD method, registered
-//! once each, and an external method folder, reach every experiment with no other edit. The
-//! visibility and external methods appear in the results of `visibility`, `robustness` and
-//! `scale`; the LOD method in `lod`, robustness's LOD results and `scale`. The robustness run
-//! takes its grids from a sweeps file (`--config`), and HPR is tuned over that file's grid.
+//! One measurement path, and a method is one card: a throwaway visibility method and a throwaway
+//! LOD method, each one card (made here as an adapter file makes its `CARD`) registered at run
+//! time (as the catalogue's line would), and an external method folder, reach every experiment
+//! with no other edit. The visibility and external methods appear in `visible`'s output and in
+//! the results of `visibility`, `robustness` and `scale`; the LOD method in `lod`,
+//! robustness's LOD results and `scale`, at its card's default setting where one setting stands
+//! for it (its sweep names none). The robustness run takes its grids from a sweeps file
+//! (`--config`), and HPR is tuned over that file's grid.
 //!
 //! A program of its own (`harness = false`), as a program embedding the registry is: it
 //! registers its methods first thing in `main`, and forwards a scale cell to
@@ -15,8 +18,11 @@ use std::process::ExitCode;
 
 use cloud::Camera;
 use harness::experiments::{self, Context};
-use registry::lod::{LodBuilt, LodInput, LodMethod, LodSelector, LodSize};
-use registry::{Input, Method, MethodSweep, Output, ParamSpec, Params, Prepared, Sweeps};
+use registry::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
+use registry::{
+    Card, Family, Input, Kind, Memory, Method, MethodSweep, Output, Param, Prepared, Reader, Setup,
+    Sweeps,
+};
 use splat::render::Splat;
 
 /// A sweep from TOML text.
@@ -48,28 +54,41 @@ impl Prepared for NearestPrep<'_> {
 }
 
 impl Method for Nearest {
-    fn name(&self) -> &'static str {
-        "kernel-test-nearest"
+    fn parse(&self, _: &mut Reader<'_>) -> registry::Result<Box<dyn Setup>> {
+        Ok(Box::new(Nearest))
     }
-    fn summary(&self) -> &'static str {
-        "test only: the nearest half of the points"
-    }
-    fn params(&self) -> &'static [ParamSpec] {
-        &[]
-    }
-    fn prepare<'a>(
-        &self,
-        input: Input<'a>,
-        _: &Params,
-    ) -> registry::Result<Box<dyn Prepared + 'a>> {
+}
+
+impl Setup for Nearest {
+    fn prepare<'a>(&'a self, input: Input<'a>) -> registry::Result<Box<dyn Prepared + 'a>> {
         Ok(Box::new(NearestPrep(&input.cloud.positions)))
     }
-    fn sweep(&self) -> Option<MethodSweep> {
-        sweep("[[grid]]\n")
-    }
-    fn scale(&self) -> registry::Scale {
-        registry::Scale::PerPoint(64)
-    }
+}
+
+/// A card of this test (made at run time: its sweep is parsed; a built-in adapter's is a
+/// `static` and its grid a `sweeps.toml` entry).
+fn card(
+    name: &'static str,
+    summary: &'static str,
+    params: &'static [Param],
+    sweep: &str,
+    kind: Kind,
+) -> &'static Card {
+    Box::leak(Box::new(Card {
+        name,
+        summary,
+        params,
+        family: Family::Name,
+        memory: Memory::PerPoint(64),
+        parallel_views: false,
+        peer_of: None,
+        peer_keys: &[],
+        compared_in: &[],
+        bare_node_bytes: None,
+        sweep: self::sweep(sweep),
+        program: None,
+        kind,
+    }))
 }
 
 /// Test-only LOD method: every `stride`-th point.
@@ -81,30 +100,18 @@ struct StrideSel<'s> {
     n: usize,
 }
 
-const STRIDE: &[ParamSpec] = &[ParamSpec {
-    key: "stride",
-    default: "2",
-    help: "keep every stride-th point",
-}];
+/// Its one parameter, its default written once (the default setting comes from it).
+const STRIDE: Param = Param::value("stride", "2", "keep every stride-th point");
+
+/// Its setting.
+struct StrideArgs(usize);
 
 impl LodMethod for Stride {
-    fn name(&self) -> &'static str {
-        "kernel-test-stride"
-    }
-    fn summary(&self) -> &'static str {
-        "test only: every stride-th point"
-    }
-    fn params(&self) -> &'static [ParamSpec] {
-        STRIDE
+    fn parse(&self, r: &mut Reader<'_>) -> registry::Result<LodArgs> {
+        Ok(Box::new(StrideArgs(r.get::<usize>(&STRIDE)?.max(1))))
     }
     fn build(&self, input: &LodInput<'_>) -> registry::Result<Box<dyn LodBuilt>> {
         Ok(Box::new(StrideBuilt(input.cloud.len())))
-    }
-    fn sweep(&self) -> Option<MethodSweep> {
-        sweep("default = {stride = 2}\n[[grid]]\nstride = [2, 4]\n")
-    }
-    fn scale(&self) -> registry::Scale {
-        registry::Scale::PerPoint(64)
     }
 }
 
@@ -118,11 +125,11 @@ impl LodBuilt for StrideBuilt {
     fn selector<'s>(
         &'s self,
         input: &'s LodInput<'s>,
-        params: &Params,
+        args: &'s LodArgs,
     ) -> registry::Result<Box<dyn LodSelector + 's>> {
         Ok(Box::new(StrideSel {
             input,
-            stride: params.get("stride", 2usize)?.max(1),
+            stride: args_of::<StrideArgs>(args, "kernel-test-stride")?.0,
             n: self.0,
         }))
     }
@@ -194,7 +201,41 @@ fn lines_with(path: &Path, needle: &str) -> Vec<String> {
         .collect()
 }
 
+/// `pointsight visible`'s path, in process: `method` at its default setting on view 0 of
+/// sphere-plane-24000; the visible count the indices file holds.
+fn visible(root: &Path, method: &str) -> usize {
+    let out = root.join(format!("visible-{method}.txt"));
+    let request = harness::visible::Request {
+        source: harness::visible::Source {
+            dataset: Some("sphere-plane-24000".into()),
+            cloud: None,
+            mesh: None,
+            read: cloud::io::ReadOptions::default(),
+            merge_scans: false,
+            surface_tolerance: None,
+            camera: harness::visible::CameraFlags::default(),
+            views: None,
+        },
+        view: "0".into(),
+        method: method.into(),
+        set: Vec::new(),
+        out: out.clone(),
+        score: false,
+        parallel_views: harness::cli::ParallelViews::Auto,
+        repeat: 1,
+    };
+    harness::visible::run(&request, Path::new("/nonexistent-pointsight-data"))
+        .unwrap_or_else(|e| panic!("visible --method {method}: {e:#}"));
+    std::fs::read_to_string(&out)
+        .expect("the indices file")
+        .lines()
+        .count()
+}
+
 fn every_experiment(root: &Path) {
+    // `visible`: the nearest half of 24,000 points; the external z-buffer sees some.
+    assert_eq!(visible(root, "kernel-test-nearest"), 12_000);
+    assert!(visible(root, "kernel-test-zbuffer") > 1_000);
     let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").expect("small grids")))
         .expect("the sweeps resolve");
     let run = |name: &str| {
@@ -278,8 +319,22 @@ fn every_experiment(root: &Path) {
 }
 
 fn main() -> ExitCode {
-    registry::register(&Nearest).expect("a new visibility name");
-    registry::lod::register_lod(&Stride).expect("a new LOD name");
+    registry::register(card(
+        "kernel-test-nearest",
+        "test only: the nearest half of the points",
+        &[],
+        "[[grid]]\n",
+        Kind::Visibility(&Nearest),
+    ))
+    .expect("a new visibility name");
+    registry::register(card(
+        "kernel-test-stride",
+        "test only: every stride-th point",
+        &[STRIDE],
+        "[[grid]]\nstride = [2, 4]\n",
+        Kind::Lod(&Stride),
+    ))
+    .expect("a new LOD name");
     let args: Vec<String> = std::env::args().collect();
     // A scale cell (this executable re-run by the scale experiment) loads its parent's folder.
     let cell = args.get(1).map(String::as_str) == Some("scale-cell");

@@ -108,6 +108,9 @@ fn a_scan_and_its_mesh_from_files_scored_with_off_surface_points_apart() {
             "0.5,-3,4",
             "--method",
             "hpr",
+            // Katz's γ (its default is hpr::auto's rule): the figures below are for it.
+            "--set",
+            "gamma=3",
             "--out",
             out.to_str().unwrap(),
         ],
@@ -355,6 +358,8 @@ fn the_readme_examples_run_on_the_example_files() {
             "3,-4,2.5",
             "--method",
             "hpr",
+            "--set",
+            "gamma=3",
             "--out",
             out.to_str().unwrap(),
         ],
@@ -438,8 +443,10 @@ fn an_e57_file_with_two_scans_is_one_dataset_per_scan_or_merged() {
         "{views}"
     );
     let out = dir.path().join("v.txt");
+    // Katz's γ: its default, hpr::auto's rule, needs more than five points' neighbours.
     let base = [
-        "visible", "--cloud", "site.e57", "--eye", "0,0,5", "--method", "hpr", "--out",
+        "visible", "--cloud", "site.e57", "--eye", "0,0,5", "--method", "hpr", "--set", "gamma=3",
+        "--out",
     ];
     let mut args = base.to_vec();
     args.push(out.to_str().unwrap());

@@ -88,15 +88,10 @@ fn jaccard(a: &[u32], b: &[u32]) -> f64 {
 #[test]
 fn every_peer_is_installed_under_ci() {
     registry::register_external(&methods_dir()).expect("the methods folder loads");
-    let mut peers: Vec<(&str, &str, Result<(), String>)> = registry::all()
+    let peers: Vec<(&str, &str, Result<(), String>)> = registry::cards()
         .into_iter()
-        .filter_map(|m| Some((m.name(), m.peer_of()?, m.availability())))
+        .filter_map(|m| Some((m.name, m.peer_of?, m.availability())))
         .collect();
-    peers.extend(
-        registry::lod::all()
-            .into_iter()
-            .filter_map(|m| Some((m.name(), m.peer_of()?, m.availability()))),
-    );
     let names: Vec<&str> = peers.iter().map(|p| p.0).collect();
     for expected in [
         "open3d-hpr",
@@ -487,8 +482,9 @@ fn pcl_voxel_occlusion_against_a_brute_force_walk() {
 fn py3dtiles_lod_selection_shrinks_as_the_view_recedes() {
     use cloud::glam::{DVec3, Vec2, Vec3};
     registry::register_external(&methods_dir()).expect("the methods folder loads");
-    let method = registry::lod::method("py3dtiles-lod").expect("registered as an LOD method");
-    assert_eq!(method.peer_of(), Some("lod"));
+    let method = registry::card("py3dtiles-lod").expect("registered");
+    assert!(method.is_lod(), "an LOD method");
+    assert_eq!(method.peer_of, Some("lod"));
     if let Err(why) = method.availability() {
         assert!(
             std::env::var("CI").as_deref() != Ok("true"),

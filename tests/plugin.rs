@@ -1,16 +1,50 @@
-//! The one plug-in point: a throwaway visibility method (one adapter below, one `register`
-//! call) appears in the visibility experiment's CSV, plots and tables with no change to the
-//! harness; sweeps come from a TOML file; a sharded run merged gives the unsharded CSVs.
+//! The one plug-in point: a throwaway visibility method (one card and its adapter below, one
+//! `register` call) appears in the visibility experiment's CSV, plots and tables with no change
+//! to the harness; sweeps come from a TOML file; a sharded run merged gives the unsharded CSVs.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use cloud::Camera;
 use harness::experiments::{self, Context};
-use registry::{Input, Method, MethodSweep, Output, ParamSpec, Params, Prepared, Setting, Sweeps};
+use registry::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
+use registry::{
+    Card, Family, Input, Kind, Memory, Method, MethodSweep, Output, Param, Prepared, Reader,
+    Setting, Setup, Sweeps,
+};
+
+/// A card of this test: no memory figure, no peer.
+fn card(
+    name: &'static str,
+    summary: &'static str,
+    params: &'static [Param],
+    sweep: Option<MethodSweep>,
+    kind: Kind,
+) -> &'static Card {
+    Box::leak(Box::new(Card {
+        name,
+        summary,
+        params,
+        family: Family::Name,
+        memory: Memory::Unknown,
+        parallel_views: false,
+        peer_of: None,
+        peer_keys: &[],
+        compared_in: &[],
+        bare_node_bytes: None,
+        sweep,
+        program: None,
+        kind,
+    }))
+}
 
 /// Test-only method: the `fraction` of the points nearest to the eye are called visible.
 struct Nearest;
+
+const FRACTION: Param = Param::value("fraction", "0.5", "share of the points kept");
+
+/// Its setting.
+struct NearestArgs(f64);
 
 struct NearestPrep<'a> {
     points: &'a [cloud::glam::DVec3],
@@ -37,36 +71,31 @@ impl Prepared for NearestPrep<'_> {
 }
 
 impl Method for Nearest {
-    fn name(&self) -> &'static str {
-        "test-nearest"
+    fn parse(&self, r: &mut Reader<'_>) -> registry::Result<Box<dyn Setup>> {
+        Ok(Box::new(NearestArgs(r.get(&FRACTION)?)))
     }
-    fn summary(&self) -> &'static str {
-        "test only: the nearest fraction of the points"
-    }
-    fn params(&self) -> &'static [ParamSpec] {
-        &[ParamSpec {
-            key: "fraction",
-            default: "0.5",
-            help: "share of the points kept",
-        }]
-    }
-    fn prepare<'a>(
-        &self,
-        input: Input<'a>,
-        params: &Params,
-    ) -> registry::Result<Box<dyn Prepared + 'a>> {
+}
+
+impl Setup for NearestArgs {
+    fn prepare<'a>(&'a self, input: Input<'a>) -> registry::Result<Box<dyn Prepared + 'a>> {
         Ok(Box::new(NearestPrep {
             points: &input.cloud.positions,
-            fraction: params.get("fraction", 0.5)?,
+            fraction: self.0,
         }))
     }
-    fn sweep(&self) -> Option<MethodSweep> {
-        MethodSweep::from_toml(
-            &toml::from_str("[[grid]]\nfraction = [0.3, 0.5, 0.7]").ok()?,
-            "test-nearest",
-        )
-        .ok()
-    }
+}
+
+/// Nearest's card, with its own sweep.
+fn nearest() -> &'static Card {
+    card(
+        "test-nearest",
+        "test only: the nearest fraction of the points",
+        &[FRACTION],
+        toml::from_str("[[grid]]\nfraction = [0.3, 0.5, 0.7]")
+            .ok()
+            .and_then(|t| MethodSweep::from_toml(&t, "test-nearest").ok()),
+        Kind::Visibility(&Nearest),
+    )
 }
 
 /// Small grids for the built-in methods, so the test stays fast.
@@ -95,9 +124,9 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn a_registered_method_reaches_the_csv_plots_and_tables() {
-    registry::register(&Nearest).unwrap();
+    registry::register(nearest()).unwrap();
     assert!(
-        registry::register(&Nearest).is_err(),
+        registry::register(nearest()).is_err(),
         "a name registers once"
     );
     let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").unwrap())).unwrap();
@@ -310,63 +339,58 @@ fn bad_shard_and_config_are_errors() {
     let out = pointsight(&["sweeps"]);
     let text = String::from_utf8(out.stdout).unwrap();
     let parsed = Sweeps::parse(&text, "printed").unwrap();
-    assert_eq!(parsed, Sweeps::builtin());
+    assert_eq!(
+        Sweeps::resolve(Some(parsed)).unwrap(),
+        Sweeps::resolve(None).unwrap()
+    );
 }
 
 /// Test-only LOD method: every `k`-th point, splats grown by sqrt(k).
 struct EveryKth;
 struct EveryKthBuilt(usize);
 struct EveryKthSel<'s> {
-    input: &'s registry::lod::LodInput<'s>,
+    input: &'s LodInput<'s>,
     n: usize,
     k: usize,
     kept: Vec<usize>,
 }
 
-impl registry::lod::LodMethod for EveryKth {
-    fn name(&self) -> &'static str {
-        "test-every-kth"
+const K: Param = Param::value("k", "2", "keep one point in k");
+
+/// Its setting.
+struct EveryKthArgs(usize);
+
+impl LodMethod for EveryKth {
+    fn parse(&self, r: &mut Reader<'_>) -> registry::Result<LodArgs> {
+        Ok(Box::new(EveryKthArgs(r.get::<usize>(&K)?.max(1))))
     }
-    fn summary(&self) -> &'static str {
-        "test only: every k-th point"
-    }
-    fn params(&self) -> &'static [ParamSpec] {
-        &[ParamSpec {
-            key: "k",
-            default: "2",
-            help: "keep one point in k",
-        }]
-    }
-    fn build(
-        &self,
-        input: &registry::lod::LodInput<'_>,
-    ) -> registry::Result<Box<dyn registry::lod::LodBuilt>> {
+    fn build(&self, input: &LodInput<'_>) -> registry::Result<Box<dyn LodBuilt>> {
         Ok(Box::new(EveryKthBuilt(input.cloud.len())))
     }
 }
 
-impl registry::lod::LodBuilt for EveryKthBuilt {
-    fn size(&self) -> registry::lod::LodSize {
-        registry::lod::LodSize {
+impl LodBuilt for EveryKthBuilt {
+    fn size(&self) -> LodSize {
+        LodSize {
             nodes: self.0,
             bytes: 0.0,
         }
     }
     fn selector<'s>(
         &'s self,
-        input: &'s registry::lod::LodInput<'s>,
-        params: &Params,
-    ) -> registry::Result<Box<dyn registry::lod::LodSelector + 's>> {
+        input: &'s LodInput<'s>,
+        args: &'s LodArgs,
+    ) -> registry::Result<Box<dyn LodSelector + 's>> {
         Ok(Box::new(EveryKthSel {
             input,
             n: self.0,
-            k: params.get("k", 2usize)?.max(1),
+            k: args_of::<EveryKthArgs>(args, "test-every-kth")?.0,
             kept: Vec::new(),
         }))
     }
 }
 
-impl registry::lod::LodSelector for EveryKthSel<'_> {
+impl LodSelector for EveryKthSel<'_> {
     fn select(&mut self, _camera: &Camera) -> registry::Result<()> {
         self.kept = (0..self.n).step_by(self.k).collect();
         Ok(())
@@ -382,7 +406,14 @@ impl registry::lod::LodSelector for EveryKthSel<'_> {
 
 #[test]
 fn a_registered_lod_method_reaches_the_csv_plots_and_tables() {
-    registry::lod::register_lod(&EveryKth).unwrap();
+    registry::register(card(
+        "test-every-kth",
+        "test only: every k-th point",
+        &[K],
+        None,
+        Kind::Lod(&EveryKth),
+    ))
+    .unwrap();
     let config = r#"
         [test-every-kth]
         [[test-every-kth.grid]]

@@ -52,6 +52,8 @@ pub struct Built {
     pub chunks: u64,
     /// Levels above the chunks (qsplat); nodes above the chunks (spt).
     pub top_levels: u32,
+    /// What [`Built::top_levels`] counts: `top levels` (qsplat) or `top nodes` (spt).
+    pub top_unit: &'static str,
     /// Largest halo, points.
     pub largest_halo: u64,
     /// The leaf radius.
@@ -62,6 +64,28 @@ pub struct Built {
     pub scratch_bytes: u64,
     /// The most bytes the scratch files held at once.
     pub scratch_peak_bytes: u64,
+}
+
+/// Disk a `qsplat` out-of-core build cell of the scale experiment needs per point: the LAZ input takes 11.4 bytes per point
+/// and the written file 6.8; the scratch files held at most 120.7 bytes per point at once at
+/// 10^7 points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks;
+/// `Scratch::peak_bytes`), of 382 and 604 written in all: 139 in all, and a quarter more for
+/// margin.
+pub const OOC_DISK_PER_POINT: u64 = 175;
+
+/// Disk an `spt` out-of-core build cell of the scale experiment needs per point: the LAZ (11.4), the preparation's scratch
+/// (120.7, as QSplat's) while the points it hands on are written (47), then the sorted runs
+/// (about 91) beside the file (84.6 at 10^7): about 188, and a quarter more for margin.
+pub const SPT_OOC_DISK_PER_POINT: u64 = 235;
+
+/// Disk the out-of-core build of `method` (one of [`OUT_OF_CORE`]) needs per point, its LAZ
+/// input and the file it writes included.
+pub fn disk_per_point(method: &str) -> u64 {
+    if method == "spt" {
+        SPT_OOC_DISK_PER_POINT
+    } else {
+        OOC_DISK_PER_POINT
+    }
 }
 
 /// A size: a number of bytes, optionally with a unit (`B`, `KiB`, `MiB`, `GiB`, `TiB`; `K`,
@@ -263,6 +287,7 @@ pub fn build(
             peak_rss_bytes: 0,
             chunks: built.chunks,
             top_levels: built.top_nodes as u32,
+            top_unit: "top nodes",
             largest_halo: summary.largest_halo,
             leaf_radius: summary.leaf_radius,
             file_bytes: 0,
@@ -292,6 +317,7 @@ pub fn build(
             peak_rss_bytes: 0,
             chunks: summary.chunks,
             top_levels: summary.top_levels,
+            top_unit: "top levels",
             largest_halo: summary.largest_halo,
             leaf_radius: summary.leaf_radius,
             file_bytes: 0,
@@ -345,6 +371,11 @@ pub fn build_in_memory(cloud_path: &Path, method: &str, out: &Path) -> Result<Bu
         peak_rss_bytes: peak_rss(),
         chunks: 1,
         top_levels: 0,
+        top_unit: if method == "spt" {
+            "top nodes"
+        } else {
+            "top levels"
+        },
         largest_halo: 0,
         leaf_radius: radius,
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),

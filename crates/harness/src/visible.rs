@@ -2,8 +2,10 @@
 //! many views at once (a folder of index files).
 //!
 //! Per-dataset preparation (k-d tree, BVH) is done once; for many views, methods that say so
-//! ([`registry::Method::parallel_views`]) answer views in parallel, the others one after
-//! another (their single view already uses every core).
+//! (`registry::Card::parallel_views`) answer views in parallel, the others one after another
+//! (their single view already uses every core). The `--set` pairs are the method's setting; a
+//! key left out is its default (the card's, as everywhere), and the line before the last says
+//! the setting as it ran: `setting=k=v;...`, every key the method read with its value.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -14,9 +16,10 @@ use cloud::glam::DVec3;
 
 use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
-use crate::output;
-use registry::score::Score;
+use registry::scoring::Score;
 use registry::{Output, Params, kernel};
+
+use crate::output;
 
 /// A camera given on the command line (world coordinates); what is absent gets a default that
 /// fits the cloud.
@@ -262,7 +265,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
 /// Runs the request; prints the contract lines.
 pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let params = Params::parse(&req.set)?;
-    let method = registry::method(&req.method)?;
+    let method = registry::card(&req.method)?;
     let ds = load_source(&req.source, data_dir)?;
     let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {
@@ -309,9 +312,10 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
         }
         println!("{}", timing_line(&timing));
+        println!("setting={}", preparation.setting.label());
         println!(
             "method={} points={} visible={} seconds={seconds:.6}",
-            method.name(),
+            method.name,
             ds.cloud.len(),
             output.visible.len()
         );
@@ -327,7 +331,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         })
         .collect();
     let parallel = match req.parallel_views {
-        ParallelViews::Auto => method.parallel_views(),
+        ParallelViews::Auto => method.parallel_views,
         ParallelViews::Yes => true,
         ParallelViews::No => false,
     };
@@ -374,11 +378,12 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
         }
         println!(
             "view={k} method={} points={} visible={} seconds={seconds:.6}",
-            method.name(),
+            method.name,
             ds.cloud.len(),
             output.visible.len()
         );
     }
+    println!("setting={}", preparation.setting.label());
     println!(
         "views={} points={} seconds={wall:.6} views_per_second={:.3}",
         results.len(),

@@ -59,6 +59,14 @@ fn registry_err(method: &str, e: &registry::Error) -> String {
         registry::Error::BadValue { key, value, reason } => {
             format!("{method}: keyword argument {key}={value:?}: {reason}")
         }
+        registry::Error::UnknownParams {
+            plural,
+            keys,
+            accepted,
+            ..
+        } => {
+            format!("{method}: unexpected keyword argument{plural} {keys}; it accepts: {accepted}")
+        }
         other => other.to_string(),
     }
 }
@@ -289,7 +297,7 @@ fn visible<'py>(
     let cams: Vec<cloud::Camera> = cameras.iter().map(|c| c.inner).collect();
     let results = run(py, move || {
         let cloud = cloud_of(pts)?;
-        let m = registry::method(&method).map_err(err)?;
+        let m = registry::card(&method).map_err(err)?;
         let p = registry::Params::from_pairs(
             &params
                 .iter()
@@ -309,7 +317,7 @@ fn visible<'py>(
             views: &views,
             repeats: 1,
             budget: None,
-            parallel: m.parallel_views() && views.len() > 1,
+            parallel: m.parallel_views && views.len() > 1,
         };
         let (prepared, answers) = registry::kernel::collect(&cell, input);
         prepared.map_err(|e| registry_err(&method, &e))?;
@@ -345,7 +353,7 @@ fn score<'py>(
         Ok(v)
     };
     let (p, t) = (to_set(&visible, "visible")?, to_set(&truth, "truth")?);
-    let s = registry::score::Score::of_sets(&p, &t);
+    let s = registry::scoring::Score::of_sets(&p, &t);
     let d = PyDict::new(py);
     d.set_item("precision", s.precision())?;
     d.set_item("recall", s.recall())?;
@@ -485,7 +493,7 @@ fn splats_dict<'py>(
 /// at run time), built once on a cloud through the measurement kernel, selected per view.
 #[pyclass(module = "pointsight._native", frozen)]
 pub struct Lod {
-    method: &'static dyn registry::lod::LodMethod,
+    method: &'static registry::Card,
     data: registry::lod::LodData,
     built: Box<dyn registry::lod::LodBuilt>,
     build: registry::kernel::Built,
@@ -549,13 +557,15 @@ impl Lod {
         radius_spacings: f64,
         seed: u64,
     ) -> PyResult<Self> {
-        let m = registry::lod::method(method).ok_or_else(|| {
-            let known: Vec<&str> = registry::lod::all().iter().map(|m| m.name()).collect();
-            PyValueError::new_err(format!(
-                "unknown level-of-detail method {method:?}; known: {}",
-                known.join(", ")
-            ))
-        })?;
+        let m = registry::card_named(method)
+            .filter(|m| m.is_lod())
+            .ok_or_else(|| {
+                let known: Vec<&str> = registry::lod_cards().iter().map(|m| m.name).collect();
+                PyValueError::new_err(format!(
+                    "unknown level-of-detail method {method:?}; known: {}",
+                    known.join(", ")
+                ))
+            })?;
         if colors.is_some() && texture.is_some() {
             return Err(PyValueError::new_err(
                 "give colors or a texture, not both (with a texture the colours come from it)",
@@ -588,12 +598,12 @@ impl Lod {
             }
             cloud.validate().map_err(err)?;
             let mut data = registry::lod::LodData::prepare(cloud, texture, radius_spacings, seed)
-                .map_err(|e| registry_err(m.name(), &e))?;
+                .map_err(|e| registry_err(m.name, &e))?;
             if let Some(r) = radius {
                 data.radius = r;
             }
             let (built, build) = registry::kernel::build_lod(m, &data.input(), 1)
-                .map_err(|e| registry_err(m.name(), &e))?;
+                .map_err(|e| registry_err(m.name, &e))?;
             Ok((data, built, build))
         })?;
         Ok(Self {
@@ -610,13 +620,12 @@ impl Lod {
     #[staticmethod]
     #[pyo3(signature = (path, cache_bytes=64 << 20))]
     fn open_qsplat_file(py: Python<'_>, path: PathBuf, cache_bytes: u64) -> PyResult<Self> {
-        let m = registry::lod::method("qsplat")
-            .ok_or_else(|| PyRuntimeError::new_err("the registry has no qsplat"))?;
+        let m = registry::card("qsplat").map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         let (built, timing) = run(py, move || {
             registry::timing::measure(1, || {
                 registry::lod_file::open_qsplat_file(&path, cache_bytes)
             })
-            .map_err(|e| registry_err(m.name(), &e))
+            .map_err(|e| registry_err(m.name, &e))
         })?;
         let size = built.size();
         Ok(Self {
@@ -641,8 +650,7 @@ impl Lod {
                     .map_err(|e| registry_err(info.method, &e))?;
             Ok((built, timing, info.method))
         })?;
-        let m = registry::lod::method(name)
-            .ok_or_else(|| PyRuntimeError::new_err(format!("the registry has no {name}")))?;
+        let m = registry::card(name).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         let size = built.size();
         Ok(Self {
             method: m,
@@ -667,7 +675,7 @@ impl Lod {
         let setting = registry::Setting(
             params
                 .iter()
-                .map(|(k, v)| (k.clone(), registry::sweep::Value::parse(v)))
+                .map(|(k, v)| (k.clone(), registry::Value::parse(v)))
                 .collect(),
         );
         let selections = run(py, || {
@@ -683,7 +691,7 @@ impl Lod {
             let mut out = Vec::with_capacity(views.len());
             let input = self.data.input();
             registry::kernel::select_lod(&cell, self.built.as_ref(), &input, |_, _, s| {
-                out.push(s.map_err(|e| registry_err(self.method.name(), e)));
+                out.push(s.map_err(|e| registry_err(self.method.name, e)));
             });
             out.into_iter().collect::<Result<Vec<_>, String>>()
         })?;
@@ -716,7 +724,7 @@ impl Lod {
     /// The method's name.
     #[getter]
     fn method(&self) -> &'static str {
-        self.method.name()
+        self.method.name
     }
 
     /// Nodes or entries of the built structure.
@@ -791,24 +799,20 @@ fn srn_select<'py>(
 /// name, one-line summary, and its parameters (key, default, help).
 #[pyfunction]
 fn methods() -> Vec<MethodListing> {
-    let listing = |name: &str, summary: &str, params: &[registry::ParamSpec]| {
-        (
-            name.to_owned(),
-            summary.to_owned(),
-            params
-                .iter()
-                .map(|p| (p.key.to_owned(), p.default.to_owned(), p.help.to_owned()))
-                .collect(),
-        )
-    };
-    registry::all()
+    let visibility = registry::visibility_cards();
+    visibility
         .iter()
-        .map(|m| listing(m.name(), m.summary(), m.params()))
-        .chain(
-            registry::lod::all()
-                .iter()
-                .map(|m| listing(m.name(), m.summary(), m.params())),
-        )
+        .chain(&registry::lod_cards())
+        .map(|m| {
+            (
+                m.name.to_owned(),
+                m.summary.to_owned(),
+                m.params
+                    .iter()
+                    .map(|p| (p.key.to_owned(), p.default.to_string(), p.help.to_owned()))
+                    .collect(),
+            )
+        })
         .collect()
 }
 
@@ -822,11 +826,11 @@ fn load_methods(dir: PathBuf) -> PyResult<Vec<String>> {
             dir.display()
         )));
     }
-    let before: Vec<&str> = registry::all().iter().map(|m| m.name()).collect();
+    let before: Vec<&str> = registry::cards().iter().map(|m| m.name).collect();
     registry::register_external(&dir).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    Ok(registry::all()
+    Ok(registry::cards()
         .iter()
-        .map(|m| m.name())
+        .map(|m| m.name)
         .filter(|n| !before.contains(n))
         .map(str::to_owned)
         .collect())

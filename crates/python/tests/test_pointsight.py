@@ -75,6 +75,31 @@ def test_same_indices_as_the_command_line(dataset, method, sets, call):
         np.testing.assert_array_equal(got, expected)
 
 
+@pytest.mark.parametrize(
+    "method",
+    ["hpr", "hpr-confidence", "hpr-approx", "robust", "raycast", "splat", "screenspace", "vardensity"],
+)
+def test_defaults_are_the_command_lines(dataset, method):
+    """One default per method (the registry card's): `visible` given nothing, Python given
+    nothing and Python given the setting `visible` says it ran give the same indices."""
+    d, points, views = dataset
+    out = d / f"default-{method}.txt"
+    stdout = run("visible", "--dataset", "sphere-plane-24000", "--view", "0", "--method", method, "--out", str(out))
+    lines = stdout.splitlines()
+    assert lines[-1].startswith(f"method={method} ")
+    assert lines[-2].startswith("setting=")
+    ran = dict(kv.split("=", 1) for kv in lines[-2][len("setting="):].split(";") if kv)
+    expected = read_indices(out)
+    cam = ps.Camera.from_json(views[0])
+    np.testing.assert_array_equal(ps.visible(method, points, cam), expected)
+    np.testing.assert_array_equal(ps.visible(method, points, cam, **ran), expected)
+    if method == "hpr":
+        # HPR's default is gamma = auto with seed 2007 (Katz's gamma = 3 is one keyword away).
+        assert ran["gamma"] == "auto" and ran["seed"] == "2007"
+        np.testing.assert_array_equal(ps.hpr(points, cam.eye), expected)
+        assert not np.array_equal(ps.hpr(points, cam.eye, gamma=3), expected)
+
+
 def test_reference_and_files_as_the_command_line(tmp_path):
     scan = ROOT / "examples/own-data/scan.ply"
     mesh = ROOT / "examples/own-data/scene.off"
@@ -115,7 +140,7 @@ def test_the_issue_example_and_masks():
     p32 = p.astype(np.float32)
     np.testing.assert_array_equal(ps.hpr(p32, [0, 0, 10]), ps.hpr(p32.astype(np.float64), [0, 0, 10]))
     # Fortran order and non-contiguous views are converted once.
-    np.testing.assert_array_equal(ps.hpr(np.asfortranarray(p), [0, 0, 10]), v)
+    np.testing.assert_array_equal(ps.hpr(np.asfortranarray(p), [0, 0, 10], gamma=3), v)
     many = ps.hpr_many(p, [[0, 0, 10], [10, 0, 0]], gamma=3)
     np.testing.assert_array_equal(many[0], v)
     s = ps.score(v, v, len(p))
@@ -230,6 +255,41 @@ def test_an_external_method_loaded_from_python(tmp_path):
         ps.visible("no-such-method", p, cam)
     with pytest.raises(ValueError, match="no-such-dir|No such file|not found|does not exist"):
         ps.load_methods(tmp_path / "no-such-dir")
+
+
+def test_an_external_lod_method_loaded_from_python(tmp_path):
+    """A throwaway level-of-detail method is one folder (its card comes from its manifest,
+    methods/README.md): `load_methods` registers it, `methods()` lists it with its parameters,
+    and `Lod` builds and selects it through the kernel like the built-in ones."""
+    folder = tmp_path / "methods" / "py-test-every-kth"
+    folder.mkdir(parents=True)
+    (folder / "method.toml").write_text(
+        'protocol = 2\nkind = "lod"\nsummary = "test only: every k-th point"\n'
+        'command = ["python3", "lod.py"]\n'
+        '[params.k]\ndefault = "3"\nhelp = "keep one point in k"\n'
+    )
+    (folder / "lod.py").write_text(
+        "import sys, json\n"
+        "n = int(open(sys.argv[sys.argv.index('--points') + 1], 'rb').read(4000)"
+        ".split(b'element vertex ')[1].split()[0])\n"
+        "print(json.dumps({'built': True, 'seconds': 0.0, 'nodes': n, 'bytes': 0}), flush=True)\n"
+        "for line in sys.stdin:\n"
+        "    k = int(json.loads(line)['params'].get('k', '3'))\n"
+        "    print(json.dumps({'visible': list(range(0, n, k)), 'radius': 0.05, 'seconds': 0.0}), flush=True)\n"
+    )
+    assert ps.load_methods(tmp_path / "methods") == ["py-test-every-kth"]
+    listing = {m[0]: m for m in ps.methods()}
+    assert listing["py-test-every-kth"][2] == [("k", "3", "keep one point in k")]
+    rng = np.random.default_rng(8)
+    p = rng.normal(size=(900, 3))
+    cam = ps.Camera.look_at("pinhole", [0, 0, 6], [0, 0, 0], [0, 1, 0], 64, 48, fov_y_deg=40)
+    lod = ps.Lod("py-test-every-kth", p, p / np.linalg.norm(p, axis=1, keepdims=True))
+    assert len(lod.select(cam)["radii"]) == 300  # the program's own default, k = 3
+    assert len(lod.select(cam, k=2)["radii"]) == 450
+    with pytest.raises(ValueError, match="unexpected keyword argument m"):
+        lod.select(cam, m=2)
+    with pytest.raises(ValueError, match="level-of-detail method"):
+        ps.visible("py-test-every-kth", p, cam)
 
 
 def test_readers_on_files_of_other_tools():

@@ -1,7 +1,8 @@
 //! Typed errors of the registry: parameters, method lookup, and the method crates' own errors.
 //!
 //! The messages speak of parameter names and values only: the command line (`--set`) and the
-//! Python package (keyword arguments) add their own framing.
+//! Python package (keyword arguments) add their own framing. A method crate's error travels as
+//! it is ([`Error::Method`], its message unchanged), so a new method needs no variant here.
 
 /// Why a method could not be prepared or run.
 #[derive(Debug, thiserror::Error)]
@@ -53,28 +54,17 @@ pub enum Error {
     /// Invalid input or camera (`cloud`).
     #[error(transparent)]
     Cloud(#[from] cloud::Error),
-    /// HPR.
+    /// A method crate's own error (HPR, a hull, the ray cast, the ground truth...).
     #[error(transparent)]
-    Hpr(#[from] hpr::HprError),
-    /// The robust operator (Mehra et al. 2010).
-    #[error(transparent)]
-    Robust(#[from] robustvis::RobustError),
-    /// A hull implementation.
-    #[error(transparent)]
-    Hull(#[from] hull::HullError),
-    /// The ray cast.
-    #[error(transparent)]
-    Raycast(#[from] raycast::Error),
-    /// The splat baseline.
-    #[error(transparent)]
-    Splat(#[from] splat::Error),
-    /// The screen-space operators.
-    #[error(transparent)]
-    Screenspace(#[from] screenspace::Error),
-    /// The ground truth.
-    #[error(transparent)]
-    Truth(#[from] truth::Error),
+    Method(Box<dyn std::error::Error + Send + Sync + 'static>),
 }
 
 /// Result alias of the registry.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// A method crate's error, as it is.
+    pub fn method(e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Error::Method(Box::new(e))
+    }
+}

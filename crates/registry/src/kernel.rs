@@ -9,14 +9,15 @@
 //! same error for each of its views, and a view that fails does not stop the others, so the
 //! experiments can write an error row and go on.
 //!
-//! The visibility form ([`run`]): the method is prepared once per cell (per-cloud state: a
-//! k-d tree, a BVH; parameters the method did not read are refused here; its wall time and
-//! an external program's own build seconds are the cell's [`Preparation`]), then each view is
+//! The visibility form ([`run`]): the cell's setting is read once into the method's own typed
+//! struct (a key it did not read is refused there, before any work), the method is prepared
+//! once per cell (per-cloud state: a k-d tree, a BVH; its wall time and an external program's
+//! own build seconds are the cell's [`Preparation`], with the setting as it ran), then each view is
 //! answered `repeats` times through [`crate::timing`], fewer once the cell's time budget (wall
 //! seconds) is spent; the timing is an external program's own reported seconds when it gives
-//! them. The level-of-detail form ([`run_lod`]): the method builds once
-//! per cloud (timed on its own), then each setting's selector selects per view (the part a
-//! renderer pays per frame, timed); the splats are made after the clock stops.
+//! them. The level-of-detail form ([`run_lod`]): every setting is read first, then the method
+//! builds once per cloud (timed on its own), then each setting's selector selects per view (the
+//! part a renderer pays per frame, timed); the splats are made after the clock stops.
 //!
 //! Scoring is the caller's (methods return indices or splats; the harness scores them against
 //! the ground truth), so is where the answers go (rows, files, arrays).
@@ -24,12 +25,13 @@
 use cloud::Camera;
 use splat::render::Splat;
 
+use crate::card::{Card, Kind};
 use crate::error::{Error, Result};
-use crate::lod::{LodBuilt, LodInput, LodMethod, LodSize};
+use crate::lod::{LodArgs, LodBuilt, LodInput, LodSize, Reads};
 use crate::params::Params;
-use crate::sweep::Setting;
+use crate::setting::Setting;
 use crate::timing::{self, Timing};
-use crate::{Input, Method, Output, Prepared};
+use crate::visibility::{Input, Output, Prepared};
 
 /// One view of a dataset: its index among the dataset's views and its camera.
 #[derive(Debug, Clone, Copy)]
@@ -53,8 +55,8 @@ impl View {
 
 /// A visibility cell: one method at one setting, over views.
 pub struct Cell<'a> {
-    /// The method.
-    pub method: &'a dyn Method,
+    /// The method (a visibility method's card).
+    pub method: &'a Card,
     /// Its setting.
     pub params: Params,
     /// The views to answer, in order.
@@ -72,12 +74,7 @@ pub struct Cell<'a> {
 impl<'a> Cell<'a> {
     /// A cell of `method` at `setting` over `views`, `repeats` timed runs per view (no time
     /// budget), the views answered one after another.
-    pub fn new(
-        method: &'a dyn Method,
-        setting: &Setting,
-        views: &'a [View],
-        repeats: usize,
-    ) -> Self {
+    pub fn new(method: &'a Card, setting: &Setting, views: &'a [View], repeats: usize) -> Self {
         Self {
             method,
             params: setting.params(),
@@ -99,18 +96,21 @@ pub struct Answer {
 }
 
 /// A cell's preparation, timed once.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Preparation {
-    /// Wall seconds of [`Method::prepare`]: a built-in method's per-cloud state (its k-d tree,
-    /// estimated normals); for an external method, writing the points file it reads.
+    /// Wall seconds of reading the setting and preparing: a built-in method's per-cloud state
+    /// (its k-d tree, estimated normals); for an external method, writing the points file it
+    /// reads.
     pub seconds: f64,
     /// The structure's build alone ([`Prepared::reported_build_seconds`]: an external
     /// program's `built` line, its BVH or render window; the ray caster's k-d tree), when the
     /// method accounts for it.
     pub reported_seconds: Option<f64>,
+    /// The setting as it ran: every key the method read, with the value given or its default.
+    pub setting: Setting,
 }
 
-/// Prepares `cell.method` on `input` (refusing parameters it did not read), then answers each
+/// Reads the cell's setting and prepares `cell.method` on `input`, then answers each
 /// view: `each` gets every view of the cell, in order, with its answer or the error that
 /// stopped it (a failed preparation's error, for every view). Returns the preparation's
 /// timing (one run), or its error once every view has been told.
@@ -119,21 +119,25 @@ pub fn run<'a>(
     input: Input<'a>,
     mut each: impl FnMut(&View, std::result::Result<Answer, &Error>),
 ) -> Result<Preparation> {
+    let mut fail = |e: Error| {
+        for view in cell.views {
+            each(view, Err(&e));
+        }
+        Err(e)
+    };
     let start = std::time::Instant::now();
-    let prepared = prepare(cell.method, input, &cell.params);
+    let (setup, setting) = match cell.method.setup(&cell.params) {
+        Ok(s) => s,
+        Err(e) => return fail(e),
+    };
+    let prepared = setup.prepare(input);
     let prepare_seconds = start.elapsed().as_secs_f64();
     let prepared = match prepared {
         Ok(p) => p,
-        Err(e) => {
-            for view in cell.views {
-                each(view, Err(&e));
-            }
-            return Err(e);
-        }
+        Err(e) => return fail(e),
     };
     if cell.parallel {
         use rayon::prelude::*;
-        // (The cell itself is not shared: its parameters remember which keys were read.)
         let (views, prepared) = (cell.views, prepared.as_ref());
         let (repeats, budget) = (cell.repeats, cell.budget);
         let answers: Vec<Result<Answer>> = views
@@ -157,18 +161,8 @@ pub fn run<'a>(
     Ok(Preparation {
         seconds: prepare_seconds,
         reported_seconds: prepared.reported_build_seconds(),
+        setting,
     })
-}
-
-/// Prepares `method` on `input`, rejecting parameters it does not read.
-pub(crate) fn prepare<'a>(
-    method: &dyn Method,
-    input: Input<'a>,
-    params: &Params,
-) -> Result<Box<dyn Prepared + 'a>> {
-    let prepared = method.prepare(input, params)?;
-    params.check_all_read(method.name(), method.params())?;
-    Ok(prepared)
 }
 
 /// The kernel's one hook for methods that report their own compute seconds (an external
@@ -207,8 +201,8 @@ fn timed(
 
 /// A level-of-detail cell: one method built once, selecting at each setting over views.
 pub struct LodCell<'a> {
-    /// The method.
-    pub method: &'a dyn LodMethod,
+    /// The method (a level-of-detail method's card).
+    pub method: &'a Card,
     /// The settings to select at, in order.
     pub settings: &'a [Setting],
     /// The views (cameras) to select for, in order.
@@ -236,22 +230,32 @@ pub struct Selection {
     /// Median and spread of the selections.
     pub timing: Timing,
     /// What the last selection read from storage (a structure selected from a file).
-    pub reads: Option<crate::lod::Reads>,
+    pub reads: Option<Reads>,
 }
 
-/// Builds `cell.method` on `input` once (`build_repeats` timed builds), then, for each setting
-/// in order and each view in order, selects: `each` gets (the setting's position in
-/// `cell.settings`, the view's position in `cell.views`, the selection or the error that
-/// stopped it: a bad setting's, for each of its views). Returns the build's timing and size,
-/// or its error (then `each` is not called).
+/// Reads every setting of the cell (a bad one is refused for its views, later), builds
+/// `cell.method` on `input` once (`build_repeats` timed builds), then, for each setting in order
+/// and each view in order, selects: `each` gets (the setting's position in `cell.settings`, the
+/// view's position in `cell.views`, the selection or the error that stopped it: a bad
+/// setting's, for each of its views). Returns the build's timing and size, or its error (then
+/// `each` is not called).
 pub fn run_lod(
     cell: &LodCell<'_>,
     input: &LodInput<'_>,
     each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
 ) -> Result<Built> {
+    let args = read_settings(cell);
     let (built, timing) = build_lod(cell.method, input, cell.build_repeats)?;
-    select_lod(cell, built.as_ref(), input, each);
+    select(cell, &args, built.as_ref(), input, each);
     Ok(timing)
+}
+
+/// Each setting of `cell` read by its method.
+fn read_settings(cell: &LodCell<'_>) -> Vec<Result<LodArgs>> {
+    cell.settings
+        .iter()
+        .map(|s| cell.method.lod_args(&s.params()).map(|(args, _)| args))
+        .collect()
 }
 
 /// The build half of [`run_lod`], for a caller that keeps the structure and selects later
@@ -260,13 +264,19 @@ pub fn run_lod(
 /// (`LodBuilt::reported_build_seconds`, `LodSelector::reported_seconds`) when it gives them,
 /// else the wall clock.
 pub fn build_lod(
-    method: &dyn LodMethod,
+    method: &Card,
     input: &LodInput<'_>,
     repeats: usize,
 ) -> Result<(Box<dyn LodBuilt>, Built)> {
+    let Kind::Lod(lod) = method.kind else {
+        return Err(Error::Unsupported(format!(
+            "{} is a visibility method, not a level-of-detail one",
+            method.name
+        )));
+    };
     let mut reported = Vec::new();
     let (built, wall) = timing::measure(repeats, || {
-        let built = method.build(input)?;
+        let built = lod.build(input)?;
         reported.push(built.reported_build_seconds());
         Ok::<_, Error>(built)
     })?;
@@ -281,14 +291,29 @@ pub fn select_lod(
     cell: &LodCell<'_>,
     built: &dyn LodBuilt,
     input: &LodInput<'_>,
+    each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
+) {
+    select(cell, &read_settings(cell), built, input, each);
+}
+
+/// Selects at each setting read (`args`, in the order of `cell.settings`) and each view.
+fn select(
+    cell: &LodCell<'_>,
+    args: &[Result<LodArgs>],
+    built: &dyn LodBuilt,
+    input: &LodInput<'_>,
     mut each: impl FnMut(usize, usize, std::result::Result<Selection, &Error>),
 ) {
-    for (k, setting) in cell.settings.iter().enumerate() {
-        let params = setting.params();
-        let selector = built.selector(input, &params).and_then(|s| {
-            params.check_all_read(cell.method.name(), cell.method.params())?;
-            Ok(s)
-        });
+    for (k, args) in args.iter().enumerate() {
+        let selector = match args {
+            Ok(args) => built.selector(input, args),
+            Err(e) => {
+                for v in 0..cell.views.len() {
+                    each(k, v, Err(e));
+                }
+                continue;
+            }
+        };
         let mut selector = match selector {
             Ok(s) => s,
             Err(e) => {

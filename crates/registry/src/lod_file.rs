@@ -7,7 +7,8 @@
 //! [`open_qsplat_file`] checks the header and returns a [`LodBuilt`] whose selectors each open
 //! the file with a page cache of the given bytes and traverse it exactly as the in-memory tree
 //! is traversed (the same splats; `qsplat::paged`'s tests compare), so the measurement kernel
-//! (`kernel::select_lod`) times it like any other structure. The selection time includes the
+//! (`kernel::select_lod`) times it like any other structure, at a setting the file's method's
+//! card reads (`qsplat`'s `threshold_px`, `spt`'s `epsilon_px`). The selection time includes the
 //! reads of the pages the view needs (the first of a view's timed runs; the repeats find them
 //! cached); [`LodSelector::reads`] says how many bytes a view's first selection read and how
 //! much the cache held. [`LodData::none`] is the input such a structure is selected
@@ -19,11 +20,10 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use splat::render::Splat;
 
-use crate::Params;
 use crate::error::{Error, Result};
-use crate::lod::{
-    LodBuilt, LodSelector, LodSize, Reads, qsplat_params, qsplat_splat, spt_pixels, spt_splat,
-};
+use crate::lod::{LodArgs, LodBuilt, LodInput, LodSelector, LodSize, Reads, args_of};
+use crate::methods::qsplat::{Args as QsplatArgs, splat_of as qsplat_splat};
+use crate::methods::spt::{Args as SptArgs, splat_of as spt_splat};
 
 /// The file's structure: its path, cache, and header.
 struct FileBuilt {
@@ -33,9 +33,9 @@ struct FileBuilt {
     file_bytes: u64,
 }
 
-struct FileSel {
+struct FileSel<'s> {
     tree: qsplat::PagedTree,
-    params: qsplat::TraverseParams,
+    params: &'s qsplat::TraverseParams,
     last: Vec<qsplat::Splat>,
     reads: ViewReads,
 }
@@ -115,10 +115,10 @@ impl LodBuilt for FileBuilt {
     }
     fn selector<'s>(
         &'s self,
-        _input: &'s crate::lod::LodInput<'s>,
-        params: &Params,
+        _input: &'s LodInput<'s>,
+        args: &'s LodArgs,
     ) -> Result<Box<dyn LodSelector + 's>> {
-        let params = qsplat_params(params)?;
+        let params = &args_of::<QsplatArgs>(args, "qsplat")?.0;
         let tree = qsplat::PagedTree::open(&self.path, self.cache_bytes).map_err(qsplat_err)?;
         Ok(Box::new(FileSel {
             tree,
@@ -129,11 +129,11 @@ impl LodBuilt for FileBuilt {
     }
 }
 
-impl LodSelector for FileSel {
+impl LodSelector for FileSel<'_> {
     fn select(&mut self, camera: &Camera) -> Result<()> {
         let before = self.tree.bytes_read;
         self.last =
-            qsplat::traverse_nodes(&mut self.tree, camera, &self.params).map_err(qsplat_err)?;
+            qsplat::traverse_nodes(&mut self.tree, camera, self.params).map_err(qsplat_err)?;
         self.reads.record(
             camera,
             self.tree.bytes_read - before,
@@ -307,12 +307,12 @@ impl LodBuilt for SptFileBuilt {
     }
     fn selector<'s>(
         &'s self,
-        _input: &'s crate::lod::LodInput<'s>,
-        params: &Params,
+        _input: &'s LodInput<'s>,
+        args: &'s LodArgs,
     ) -> Result<Box<dyn LodSelector + 's>> {
         Ok(Box::new(SptFileSel {
             tree: spt::paged::PagedTree::open(&self.path).map_err(spt_err)?,
-            pixels: spt_pixels(params)?,
+            pixels: args_of::<SptArgs>(args, "spt")?.0,
             entries: Vec::new(),
             last: Vec::new(),
             reads: ViewReads::default(),

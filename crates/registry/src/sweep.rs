@@ -9,8 +9,9 @@
 //! repeats = 5                      # optional: timed runs per call (the experiments' default: 3)
 //!
 //! [hpr]
-//! # The one setting that stands for the method where one must (agreement between methods on a
-//! # cloud without a mesh). Default: the first automatic setting, else the first one.
+//! # Optional: the one setting that stands for the method where one must (agreement between
+//! # methods on a cloud without a mesh, the scale experiment). Absent: a built-in method's card's
+//! # default setting, else the grid's first automatic setting, else its first.
 //! default = {gamma = "auto", kernel = "linear", perturb = 0, seed = 2007}
 //!
 //! [[hpr.grid]]                     # a block: scalars are fixed, lists are swept
@@ -25,17 +26,16 @@
 //! gamma = 3
 //! ```
 //!
-//! A block's settings are the product of its lists, the first key written varying slowest. A
-//! setting is a map from `--set` key to a typed [`Value`]; its label (the CSV `params` column)
-//! is `k=v` pairs sorted by key and joined by `;`, the same text [`crate::Params::canonical`]
-//! gives, and [`Setting::parse`] reads a label back into typed values.
+//! A block's settings are the product of its lists, the first key written varying slowest
+//! ([`crate::setting::Setting`]s of typed values). The built-in methods' default settings come
+//! from their cards, joined with these grids by the catalogue (`Sweeps::builtin`,
+//! `Sweeps::resolve` in [`crate::methods`]).
 
 use std::collections::BTreeMap;
-use std::fmt;
 use std::path::Path;
 
 use crate::error::{Error, Result};
-use crate::params::Params;
+use crate::setting::{Setting, Value};
 
 /// The built-in grids (`sweeps.toml`).
 pub const BUILTIN: &str = include_str!("sweeps.toml");
@@ -46,134 +46,6 @@ pub const MAX_REPEATS: usize = 1_000;
 /// The most settings one block may expand to (its lists' product is checked before any is
 /// made: a file of a few lines can ask for billions).
 pub const MAX_SETTINGS: usize = 100_000;
-
-/// A parameter value.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Value {
-    /// An integer.
-    Int(i64),
-    /// A real number.
-    Float(f64),
-    /// A flag.
-    Bool(bool),
-    /// Text (a name, or a rule such as `auto`).
-    Text(String),
-}
-
-impl fmt::Display for Value {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Value::Int(i) => write!(f, "{i}"),
-            Value::Float(x) => write!(f, "{x}"),
-            Value::Bool(b) => write!(f, "{b}"),
-            Value::Text(s) => f.write_str(s),
-        }
-    }
-}
-
-impl Value {
-    /// Reads a value back from its text: an integer, else a real, else a flag, else text.
-    pub fn parse(text: &str) -> Self {
-        if let Ok(i) = text.parse::<i64>() {
-            Value::Int(i)
-        } else if let Ok(x) = text.parse::<f64>() {
-            Value::Float(x)
-        } else if let Ok(b) = text.parse::<bool>() {
-            Value::Bool(b)
-        } else {
-            Value::Text(text.to_owned())
-        }
-    }
-
-    /// The value as a number (integers and reals).
-    pub fn as_f64(&self) -> Option<f64> {
-        match self {
-            Value::Int(i) => Some(*i as f64),
-            Value::Float(x) => Some(*x),
-            _ => None,
-        }
-    }
-
-    fn from_toml(v: &toml::Value, where_: &str) -> Result<Self> {
-        Ok(match v {
-            toml::Value::Integer(i) => Value::Int(*i),
-            toml::Value::Float(x) => Value::Float(*x),
-            toml::Value::Boolean(b) => Value::Bool(*b),
-            toml::Value::String(s) => Value::Text(s.clone()),
-            other => {
-                return Err(Error::Sweep(format!(
-                    "{where_}: expected a number, a flag or text, got {}",
-                    other.type_str()
-                )));
-            }
-        })
-    }
-}
-
-/// One setting: `--set` key to typed value.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Setting(pub BTreeMap<String, Value>);
-
-impl Setting {
-    /// Reads a label (`k=v;k=v`) back into typed values; the empty label is the empty setting.
-    pub fn parse(label: &str) -> Self {
-        Self(
-            label
-                .split(';')
-                .filter(|kv| !kv.is_empty())
-                .map(|kv| match kv.split_once('=') {
-                    Some((k, v)) => (k.to_owned(), Value::parse(v)),
-                    None => (kv.to_owned(), Value::Text(String::new())),
-                })
-                .collect(),
-        )
-    }
-
-    /// The label: `k=v` pairs sorted by key, joined by `;`.
-    pub fn label(&self) -> String {
-        self.0
-            .iter()
-            .map(|(k, v)| format!("{k}={v}"))
-            .collect::<Vec<_>>()
-            .join(";")
-    }
-
-    /// The setting as `--set` parameters.
-    pub fn params(&self) -> Params {
-        Params::from_pairs(
-            &self
-                .0
-                .iter()
-                .map(|(k, v)| (k.as_str(), v.to_string()))
-                .collect::<Vec<_>>(),
-        )
-    }
-
-    /// The value of `key`.
-    pub fn get(&self, key: &str) -> Option<&Value> {
-        self.0.get(key)
-    }
-
-    /// The value of `key` as a number.
-    pub fn number(&self, key: &str) -> Option<f64> {
-        self.get(key).and_then(Value::as_f64)
-    }
-
-    /// The value of `key` as text.
-    pub fn text(&self, key: &str) -> Option<String> {
-        self.get(key).map(Value::to_string)
-    }
-
-    /// True when some value is a rule computed from the data (`auto`) rather than fixed.
-    pub fn is_auto(&self) -> bool {
-        self.0.values().any(|v| *v == Value::Text("auto".into()))
-    }
-
-    /// True when `self` has every pair of `other`.
-    pub fn contains(&self, other: &Setting) -> bool {
-        other.0.iter().all(|(k, v)| self.0.get(k) == Some(v))
-    }
-}
 
 /// One method's sweep.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -263,7 +135,7 @@ impl MethodSweep {
                     })?;
                     let mut s = Setting::default();
                     for (k, v) in t {
-                        s.0.insert(k.clone(), Value::from_toml(v, &format!("{here}.{k}"))?);
+                        s.0.insert(k.clone(), value_from_toml(v, &format!("{here}.{k}"))?);
                     }
                     if key == "default" {
                         out.default = Some(s);
@@ -289,6 +161,22 @@ impl MethodSweep {
         }
         Ok(out)
     }
+}
+
+/// A TOML value as a parameter value.
+fn value_from_toml(v: &toml::Value, where_: &str) -> Result<Value> {
+    Ok(match v {
+        toml::Value::Integer(i) => Value::Int(*i),
+        toml::Value::Float(x) => Value::Float(*x),
+        toml::Value::Boolean(b) => Value::Bool(*b),
+        toml::Value::String(s) => Value::Text(s.clone()),
+        other => {
+            return Err(Error::Sweep(format!(
+                "{where_}: expected a number, a flag or text, got {}",
+                other.type_str()
+            )));
+        }
+    })
 }
 
 /// The settings of one block: the product of its lists, first key slowest.
@@ -321,14 +209,14 @@ fn expand(block: &toml::Table, where_: &str) -> Result<Vec<Setting>> {
                         toml::Value::Table(t) => t
                             .iter()
                             .map(|(k, v)| {
-                                Ok((k.clone(), Value::from_toml(v, &format!("{here}.{k}"))?))
+                                Ok((k.clone(), value_from_toml(v, &format!("{here}.{k}"))?))
                             })
                             .collect::<Result<Vec<_>>>(),
-                        v => Ok(vec![(key.clone(), Value::from_toml(v, &here)?)]),
+                        v => Ok(vec![(key.clone(), value_from_toml(v, &here)?)]),
                     })
                     .collect::<Result<_>>()?
             }
-            v => vec![vec![(key.clone(), Value::from_toml(v, &here)?)]],
+            v => vec![vec![(key.clone(), value_from_toml(v, &here)?)]],
         };
         let mut next = Vec::with_capacity(settings.len() * choices.len());
         for s in &settings {
@@ -395,12 +283,6 @@ impl Sweeps {
         Self::parse(&text, &path.display().to_string())
     }
 
-    /// The built-in grids.
-    pub fn builtin() -> Self {
-        // The file is part of this crate and tested; an error is a build defect.
-        Self::parse(BUILTIN, "registry/src/sweeps.toml").unwrap_or_default()
-    }
-
     /// `over` replaces the sweeps of the methods it names (and the repeats, if set).
     pub fn overlay(mut self, over: Sweeps) -> Self {
         self.methods.extend(over.methods);
@@ -408,34 +290,6 @@ impl Sweeps {
             self.repeats = over.repeats;
         }
         self
-    }
-
-    /// Every registered method with a sweep, in registry order: the built-in grids, the
-    /// external methods' own, then `user` over both. A method `user` names that is not
-    /// registered is an error.
-    pub fn resolve(user: Option<Sweeps>) -> Result<Self> {
-        let mut base = Self::builtin();
-        for m in crate::all() {
-            if let Some(s) = m.sweep() {
-                base.methods.insert(m.name().to_owned(), s);
-            }
-        }
-        for m in crate::lod::all() {
-            if let Some(s) = m.sweep() {
-                base.methods.insert(m.name().to_owned(), s);
-            }
-        }
-        if let Some(user) = &user {
-            for name in user.methods.keys() {
-                if crate::lod::method(name).is_none() {
-                    crate::method(name)?;
-                }
-            }
-        }
-        Ok(match user {
-            Some(u) => base.overlay(u),
-            None => base,
-        })
     }
 }
 
@@ -479,33 +333,6 @@ mod tests {
     }
 
     #[test]
-    fn builtin_grids_parse_and_name_registered_methods() {
-        let s = Sweeps::parse(BUILTIN, "sweeps.toml").unwrap();
-        for (name, sweep) in &s.methods {
-            let params = match crate::lod::method(name) {
-                Some(m) => m.params(),
-                None => crate::method(name).unwrap().params(),
-            };
-            assert!(!sweep.grid.is_empty(), "{name}");
-            // Every setting is accepted by the method's parameters.
-            for set in sweep.grid.iter().chain(&sweep.quick_grid) {
-                for k in set.0.keys() {
-                    assert!(
-                        params.iter().any(|p| p.key == k),
-                        "{name}: {k} is not a parameter"
-                    );
-                }
-            }
-            assert!(sweep.default_setting().is_some());
-        }
-        for name in [
-            "hpr", "robust", "raycast", "splat", "qsplat", "spt", "srn", "random",
-        ] {
-            assert!(s.methods.contains_key(name), "{name}");
-        }
-    }
-
-    #[test]
     fn errors_name_the_place() {
         for (text, needle) in [
             ("[m]\ngrid = 3", "m.grid"),
@@ -528,7 +355,6 @@ mod tests {
             let e = Sweeps::parse(text, "f.toml").unwrap_err().to_string();
             assert!(e.contains(needle) && e.contains("f.toml"), "{text}: {e}");
         }
-        assert!(Sweeps::resolve(Some(Sweeps::parse("[nosuch]", "u").unwrap())).is_err());
     }
 
     #[test]
@@ -543,13 +369,5 @@ mod tests {
         assert_eq!(m.grid.len(), 1);
         let b = Sweeps::parse(BUILTIN, "sweeps.toml").unwrap();
         assert!(b.methods.values().all(|m| m.skip_robustness.is_none()));
-    }
-
-    #[test]
-    fn user_file_replaces_named_methods_only() {
-        let user = Sweeps::parse("[hpr]\n[[hpr.grid]]\ngamma = [2, 3]", "u").unwrap();
-        let s = Sweeps::resolve(Some(user)).unwrap();
-        assert_eq!(s.methods["hpr"].grid.len(), 2);
-        assert_eq!(s.methods["raycast"], Sweeps::builtin().methods["raycast"]);
     }
 }

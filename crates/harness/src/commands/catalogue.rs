@@ -5,24 +5,24 @@ use anyhow::Result;
 
 /// `pointsight methods`.
 pub fn list_methods() -> Result<()> {
-    for m in registry::all() {
+    let show = |m: &registry::Card, prefix: &str| {
         match m.availability() {
-            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
-            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
+            Ok(()) => println!("{:<10} {}", m.name, m.summary),
+            Err(why) => println!("{:<10} {} [{why}]", m.name, m.summary),
         }
-        for p in m.params() {
-            println!("    --set {}=…  (default {}) {}", p.key, p.default, p.help);
+        for p in m.params {
+            println!(
+                "    {prefix}{}=…  (default {}) {}",
+                p.key, p.default, p.help
+            );
         }
+    };
+    for m in registry::visibility_cards() {
+        show(m, "--set ");
     }
     println!("level of detail (experiment lod; sweeps keys):");
-    for m in registry::lod::all() {
-        match m.availability() {
-            Ok(()) => println!("{:<10} {}", m.name(), m.summary()),
-            Err(why) => println!("{:<10} {} [{why}]", m.name(), m.summary()),
-        }
-        for p in m.params() {
-            println!("    {}=…  (default {}) {}", p.key, p.default, p.help);
-        }
+    for m in registry::lod_cards() {
+        show(m, "");
     }
     Ok(())
 }

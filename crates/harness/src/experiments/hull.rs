@@ -38,7 +38,7 @@ use super::{Context, Experiment, markdown_table};
 use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
-use registry::score::Score;
+use registry::scoring::Score;
 
 /// Hull implementations compared, in report order.
 pub const HULLS: &[&str] = &["own", "qhull", "qhull-qj", "parry", "quickhull", "chull"];
@@ -172,7 +172,7 @@ impl Experiment for HullExperiment {
             PERTURBS
         };
         let mut rows = Vec::new();
-        let cgal = registry::method(CGAL_METHOD)
+        let cgal = registry::card(CGAL_METHOD)
             .map_err(|e| e.to_string())
             .and_then(|m| m.availability().map(|()| m));
         let mut not_run = Vec::new();

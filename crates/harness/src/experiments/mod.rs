@@ -89,23 +89,23 @@ impl Context {
     pub fn methods_to_run(
         &self,
     ) -> (
-        Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+        Vec<(&'static registry::Card, registry::MethodSweep)>,
         Vec<String>,
     ) {
         let mut not_run = Vec::new();
         let mut out = Vec::new();
-        for m in registry::all() {
+        for m in registry::visibility_cards() {
             let Some(sweep) = self
                 .sweeps
                 .methods
-                .get(m.name())
+                .get(m.name)
                 .filter(|s| !s.settings(self.quick).is_empty())
             else {
                 continue;
             };
             match m.availability() {
                 Ok(()) => out.push((m, sweep.clone())),
-                Err(why) => not_run.push(format!("{}: {why}", m.name())),
+                Err(why) => not_run.push(format!("{}: {why}", m.name)),
             }
         }
         (out, not_run)
@@ -270,14 +270,9 @@ pub fn peers_metadata() -> serde_json::Map<String, serde_json::Value> {
         };
         out.insert(name.to_owned(), entry);
     };
-    for m in registry::all() {
-        if let Some(p) = m.peer_of() {
-            add(m.name(), p, m.availability(), &|| m.version());
-        }
-    }
-    for m in registry::lod::all() {
-        if let Some(p) = m.peer_of() {
-            add(m.name(), p, m.availability(), &|| m.version());
+    for m in registry::cards() {
+        if let Some(p) = m.peer_of {
+            add(m.name, p, m.availability(), &|| m.version());
         }
     }
     out

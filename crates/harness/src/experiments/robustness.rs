@@ -42,7 +42,7 @@ use std::path::Path;
 use anyhow::{Context as _, Result};
 use cloud::degrade::{Degradation, Unit};
 use cloud::glam::DVec3;
-use registry::score::Score;
+use registry::scoring::Score;
 use registry::{Setting, kernel};
 use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
@@ -134,7 +134,7 @@ fn run_views(
     case: &Case,
     truths: &[Vec<bool>],
     views: &[kernel::View],
-    method: &dyn registry::Method,
+    method: &registry::Card,
     kind: &str,
     setting: &Setting,
     repeats: usize,
@@ -165,7 +165,7 @@ fn run_views(
                 degradation: case.degradation.to_owned(),
                 level: case.level,
                 n_points: case.d.cloud.len(),
-                method: method.name().to_owned(),
+                method: method.name.to_owned(),
                 setting: kind.to_owned(),
                 params: setting.label(),
                 view: v.index,
@@ -227,7 +227,7 @@ impl Experiment for RobustnessExperiment {
         // A method whose sweep says why it stays out (`skip_robustness`) is listed, not run.
         methods.retain(|(m, s)| match &s.skip_robustness {
             Some(why) => {
-                not_run.push(format!("{}: {why}", m.name()));
+                not_run.push(format!("{}: {why}", m.name));
                 false
             }
             None => true,
@@ -329,9 +329,7 @@ impl Experiment for RobustnessExperiment {
                     .collect::<Result<_>>()?;
                 for (method, sweep) in &methods {
                     let run = |kind: &str, setting: &Setting| {
-                        run_views(
-                            name, case, &truths, &kviews, *method, kind, setting, repeats,
-                        )
+                        run_views(name, case, &truths, &kviews, method, kind, setting, repeats)
                     };
                     let automatic = sweep.automatic().unwrap_or_default();
                     // Rows already measured at the automatic setting on this case: the
@@ -356,10 +354,10 @@ impl Experiment for RobustnessExperiment {
                                 r.setting = "best".into();
                                 r
                             }));
-                            tuned.insert(method.name(), setting.clone());
+                            tuned.insert(method.name, setting.clone());
                         }
                     } else {
-                        let setting = tuned.get(method.name()).cloned().unwrap_or_default();
+                        let setting = tuned.get(method.name).cloned().unwrap_or_default();
                         let r = run("best", &setting);
                         if setting == automatic {
                             at_automatic = Some(r.clone());
@@ -388,7 +386,7 @@ impl Experiment for RobustnessExperiment {
             "falloff_from": "bbox centre + (1.5, 0, 0.5) diagonals",
             "jitter_margins_diagonals": if ctx.quick { JITTER_QUICK } else { JITTER },
             "grids": methods.iter().map(|(m, s)| serde_json::json!({
-                "method": m.name(),
+                "method": m.name,
                 "grid": s.tuning(ctx.quick).iter().map(Setting::label).collect::<Vec<_>>(),
                 "auto": s.automatic().unwrap_or_default().label(),
             })).collect::<Vec<_>>(),
@@ -605,13 +603,17 @@ impl Experiment for RobustnessExperiment {
             d.dedup();
             d
         };
+        // The full render first, then the methods in the order the rows give them.
+        let mut lod_methods: Vec<&str> = vec!["full"];
+        for r in &lod {
+            if !lod_methods.contains(&r.method.as_str()) {
+                lod_methods.push(&r.method);
+            }
+        }
         for ds in &lod_sets {
             for (metric, file_metric) in [("PSNR (dB)", "psnr"), ("SSIM", "ssim")] {
                 let mut series = Vec::new();
-                for (color, method) in ["full", "qsplat", "spt", "srn", "random"]
-                    .iter()
-                    .enumerate()
-                {
+                for (color, method) in lod_methods.iter().enumerate() {
                     let mut points = Vec::new();
                     for &sigma in LOD_NOISE {
                         let vals: Vec<f64> = lod
@@ -658,7 +660,7 @@ impl Experiment for RobustnessExperiment {
                 text.push_str(&format!("![{ds}: LOD {metric}]({file})\n\n"));
             }
             for &sigma in LOD_NOISE {
-                for method in ["full", "qsplat", "spt", "srn", "random"] {
+                for &method in &lod_methods {
                     let rs: Vec<&LodRow> = lod
                         .iter()
                         .filter(|r| {

@@ -19,8 +19,7 @@
 
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
-use registry::lod::LodMethod;
-use registry::{Params, Setting, kernel};
+use registry::{Card, Params, Setting, kernel};
 use splat::render::{Splat, render};
 
 use super::page::{bundle, order, quantise_coord};
@@ -51,39 +50,41 @@ pub struct Selected {
 }
 
 /// A chosen LOD method, its parameters and their label.
-pub type ChosenLod = (&'static dyn LodMethod, Params, String);
+pub type ChosenLod = (&'static Card, Params, String);
 
 /// The LOD methods to show: those named, else every available one with a sweep default, each
 /// at its sweep's default setting with the `--set` pairs over it ([`super::apply_set`]).
 pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>> {
     let sweeps = registry::Sweeps::resolve(None)?;
-    let label = |m: &dyn LodMethod| {
+    let label = |m: &Card| {
         sweeps
             .methods
-            .get(m.name())
+            .get(m.name)
             .and_then(registry::MethodSweep::default_setting)
             .map(|s| s.label())
     };
-    let base: Vec<(&'static dyn LodMethod, String)> = match names {
-        None => registry::lod::all()
+    let base: Vec<(&'static Card, String)> = match names {
+        None => registry::lod_cards()
             .into_iter()
             .filter(|m| m.availability().is_ok())
             .filter_map(|m| Some((m, label(m)?)))
             .collect(),
         Some(names) => {
-            let mut out: Vec<(&'static dyn LodMethod, String)> = Vec::new();
+            let mut out: Vec<(&'static Card, String)> = Vec::new();
             for name in names {
-                let m = registry::lod::method(name.trim()).with_context(|| {
-                    format!(
-                        "no level-of-detail method {:?} (`pointsight methods` lists them)",
-                        name.trim()
-                    )
-                })?;
+                let m = registry::card_named(name.trim())
+                    .filter(|m| m.is_lod())
+                    .with_context(|| {
+                        format!(
+                            "no level-of-detail method {:?} (`pointsight methods` lists them)",
+                            name.trim()
+                        )
+                    })?;
                 if let Err(why) = m.availability() {
-                    bail!("method {} cannot run here: {why}", m.name());
+                    bail!("method {} cannot run here: {why}", m.name);
                 }
-                if out.iter().any(|(o, _)| o.name() == m.name()) {
-                    bail!("--methods names {} twice", m.name());
+                if out.iter().any(|(o, _)| o.name == m.name) {
+                    bail!("--methods names {} twice", m.name);
                 }
                 out.push((m, label(m).unwrap_or_default()));
             }
@@ -93,9 +94,9 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>
     if base.is_empty() {
         bail!("no level-of-detail method to show: name some with --methods");
     }
-    let named: Vec<(&str, &[registry::ParamSpec], String)> = base
+    let named: Vec<(&str, &[registry::Param], String)> = base
         .iter()
-        .map(|(m, label)| (m.name(), m.params(), label.clone()))
+        .map(|(m, label)| (m.name, m.params, label.clone()))
         .collect();
     let settings = super::apply_set(&named, set)?;
     Ok(base
@@ -137,7 +138,7 @@ pub fn select(
     for (m, _, label) in chosen {
         let settings = [Setting::parse(label)];
         let cell = kernel::LodCell {
-            method: *m,
+            method: m,
             settings: &settings,
             views: &views,
             repeats: 1,
@@ -156,17 +157,17 @@ pub fn select(
             Ok(sel) => sel,
             Err(e) => {
                 failed.push((
-                    m.name().to_owned(),
-                    e.context(format!("{} at {label}", m.name())),
+                    m.name.to_owned(),
+                    e.context(format!("{} at {label}", m.name)),
                 ));
                 continue;
             }
         };
         let img = render(&sel.splats, camera, &render_params());
         out.push(Selected {
-            name: m.name().to_owned(),
+            name: m.name.to_owned(),
             setting: label.clone(),
-            psnr: registry::image_score::psnr(&reference, &img),
+            psnr: registry::scoring::psnr(&reference, &img),
             covered: img.covered.iter().filter(|&&c| c).count(),
             splats: sel.splats,
             seconds: Some(sel.timing.median),

@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
-use registry::{Method, Output, Params};
+use registry::{Card, Output, Params};
 
 use crate::datasets::Dataset;
 use crate::output;
@@ -90,44 +90,44 @@ impl Written {
 
 /// Every registered method with a sweep default that can run here (external methods and
 /// installed peers included), in registry order, with that default's label.
-pub fn default_methods() -> Result<Vec<(&'static dyn Method, String)>> {
+pub fn default_methods() -> Result<Vec<(&'static Card, String)>> {
     let sweeps = registry::Sweeps::resolve(None)?;
-    Ok(registry::all()
+    Ok(registry::visibility_cards()
         .into_iter()
         .filter(|m| m.availability().is_ok())
         .filter_map(|m| {
-            let s = sweeps.methods.get(m.name())?.default_setting()?;
+            let s = sweeps.methods.get(m.name)?.default_setting()?;
             Some((m, s.label()))
         })
         .collect())
 }
 
 /// A chosen method, its parameters and their label (`k=v` pairs joined by `;`).
-pub type Chosen = (&'static dyn Method, Params, String);
+pub type Chosen = (&'static Card, Params, String);
 
 /// The chosen methods with their parameters: each method's default setting (its sweep's, else
 /// none), then the `--set` pairs that are its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every
 /// chosen method that has KEY). A pair no chosen method takes is an error.
 pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     let sweeps = registry::Sweeps::resolve(None)?;
-    let base: Vec<(&'static dyn Method, String)> = match names {
+    let base: Vec<(&'static Card, String)> = match names {
         None => default_methods()?,
         Some(names) => {
             let mut out = Vec::new();
             for name in names {
-                let m = registry::method(name.trim())?;
-                if let Err(why) = m.availability() {
-                    bail!("method {} cannot run here: {why}", m.name());
+                let m = registry::card(name.trim())?;
+                if m.is_lod() {
+                    bail!("{} is a level-of-detail method: show it with --lod", m.name);
                 }
-                if out
-                    .iter()
-                    .any(|(o, _): &(&dyn Method, String)| o.name() == m.name())
-                {
-                    bail!("--methods names {} twice", m.name());
+                if let Err(why) = m.availability() {
+                    bail!("method {} cannot run here: {why}", m.name);
+                }
+                if out.iter().any(|(o, _): &(&Card, String)| o.name == m.name) {
+                    bail!("--methods names {} twice", m.name);
                 }
                 let label = sweeps
                     .methods
-                    .get(m.name())
+                    .get(m.name)
                     .and_then(registry::MethodSweep::default_setting)
                     .map(|s| s.label())
                     .unwrap_or_default();
@@ -139,9 +139,9 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     if base.is_empty() {
         bail!("no method to show: name some with --methods");
     }
-    let named: Vec<(&str, &[registry::ParamSpec], String)> = base
+    let named: Vec<(&str, &[registry::Param], String)> = base
         .iter()
-        .map(|(m, label)| (m.name(), m.params(), label.clone()))
+        .map(|(m, label)| (m.name, m.params, label.clone()))
         .collect();
     let settings = apply_set(&named, set)?;
     Ok(base
@@ -155,7 +155,7 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
 /// its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every method with KEY among its `params`), as
 /// parameters and their sorted label. A pair no method takes is an error.
 pub fn apply_set(
-    methods: &[(&str, &[registry::ParamSpec], String)],
+    methods: &[(&str, &[registry::Param], String)],
     set: &[String],
 ) -> Result<Vec<(Params, String)>> {
     let mut pairs: Vec<Vec<(String, String)>> = methods
@@ -209,7 +209,7 @@ pub fn apply_set(
 /// Runs one method on view `view` (whose camera is `camera`) through the measurement kernel:
 /// preparation, then one timed run (the one place this module runs a method).
 pub fn run_method(
-    method: &dyn Method,
+    method: &Card,
     ds: &Dataset,
     params: &Params,
     view: usize,
@@ -250,10 +250,10 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<Written> {
     let chosen = choose(req.methods.as_deref(), &req.set)?;
     let mut runs = Vec::new();
     for (m, params, setting) in &chosen {
-        let (out, seconds) = run_method(*m, &ds, params, req.view, &camera)
-            .with_context(|| format!("method {} on view {}", m.name(), req.view))?;
+        let (out, seconds) = run_method(m, &ds, params, req.view, &camera)
+            .with_context(|| format!("method {} on view {}", m.name, req.view))?;
         runs.push(MethodRun {
-            name: m.name().to_owned(),
+            name: m.name.to_owned(),
             setting: setting.clone(),
             visible: out.visible,
             seconds,
@@ -301,7 +301,7 @@ mod tests {
         let names: Vec<&str> = default_methods()
             .unwrap()
             .iter()
-            .map(|(m, _)| m.name())
+            .map(|(m, _)| m.name)
             .collect();
         for m in ["hpr", "raycast", "splat"] {
             assert!(names.contains(&m), "{names:?}");

@@ -112,12 +112,12 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         for (m, params, setting) in choose(None, &[])? {
             match run_method(m, &ds, &params, view, &camera) {
                 Ok((out, seconds)) => runs.push(MethodRun {
-                    name: m.name().to_owned(),
+                    name: m.name.to_owned(),
                     setting,
                     visible: out.visible,
                     seconds,
                 }),
-                Err(e) => eprintln!("viewer pages: {name}: {} left out: {e:#}", m.name()),
+                Err(e) => eprintln!("viewer pages: {name}: {} left out: {e:#}", m.name),
             }
         }
         let truth = page::Truth::of(&ds, &camera, &runs)?;

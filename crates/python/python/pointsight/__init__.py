@@ -118,21 +118,24 @@ def hpr(
     points: ArrayLike,
     eye: ArrayLike,
     *,
-    gamma: Optional[float] = None,
+    gamma: Optional[Union[float, str]] = None,
     radius: Optional[float] = None,
-    kernel: str = "linear",
-    hull: str = "own",
-    perturb: float = 0.0,
-    seed: int = 0,
+    kernel: Optional[str] = None,
+    hull: Optional[str] = None,
+    perturb: Optional[float] = None,
+    seed: Optional[int] = None,
     as_mask: bool = False,
 ) -> np.ndarray:
     """Hidden Point Removal (Katz, Tal, Basri 2007): the points visible from `eye`.
 
-    Spherical flipping about the eye with R = max|p - eye| * 10**gamma (gamma defaults to 3;
-    `radius` gives R directly, Open3D's meaning), then the convex hull (`hull`: "own", our
-    exact hull, or "qhull", "parry", "quickhull", "chull"). `kernel="exp"` is Katz & Tal's
-    exponential kernel (gamma < 0). `perturb` adds seed 000's +-perturb*R noise (seeded).
-    Returns sorted int64 indices, or a boolean mask with `as_mask=True`.
+    Spherical flipping about the eye with R = max|p - eye| * 10**gamma (`radius` gives R
+    directly, Open3D's meaning), then the convex hull (`hull`: "own", our exact hull, or
+    "qhull", "parry", "quickhull", "chull"). `kernel="exp"` is Katz & Tal's exponential kernel
+    (gamma < 0). `perturb` adds seed 000's +-perturb*R noise (seeded). A keyword left out is
+    the registry's default, as everywhere (``methods()`` lists them): gamma "auto"
+    (hpr::auto's rule from the cloud and the eye; Katz's paper used 3), the linear kernel, our
+    hull, no perturbation, seed 2007. Returns sorted int64 indices, or a boolean mask with
+    `as_mask=True`.
     """
     p = _points(points)
     (v,) = _native.visible(
@@ -155,8 +158,6 @@ def hpr_many(points: ArrayLike, eyes: ArrayLike, **kwargs: Any) -> list:
     unknown = set(kwargs) - allowed
     if unknown:
         raise TypeError(f"hpr_many: unexpected keyword arguments {sorted(unknown)}")
-    kwargs.setdefault("kernel", "linear")
-    kwargs.setdefault("hull", "own")
     out = _native.visible("hpr", p, [_viewpoint(x) for x in e], _params(**kwargs))
     return [_result(v, len(p), as_mask) for v in out]
 
@@ -239,9 +240,11 @@ def raycast(
     traversal: Optional[str] = None,
     as_mask: bool = False,
 ) -> np.ndarray:
-    """Ray-cast point filtering (Jensen 2012): one ray per pixel of `camera` through a point
-    k-d tree, points as spheres of `radius` (default: `radius_factor` = 1.5 density spacings).
-    Any camera model. `traversal`: "exact" (nearest hit, default) or "seed" (S1-S9)."""
+    """Ray-cast point filtering (Jensen 2012): one ray per pixel of a `width` x `height` image
+    (default 1280 x 720, the registry's; a camera of another size is resampled, its vertical
+    field kept) through a point k-d tree, points as spheres of `radius` (default "auto":
+    1.5 density spacings; `radius_factor` gives the spacings). Any camera model. `traversal`:
+    "exact" (nearest hit, default) or "seed" (S1-S9)."""
     p = _points(points)
     (v,) = _native.visible(
         "raycast",
@@ -417,7 +420,8 @@ class QSplat(Lod):
     def __init__(self, points: ArrayLike, normals: Optional[ArrayLike], leaf_radius: float, colors: Optional[ArrayLike] = None) -> None:
         super().__init__("qsplat", points, normals, colors=colors, radius=leaf_radius)
 
-    def select(self, camera: Any, threshold_px: float = 2.0, **kw: Any) -> Union[dict, list]:
+    def select(self, camera: Any, threshold_px: Optional[float] = None, **kw: Any) -> Union[dict, list]:
+        """The splats of `camera` at `threshold_px` (left out: the registry's default, 2)."""
         return super().select(camera, threshold_px=threshold_px, **kw)
 
     @classmethod
@@ -439,7 +443,8 @@ class SequentialPointTree(Lod):
     def __init__(self, points: ArrayLike, normals: Optional[ArrayLike], leaf_diameter: float, colors: Optional[ArrayLike] = None) -> None:
         super().__init__("spt", points, normals, colors=colors, radius=leaf_diameter / 2.0)
 
-    def select(self, camera: Any, epsilon_px: float = 1.0, **kw: Any) -> Union[dict, list]:
+    def select(self, camera: Any, epsilon_px: Optional[float] = None, **kw: Any) -> Union[dict, list]:
+        """The splats of `camera` at `epsilon_px` (left out: the registry's default, 1)."""
         return super().select(camera, epsilon_px=epsilon_px, **kw)
 
     @classmethod

@@ -91,8 +91,7 @@ pub(super) fn measure(
         )
         .crop(crop.0, crop.1, crop.2, crop.3),
     ];
-    let method = registry::lod::method(ds.method)
-        .ok_or_else(|| anyhow::anyhow!("the registry has no {}", ds.method))?;
+    let method = registry::card(ds.method)?;
     let settings = ctx
         .sweeps
         .methods
@@ -118,7 +117,7 @@ pub(super) fn measure(
             name.to_owned(),
             view,
             distance,
-            method.name().to_owned(),
+            method.name.to_owned(),
             settings[k].label(),
             "ok".into(),
         );

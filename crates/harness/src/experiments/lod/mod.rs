@@ -9,7 +9,7 @@
 //! - the *reference*: every point as a splat of radius [`REF_RADIUS`] density spacings
 //!   (`cloud::spacing::density_spacing`: 1/sqrt(points per unit area); 1.5 spacings leave
 //!   e^(−π·1.5²) ≈ 0.1 % of a randomly sampled surface uncovered), shaded by `splat::render`;
-//! - every LOD method of `registry::lod` (QSplat, SPT, SRN, random; one built per dataset, one
+//! - every LOD method of the registry (QSplat, SPT, SRN, random; one built per dataset, one
 //!   selection per setting of its sweep in `registry/src/sweeps.toml` or `--config`): `qsplat`
 //!   (leaves of that radius) at projected-size thresholds in pixels; `spt` (leaf discs of that
 //!   diameter) at ε in pixels (`spt::epsilon_for_pixels`); `srn` with the texture's masking
@@ -37,10 +37,9 @@ use std::path::Path;
 
 use anyhow::{Context as _, Result};
 use cloud::{Camera, PointCloud};
-use registry::Setting;
-use registry::image_score::{hole_fraction, psnr, ssim};
-use registry::kernel;
-use registry::lod::{LodData, LodMethod};
+use registry::lod::LodData;
+use registry::scoring::{hole_fraction, psnr, ssim};
+use registry::{Card, Setting, kernel};
 use serde::{Deserialize, Serialize};
 use splat::render::{Image, RenderParams, render};
 
@@ -161,12 +160,12 @@ pub fn lod_data(cloud: PointCloud) -> Result<LodData> {
 
 /// Every LOD method with a non-empty sweep that can run here, with its settings (an external
 /// one whose environment is missing is not run: [`methods_not_run`]).
-pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static dyn LodMethod, Vec<Setting>)> {
-    registry::lod::all()
+pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static Card, Vec<Setting>)> {
+    registry::lod_cards()
         .into_iter()
         .filter(|m| m.availability().is_ok())
         .filter_map(|m| {
-            let settings = ctx.sweeps.methods.get(m.name())?.settings(ctx.quick);
+            let settings = ctx.sweeps.methods.get(m.name)?.settings(ctx.quick);
             (!settings.is_empty()).then(|| (m, settings.to_vec()))
         })
         .collect()
@@ -174,15 +173,15 @@ pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static dyn LodMethod, Vec<
 
 /// The LOD methods with a sweep that cannot run here (a peer not installed), each with why.
 pub(crate) fn methods_not_run(ctx: &Context) -> Vec<String> {
-    registry::lod::all()
+    registry::lod_cards()
         .into_iter()
         .filter(|m| {
             ctx.sweeps
                 .methods
-                .get(m.name())
+                .get(m.name)
                 .is_some_and(|s| !s.settings(ctx.quick).is_empty())
         })
-        .filter_map(|m| Some(format!("{}: {}", m.name(), m.availability().err()?)))
+        .filter_map(|m| Some(format!("{}: {}", m.name, m.availability().err()?)))
         .collect()
 }
 
@@ -307,7 +306,7 @@ fn measure_dataset(
     let mut ds_rows: Vec<(usize, Row)> = Vec::new();
     for (m, settings) in &methods {
         let cell = kernel::LodCell {
-            method: *m,
+            method: m,
             settings,
             views: &views,
             repeats: ctx.repeats,
@@ -320,7 +319,7 @@ fn measure_dataset(
                 name.to_owned(),
                 view,
                 distance,
-                m.name().to_owned(),
+                m.name.to_owned(),
                 settings[k].label(),
                 "ok".into(),
             );
@@ -331,13 +330,12 @@ fn measure_dataset(
                     // coarsest setting, at view 0 and the near distance.
                     let last = settings.len() - 1;
                     if v == 0 && (k == 0 || k == settings.len() / 2 || k == last) {
-                        let title =
-                            format!("{} {}: {} splats", m.name(), row.params, s.splats.len());
+                        let title = format!("{} {}: {} splats", m.name, row.params, s.splats.len());
                         levels.push(panel(title, &img).crop(crop.0, crop.1, crop.2, crop.3));
                     }
                 }
                 Err(e) => {
-                    eprintln!("lod: {} {} view {view}: {e}", m.name(), row.params);
+                    eprintln!("lod: {} {} view {view}: {e}", m.name, row.params);
                     row.status = format!("error: {e}");
                 }
             }
@@ -346,7 +344,7 @@ fn measure_dataset(
         match built {
             Ok(b) => builds.push(BuildRow {
                 dataset: name.to_owned(),
-                method: m.name().to_owned(),
+                method: m.name.to_owned(),
                 n_points: n,
                 seconds: b.timing.median,
                 nodes: b.size.nodes,
@@ -354,7 +352,7 @@ fn measure_dataset(
             }),
             Err(e) => {
                 // A failed build: an error row per setting and view, and the run goes on.
-                eprintln!("lod: {} build: {e}", m.name());
+                eprintln!("lod: {} build: {e}", m.name);
                 for setting in settings {
                     for (v, &(view, distance)) in at.iter().enumerate() {
                         ds_rows.push((
@@ -363,7 +361,7 @@ fn measure_dataset(
                                 name.to_owned(),
                                 view,
                                 distance,
-                                m.name().to_owned(),
+                                m.name.to_owned(),
                                 setting.label(),
                                 format!("error: build: {e}"),
                             ),
@@ -383,7 +381,7 @@ fn measure_dataset(
         ctx,
         name,
         strip,
-        &methods.iter().map(|(m, _)| m.name()).collect::<Vec<_>>(),
+        &methods.iter().map(|(m, _)| m.name).collect::<Vec<_>>(),
     )
 }
 
@@ -454,12 +452,12 @@ impl Experiment for LodExperiment {
             "views": N_VIEWS,
             "distances": DISTANCES,
             "reference_radius_spacings": REF_RADIUS,
-            "sweeps": registry::lod::all()
+            "sweeps": registry::lod_cards()
                 .iter()
                 .filter_map(|m| {
-                    let s = ctx.sweeps.methods.get(m.name())?;
+                    let s = ctx.sweeps.methods.get(m.name)?;
                     Some((
-                        m.name().to_owned(),
+                        m.name.to_owned(),
                         serde_json::json!(s.settings(ctx.quick).iter().map(Setting::label).collect::<Vec<_>>()),
                     ))
                 })
@@ -665,11 +663,16 @@ fn render_outputs(
                     } else {
                         "-".into()
                     },
-                    // QSplat without colour: 4 bytes a node (offset words included).
-                    if b.method == "qsplat" {
-                        format!("{:.2}", 4.0 * b.nodes as f64 / b.n_points as f64)
-                    } else {
-                        "-".into()
+                    // Bytes per point without colour, where the method's paper counts them
+                    // (QSplat: 4 bytes a node, offset words included).
+                    match registry::card_named(&b.method).and_then(|c| c.bare_node_bytes) {
+                        Some(bytes) => {
+                            format!(
+                                "{:.2}",
+                                f64::from(bytes) * b.nodes as f64 / b.n_points as f64
+                            )
+                        }
+                        None => "-".into(),
                     },
                     format!("{:.2}", b.n_points as f64 / b.seconds / 1e6),
                 ]

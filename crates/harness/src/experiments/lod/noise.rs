@@ -83,7 +83,7 @@ pub fn rows(
         for (m, settings) in &methods {
             let mut best: Vec<Option<(String, Vec<Splat>)>> = vec![None; views.len()];
             let cell = kernel::LodCell {
-                method: *m,
+                method: m,
                 settings,
                 views: &kviews,
                 repeats: 1,
@@ -100,7 +100,7 @@ pub fn rows(
             })?;
             for (v, b) in best.into_iter().enumerate() {
                 if let Some((params, splats)) = b {
-                    finest[v].push((m.name(), params, splats));
+                    finest[v].push((m.name, params, splats));
                 }
             }
         }
@@ -116,8 +116,8 @@ pub fn rows(
                     params,
                     view,
                     points_rendered: splats.len(),
-                    psnr: registry::image_score::psnr(target, &img),
-                    ssim: registry::image_score::ssim(target, &img),
+                    psnr: registry::scoring::psnr(target, &img),
+                    ssim: registry::scoring::ssim(target, &img),
                 });
             };
             push("full", String::new(), &noisy_full);

@@ -15,6 +15,8 @@
 
 use std::collections::BTreeMap;
 
+use registry::Comparison;
+
 use super::{Row, median};
 use crate::experiments::markdown_table;
 
@@ -113,6 +115,11 @@ pub fn winners(rows: &[Row]) -> String {
     )
 }
 
+/// True when the method called `name` is one `paper` compared (its card says so).
+fn compared_in(name: &str, paper: Comparison) -> bool {
+    registry::card_named(name).is_some_and(|c| c.compared_in.contains(&paper))
+}
+
 /// False-positive and false-negative rates of HPR and the robust operator on the clean cloud and
 /// under the uniform noise along the normal (degradation `jitter`).
 pub fn mehra(rows: &[Row]) -> String {
@@ -123,7 +130,7 @@ pub fn mehra(rows: &[Row]) -> String {
     for r in rows.iter().filter(|r| {
         r.status == "ok"
             && (r.degradation == "jitter" || r.degradation == "clean")
-            && (r.method == "hpr" || r.method == "robust")
+            && compared_in(&r.method, Comparison::Mehra2010)
     }) {
         let surface = r.n_points - r.outliers;
         let visible = r.true_positives + r.false_negatives;
@@ -210,7 +217,7 @@ pub fn biasutti(rows: &[Row]) -> String {
         .map(|((_, ds, method, setting), rs)| {
             let ok: Vec<&&Row> = rs.iter().filter(|r| r.status == "ok").collect();
             let m = |f: fn(&Row) -> f64| median(ok.iter().map(|r| f(r)).collect());
-            let theirs = matches!(method.as_str(), "hpr" | "screenspace" | "vardensity");
+            let theirs = compared_in(&method, Comparison::Biasutti2019);
             vec![
                 ds,
                 if theirs {
@@ -262,7 +269,7 @@ mod tests {
     /// A row of `method` on view `view`: 100 surface points, 40 truly visible, of which `tp`
     /// found, and `fp` hidden ones reported.
     fn row(degradation: &str, level: f64, method: &str, view: usize, tp: usize, fp: usize) -> Row {
-        let s = registry::score::Score {
+        let s = registry::scoring::Score {
             true_positives: tp,
             false_positives: fp,
             false_negatives: 40 - tp,

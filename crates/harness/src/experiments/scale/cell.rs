@@ -75,7 +75,7 @@ pub fn cell(
         prepare_seconds = ready(&on_prepared);
         let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
         t.median
-    } else if let Ok(m) = registry::method(method) {
+    } else if let Some(m) = registry::card_named(method).filter(|m| !m.is_lod()) {
         prepare_seconds = ready(&on_prepared);
         let input = registry::Input {
             cloud: &cloud,
@@ -161,7 +161,7 @@ fn ooc_cell(
         let mib = |b: u64| b as f64 / 1048576.0;
         let (setting, view) = select;
         let file = registry::lod_file::open_file(&out, crate::experiments::lod::FILE_CACHE_BYTES)?;
-        let m = registry::lod::method(method).context("no such LOD method")?;
+        let m = registry::card(method)?;
         let settings = [setting.clone()];
         let views = [*view];
         let cell = kernel::LodCell {
@@ -193,11 +193,7 @@ fn ooc_cell(
                 built.points as f64 / built.seconds / 1e6,
                 built.chunks,
                 built.top_levels,
-                if method == "spt" {
-                    "top nodes"
-                } else {
-                    "top levels"
-                },
+                built.top_unit,
                 mib(input_bytes),
                 mib(built.scratch_bytes),
                 mib(built.scratch_peak_bytes),
@@ -217,12 +213,12 @@ fn ooc_cell(
 }
 
 /// The LOD method of a `NAME-build` or `NAME-select` cell, and whether it is the build.
-fn lod_cell(name: &str) -> Option<(&'static dyn registry::lod::LodMethod, bool)> {
+fn lod_cell(name: &str) -> Option<(&'static registry::Card, bool)> {
     let (m, build) = name
         .strip_suffix("-build")
         .map(|m| (m, true))
         .or_else(|| name.strip_suffix("-select").map(|m| (m, false)))?;
-    Some((registry::lod::method(m)?, build))
+    Some((registry::card_named(m).filter(|m| m.is_lod())?, build))
 }
 
 #[cfg(test)]

@@ -24,13 +24,13 @@
 //! prints when its input is ready ([`child::Prepared`]), and three times that on the preparation
 //! before it (sampling; a hull cell's flip; an LOD cell's normals), whose seconds are the row's
 //! `prepare_seconds`. A cell is not started when the memory guard refuses its estimate
-//! (`cloud::memory`, from the method's declared bytes per point, `registry::Scale`; a method
+//! (`cloud::memory`, from the method's declared bytes per point, `registry::Memory`; a method
 //! that declares none, such as an external one without `memory_bytes_per_point`, is not run
 //! above 10^6 points), nor when the same method's time or preparation at the previous size,
 //! grown by the factor it grew over the step before (at least 1; 10 with one size) and times
 //! the runs the cell makes (3 up to 10^6 points), would exceed its cap ([`plan::skip_reason`]);
 //! each such cell is a row saying so, as is a cell a cap stopped. A method may opt out
-//! (`registry::Scale::OptOut`); the report lists it with its reason. The plots fit a slope per method on log–log axes over
+//! (`registry::Memory::OptOut`); the report lists it with its reason. The plots fit a slope per method on log–log axes over
 //! the sizes that finished.
 
 //!
@@ -47,12 +47,12 @@ use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context as _, Result};
-use registry::Scale;
+use registry::Memory;
 
 use self::child::run_cell;
 use self::plan::{
-    CellKind, OOC_CAP, OOC_DISK_PER_POINT, OOC_LIMIT, PREPARE_CAP_FACTOR, SEED,
-    SPT_OOC_DISK_PER_POINT, cells, disk_free, ooc_disk_per_point, ooc_sizes, sizes, skip_reason,
+    CellKind, OOC_CAP, OOC_LIMIT, PREPARE_CAP_FACTOR, SEED, cells, disk_free, ooc_sizes, sizes,
+    skip_reason,
 };
 use self::row::Row;
 use super::{Context, Experiment};
@@ -103,14 +103,14 @@ impl Experiment for ScaleExperiment {
             let method = kind.name.as_str();
             let sizes = sizes_of(kind);
             let cap = if kind.out_of_core { OOC_CAP } else { cap };
-            let per_point = match &kind.scale {
-                Scale::OptOut(why) => {
+            let per_point = match &kind.memory {
+                Memory::OptOut(why) => {
                     opted_out.push(serde_json::json!({"method": method, "reason": why}));
                     bar.inc(sizes.len() as u64);
                     continue;
                 }
-                Scale::PerPoint(b) => Some(*b),
-                Scale::Unknown => None,
+                Memory::PerPoint(b) => Some(*b),
+                Memory::Unknown => None,
             };
             // (seconds, prepare seconds) at the previous size and the one before.
             let mut previous: Option<(f64, f64)> = None;
@@ -125,16 +125,19 @@ impl Experiment for ScaleExperiment {
                     prepare_seconds: f64::NAN,
                     detail: String::new(),
                 };
-                let disk_per_point = ooc_disk_per_point(method);
+                // An out-of-core cell's disk: its build's (`NAME-build-ooc`).
+                let disk_per_point = crate::lod_build::disk_per_point(
+                    method.strip_suffix(plan::OOC_SUFFIX).unwrap_or(method),
+                );
                 let needed_disk = n.saturating_mul(disk_per_point);
                 let row = if let Some(why) = &kind.unavailable {
                     not_run(format!("skipped: not installed: {why}"))
-                } else if per_point.is_none() && n > Scale::UNKNOWN_LIMIT {
+                } else if per_point.is_none() && n > Memory::UNKNOWN_LIMIT {
                     not_run(format!(
                         "refused: its memory per point is not declared (memory_bytes_per_point \
-                         in an external method's method.toml, Method::scale for a built-in one), \
+                         in an external method's method.toml, its card's memory for a built-in one), \
                          so it is not run above {} points",
-                        Scale::UNKNOWN_LIMIT
+                        Memory::UNKNOWN_LIMIT
                     ))
                 } else if kind.out_of_core
                     && let Err(e) = cloud::memory::ensure(
@@ -183,8 +186,8 @@ impl Experiment for ScaleExperiment {
                 "memory_limit_bytes": OOC_LIMIT,
                 "cap_seconds": OOC_CAP.as_secs(),
                 "prepare_cap_seconds": (OOC_CAP * PREPARE_CAP_FACTOR).as_secs(),
-                "disk_bytes_per_point": OOC_DISK_PER_POINT,
-                "spt_disk_bytes_per_point": SPT_OOC_DISK_PER_POINT,
+                "disk_bytes_per_point": crate::lod_build::OOC_DISK_PER_POINT,
+                "spt_disk_bytes_per_point": crate::lod_build::SPT_OOC_DISK_PER_POINT,
                 "input": "LAZ (point format 0) written streamed by the cell from the same seeded samples",
             },
             "seed": SEED,
@@ -196,7 +199,7 @@ impl Experiment for ScaleExperiment {
             "cells": kinds.iter().map(|k| serde_json::json!({
                 "method": k.name,
                 "setting": k.setting.label(),
-                "bytes_per_point": match &k.scale { Scale::PerPoint(b) => Some(b + 48), _ => None },
+                "bytes_per_point": match &k.memory { Memory::PerPoint(b) => Some(b + 48), _ => None },
             })).collect::<Vec<_>>(),
             "opted_out": opted_out,
         }))

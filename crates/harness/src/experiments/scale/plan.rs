@@ -2,13 +2,13 @@
 //! its default setting, the hulls, each LOD method's build and selection, the out-of-core
 //! builds), at which sizes ([`sizes`], [`ooc_sizes`]), how many timed runs ([`repeats`]), and
 //! which cells are not started ([`skip_reason`]: a predicted time over the cap; the disk an
-//! out-of-core cell needs, [`ooc_disk_per_point`], [`disk_free`]).
+//! out-of-core cell needs, `lod_build::disk_per_point`, [`disk_free`]).
 
 use std::path::Path;
 use std::time::Duration;
 
 use anyhow::{Context as _, Result};
-use registry::{Scale, Setting};
+use registry::{Memory, Setting};
 
 /// Sampling seed.
 pub const SEED: u64 = 16;
@@ -32,7 +32,7 @@ pub struct CellKind {
     /// The setting it runs at (empty for hulls).
     pub setting: Setting,
     /// Its memory, as the guard knows it.
-    pub scale: Scale,
+    pub memory: Memory,
     /// Why it cannot run here (an external method that is not installed).
     pub unavailable: Option<String>,
     /// An out-of-core LOD build (`NAME-build-ooc`): its own sizes, caps, memory limit and
@@ -51,27 +51,6 @@ pub const OOC_LIMIT: u64 = 1 << 30;
 /// The time cap of an out-of-core build cell (its preparation, writing the LAZ input, has
 /// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
 pub const OOC_CAP: Duration = Duration::from_secs(3600);
-
-/// Disk a `qsplat` out-of-core cell needs per point: the LAZ input takes 11.4 bytes per point
-/// and the written file 6.8; the scratch files held at most 120.7 bytes per point at once at
-/// 10^7 points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks;
-/// `Scratch::peak_bytes`), of 382 and 604 written in all: 139 in all, and a quarter more for
-/// margin.
-pub const OOC_DISK_PER_POINT: u64 = 175;
-
-/// Disk an `spt` out-of-core cell needs per point: the LAZ (11.4), the preparation's scratch
-/// (120.7, as QSplat's) while the points it hands on are written (47), then the sorted runs
-/// (about 91) beside the file (84.6 at 10^7): about 188, and a quarter more for margin.
-pub const SPT_OOC_DISK_PER_POINT: u64 = 235;
-
-/// Disk the out-of-core cell of `method` needs per point.
-pub fn ooc_disk_per_point(method: &str) -> u64 {
-    if method.starts_with("spt") {
-        SPT_OOC_DISK_PER_POINT
-    } else {
-        OOC_DISK_PER_POINT
-    }
-}
 
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 pub fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
@@ -110,12 +89,12 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
             .and_then(registry::MethodSweep::default_setting)
             .unwrap_or_default()
     };
-    let mut out: Vec<CellKind> = registry::all()
+    let mut out: Vec<CellKind> = registry::visibility_cards()
         .into_iter()
         .map(|m| CellKind {
-            name: m.name().to_owned(),
-            setting: default_of(m.name()),
-            scale: m.scale(),
+            name: m.name.to_owned(),
+            setting: default_of(m.name),
+            memory: m.memory.clone(),
             unavailable: m.availability().err(),
             out_of_core: false,
         })
@@ -123,16 +102,16 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
     out.extend(HULLS.iter().map(|&(h, bytes)| CellKind {
         name: format!("hull-{h}"),
         setting: Setting::default(),
-        scale: Scale::PerPoint(bytes),
+        memory: Memory::PerPoint(bytes),
         unavailable: None,
         out_of_core: false,
     }));
-    for m in registry::lod::all() {
+    for m in registry::lod_cards() {
         for part in ["build", "select"] {
             out.push(CellKind {
-                name: format!("{}-{part}", m.name()),
-                setting: default_of(m.name()),
-                scale: m.scale(),
+                name: format!("{}-{part}", m.name),
+                setting: default_of(m.name),
+                memory: m.memory.clone(),
                 unavailable: None,
                 out_of_core: false,
             });
@@ -142,7 +121,7 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         name: format!("{m}{OOC_SUFFIX}"),
         // The setting of the selection from the built file.
         setting: default_of(m),
-        scale: Scale::PerPoint(0),
+        memory: Memory::PerPoint(0),
         unavailable: None,
         out_of_core: true,
     }));

@@ -1,7 +1,7 @@
 //! Experiment `visibility`: every registered visibility method over its sweep, against the
 //! reference.
 //!
-//! A generic loop: for each dataset, every method of `registry::all()` that has a sweep
+//! A generic loop: for each dataset, every visibility method of the registry that has a sweep
 //! (`registry::sweep`: the built-in grids in `registry/src/sweeps.toml`, an external method's
 //! own in its `method.toml`, a user's `--config` file over both) is prepared once per setting
 //! and run on every view; the harness scores each answer against the reference (the mesh's
@@ -43,7 +43,7 @@ mod peers;
 mod render;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
-use registry::score::Score;
+use registry::scoring::Score;
 use render::{peers_summary, render, render_bunny};
 
 /// The experiment.
@@ -60,7 +60,7 @@ pub struct Row {
     pub view: usize,
     /// Method name.
     pub method: String,
-    /// How its rows group in plots and tables (`registry::Method::family`).
+    /// How its rows group in plots and tables (`registry::Card::family`).
     pub family: String,
     /// Setting, `k=v` pairs sorted by key and joined by `;` (`registry::Setting::label`).
     pub params: String,
@@ -279,7 +279,7 @@ impl Experiment for VisibilityExperiment {
         // The setting that stands for each method (agreement on clouds without a mesh).
         let defaults: BTreeMap<String, String> = methods
             .iter()
-            .filter_map(|(m, s)| Some((m.name().to_owned(), s.default_setting()?.label())))
+            .filter_map(|(m, s)| Some((m.name.to_owned(), s.default_setting()?.label())))
             .collect();
         let render_ds = render_dataset(&ctx.datasets);
         let mut rows = Vec::new();
@@ -350,13 +350,13 @@ impl Experiment for VisibilityExperiment {
                     // failure is a row per view.
                     let cell = kernel::Cell {
                         budget: ctx.time_budget,
-                        ..kernel::Cell::new(*m, setting, &kviews, ctx.repeats)
+                        ..kernel::Cell::new(m, setting, &kviews, ctx.repeats)
                     };
                     let (prepared, answers) = kernel::collect(&cell, ds.input());
                     if let Ok(p) = prepared {
                         ds_builds.push(BuildRow {
                             dataset: name.clone(),
-                            method: m.name().to_owned(),
+                            method: m.name.to_owned(),
                             params: label.clone(),
                             views: kviews.len(),
                             prepare_seconds: p.seconds,
@@ -370,7 +370,7 @@ impl Experiment for VisibilityExperiment {
                             dataset: name.clone(),
                             n_points: points.len(),
                             view,
-                            method: m.name().to_owned(),
+                            method: m.name.to_owned(),
                             family: family.clone(),
                             params: label.clone(),
                             detail: String::new(),
@@ -432,13 +432,13 @@ impl Experiment for VisibilityExperiment {
                                     }
                                 }
                                 let keep = (truth.is_none()
-                                    && defaults.get(m.name()) == Some(&label))
-                                    || m.peer_of().is_some()
-                                    || partner_runs.contains(&(m.name().to_owned(), label.clone()))
+                                    && defaults.get(m.name) == Some(&label))
+                                    || m.peer_of.is_some()
+                                    || partner_runs.contains(&(m.name.to_owned(), label.clone()))
                                     || (Some(name.as_str()) == render_ds && view == 0);
                                 if keep {
                                     kept.entry(view).or_default().push(Run {
-                                        method: m.name().to_owned(),
+                                        method: m.name.to_owned(),
                                         family: family.clone(),
                                         params: label.clone(),
                                         visible: out.visible,
@@ -446,7 +446,7 @@ impl Experiment for VisibilityExperiment {
                                 }
                             }
                             Err(e) => {
-                                eprintln!("visibility: {} {label} view {view}: {e}", m.name());
+                                eprintln!("visibility: {} {label} view {view}: {e}", m.name);
                                 row.status = format!("error: {e}");
                             }
                         }
@@ -488,7 +488,7 @@ impl Experiment for VisibilityExperiment {
             .iter()
             .map(|(m, s)| {
                 (
-                    m.name().to_owned(),
+                    m.name.to_owned(),
                     serde_json::json!(
                         s.settings(ctx.quick)
                             .iter()
@@ -596,31 +596,32 @@ fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool
 /// its `peer_of` names no visibility method of ours); the partners' settings their sweeps lack
 /// are added to them (a partner without a sweep joins with those alone).
 fn pair_peers(
-    methods: &mut Vec<(&'static dyn registry::Method, registry::MethodSweep)>,
+    methods: &mut Vec<(&'static registry::Card, registry::MethodSweep)>,
     sweeps: &registry::Sweeps,
     quick: bool,
 ) -> BTreeMap<(String, String), Option<(String, String)>> {
     let mut pairing = BTreeMap::new();
-    let peers: Vec<(&'static dyn registry::Method, Vec<Setting>)> = methods
+    let peers: Vec<(&'static registry::Card, Vec<Setting>)> = methods
         .iter()
-        .filter(|(m, _)| m.peer_of().is_some())
+        .filter(|(m, _)| m.peer_of.is_some())
         .map(|(m, s)| (*m, s.settings(quick).to_vec()))
         .collect();
     for (peer, settings) in peers {
         let partner = peer
-            .peer_of()
-            .and_then(|p| registry::method(p).ok())
-            .filter(|p| p.peer_of().is_none() && p.availability().is_ok());
+            .peer_of
+            .and_then(registry::card_named)
+            .filter(|p| !p.is_lod())
+            .filter(|p| p.peer_of.is_none() && p.availability().is_ok());
         for setting in settings {
-            let key = (peer.name().to_owned(), setting.label());
+            let key = (peer.name.to_owned(), setting.label());
             let Some(partner) = partner else {
                 pairing.insert(key, None);
                 continue;
             };
-            let at = methods.iter().position(|(m, _)| m.name() == partner.name());
+            let at = methods.iter().position(|(m, _)| m.name == partner.name);
             let sweep = at
                 .map(|k| methods[k].1.clone())
-                .or_else(|| sweeps.methods.get(partner.name()).cloned());
+                .or_else(|| sweeps.methods.get(partner.name).cloned());
             let ours = peers::partner_setting(peer, &setting, partner, sweep.as_ref());
             let label = ours.label();
             match at {
@@ -642,7 +643,7 @@ fn pair_peers(
                     },
                 )),
             }
-            pairing.insert(key, Some((partner.name().to_owned(), label)));
+            pairing.insert(key, Some((partner.name.to_owned(), label)));
         }
     }
     pairing
@@ -673,9 +674,9 @@ fn peer_rows(
         let Some(paired) = pairing.get(&(peer.method.clone(), peer.params.clone())) else {
             continue;
         };
-        let peer_of = registry::method(&peer.method)
+        let peer_of = registry::card(&peer.method)
             .ok()
-            .and_then(|m| m.peer_of())
+            .and_then(|m| m.peer_of)
             .unwrap_or_default();
         let ours = paired
             .as_ref()

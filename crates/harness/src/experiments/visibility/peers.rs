@@ -12,8 +12,7 @@
 //! setting with the translated pairs in place of its own (and of its `auto` values), and the
 //! experiment runs ours at it too. Nothing here names a method.
 
-use registry::sweep::Value;
-use registry::{Method, MethodSweep, Setting};
+use registry::{Card, MethodSweep, Setting, Value};
 
 /// Two values equal as numbers (relative 1e-9) when both read as numbers, else as text.
 fn same(a: &Value, b: &Value) -> bool {
@@ -25,16 +24,16 @@ fn same(a: &Value, b: &Value) -> bool {
 }
 
 /// The peer's setting in the partner's keys (see the module's documentation).
-pub(super) fn translate(peer: &dyn Method, setting: &Setting, partner: &dyn Method) -> Setting {
+pub(super) fn translate(peer: &Card, setting: &Setting, partner: &Card) -> Setting {
     let mut out = Setting::default();
     for (k, v) in &setting.0 {
-        if let Some(pk) = peer.peer_keys().iter().find(|pk| pk.peer == k) {
+        if let Some(pk) = peer.peer_keys.iter().find(|pk| pk.peer == k) {
             let value = match Value::parse(&v.to_string()).as_f64() {
                 Some(x) => Value::Float(x * pk.factor),
                 None => v.clone(),
             };
             out.0.insert(pk.ours.to_owned(), value);
-        } else if partner.params().iter().any(|p| p.key == k) {
+        } else if partner.params.iter().any(|p| p.key == k) {
             out.0.insert(k.clone(), Value::parse(&v.to_string()));
         }
     }
@@ -44,9 +43,9 @@ pub(super) fn translate(peer: &dyn Method, setting: &Setting, partner: &dyn Meth
 /// The partner's setting for the peer's `setting`, and whether it is one of the partner's own
 /// (`sweep`'s settings); see the module's documentation.
 pub(super) fn partner_setting(
-    peer: &dyn Method,
+    peer: &Card,
     setting: &Setting,
-    partner: &dyn Method,
+    partner: &Card,
     sweep: Option<&MethodSweep>,
 ) -> Setting {
     let wanted = translate(peer, setting, partner);
@@ -79,41 +78,38 @@ pub(super) fn partner_setting(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use registry::{Input, Params, Prepared, Result};
+    use registry::{Family, Kind, Memory, Method, Param, PeerKey, Reader, Result, Setup};
 
-    /// A peer with `keys` params, translating `point_size` into `radius_px` × 0.5.
-    struct Peer(&'static [registry::ParamSpec]);
-    impl Method for Peer {
-        fn name(&self) -> &'static str {
-            "peer"
-        }
-        fn peer_of(&self) -> Option<&'static str> {
-            Some("splat")
-        }
-        fn summary(&self) -> &'static str {
-            "peer: test"
-        }
-        fn params(&self) -> &'static [registry::ParamSpec] {
-            self.0
-        }
-        fn prepare<'a>(&self, _: Input<'a>, _: &Params) -> Result<Box<dyn Prepared + 'a>> {
+    /// A method that reads nothing (the pairing only reads cards).
+    struct Nothing;
+    impl Method for Nothing {
+        fn parse(&self, _: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
             Err(registry::Error::Unsupported("test".into()))
-        }
-        fn peer_keys(&self) -> &'static [registry::PeerKey] {
-            &[registry::PeerKey {
-                peer: "point_size",
-                ours: "radius_px",
-                factor: 0.5,
-            }]
         }
     }
 
-    fn spec(key: &'static str) -> registry::ParamSpec {
-        registry::ParamSpec {
-            key,
-            default: "-",
-            help: "",
-        }
+    /// A peer of splat with `keys` params, translating `point_size` into `radius_px` × 0.5.
+    fn peer(keys: &[&'static str]) -> &'static Card {
+        let params: Vec<Param> = keys.iter().map(|k| Param::rule(k, "-", "test")).collect();
+        Box::leak(Box::new(Card {
+            name: "peer",
+            summary: "peer: test",
+            params: Box::leak(params.into_boxed_slice()),
+            family: Family::Name,
+            memory: Memory::Unknown,
+            parallel_views: false,
+            peer_of: Some("splat"),
+            peer_keys: &[PeerKey {
+                peer: "point_size",
+                ours: "radius_px",
+                factor: 0.5,
+            }],
+            compared_in: &[],
+            bare_node_bytes: None,
+            sweep: None,
+            program: None,
+            kind: Kind::Visibility(&Nothing),
+        }))
     }
 
     fn sweep_of(name: &str) -> MethodSweep {
@@ -122,11 +118,11 @@ mod tests {
 
     #[test]
     fn an_hpr_peer_pairs_with_linear_hpr_at_its_gamma() {
-        let hpr = registry::method("hpr").expect("hpr");
-        let peer = Peer(Box::leak(Box::new([spec("gamma"), spec("radius")])));
+        let hpr = registry::card("hpr").expect("hpr");
+        let peer = peer(&["gamma", "radius"]);
         for g in ["2", "3", "4"] {
             let s = partner_setting(
-                &peer,
+                peer,
                 &Setting::parse(&format!("gamma={g}")),
                 hpr,
                 Some(&sweep_of("hpr")),
@@ -142,7 +138,7 @@ mod tests {
         }
         // A γ outside the grid: the default setting with that γ (not `auto`).
         let s = partner_setting(
-            &peer,
+            peer,
             &Setting::parse("gamma=3.25"),
             hpr,
             Some(&sweep_of("hpr")),
@@ -153,14 +149,10 @@ mod tests {
 
     #[test]
     fn translated_and_shared_keys_pick_the_partners_setting() {
-        let splat = registry::method("splat").expect("splat");
-        let peer = Peer(Box::leak(Box::new([
-            spec("point_size"),
-            spec("depth_tolerance"),
-            spec("only_mine"),
-        ])));
+        let splat = registry::card("splat").expect("splat");
+        let peer = peer(&["point_size", "depth_tolerance", "only_mine"]);
         let s = partner_setting(
-            &peer,
+            peer,
             &Setting::parse("depth_tolerance=0.03;only_mine=7;point_size=6"),
             splat,
             Some(&sweep_of("splat")),
@@ -168,15 +160,10 @@ mod tests {
         assert_eq!(s.number("radius_px"), Some(3.0), "{}", s.label());
         assert_eq!(s.number("depth_tolerance"), Some(0.03), "{}", s.label());
         assert!(s.get("only_mine").is_none());
-        let raycast = registry::method("raycast").expect("raycast");
-        let peer = Peer(Box::leak(Box::new([
-            spec("radius_factor"),
-            spec("width"),
-            spec("height"),
-            spec("subdivs"),
-        ])));
+        let raycast = registry::card("raycast").expect("raycast");
+        let peer = self::peer(&["radius_factor", "width", "height", "subdivs"]);
         let s = partner_setting(
-            &peer,
+            peer,
             &Setting::parse("height=360;radius_factor=1.5;subdivs=7;width=640"),
             raycast,
             Some(&sweep_of("raycast")),
@@ -184,7 +171,7 @@ mod tests {
         assert_eq!(s.label(), "height=360;radius_factor=1.5;width=640");
         // Not in the grid: the default without its `auto` radius, the peer's pairs in.
         let s = partner_setting(
-            &peer,
+            peer,
             &Setting::parse("height=240;radius_factor=1;width=320"),
             raycast,
             Some(&sweep_of("raycast")),
@@ -194,11 +181,8 @@ mod tests {
 
     #[test]
     fn ours_runs_at_the_paired_settings_its_sweep_lacks() {
-        let splat = registry::method("splat").expect("splat");
-        let peer: &'static Peer = Box::leak(Box::new(Peer(Box::leak(Box::new([
-            spec("point_size"),
-            spec("depth_tolerance"),
-        ])))));
+        let splat = registry::card("splat").expect("splat");
+        let peer = peer(&["point_size", "depth_tolerance"]);
         let peer_sweep = MethodSweep {
             grid: vec![
                 Setting::parse("depth_tolerance=0.01;point_size=4"),
@@ -207,7 +191,7 @@ mod tests {
             ..Default::default()
         };
         let sweeps = registry::Sweeps::builtin();
-        let mut methods: Vec<(&'static dyn Method, MethodSweep)> =
+        let mut methods: Vec<(&'static Card, MethodSweep)> =
             vec![(peer, peer_sweep.clone()), (splat, sweep_of("splat"))];
         let before = methods[1].1.grid.len();
         let pairing = super::super::pair_peers(&mut methods, &sweeps, false);
@@ -227,10 +211,10 @@ mod tests {
         // radius_px = 2.5 is not in splat's grid: added for this run, once.
         assert_eq!(methods[1].1.grid.len(), before + 1);
         // Without ours in the run, ours joins with the paired settings alone.
-        let mut alone: Vec<(&'static dyn Method, MethodSweep)> = vec![(peer, peer_sweep)];
+        let mut alone: Vec<(&'static Card, MethodSweep)> = vec![(peer, peer_sweep)];
         super::super::pair_peers(&mut alone, &sweeps, false);
         assert_eq!(alone.len(), 2);
-        assert_eq!(alone[1].0.name(), "splat");
+        assert_eq!(alone[1].0.name, "splat");
         assert_eq!(alone[1].1.grid.len(), 2);
     }
 

@@ -17,7 +17,7 @@ use crate::experiments::markdown_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
 use crate::output::{distinct, write_atomic};
-use registry::score::Score;
+use registry::scoring::Score;
 
 /// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {
@@ -178,9 +178,9 @@ Each method at its best setting against \
 /// True when a fixed setting `o` agrees with the automatic `rule` on every key both set,
 /// the rule's own `auto` keys aside.
 fn comparable(rule: &Setting, o: &Setting) -> bool {
-    rule.0.iter().all(|(k, v)| {
-        *v == registry::sweep::Value::Text("auto".into()) || o.get(k).is_none_or(|w| w == v)
-    })
+    rule.0
+        .iter()
+        .all(|(k, v)| *v == registry::Value::Text("auto".into()) || o.get(k).is_none_or(|w| w == v))
 }
 
 /// F1 against a family's main parameter (the numeric key with the most values over its fixed

@@ -8,43 +8,43 @@
 //! `hpr`'s (`gamma=auto` included).
 
 use cloud::Camera;
+use cloud::glam::DVec3;
 use hpr::approx::{ApproxParams, visible};
 use hull::ConvexHull;
 
+use super::hpr::{
+    GAMMA, HULL, KERNEL, KernelChoice, KernelRule, RADIUS, read_hull, read_kernel,
+    refuse_orthographic,
+};
+use crate::card::{Card, Family, Kind, Memory};
 use crate::error::{Error, Result};
-use crate::hpr::{KernelRule, refuse_orthographic};
-use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
+use crate::params::{Param, Reader};
+use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
-/// Approximate HPR.
-pub struct HprApproxMethod;
+/// The card.
+pub static CARD: Card = Card {
+    name: "hpr-approx",
+    summary: "HPR over an approximate hull (Machado e Silva et al. 2012/2014): farthest flipped point per direction sector, hull of those",
+    params: &[SECTORS, GAMMA, RADIUS, KERNEL, HULL],
+    family: Family::Name,
+    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
+    // dragon at its default setting peaked at 955 MB.
+    memory: Memory::PerPoint(59),
+    parallel_views: true,
+    peer_of: None,
+    peer_keys: &[],
+    compared_in: &[],
+    bare_node_bytes: None,
+    sweep: None,
+    program: None,
+    kind: Kind::Visibility(&HprApprox),
+};
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        key: "sectors",
-        default: "auto",
-        help: "k, the cells of the direction cube map (rounded to 6 m^2), or auto: one per pixel of the view",
-    },
-    ParamSpec {
-        key: "gamma",
-        default: "3 (linear), -0.05 (exp), 1000 (log), 0.001 (expdecay)",
-        help: "the kernel's parameter as for hpr, or auto (linear: hpr::auto's rule, per view)",
-    },
-    ParamSpec {
-        key: "radius",
-        default: "-",
-        help: "absolute flipping radius R (linear kernel; overrides gamma)",
-    },
-    ParamSpec {
-        key: "kernel",
-        default: "linear",
-        help: "linear, exp, log, expdecay (as for hpr)",
-    },
-    ParamSpec {
-        key: "hull",
-        default: "own",
-        help: "hull implementation for the representatives: own, qhull, qhull-qj, parry, quickhull, chull",
-    },
-];
+const SECTORS: Param = Param::value(
+    "sectors",
+    "auto",
+    "k, the cells of the direction cube map (rounded to 6 m^2), or auto: one per pixel of the view",
+);
 
 /// `sectors=auto` for `camera`: 6 m² with m = ⌈(π/2) / pixel angle⌉.
 pub fn auto_sectors(camera: &Camera) -> u64 {
@@ -54,12 +54,54 @@ pub fn auto_sectors(camera: &Camera) -> u64 {
     6 * m * m
 }
 
-struct Prep<'a> {
-    points: &'a [cloud::glam::DVec3],
-    kernel: KernelRule,
+/// The method.
+struct HprApprox;
+
+/// Its setting.
+struct Args {
+    kernel: KernelChoice,
     /// `None`: auto.
     sectors: Option<u64>,
     hull: Box<dyn ConvexHull>,
+}
+
+impl Method for HprApprox {
+    fn parse(&self, r: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
+        let kernel = read_kernel(r)?;
+        let text: String = r.get(&SECTORS)?;
+        let sectors = match text.as_str() {
+            "auto" => None,
+            _ => {
+                let k = text
+                    .parse::<u64>()
+                    .map_err(|e| r.bad(&SECTORS, &text, e.to_string()))?;
+                hpr::approx::edge_for(k).map_err(Error::method)?;
+                Some(k)
+            }
+        };
+        Ok(Box::new(Args {
+            kernel,
+            sectors,
+            hull: read_hull(r)?,
+        }))
+    }
+}
+
+impl Setup for Args {
+    fn prepare<'a>(&'a self, input: Input<'a>) -> Result<Box<dyn Prepared + 'a>> {
+        let points = &input.cloud.positions;
+        Ok(Box::new(Prep {
+            points,
+            args: self,
+            kernel: KernelRule::of(self.kernel, points)?,
+        }))
+    }
+}
+
+struct Prep<'a> {
+    points: &'a [DVec3],
+    args: &'a Args,
+    kernel: KernelRule,
 }
 
 impl Prepared for Prep<'_> {
@@ -67,13 +109,14 @@ impl Prepared for Prep<'_> {
         refuse_orthographic("hpr-approx", camera)?;
         let mut detail = Vec::new();
         let kernel = self.kernel.for_view(self.points, camera.eye, &mut detail);
-        let sectors = self.sectors.unwrap_or_else(|| auto_sectors(camera));
+        let sectors = self.args.sectors.unwrap_or_else(|| auto_sectors(camera));
         let v = visible(
             self.points,
             camera.eye,
             &ApproxParams { kernel, sectors },
-            self.hull.as_ref(),
-        )?;
+            self.args.hull.as_ref(),
+        )
+        .map_err(Error::method)?;
         detail.push(("sectors_used".to_owned(), v.sectors.to_string()));
         detail.push(("representatives".to_owned(), v.representatives.to_string()));
         Ok(Output {
@@ -84,57 +127,6 @@ impl Prepared for Prep<'_> {
     }
 }
 
-impl Method for HprApproxMethod {
-    fn scale(&self) -> crate::Scale {
-        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
-        // the dragon at its default setting peaked at 955 MB.
-        crate::Scale::PerPoint(59)
-    }
-    fn name(&self) -> &'static str {
-        "hpr-approx"
-    }
-
-    fn summary(&self) -> &'static str {
-        "HPR over an approximate hull (Machado e Silva et al. 2012/2014): farthest flipped point per direction sector, hull of those"
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
-    fn parallel_views(&self) -> bool {
-        true
-    }
-
-    fn family(&self, _setting: &crate::Setting) -> String {
-        "hpr-approx".into()
-    }
-
-    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
-        let kernel = KernelRule::read(params, &input.cloud.positions)?;
-        let sectors: Option<String> = params.get_opt("sectors")?;
-        let sectors = match sectors.as_deref() {
-            None | Some("auto") => None,
-            Some(text) => {
-                let k = text.parse::<u64>().map_err(|e| Error::BadValue {
-                    key: "sectors".into(),
-                    value: text.to_owned(),
-                    reason: e.to_string(),
-                })?;
-                hpr::approx::edge_for(k)?;
-                Some(k)
-            }
-        };
-        let hull: String = params.get("hull", "own".to_owned())?;
-        Ok(Box::new(Prep {
-            points: &input.cloud.positions,
-            kernel,
-            sectors,
-            hull: hull::by_name(&hull)?,
-        }))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use cloud::glam::DVec3;
@@ -142,6 +134,7 @@ mod tests {
     use cloud::{Camera, Model};
 
     use super::*;
+    use crate::params::Params;
 
     fn run(set: &[&str], camera: &Camera) -> Result<Output> {
         let scene = sphere_scene(3_000);
@@ -149,9 +142,8 @@ mod tests {
             cloud: &scene.cloud,
             mesh: None,
         };
-        let params = Params::parse(set)?;
-        let p = crate::kernel::prepare(&HprApproxMethod, input, &params)?;
-        p.visible(camera)
+        let (setup, _) = CARD.setup(&Params::parse(set)?)?;
+        setup.prepare(input)?.visible(camera)
     }
 
     fn camera(model: Model, w: u32, h: u32) -> Camera {
@@ -177,14 +169,10 @@ mod tests {
             cloud: &scene.cloud,
             mesh: None,
         };
-        let exact = crate::kernel::prepare(
-            &crate::hpr::HprMethod,
-            input,
-            &Params::parse(&["gamma=2"]).unwrap(),
-        )
-        .unwrap()
-        .visible(&pinhole())
-        .unwrap();
+        let (hpr, _) = super::super::hpr::CARD
+            .setup(&Params::parse(&["gamma=2"]).unwrap())
+            .unwrap();
+        let exact = hpr.prepare(input).unwrap().visible(&pinhole()).unwrap();
         let fine = run(&["gamma=2", "sectors=600000000"], &pinhole()).unwrap();
         assert_eq!(fine.visible, exact.visible);
         let coarse = run(&["gamma=2", "sectors=600"], &pinhole()).unwrap();

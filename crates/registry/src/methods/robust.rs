@@ -3,51 +3,67 @@
 //! within a depth band τ behind its surface, R and τ from the noise and concavity bounds
 //! (`gamma=auto`, `noise=auto`, the default) or given.
 
-use crate::error::{Error, Result};
 use cloud::Camera;
 use cloud::glam::DVec3;
 use robustvis::bounds::{AutoRule, CloudScale};
 
-use crate::{Input, Method, Output, ParamSpec, Params, Prepared};
+use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::error::{Error, Result};
+use crate::params::{Param, Reader};
+use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
-/// The robust operator.
-pub struct RobustMethod;
+/// The card.
+pub static CARD: Card = Card {
+    name: "robust",
+    summary: "Visibility of noisy clouds (Mehra et al. 2010): dual-space hull + depth band from noise and concavity bounds",
+    params: &[GAMMA, RADIUS, NOISE, BAND, TOLERANCE, SEED],
+    family: Family::Name,
+    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
+    // dragon at its default setting peaked at 1562 MB.
+    memory: Memory::PerPoint(135),
+    parallel_views: true,
+    peer_of: None,
+    peer_keys: &[],
+    compared_in: &[Comparison::Mehra2010],
+    bare_node_bytes: None,
+    sweep: None,
+    program: None,
+    kind: Kind::Visibility(&Robust),
+};
 
-/// Default band, in noise standard deviations.
-pub const DEFAULT_BAND: f64 = 3.0;
+const GAMMA: Param = Param::value(
+    "gamma",
+    "auto",
+    "R = max|p - C| * 10^gamma, or auto: the concavity bound less the band (robustvis::bounds), per view",
+);
+const RADIUS: Param = Param::rule(
+    "radius",
+    "-",
+    "absolute flipping radius R (overrides gamma)",
+);
+const NOISE: Param = Param::value(
+    "noise",
+    "auto",
+    "noise standard deviation along the normal, a length, or auto: estimated from local plane fits",
+);
+const BAND: Param = Param::value(
+    "band",
+    "3.0",
+    "depth band tau = band * noise (0: Katz's HPR exactly)",
+);
+const TOLERANCE: Param = Param::rule(
+    "tolerance",
+    "-",
+    "absolute depth band tau (overrides noise and band)",
+);
+const SEED: Param = Param::value(
+    "seed",
+    "2010",
+    "seed of the spacing and noise estimates' samples",
+);
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        key: "gamma",
-        default: "auto",
-        help: "R = max|p - C| * 10^gamma, or auto: the concavity bound less the band (robustvis::bounds), per view",
-    },
-    ParamSpec {
-        key: "radius",
-        default: "-",
-        help: "absolute flipping radius R (overrides gamma)",
-    },
-    ParamSpec {
-        key: "noise",
-        default: "auto",
-        help: "noise standard deviation along the normal, a length, or auto: estimated from local plane fits",
-    },
-    ParamSpec {
-        key: "band",
-        default: "3",
-        help: "depth band tau = band * noise (0: Katz's HPR exactly)",
-    },
-    ParamSpec {
-        key: "tolerance",
-        default: "-",
-        help: "absolute depth band tau (overrides noise and band)",
-    },
-    ParamSpec {
-        key: "seed",
-        default: "0",
-        help: "seed of the spacing and noise estimates' samples",
-    },
-];
+/// The method.
+struct Robust;
 
 enum RadiusChoice {
     Auto,
@@ -61,10 +77,87 @@ enum BandChoice {
     Absolute(f64),
 }
 
-struct Prep<'a> {
-    points: &'a [DVec3],
+/// Its setting.
+struct Args {
     radius: RadiusChoice,
     band: BandChoice,
+    seed: u64,
+}
+
+/// `p`'s value: a number, or `None` for `auto`.
+fn number_or_auto(r: &mut Reader<'_>, p: &Param) -> Result<Option<f64>> {
+    let text: String = r.get(p)?;
+    if text == "auto" {
+        return Ok(None);
+    }
+    text.parse::<f64>()
+        .map(Some)
+        .map_err(|e| r.bad(p, &text, format!("{e} (expected a number or auto)")))
+}
+
+impl Method for Robust {
+    fn parse(&self, r: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
+        let radius = match r.given::<f64>(&RADIUS)? {
+            Some(radius) => {
+                // It overrides γ, given or not.
+                r.given_text(&GAMMA)?;
+                RadiusChoice::Absolute(radius)
+            }
+            None => match number_or_auto(r, &GAMMA)? {
+                None => RadiusChoice::Auto,
+                Some(g) if g.is_finite() => RadiusChoice::Gamma(g),
+                Some(g) => return Err(r.bad(&GAMMA, g, "must be finite")),
+            },
+        };
+        let band = match r.given::<f64>(&TOLERANCE)? {
+            Some(t) => {
+                // It overrides the noise and the band, given or not.
+                r.given_text(&NOISE)?;
+                r.given_text(&BAND)?;
+                BandChoice::Absolute(t)
+            }
+            None => {
+                let band: f64 = r.get(&BAND)?;
+                if !(band >= 0.0) || !band.is_finite() {
+                    return Err(r.bad(&BAND, band, "must be a finite number >= 0"));
+                }
+                let noise = number_or_auto(r, &NOISE)?;
+                if let Some(s) = noise
+                    && (!(s >= 0.0) || !s.is_finite())
+                {
+                    return Err(r.bad(&NOISE, s, "must be a finite length >= 0"));
+                }
+                BandChoice::Rule(AutoRule { band, noise })
+            }
+        };
+        Ok(Box::new(Args {
+            radius,
+            band,
+            seed: r.get(&SEED)?,
+        }))
+    }
+}
+
+impl Setup for Args {
+    fn prepare<'a>(&'a self, input: Input<'a>) -> Result<Box<dyn Prepared + 'a>> {
+        let needs_scale = matches!(self.radius, RadiusChoice::Auto)
+            || matches!(self.band, BandChoice::Rule(AutoRule { noise: None, .. }));
+        let scale = if needs_scale {
+            Some(CloudScale::of(&input.cloud.positions, self.seed).map_err(Error::method)?)
+        } else {
+            None
+        };
+        Ok(Box::new(Prep {
+            points: &input.cloud.positions,
+            args: self,
+            scale,
+        }))
+    }
+}
+
+struct Prep<'a> {
+    points: &'a [DVec3],
+    args: &'a Args,
     /// The cloud's scale, when a rule needs it.
     scale: Option<CloudScale>,
 }
@@ -87,18 +180,18 @@ impl Prepared for Prep<'_> {
             .map(|p| (*p - eye).length())
             .fold(0.0, f64::max);
         let mut detail = Vec::new();
-        let rule = match (&self.band, &self.scale) {
+        let rule = match (&self.args.band, &self.scale) {
             (BandChoice::Rule(rule), Some(scale)) => {
                 Some(robustvis::bounds::auto(scale, rule, eye, max_distance))
             }
             _ => None,
         };
-        let tolerance = match (&self.band, &rule) {
+        let tolerance = match (&self.args.band, &rule) {
             (BandChoice::Absolute(t), _) => *t,
             (BandChoice::Rule(_), Some(c)) => c.tolerance,
             (BandChoice::Rule(r), None) => r.band * r.noise.unwrap_or(0.0),
         };
-        let radius = match self.radius {
+        let radius = match self.args.radius {
             RadiusChoice::Absolute(r) => r,
             RadiusChoice::Gamma(g) => max_distance * 10f64.powf(g),
             RadiusChoice::Auto => {
@@ -126,7 +219,7 @@ impl Prepared for Prep<'_> {
             detail.push(("noise_value".to_owned(), format!("{:.4e}", c.noise)));
         }
         detail.push(("tolerance_value".to_owned(), format!("{tolerance:.4e}")));
-        let v = robustvis::visible(self.points, eye, radius, tolerance)?;
+        let v = robustvis::visible(self.points, eye, radius, tolerance).map_err(Error::method)?;
         detail.push(("hull_vertices".to_owned(), v.hull_vertices.to_string()));
         Ok(Output {
             visible: v.visible,
@@ -137,112 +230,21 @@ impl Prepared for Prep<'_> {
     }
 }
 
-fn number_or_auto(params: &Params, key: &'static str) -> Result<Option<Option<f64>>> {
-    let text: Option<String> = params.get_opt(key)?;
-    Ok(match text.as_deref() {
-        None => None,
-        Some("auto") => Some(None),
-        Some(t) => Some(Some(t.parse::<f64>().map_err(|e| Error::BadValue {
-            key: key.to_owned(),
-            value: t.to_owned(),
-            reason: format!("{e} (expected a number or auto)"),
-        })?)),
-    })
-}
-
-impl Method for RobustMethod {
-    fn scale(&self) -> crate::Scale {
-        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
-        // the dragon at its default setting peaked at 1562 MB.
-        crate::Scale::PerPoint(135)
-    }
-    fn name(&self) -> &'static str {
-        "robust"
-    }
-
-    fn summary(&self) -> &'static str {
-        "Visibility of noisy clouds (Mehra et al. 2010): dual-space hull + depth band from noise and concavity bounds"
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
-    fn parallel_views(&self) -> bool {
-        true
-    }
-
-    fn family(&self, _setting: &crate::Setting) -> String {
-        "robust".into()
-    }
-
-    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
-        let bad = |name: &'static str, reason: String| {
-            Error::Robust(robustvis::RobustError::InvalidParameter { name, reason })
-        };
-        let radius = match (
-            params.get_opt::<f64>("radius")?,
-            number_or_auto(params, "gamma")?,
-        ) {
-            (Some(r), _) => RadiusChoice::Absolute(r),
-            (None, None | Some(None)) => RadiusChoice::Auto,
-            (None, Some(Some(g))) if g.is_finite() => RadiusChoice::Gamma(g),
-            (None, Some(Some(g))) => return Err(bad("gamma", format!("must be finite, got {g}"))),
-        };
-        let band: f64 = params.get("band", DEFAULT_BAND)?;
-        if !(band >= 0.0) || !band.is_finite() {
-            return Err(bad(
-                "band",
-                format!("must be a finite number >= 0, got {band}"),
-            ));
-        }
-        let noise = number_or_auto(params, "noise")?.flatten();
-        if let Some(s) = noise
-            && (!(s >= 0.0) || !s.is_finite())
-        {
-            return Err(bad(
-                "noise",
-                format!("must be a finite length >= 0, got {s}"),
-            ));
-        }
-        let band = match params.get_opt::<f64>("tolerance")? {
-            Some(t) => BandChoice::Absolute(t),
-            None => BandChoice::Rule(AutoRule { band, noise }),
-        };
-        let seed: u64 = params.get("seed", 0)?;
-        let needs_scale = matches!(radius, RadiusChoice::Auto)
-            || matches!(band, BandChoice::Rule(AutoRule { noise: None, .. }));
-        let scale = if needs_scale {
-            Some(CloudScale::of(&input.cloud.positions, seed)?)
-        } else {
-            None
-        };
-        Ok(Box::new(Prep {
-            points: &input.cloud.positions,
-            radius,
-            band,
-            scale,
-        }))
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Method;
+    use crate::params::Params;
     use cloud::synth::sphere_scene;
 
     fn run(pairs: &[&str], camera: &Camera) -> Result<Output> {
         let scene = sphere_scene(3_000);
-        let params = Params::parse(pairs)?;
-        let prepared = RobustMethod.prepare(
-            Input {
+        let (setup, _) = CARD.setup(&Params::parse(pairs)?)?;
+        setup
+            .prepare(Input {
                 cloud: &scene.cloud,
                 mesh: None,
-            },
-            &params,
-        )?;
-        prepared.visible(camera)
+            })?
+            .visible(camera)
     }
 
     #[test]

@@ -8,74 +8,57 @@
 
 use screenspace::BiasuttiParams;
 
-use crate::error::Result;
-use crate::screenspace::Prep;
-use crate::{Input, Method, ParamSpec, Params, Prepared};
+use super::screenspace::{HEIGHT, ScreenArgs, WIDTH};
+use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::error::{Error, Result};
+use crate::params::{Param, Reader};
+use crate::visibility::{Method, Setup};
 
-/// Biasutti et al.'s variable-density visibility.
-pub struct VardensityMethod;
+/// The card.
+pub static CARD: Card = Card {
+    name: "vardensity",
+    summary: "variable-density screen-space visibility (Biasutti et al. 2019): depth score over k screen neighbours",
+    params: &[K, MAX_RADIUS, THRESHOLD, DEPTH_TOLERANCE, WIDTH, HEIGHT],
+    family: Family::Name,
+    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
+    // dragon at its default setting peaked at 688 MB.
+    memory: Memory::PerPoint(26),
+    parallel_views: false,
+    peer_of: None,
+    peer_keys: &[],
+    compared_in: &[Comparison::Biasutti2019],
+    bare_node_bytes: None,
+    sweep: None,
+    program: None,
+    kind: Kind::Visibility(&Vardensity),
+};
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        key: "k",
-        default: "8",
-        help: "screen-space neighbours of each pixel",
-    },
-    ParamSpec {
-        key: "max_radius",
-        default: "32",
-        help: "farthest neighbour searched, pixels",
-    },
-    ParamSpec {
-        key: "threshold",
-        default: "0.5",
-        help: "minimum visibility score, in [0, 1]",
-    },
-    ParamSpec {
-        key: "depth_tolerance",
-        default: "0",
-        help: "relative depth within which points sharing a kept pixel count visible (0: one point per pixel)",
-    },
-    ParamSpec {
-        key: "width",
-        default: "view's",
-        help: "image width in pixels",
-    },
-    ParamSpec {
-        key: "height",
-        default: "view's",
-        help: "image height in pixels",
-    },
-];
+const K: Param = Param::value("k", "8", "screen-space neighbours of each pixel");
+const MAX_RADIUS: Param = Param::value("max_radius", "32", "farthest neighbour searched, pixels");
+const THRESHOLD: Param = Param::value("threshold", "0.5", "minimum visibility score, in [0, 1]");
+const DEPTH_TOLERANCE: Param = Param::value(
+    "depth_tolerance",
+    "0.01",
+    "relative depth within which points sharing a kept pixel count visible (0: one point per pixel)",
+);
 
-impl Method for VardensityMethod {
-    fn scale(&self) -> crate::Scale {
-        // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of
-        // the dragon at its default setting peaked at 688 MB.
-        crate::Scale::PerPoint(26)
-    }
-    fn name(&self) -> &'static str {
-        "vardensity"
-    }
+/// The method.
+struct Vardensity;
 
-    fn summary(&self) -> &'static str {
-        "variable-density screen-space visibility (Biasutti et al. 2019): depth score over k screen neighbours"
-    }
-
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
-    fn prepare<'a>(&self, input: Input<'a>, params: &Params) -> Result<Box<dyn Prepared + 'a>> {
-        let d = BiasuttiParams::default();
+impl Method for Vardensity {
+    fn parse(&self, r: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
         let p = BiasuttiParams {
-            k: params.get("k", d.k)?,
-            max_radius: params.get("max_radius", d.max_radius)?,
-            threshold: params.get("threshold", d.threshold)?,
-            depth_tolerance: params.get("depth_tolerance", d.depth_tolerance)?,
+            k: r.get(&K)?,
+            max_radius: r.get(&MAX_RADIUS)?,
+            threshold: r.get(&THRESHOLD)?,
+            depth_tolerance: r.get(&DEPTH_TOLERANCE)?,
         };
-        p.validate()?;
-        Prep::boxed(input, params, p, screenspace::biasutti::visible)
+        p.validate().map_err(Error::method)?;
+        Ok(Box::new(ScreenArgs::read(
+            r,
+            p,
+            screenspace::biasutti::visible,
+        )?))
     }
 }
 
@@ -87,7 +70,16 @@ mod tests {
     use cloud::glam::DVec3;
     use cloud::{Camera, Model, PointCloud};
 
-    use crate::{Error, Input, Params};
+    use crate::error::{Error, Result};
+    use crate::params::Params;
+    use crate::visibility::Input;
+
+    /// `name`'s setting read and prepared on `input`, or the first error.
+    fn prepared(name: &str, input: Input<'_>, params: &Params) -> Result<()> {
+        let card = super::super::card(name).expect("registered");
+        let (setup, _) = card.setup(params)?;
+        setup.prepare(input).map(|_| ())
+    }
 
     fn cameras() -> Vec<Camera> {
         let models = [
@@ -118,13 +110,14 @@ mod tests {
     fn every_camera_model_gives_pixels_and_scores() {
         let scene = cloud::synth::sphere_plane_scene(1_500, 3_000, 2).0;
         for name in ["screenspace", "vardensity"] {
-            let m = crate::method(name).expect("registered");
+            let card = super::super::card(name).expect("registered");
             let params = Params::from_pairs(&[("depth_tolerance", "0.01".into())]);
             let input = Input {
                 cloud: &scene.cloud,
                 mesh: None,
             };
-            let prepared = crate::kernel::prepare(m, input, &params).expect("prepare");
+            let (setup, _) = card.setup(&params).expect("a setting");
+            let prepared = setup.prepare(input).expect("prepare");
             for cam in cameras() {
                 let out = prepared.visible(&cam).expect("visible");
                 let px = out.pixels.as_ref().expect("per-pixel");
@@ -150,7 +143,6 @@ mod tests {
         };
         let empty = PointCloud::default();
         for name in ["screenspace", "vardensity"] {
-            let m = crate::method(name).expect("registered");
             for (k, v) in [
                 ("threshold", "nan"),
                 ("threshold", "2"),
@@ -158,24 +150,21 @@ mod tests {
                 ("width", "0"),
             ] {
                 let params = Params::from_pairs(&[(k, v.into())]);
-                let e = crate::kernel::prepare(m, input, &params)
-                    .err()
-                    .expect("an error");
+                let e = prepared(name, input, &params).expect_err("an error");
                 assert!(
-                    matches!(e, Error::Screenspace(_) | Error::BadValue { .. }),
+                    matches!(e, Error::Method(_) | Error::BadValue { .. }),
                     "{name} {k}={v}: {e}"
                 );
             }
-            let e = crate::kernel::prepare(
-                m,
+            let e = prepared(
+                name,
                 Input {
                     cloud: &empty,
                     mesh: None,
                 },
                 &Params::default(),
             )
-            .err()
-            .expect("empty");
+            .expect_err("empty");
             assert!(matches!(e, Error::Cloud(cloud::Error::EmptyCloud)), "{e}");
         }
     }

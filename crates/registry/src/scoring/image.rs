@@ -1,4 +1,4 @@
-//! Image metrics beside `score`: how far a render is from a reference render of the same
+//! Image metrics beside [`super::sets`]: how far a render is from a reference render of the same
 //! view. PSNR is over the RGB pixels covered in either image (the background excluded, so the
 //! object's screen size does not inflate it; capped at 100 dB for identical images); SSIM
 //! (Wang et al. 2004) is on luma in 8 × 8 windows at a stride of 4 with C1 = (0.01·255)²,

@@ -1,0 +1,137 @@
+//! External methods, in any language: a folder `methods/NAME/` with a `method.toml` registers a
+//! visibility method (or, with `kind = "lod"`, a level-of-detail method) without a Rust
+//! change: its card is made from the manifest ([`card`]) and registered like any other
+//! ([`register_external`]). The parts: [`manifest`] (the file, checked), `session` (the
+//! program and the wire protocol), [`points`] (the points handed over), `visibility` and `lod`
+//! (the two forms). The protocol (versions 1 and 2; `methods/README.md` is the user's
+//! documentation):
+//!
+//! - The caller writes the cloud once per preparation as binary little-endian PLY: `x y z`
+//!   doubles (point k is index k); with protocol 2 also `nx ny nz` floats, the dataset's normals
+//!   or, when it has none, the estimates the `lod` experiment uses (16 nearest neighbours,
+//!   oriented away from the centroid: [`points::estimated_normals`]), and the dataset's `red green blue`
+//!   and `u v` when it has them. It starts the method's `command` once per setting (the `--set`
+//!   pairs), in the method's folder, with `--points FILE --params JSON --protocol P` appended
+//!   (`JSON`: the pairs as an object of strings) and, with protocol 2, `--normals dataset` or
+//!   `--normals estimated` and `--spacing S`, the cloud's density spacing
+//!   (`cloud::spacing::density_spacing`, 8 neighbours, 20 000 samples, seed 1: the unit of our
+//!   radius factors; absent on clouds of at most 8 points).
+//! - Per view it writes one line on the program's standard input: `{"view": K, "camera":
+//!   CAMERA}`, CAMERA being the camera's one serialisation (`cloud::camera::json`), K the
+//!   dataset's view index when the caller knows it (`Prepared::visible_at`; a caller that
+//!   does not gets its calls counted), and reads one line from its standard output:
+//!   `{"visible": [indices...], "seconds": T}` (or `"visible_file": PATH` naming a file of
+//!   indices, whitespace-separated), `T` the program's own compute seconds for that view, which
+//!   is what gets reported; or `{"error": MESSAGE}`. End of input means exit. Before its
+//!   first answer a program may write `{"built": true, "seconds": T}`: its own per-cloud set-up
+//!   (a BVH, a render window), reported apart from the per-view times
+//!   (`Prepared::reported_build_seconds`; again after a restart, the last one kept).
+//! - The LOD form (`kind = "lod"`, protocol 2): started once per cloud with `--lod --radius R`
+//!   appended too (R the full-detail splat radius, world units), the program builds its structure and says so on its first line, `{"built": true,
+//!   "seconds": T, "nodes": K, "bytes": B}` (its own build time); then per view and setting it
+//!   reads `{"view": K, "camera": CAMERA, "params": JSON}` and answers `{"visible": [...],
+//!   "radius": R, "seconds": T}`, R one splat radius (world units) for all or a list, one per
+//!   index.
+//! - The answer is checked with bounded memory: a line longer than the cloud's index range
+//!   allows ([`answer_limit`]: 1 MiB plus 24 bytes per point), a `visible_file` larger than
+//!   that, more indices than points, indices outside 0..N and repeated ones are errors (the
+//!   indices are sorted here). The program's standard error goes to a log file. A view that
+//!   takes longer than `timeout_seconds` (default 300), a program that exits, or an answer
+//!   that is not this protocol is an error naming the method, the view and the log; the
+//!   process is killed and the next view starts a fresh one. A program that is done with
+//!   (the cell is over, or it failed) has its input closed and 3 s to exit before the kill.
+//!
+//! `method.toml`:
+//!
+//! ```toml
+//! protocol = 2
+//! summary = "peer: Open3D's hidden_point_removal (Qhull Qt), R from gamma as ours"
+//! command = [".venv/bin/python", "hpr.py"]   # the first element: a path relative to the
+//!                                            # folder, or a program on PATH
+//! check = [".venv/bin/python", "-c", "import open3d"]   # exits 0 when installed
+//! install = "just peers"                     # said when the check fails
+//! version = [".venv/bin/python", "-c", "import open3d; print(open3d.__version__)"]
+//! peer_of = "hpr"                            # the family of ours it pairs with
+//! kind = "visibility"                        # or "lod"
+//! timeout_seconds = 120
+//! memory_bytes_per_point = 200               # for the scale experiment's memory guard
+//!                                            # (undeclared: not run above 10^6 points)
+//! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
+//! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
+//! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
+//! family = "open3d-hpr"                      # how its rows group in plots (default: name)
+//! skip_robustness = "why"                    # leaves the robustness experiment (listed
+//!                                            # with the reason); default: it takes part
+//! # peer_keys = {point_size = {ours = "radius_px", factor = 0.5}}: for a peer whose key's
+//! # name or unit differs from its partner's (ours = factor x the peer's; same names as is)
+//! [params.gamma]
+//! default = "3"
+//! help = "R = max|p - C| * 10^gamma"
+//! ```
+
+mod lod;
+pub mod manifest;
+pub mod points;
+mod session;
+#[cfg(test)]
+mod tests;
+mod visibility;
+
+use std::path::Path;
+
+use crate::card::{Card, Family, Kind as CardKind, Memory};
+use crate::error::{Error, Result};
+
+pub use manifest::{ExternalMethod, Kind, PROTOCOL, PROTOCOLS};
+pub use session::answer_limit;
+
+/// The card of an external method (leaked, as the method is: the registry's methods live for
+/// the process).
+pub fn card(m: &'static ExternalMethod) -> &'static Card {
+    let kind = match m.kind {
+        Kind::Visibility => CardKind::Visibility(Box::leak(Box::new(visibility::Visibility(m)))),
+        Kind::Lod => CardKind::Lod(Box::leak(Box::new(lod::Lod(m)))),
+    };
+    Box::leak(Box::new(Card {
+        name: m.name,
+        summary: m.summary,
+        params: m.params,
+        family: m.family.as_deref().map_or(Family::Name, |f| {
+            Family::Named(manifest::leak(f.to_owned()))
+        }),
+        // What the program and this process together need per point beyond the cloud, as the
+        // method.toml declares it; undeclared: not run above Memory::UNKNOWN_LIMIT points.
+        memory: m
+            .memory_bytes_per_point
+            .map_or(Memory::Unknown, Memory::PerPoint),
+        parallel_views: false,
+        peer_of: m.peer_of,
+        peer_keys: m.peer_keys,
+        compared_in: &[],
+        bare_node_bytes: None,
+        sweep: m.sweep.clone(),
+        program: Some(m),
+        kind,
+    }))
+}
+
+/// Loads the external methods under `dir` (`NAME/method.toml` each) and registers their cards
+/// for every later lookup. Names must not shadow built-in methods (visibility or LOD: one
+/// namespace); a method already loaded under the same name is kept (loading the same folder
+/// twice is harmless).
+pub fn register_external(dir: &Path) -> Result<()> {
+    for m in ExternalMethod::load_dir(dir)? {
+        if super::BUILT_IN.iter().any(|b| b.name == m.name()) {
+            return Err(Error::Unsupported(format!(
+                "external method {} in {} shadows a built-in method",
+                m.name(),
+                dir.display()
+            )));
+        }
+        if super::card_named(m.name()).is_some() {
+            continue;
+        }
+        super::register(card(Box::leak(Box::new(m))))?;
+    }
+    Ok(())
+}

@@ -1,0 +1,150 @@
+//! The catalogue: every method the registry knows, one card each ([`Card`]), and the sweeps
+//! they are measured at. This file is the only one that names every method: each built-in
+//! method is one adapter module here (its card, its typed setting, its per-cloud state) and one
+//! line of [`BUILT_IN`]; methods in other languages come from `method.toml` folders
+//! ([`external`]); a program embedding the registry, or a test, adds its own card at run time
+//! ([`register`]). Visibility and level-of-detail methods share one namespace (a sweeps file
+//! names both).
+//!
+//! The sweeps (`sweeps.toml`, data) give each built-in method's grids; its default setting is
+//! its card's ([`Card::default_setting`]) unless a sweeps file names one.
+
+mod exact;
+pub mod external;
+mod hpr;
+mod hpr_approx;
+mod hpr_confidence;
+pub(crate) mod qsplat;
+mod random;
+mod raycast;
+mod reference;
+mod robust;
+mod screenspace;
+mod splat;
+pub(crate) mod spt;
+mod srn;
+#[cfg(test)]
+mod tests;
+mod vardensity;
+
+use std::sync::RwLock;
+
+use crate::card::Card;
+use crate::error::{Error, Result};
+use crate::sweep::{BUILTIN, Sweeps};
+
+pub use external::register_external;
+
+/// The built-in methods, in listing order: visibility, then level of detail.
+pub static BUILT_IN: &[&Card] = &[
+    &reference::CARD,
+    &exact::CARD,
+    &hpr::CARD,
+    &hpr_confidence::CARD,
+    &hpr_approx::CARD,
+    &robust::CARD,
+    &raycast::CARD,
+    &splat::CARD,
+    &screenspace::CARD,
+    &vardensity::CARD,
+    &qsplat::CARD,
+    &spt::CARD,
+    &srn::CARD,
+    &random::CARD,
+];
+
+/// The cards registered at run time, in registration order.
+static REGISTERED: RwLock<Vec<&'static Card>> = RwLock::new(Vec::new());
+
+/// Adds `card` for every later lookup in this process (a program embedding the registry, or a
+/// test, plugs its own method in here: one card, one call). Its name must be new among
+/// visibility and LOD methods alike.
+pub fn register(card: &'static Card) -> Result<()> {
+    if card_named(card.name).is_some() {
+        return Err(Error::Unsupported(format!(
+            "a method named {} is already registered",
+            card.name
+        )));
+    }
+    REGISTERED
+        .write()
+        .map_err(|_| Error::Unsupported("the method registry is poisoned".into()))?
+        .push(card);
+    Ok(())
+}
+
+/// Every method: built-in, then those registered at run time.
+pub fn cards() -> Vec<&'static Card> {
+    let registered = REGISTERED.read().map(|r| r.clone()).unwrap_or_default();
+    BUILT_IN.iter().copied().chain(registered).collect()
+}
+
+/// The visibility methods, in listing order.
+pub fn visibility_cards() -> Vec<&'static Card> {
+    cards().into_iter().filter(|c| !c.is_lod()).collect()
+}
+
+/// The level-of-detail methods, in listing order.
+pub fn lod_cards() -> Vec<&'static Card> {
+    cards().into_iter().filter(|c| c.is_lod()).collect()
+}
+
+/// The method called `name`, if any.
+pub fn card_named(name: &str) -> Option<&'static Card> {
+    cards().into_iter().find(|c| c.name == name)
+}
+
+/// The method called `name`, or an error listing the known ones.
+pub fn card(name: &str) -> Result<&'static Card> {
+    card_named(name).ok_or_else(|| Error::UnknownMethod {
+        name: name.to_owned(),
+        known: cards()
+            .iter()
+            .map(|c| c.name)
+            .collect::<Vec<_>>()
+            .join(", "),
+    })
+}
+
+/// Gives every sweep of one of our methods (not an external program's, whose manifest says)
+/// that names no default setting its card's.
+fn with_card_defaults(mut sweeps: Sweeps) -> Sweeps {
+    for (name, sweep) in &mut sweeps.methods {
+        if sweep.default.is_none()
+            && let Some(card) = card_named(name).filter(|c| !c.is_external())
+        {
+            sweep.default = Some(card.default_setting());
+        }
+    }
+    sweeps
+}
+
+impl Sweeps {
+    /// The built-in grids (`sweeps.toml`), each method's default setting its card's.
+    pub fn builtin() -> Self {
+        // The file is part of this crate and tested; an error is a build defect.
+        with_card_defaults(Self::parse(BUILTIN, "registry/src/sweeps.toml").unwrap_or_default())
+    }
+
+    /// Every registered method with a sweep: the built-in grids, the external methods' and
+    /// registered cards' own, then `user` over them (each of our methods' default setting its
+    /// card's unless a file names one). A method `user` names that is not registered is an
+    /// error.
+    pub fn resolve(user: Option<Sweeps>) -> Result<Self> {
+        let mut base = Self::parse(BUILTIN, "registry/src/sweeps.toml")?;
+        for c in cards() {
+            if let Some(s) = &c.sweep {
+                base.methods.insert(c.name.to_owned(), s.clone());
+            }
+        }
+        if let Some(user) = &user {
+            for name in user.methods.keys() {
+                card(name)?;
+            }
+        }
+        Ok(with_card_defaults(match user {
+            Some(u) => base.overlay(u),
+            None => base,
+        }))
+    }
+}
