@@ -4,7 +4,8 @@
 //!   provenance) and [`TriMesh`], borrowed by the method crates without copies;
 //! - readers for PLY, OFF and XYZ and a binary PLY writer ([`io`]), with typed errors that name
 //!   the file and the line or byte ([`ReadError`]);
-//! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
+//! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`])
+//!   over canonical neighbourhoods ([`knn`]: ties by index, coincident points in bounded work);
 //! - the [`Camera`] (pinhole, orthographic, spherical; its JSON form) and deterministic
 //!   viewpoint sets ([`views`]);
 //! - the memory guard for allocations sized by user input ([`memory`]);
@@ -22,6 +23,7 @@ pub mod degrade;
 pub mod double_buffer;
 pub mod error;
 pub mod io;
+pub mod knn;
 pub mod memory;
 pub mod mesh;
 pub mod normals;
