@@ -262,6 +262,27 @@ impl Knn {
     }
 }
 
+/// How many positions of `positions` coincide: (distinct positions, points beyond the first
+/// at each position, the most points at one position). `-0.0` and `0.0` are one position.
+pub fn coincidence(positions: &[DVec3]) -> (usize, usize, usize) {
+    if positions.is_empty() {
+        return (0, 0, 0);
+    }
+    let mut keys: Vec<[u64; 3]> = positions.par_iter().map(|&p| key(p)).collect();
+    keys.par_sort_unstable();
+    let (mut distinct, mut most, mut run) = (1usize, 1usize, 1usize);
+    for w in keys.windows(2) {
+        if w[0] == w[1] {
+            run += 1;
+            most = most.max(run);
+        } else {
+            distinct += 1;
+            run = 1;
+        }
+    }
+    (distinct, positions.len() - distinct, most)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -318,6 +339,14 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn coincidence_counts_copies() {
+        let pts = cloud_with_copies(100, 10, 1);
+        // 100 clean, 10 copies of one of them, 5 of a new point, 6 at ±0.0.
+        assert_eq!(coincidence(&pts), (102, 19, 11));
+        assert_eq!(coincidence(&[]), (0, 0, 0));
     }
 
     #[test]

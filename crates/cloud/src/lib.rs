@@ -12,7 +12,8 @@
 //! - lossless recentring of georeferenced clouds ([`recentre`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]);
-//! - scratch files for out-of-core builds ([`spill`]).
+//! - scratch files for out-of-core builds ([`spill`]); scratch and staging paths named after
+//!   their owner, registered for removal on a signal, found again after a crash ([`scratch`]).
 //!
 //! This crate knows nothing of any method, of experiments, plots or the command line.
 
@@ -31,6 +32,7 @@ pub mod points;
 pub mod recentre;
 pub mod rng;
 pub mod sample;
+pub mod scratch;
 pub mod spacing;
 pub mod spill;
 pub mod synth;

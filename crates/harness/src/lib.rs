@@ -8,7 +8,9 @@
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page;
 //! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
-//!   every method's visible set; [`cli`] and [`run`]: the `pointsight` command.
+//!   every method's visible set; [`cli`] and [`run`]: the `pointsight` command;
+//! - [`guard`]: what every command runs under: outputs checked and locked, stale scratch
+//!   reclaimed, signals answered.
 //!
 //! Only this crate does command-line parsing, plotting and report I/O; the method crates
 //! return values and typed errors.
@@ -17,6 +19,7 @@ pub mod cli;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
+pub mod guard;
 pub mod lod_build;
 pub mod output;
 pub mod progress;
@@ -45,6 +48,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         cli.manifest.as_deref(),
     )?);
     registry::register_external(&cli.methods_dir)?;
+    // Outputs checked and locked, stale scratch reclaimed, signals answered (issue 41).
+    let _guard = guard::begin(&cli.command)?;
     match cli.command {
         Command::Fetch => {
             let report = fetch::fetch(&data_dir)?;
@@ -219,6 +224,16 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         }
         Command::Sweeps => {
             print!("{}", registry::sweep::BUILTIN);
+        }
+        Command::Clean { folders, remove } => {
+            let folders = if folders.is_empty() {
+                vec![PathBuf::from(".")]
+            } else {
+                folders
+            };
+            for line in guard::clean(&folders, remove)? {
+                println!("{line}");
+            }
         }
         Command::Report { reports } => {
             view::report::write_all(&reports, &data_dir)?;
@@ -462,6 +477,9 @@ fn inspect(
             s.position.x, s.position.y, s.position.z
         );
     }
+    // Coincident points (real scans have them; normals and spacings take them in bounded work).
+    let (distinct, duplicates, most) = cloud::knn::coincidence(&c.positions);
+    println!("distinct_positions={distinct} duplicates={duplicates} most_copies={most}");
     println!(
         "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
          points_per_second={:.0}",

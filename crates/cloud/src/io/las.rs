@@ -56,6 +56,45 @@ struct RawHeader {
     header_size: u64,
     /// "Number of variable length records" (byte 100).
     vlrs: u32,
+    /// The version (major, minor) (bytes 24, 25).
+    version: (u8, u8),
+    /// The legacy 32-bit point count (byte 107).
+    legacy: u64,
+    /// The LAS 1.4 64-bit point count (byte 247; 0 before 1.4).
+    large: u64,
+    /// The x, y, z scale factors (byte 131).
+    scale: [f64; 3],
+    /// The box the header gives (bytes 179 to 226: max x, min x, max y, min y, max z, min z),
+    /// as (min, max).
+    bounds: ([f64; 3], [f64; 3]),
+    /// Where the point records must end: the first of the extended VLRs (LAS 1.4) or the
+    /// waveform data packets (LAS 1.3) when they follow the points, else the end of the file.
+    points_end: u64,
+    /// What [`RawHeader::points_end`] is.
+    points_end_what: &'static str,
+}
+
+impl RawHeader {
+    /// Where the point count used lies: the legacy field, or LAS 1.4's 64-bit one when that
+    /// is 0.
+    fn count_at(&self) -> u64 {
+        if self.legacy != 0 { 107 } else { 247 }
+    }
+
+    /// The box points must lie in: the header's, widened by half a step of each axis's scale
+    /// (a writer may take the box from the coordinates before they are rounded to the grid)
+    /// and a few units in the last place of its magnitude.
+    fn box_with_slack(&self) -> ([f64; 3], [f64; 3]) {
+        let (lo, hi) = self.bounds;
+        let mut out = (lo, hi);
+        for a in 0..3 {
+            let slack =
+                0.5 * self.scale[a].abs() + 4.0 * f64::EPSILON * lo[a].abs().max(hi[a].abs());
+            out.0[a] = lo[a] - slack;
+            out.1[a] = hi[a] + slack;
+        }
+        out
+    }
 }
 
 fn raw_header(path: &Path, len: u64) -> Result<RawHeader, ReadError> {
@@ -85,14 +124,99 @@ fn raw_header(path: &Path, len: u64) -> Result<RawHeader, ReadError> {
     } else {
         0
     };
+    let u64_at = |i: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&head[i..i + 8]);
+        u64::from_le_bytes(b)
+    };
+    let f64_at = |i: usize| f64::from_bits(u64_at(i));
+    let version = (head[24], head[25]);
+    let point_data = u64::from(u32_at(96));
+    // Extended VLRs (1.4: start at byte 235, count at 243) and waveform data packets (1.3 and
+    // later: start at byte 227) after the points bound them.
+    let mut points_end = (len, "the end of the file");
+    if version >= (1, 3) && got >= 235 {
+        let waveform = u64_at(227);
+        if waveform >= point_data && waveform > 0 && waveform < points_end.0 {
+            points_end = (waveform, "the waveform data packets");
+        }
+    }
+    if version >= (1, 4) && got >= 255 && u32_at(243) > 0 {
+        let evlr = u64_at(235);
+        if evlr >= point_data && evlr < points_end.0 {
+            points_end = (evlr, "the extended VLRs");
+        }
+    }
     Ok(RawHeader {
-        point_data: u64::from(u32_at(96)),
+        point_data,
         compressed: head[104] & 0xC0 != 0,
         record: u64::from(u16::from_le_bytes([head[105], head[106]])),
         points: if legacy != 0 { legacy } else { large },
         header_size: u64::from(header_size),
         vlrs: u32_at(100),
+        version,
+        legacy,
+        large,
+        scale: [f64_at(131), f64_at(139), f64_at(147)],
+        bounds: (
+            [f64_at(187), f64_at(203), f64_at(219)],
+            [f64_at(179), f64_at(195), f64_at(211)],
+        ),
+        points_end: points_end.0,
+        points_end_what: points_end.1,
     })
+}
+
+/// The header's fields that decide how many points there are and where they lie, checked
+/// against each other and the file: no scale factor is 0 (or not finite; every coordinate
+/// would be the offset); LAS 1.4's legacy count, when set, equals its 64-bit count; and an
+/// uncompressed file holds no more whole point records between the point data and
+/// [`RawHeader::points_end`] than the header announces (a count too low would drop the rest
+/// silently; fewer records than announced is [`ReadErrorKind::Truncated`], checked after).
+fn check_counts_and_scale(path: &Path, raw: &RawHeader) -> Result<(), ReadError> {
+    let bad = |at: u64, message: String| {
+        Err(ReadError::new(
+            path,
+            Location::Byte(at),
+            ReadErrorKind::BadHeader(message),
+        ))
+    };
+    for (axis, &scale) in raw.scale.iter().enumerate() {
+        if scale == 0.0 || !scale.is_finite() {
+            return bad(
+                131 + 8 * axis as u64,
+                format!(
+                    "the {} scale factor is {scale}: every point's {} would be its offset",
+                    ["x", "y", "z"][axis],
+                    ["x", "y", "z"][axis]
+                ),
+            );
+        }
+    }
+    if raw.version >= (1, 4) && raw.legacy != 0 && raw.legacy != raw.large {
+        return bad(
+            107,
+            format!(
+                "LAS 1.4 point counts disagree: the legacy count (byte 107) says {} but the \
+                 64-bit count (byte 247) says {}",
+                raw.legacy, raw.large
+            ),
+        );
+    }
+    if !raw.compressed && raw.record > 0 && raw.points_end >= raw.point_data {
+        let records = (raw.points_end - raw.point_data) / raw.record;
+        if raw.points < records {
+            return bad(
+                raw.point_data + raw.points * raw.record,
+                format!(
+                    "the header announces {} points but the point data holds {records} records \
+                     of {} bytes (up to {} at byte {})",
+                    raw.points, raw.record, raw.points_end_what, raw.points_end
+                ),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Reads `buf.len()` bytes at `offset`, as a located error when the file is shorter.
@@ -120,12 +244,12 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
         ))
     };
     // The LASzip VLR.
-    if laszip_vlr(path, raw, len)?.is_none() {
+    let Some(body) = laszip_vlr(path, raw, len)? else {
         return bad(
             raw.header_size,
             "a compressed point format without a LASzip VLR".to_owned(),
         );
-    }
+    };
     // The chunk table.
     if raw.point_data + 8 > len {
         return bad(len, "truncated LAZ: no chunk table offset".to_owned());
@@ -156,6 +280,43 @@ fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
             format!(
                 "the LAZ chunk table announces {chunks} chunks for {} points",
                 raw.points
+            ),
+        );
+    }
+    // The header's count against the chunks (a count too low would drop the points of the
+    // chunks after it silently): chunks of a fixed size hold ⌈points / size⌉ chunks; chunks of
+    // variable size list their counts, which add up to the points.
+    let chunk_size = u32::from_le_bytes([body[12], body[13], body[14], body[15]]);
+    let counted = if chunk_size == u32::MAX {
+        laz::LazVlr::from_buffer(&body).ok().and_then(|vlr| {
+            use std::io::{Seek, SeekFrom};
+            let mut file = std::fs::File::open(path).ok()?;
+            file.seek(SeekFrom::Start(raw.point_data)).ok()?;
+            let table =
+                laz::laszip::ChunkTable::read_from(std::io::BufReader::new(file), &vlr).ok()?;
+            table
+                .as_ref()
+                .iter()
+                .try_fold(0u64, |a, e| a.checked_add(e.point_count))
+        })
+    } else {
+        None
+    };
+    let consistent = match counted {
+        Some(sum) => sum == raw.points,
+        None if chunk_size == u32::MAX || chunk_size == 0 => true,
+        None => chunks == raw.points.div_ceil(u64::from(chunk_size)),
+    };
+    if !consistent {
+        return bad(
+            raw.count_at(),
+            format!(
+                "the header announces {} points but the LAZ chunk table holds {}",
+                raw.points,
+                match counted {
+                    Some(sum) => format!("{sum} points in {chunks} chunks"),
+                    None => format!("{chunks} chunks of {chunk_size} points"),
+                }
             ),
         );
     }
@@ -367,6 +528,7 @@ impl LasStream {
                 )),
             ));
         }
+        check_counts_and_scale(path, &raw)?;
         // The point count against the file, before the `las` crate multiplies it by the record
         // length (which overflows for absurd counts): uncompressed records must fit in the file;
         // LAZ never compresses below a byte a point.
@@ -513,23 +675,52 @@ impl LasStream {
                 },
             ));
         }
+        let (lo, hi) = raw.box_with_slack();
         for (k, point) in self.chunk.points().enumerate() {
             let point = point.map_err(malformed)?;
             let index = (read + k as u64) as usize;
+            let at = if raw.compressed {
+                Location::File
+            } else {
+                Location::Byte(raw.point_data + index as u64 * record)
+            };
+            let xyz = [point.x, point.y, point.z];
+            if let Some(&value) = xyz.iter().find(|v| !v.is_finite()) {
+                return Err(ReadError::new(
+                    path,
+                    at,
+                    ReadErrorKind::NonFinite { index, value },
+                ));
+            }
+            // Every point in the header's box (corrupt data decodes to points anywhere).
+            if (0..3).any(|a| !(lo[a] <= xyz[a] && xyz[a] <= hi[a])) {
+                let (blo, bhi) = raw.bounds;
+                return Err(ReadError::new(
+                    path,
+                    at,
+                    ReadErrorKind::Malformed(format!(
+                        "point {index} at ({}, {}, {}) lies outside the header's box \
+                         ({}, {}, {}) .. ({}, {}, {}){}",
+                        xyz[0],
+                        xyz[1],
+                        xyz[2],
+                        blo[0],
+                        blo[1],
+                        blo[2],
+                        bhi[0],
+                        bhi[1],
+                        bhi[2],
+                        if raw.compressed {
+                            " (corrupt compressed data, or a wrong box)"
+                        } else {
+                            " (corrupt data, or a wrong box)"
+                        }
+                    )),
+                ));
+            }
             let class = u8::from(point.classification);
             if !keep(class) {
                 continue;
-            }
-            if let Some(&value) = [point.x, point.y, point.z].iter().find(|v| !v.is_finite()) {
-                return Err(ReadError::new(
-                    path,
-                    if raw.compressed {
-                        Location::File
-                    } else {
-                        Location::Byte(raw.point_data + index as u64 * record)
-                    },
-                    ReadErrorKind::NonFinite { index, value },
-                ));
             }
             cloud.positions.push(DVec3::new(point.x, point.y, point.z));
             if let Some(v) = cloud.intensity.as_mut() {
