@@ -401,6 +401,19 @@ pub fn clean(folders: &[PathBuf], remove: bool) -> Result<Vec<String>> {
     Ok(lines)
 }
 
+/// `pointsight clean`: [`clean`] over `folders` (the working directory when none), printed.
+pub fn clean_command(folders: Vec<PathBuf>, remove: bool) -> Result<()> {
+    let folders = if folders.is_empty() {
+        vec![PathBuf::from(".")]
+    } else {
+        folders
+    };
+    for line in clean(&folders, remove)? {
+        println!("{line}");
+    }
+    Ok(())
+}
+
 /// A lock file's line for `clean`: held (by whom) or not; removed when not held and `remove`.
 fn clean_lock(path: &Path, remove: bool) -> String {
     let Ok(file) = File::open(path) else {
