@@ -159,7 +159,7 @@ pub fn build(
 fn naming<T>(cloud_path: &Path, result: Result<T>) -> Result<T> {
     result.map_err(|e| {
         let name = cloud_path.display().to_string();
-        if crate::guard::error_text(&e).contains(&name) {
+        if format!("{e:#}").contains(&name) {
             e
         } else {
             e.context(name)

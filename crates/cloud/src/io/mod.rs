@@ -22,6 +22,8 @@ pub mod colmap;
 pub mod e57;
 #[cfg(feature = "formats")]
 pub mod las;
+#[cfg(feature = "formats")]
+mod las_header;
 pub mod obj;
 pub mod off;
 #[cfg(feature = "formats")]
