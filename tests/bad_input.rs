@@ -93,6 +93,8 @@ fn every_corpus_file_gives_its_error_naming_file_and_place() {
 
 #[test]
 fn the_command_line_exits_1_with_the_same_message() {
+    // A folder of this test's own (outputs are locked: another run's would be refused).
+    let out_dir = tempfile::tempdir().unwrap();
     for (file, location, message) in expected() {
         let path = bad_dir().join(&file);
         let out = if file.ends_with(".jsonl") {
@@ -107,9 +109,7 @@ fn the_command_line_exits_1_with_the_same_message() {
                 "--method".as_ref(),
                 "raycast".as_ref(),
                 "--out".as_ref(),
-                std::env::temp_dir()
-                    .join("pointsight-bad-views-out")
-                    .as_os_str(),
+                out_dir.path().join("views-out").as_os_str(),
             ])
         } else {
             pointsight(&["inspect".as_ref(), path.as_os_str()])
@@ -232,7 +232,8 @@ fn bad_cameras_and_parameters_on_the_command_line_are_refused() {
             "--eye",
         ),
     ];
-    let out_file = std::env::temp_dir().join("pointsight-bad-params.txt");
+    let out_dir = tempfile::tempdir().unwrap();
+    let out_file = out_dir.path().join("bad-params.txt");
     for (args, message) in cases {
         let mut all: Vec<&std::ffi::OsStr> = vec![
             "visible".as_ref(),
@@ -382,7 +383,12 @@ fn stderr_of(o: &Output) -> String {
 fn names(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .expect("a folder")
-        .map(|e| e.expect("an entry").file_name().to_string_lossy().into_owned())
+        .map(|e| {
+            e.expect("an entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
         .collect();
     v.sort();
     v
@@ -455,7 +461,14 @@ fn file_outputs_replace_only_regular_files_and_never_an_input() {
         ));
         cases.push((
             vec![
-                "visible", "--cloud", c, "--eye", "5,5,5", "--method", "hpr", "--out",
+                "visible",
+                "--cloud",
+                c,
+                "--eye",
+                "5,5,5",
+                "--method",
+                "hpr",
+                "--out",
                 &p("fifo"),
             ]
             .into_iter()
@@ -507,21 +520,39 @@ fn file_outputs_replace_only_regular_files_and_never_an_input() {
         assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
         assert!(err.contains(message), "{args:?}: {err:?} lacks {message:?}");
     }
-    assert_eq!(std::fs::read(&cloud).unwrap(), cloud_bytes, "the input was replaced");
+    assert_eq!(
+        std::fs::read(&cloud).unwrap(),
+        cloud_bytes,
+        "the input was replaced"
+    );
     assert!(d.join("folder").is_dir() && names(&d.join("folder")).is_empty());
     if fifo {
-        let t = std::fs::symlink_metadata(d.join("fifo")).unwrap().file_type();
+        let t = std::fs::symlink_metadata(d.join("fifo"))
+            .unwrap()
+            .file_type();
         assert!(std::os::unix::fs::FileTypeExt::is_fifo(&t));
     }
     // A link to a regular file is written through: the file replaced, the link kept.
     std::fs::create_dir(d.join("real")).unwrap();
     std::fs::write(d.join("real/out.ply"), b"old").unwrap();
     std::os::unix::fs::symlink("real/out.ply", d.join("link.ply")).unwrap();
-    let o = ps(&["export", "--dataset", "sphere-20000", "--out", &p("link.ply")]);
+    let o = ps(&[
+        "export",
+        "--dataset",
+        "sphere-20000",
+        "--out",
+        &p("link.ply"),
+    ]);
     assert!(o.status.success(), "{}", stderr_of(&o));
-    let t = std::fs::symlink_metadata(d.join("link.ply")).unwrap().file_type();
+    let t = std::fs::symlink_metadata(d.join("link.ply"))
+        .unwrap()
+        .file_type();
     assert!(t.is_symlink());
-    assert!(std::fs::read(d.join("real/out.ply")).unwrap().starts_with(b"ply\n"));
+    assert!(
+        std::fs::read(d.join("real/out.ply"))
+            .unwrap()
+            .starts_with(b"ply\n")
+    );
     let mut want = vec!["alias.ply", "folder", "link.ply", "real", "s.ply", "sock"];
     if fifo {
         want.push("fifo");
@@ -609,7 +640,13 @@ fn coincident_points_are_bounded_work_and_a_cloud_of_one_position_is_refused() {
     assert!(std::fs::read(&ooc).unwrap() == std::fs::read(&mem).unwrap());
     holds_exactly(
         d,
-        &["dups.ply", "mem.qsplat", "one.xyz", "ooc.qsplat", "same.xyz"],
+        &[
+            "dups.ply",
+            "mem.qsplat",
+            "one.xyz",
+            "ooc.qsplat",
+            "same.xyz",
+        ],
     );
 }
 
@@ -828,7 +865,9 @@ fn a_fifo_as_lod_file_and_a_colmap_model_cut_short_are_refused() {
     let err = stderr_of(&o);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(
-        err.contains("images.txt: line 4: truncated: the header announces 3 images but the data ends after 1"),
+        err.contains(
+            "images.txt: line 4: truncated: the header announces 3 images but the data ends after 1"
+        ),
         "{err}"
     );
     assert!(!out.exists());
@@ -933,8 +972,14 @@ fn stale_scratch_of_dead_runs_is_reclaimed_and_other_hosts_left() {
     let o = ps(&["clean", d.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", stderr_of(&o));
-    assert!(text.contains("state=stale") && text.contains("another host's"), "{text}");
-    assert!(text.contains("2 stale path(s): pointsight clean --remove"), "{text}");
+    assert!(
+        text.contains("state=stale") && text.contains("another host's"),
+        "{text}"
+    );
+    assert!(
+        text.contains("2 stale path(s): pointsight clean --remove"),
+        "{text}"
+    );
     assert!(stale.exists() && partial.exists());
     // A run beside them reclaims this host's dead ones and never reuses another's staging.
     let cloud = d.join("s.ply");
