@@ -937,6 +937,37 @@ fn signals_remove_scratch_and_exit_128_plus_the_signal() {
         // No scratch folder, no partial file, no lock file, and the process gone.
         holds_exactly(d, &["big.ply"]);
     }
+    // An experiment stopped in its staging folder: the folder gone, the previous results as
+    // they were.
+    let previous = d.join("r");
+    std::fs::create_dir(&previous).unwrap();
+    std::fs::write(previous.join("results.csv"), b"the previous results").unwrap();
+    let run = [
+        "run",
+        "reference",
+        "--quick",
+        "--datasets",
+        "sphere-20000",
+        "--out",
+        previous.to_str().unwrap(),
+    ];
+    let child = started(&run, d, ".r.partial-");
+    assert!(
+        Command::new("kill")
+            .args(["-s", "TERM", &child.id().to_string()])
+            .status()
+            .unwrap()
+            .success()
+    );
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(143), "{}", stderr_of(&o));
+    holds_exactly(d, &["big.ply", "r"]);
+    holds_exactly(&previous, &["results.csv"]);
+    assert_eq!(
+        std::fs::read(previous.join("results.csv")).unwrap(),
+        b"the previous results"
+    );
+    std::fs::remove_dir_all(&previous).unwrap();
     // A second run into an output being written is refused, naming the first.
     let first = started(&args, d, ".big.qsplat.chunks-");
     let o = ps(&args);

@@ -558,6 +558,40 @@ mod tests {
         }
     }
 
+    /// LAS 1.4's legacy count of 0 and extended VLRs after the points (COPC's hierarchy) are
+    /// legal; the records before the EVLRs are what the count must cover.
+    #[test]
+    fn extended_vlrs_after_the_points_are_legal() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats");
+        let mut bytes = std::fs::read(root.join("tiny.las")).unwrap();
+        assert_eq!(&bytes[107..111], &[0, 0, 0, 0], "the seed's legacy count is 0");
+        let at = bytes.len() as u64;
+        // One EVLR: 60-byte header (reserved, user id, record id, length, description), then
+        // 16 bytes of payload.
+        let mut evlr = vec![0u8; 60];
+        evlr[2..7].copy_from_slice(b"copc\0");
+        evlr[18..20].copy_from_slice(&1000u16.to_le_bytes());
+        evlr[20..28].copy_from_slice(&16u64.to_le_bytes());
+        evlr.extend_from_slice(&[7u8; 16]);
+        bytes.extend_from_slice(&evlr);
+        bytes[235..243].copy_from_slice(&at.to_le_bytes());
+        bytes[243..247].copy_from_slice(&1u32.to_le_bytes());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("evlr.las");
+        std::fs::write(&path, &bytes).unwrap();
+        let cloud = read_las(&path, &LasOptions::default()).unwrap().cloud;
+        assert_eq!(cloud.len(), 5);
+        // The same file with 3 announced: the 5 records before the EVLRs say otherwise.
+        bytes[247..255].copy_from_slice(&3u64.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let err = read_las(&path, &LasOptions::default()).unwrap_err().to_string();
+        assert!(
+            err.contains("announces 3 points but the point data holds 5 records")
+                && err.contains("up to the extended VLRs at byte 545"),
+            "{err}"
+        );
+    }
+
     #[test]
     fn a_point_outside_the_box_fails_and_leaves_no_file() {
         let dir = tempfile::tempdir().unwrap();
