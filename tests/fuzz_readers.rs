@@ -6,6 +6,9 @@
 //! 2^16 elements before data backs a header's count, and buffer 64 KiB). One test runs every
 //! reader in turn, so the process-wide count is the reader's own.
 //!
+//! A LAS or LAZ that reads without an error has every point inside its header's box (issue
+//! 41: corruption is caught, not read as data).
+//!
 //! Cases: `POINTSIGHT_FUZZ_CASES` per reader (default 400, so about 4,000 in `cargo test`);
 //! `POINTSIGHT_SLOW=1` raises the default to 10,000 per reader (10^5 in all).
 
@@ -252,6 +255,25 @@ fn read_counted(dir: &Path, ext: &str, bytes: &[u8]) -> (usize, Option<String>) 
     )
 }
 
+/// Whether every point `cloud::io::read` gives for the LAS/LAZ `bytes` (read as `fuzz.EXT` in
+/// `dir`) lies in the box of its header (bytes 179 to 226), widened by half a step of the
+/// scale (bytes 131 to 154) and a few units in the last place.
+fn inside_las_box(bytes: &[u8], dir: &Path, ext: &str) -> bool {
+    let f = |at: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&bytes[at..at + 8]);
+        f64::from_le_bytes(b)
+    };
+    let loaded = cloud::io::read(&dir.join(format!("fuzz.{ext}"))).expect("read again");
+    loaded.cloud.positions.iter().all(|p| {
+        (0..3).all(|a| {
+            let (hi, lo) = (f(179 + 16 * a), f(187 + 16 * a));
+            let slack = 0.5 * f(131 + 8 * a).abs() + 4.0 * f64::EPSILON * lo.abs().max(hi.abs());
+            lo - slack <= p[a] && p[a] <= hi + slack
+        })
+    })
+}
+
 fn fuzz(ext: &'static str) {
     let dir = tempfile::tempdir().expect("a temporary folder");
     // A fixed seed per reader, so `cargo test` is reproducible; POINTSIGHT_FUZZ_SEED varies it.
@@ -282,6 +304,14 @@ fn fuzz(ext: &'static str) {
             std::fs::write(&failed, &bytes).expect("keep the failing input");
         }
         prop_assert!(!message.contains("panicked"), "{message}");
+        if matches!(ext, "las" | "laz") && message.is_empty() {
+            // Corruption is caught, not read as data: whatever a mutated LAS/LAZ decodes to
+            // lies in its header's box (with half a step of its scale).
+            prop_assert!(
+                inside_las_box(&bytes, dir.path(), ext),
+                "a point outside the box"
+            );
+        }
         prop_assert!(
             peak <= budget,
             "a {}-byte .{ext} made the reader hold {peak} bytes (budget {budget})",

@@ -143,6 +143,13 @@ pub enum Error {
     /// The cloud has no points.
     #[error("the point cloud is empty")]
     EmptyCloud,
+    /// The cloud cannot describe a surface (normals, spacing): fewer than 3 points, or all at
+    /// one position.
+    #[error("the point cloud has no surface: {reason}")]
+    NoSurface {
+        /// Why.
+        reason: String,
+    },
     /// The mesh has no triangles (or all of them have zero area).
     #[error("the mesh has no triangle of non-zero area")]
     EmptyMesh,

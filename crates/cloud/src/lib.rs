@@ -4,7 +4,8 @@
 //!   provenance) and [`TriMesh`], borrowed by the method crates without copies;
 //! - readers for PLY, OFF and XYZ and a binary PLY writer ([`io`]), with typed errors that name
 //!   the file and the line or byte ([`ReadError`]);
-//! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`]);
+//! - area-weighted seeded surface sampling ([`sample`]), k-NN normal estimation ([`normals`])
+//!   over canonical neighbourhoods ([`knn`]: ties by index, coincident points in bounded work);
 //! - the [`Camera`] (pinhole, orthographic, spherical; its JSON form) and deterministic
 //!   viewpoint sets ([`views`]);
 //! - the memory guard for allocations sized by user input ([`memory`]);
@@ -12,7 +13,9 @@
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]);
 //! - scratch files for out-of-core builds ([`spill`]) and the method-neutral out-of-core
-//!   preparation of an LOD build: chunks, normals, leaf radius ([`ooc`]).
+//!   preparation of an LOD build: chunks, normals, leaf radius ([`ooc`]); scratch and staging
+//!   paths named after their owner, registered for removal on a signal, found again after a
+//!   crash ([`scratch`]).
 //!
 //! This crate knows nothing of any method, of experiments, plots or the command line.
 
@@ -23,6 +26,7 @@ pub mod degrade;
 pub mod double_buffer;
 pub mod error;
 pub mod io;
+pub mod knn;
 pub mod memory;
 pub mod mesh;
 pub mod normals;
@@ -31,6 +35,7 @@ pub mod points;
 pub mod recentre;
 pub mod rng;
 pub mod sample;
+pub mod scratch;
 pub mod spacing;
 pub mod spill;
 pub mod synth;

@@ -3,7 +3,8 @@
 //! Seed 002 §2.1.1 (Carvalho 2009, after Hoppe et al. 1992): for a point x with neighbours
 //! N = {x_1..x_k}, C = Σ_j (x_j − x̄)(x_j − x̄)ᵀ (eq. 2.1) with x̄ the neighbours' mean; the
 //! eigenvector of the smallest eigenvalue of C estimates the normal direction. Neighbours come
-//! from `kiddo`'s immutable k-d tree (the point itself is one of its k neighbours); the 3×3
+//! from [`crate::knn`] (a `kiddo` k-d tree; the point itself is one of its k neighbours; ties by
+//! index, coincident points in bounded work); the 3×3
 //! symmetric eigenproblem is solved by cyclic Jacobi rotations, which are exact enough at this
 //! size and never fail to converge.
 //!
@@ -16,10 +17,10 @@
 use std::num::NonZero;
 
 use glam::{DMat3, DVec3, Vec3};
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
+use crate::knn::Knn;
 use crate::points::check_finite;
 
 /// How estimated normals get their sign.
@@ -33,7 +34,9 @@ pub enum Orientation<'a> {
     Reference(&'a [Vec3]),
 }
 
-/// Estimates one unit normal per point from its `k` nearest neighbours (k ≥ 3, k ≤ n).
+/// Estimates one unit normal per point from its `k` nearest neighbours (k ≥ 3, k ≤ n), taken
+/// in [`crate::knn`]'s canonical order (coincident points in bounded work). A cloud of fewer
+/// than 3 points, or whose points all coincide, has no surface and is refused.
 pub fn estimate_normals(
     positions: &[DVec3],
     k: usize,
@@ -43,6 +46,7 @@ pub fn estimate_normals(
         return Err(Error::EmptyCloud);
     }
     check_finite(positions)?;
+    check_surface(positions)?;
     if k < 3 || k > positions.len() {
         return Err(Error::InvalidParameter {
             name: "k",
@@ -61,13 +65,7 @@ pub fn estimate_normals(
             found: r.len(),
         });
     }
-    let entries: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
-        Error::InvalidParameter {
-            name: "positions",
-            reason: format!("cannot build a k-d tree: {e:?}"),
-        }
-    })?;
+    let knn = Knn::new(positions, |i| i)?;
     let k_nz = NonZero::new(k).ok_or(Error::InvalidParameter {
         name: "k",
         reason: "k must be positive".into(),
@@ -75,7 +73,7 @@ pub fn estimate_normals(
     let centroid = centroid(positions);
     Ok(per_point_in_spatial_order(positions, |i| {
         let p = positions[i];
-        let neighbours = canonical_knn(&tree, p, k_nz, |item| item);
+        let neighbours = knn.canonical_knn(p, k_nz);
         let n = covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize]));
         let reference = match orientation {
             Orientation::AwayFromCentroid => p - centroid,
@@ -84,6 +82,31 @@ pub fn estimate_normals(
         };
         orient(n, reference)
     }))
+}
+
+/// Fails unless `positions` can have a surface: at least 3 points, not all at one position
+/// ([`Error::NoSurface`]).
+pub fn check_surface(positions: &[DVec3]) -> Result<()> {
+    let first = positions.first().copied().unwrap_or_default();
+    if positions.len() < 3 || positions.iter().all(|&p| p == first) {
+        return Err(no_surface(positions.len() as u64, first));
+    }
+    Ok(())
+}
+
+/// The error of a cloud of `n` points without a surface: fewer than 3, or (3 or more) all at
+/// `at`.
+pub fn no_surface(n: u64, at: DVec3) -> Error {
+    Error::NoSurface {
+        reason: if n < 3 {
+            format!(
+                "{n} point{}: a surface needs at least 3",
+                if n == 1 { "" } else { "s" }
+            )
+        } else {
+            format!("all {n} points coincide at ({}, {}, {})", at.x, at.y, at.z)
+        },
+    }
 }
 
 /// `f(i)` for every point `i` of `positions`, in parallel, returned by index. The calls are
@@ -159,46 +182,6 @@ pub fn covariance_normal(points: impl Iterator<Item = DVec3> + Clone) -> DVec3 {
         cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
     }
     smallest_eigenvector(cov)
-}
-
-/// The `k` nearest neighbours of `p` in `tree` (the point itself included when it is in the
-/// tree) as (squared distance, item), in a canonical order that does not depend on how the
-/// tree was built: by distance, equal distances by `global(item)` (the point's index in the
-/// whole cloud), and when several points tie at the k-th distance, those of smallest global
-/// index. So the same neighbourhood, summed in the same order, comes out of any tree holding
-/// the point's true neighbours (an out-of-core build's chunk and its halo).
-pub fn canonical_knn(
-    tree: &ImmutableKdTree<f64, 3>,
-    p: DVec3,
-    k: NonZero<usize>,
-    global: impl Fn(u64) -> u64,
-) -> Vec<(f64, u64)> {
-    let q = p.to_array();
-    let size = tree.size();
-    let mut want = k.get().saturating_add(1).min(size.max(1));
-    loop {
-        let got = tree
-            .query(&q)
-            .nearest_n::<SquaredEuclidean<f64>>(NonZero::new(want).unwrap_or(k))
-            .execute();
-        let kth = got.get(k.get() - 1).map(|nb| nb.distance);
-        // Complete when every point at the k-th distance is in the answer: the answer holds
-        // every point of the tree, or its last is farther than the k-th.
-        let complete = got.len() < want
-            || want >= size
-            || kth.is_none_or(|d| got.last().is_some_and(|l| l.distance > d));
-        if complete {
-            let mut nb: Vec<(f64, u64)> = got
-                .iter()
-                .filter(|nb| kth.is_none_or(|d| nb.distance <= d))
-                .map(|nb| (nb.distance, u64::from(nb.item)))
-                .collect();
-            nb.sort_by(|a, b| a.0.total_cmp(&b.0).then(global(a.1).cmp(&global(b.1))));
-            nb.truncate(k.get());
-            return nb;
-        }
-        want = want.saturating_mul(2).min(size);
-    }
 }
 
 /// Unit eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix (cyclic Jacobi).
@@ -296,10 +279,25 @@ mod tests {
             estimate_normals(&[], 8, Orientation::AwayFromCentroid),
             Err(Error::EmptyCloud)
         ));
+        let square = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::ONE];
         assert!(matches!(
-            estimate_normals(&[DVec3::ZERO; 4], 8, Orientation::AwayFromCentroid),
+            estimate_normals(&square, 8, Orientation::AwayFromCentroid),
             Err(Error::InvalidParameter { name: "k", .. })
         ));
+        let err = estimate_normals(&[DVec3::ONE; 4], 3, Orientation::AwayFromCentroid)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            "the point cloud has no surface: all 4 points coincide at (1, 1, 1)"
+        );
+        let err = estimate_normals(&[DVec3::ONE], 1, Orientation::AwayFromCentroid)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            err,
+            "the point cloud has no surface: 1 point: a surface needs at least 3"
+        );
         assert!(matches!(
             estimate_normals(&[DVec3::NAN; 4], 3, Orientation::AwayFromCentroid),
             Err(Error::NonFinite { index: 0 })

@@ -1,14 +1,19 @@
 //! The point spacing of a cloud, for parameter rules (ray-cast radius, HPR's γ): the median distance from a point to its
-//! nearest neighbour, over a seeded sample (`kiddo`'s k-d tree for the neighbour queries).
+//! nearest neighbour, over a seeded sample ([`crate::knn`] for the neighbour queries, so that
+//! coincident points cost no more than others).
+//!
+//! Coincident points count as distance 0. A spacing of 0 (every point at one position, or at
+//! least half the sample with k copies at their very position) is refused
+//! ([`Error::NoSurface`]) rather than handed to a rule that divides by it.
 
 use std::num::NonZero;
 
 use glam::DVec3;
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 use crate::rng::{RngExt, seeded};
 
 use crate::error::{Error, Result};
+use crate::knn::Knn;
 
 /// Median nearest-neighbour distance over up to `sample` points drawn with `seed` (all points
 /// when the cloud is smaller). Coincident points count as distance 0.
@@ -37,6 +42,25 @@ pub fn density_spacing(points: &[DVec3], k: usize, sample: usize, seed: u64) -> 
     }
     let r_k = kth_neighbour_median(points, k, sample, seed, DENSITY_PURPOSE)?;
     Ok(density_from_kth(r_k, k))
+}
+
+/// Fails unless `median`, the median distance to the `k`-th neighbour over `sampled` points,
+/// is positive (module doc).
+pub fn check_median(median: f64, k: usize, sampled: usize) -> Result<()> {
+    if median > 0.0 {
+        return Ok(());
+    }
+    Err(Error::NoSurface {
+        reason: format!(
+            "the median distance to the {} over {sampled} sampled points is 0: at least half \
+             of them have {k} or more copies at their very position (remove the duplicates)",
+            if k == 1 {
+                "nearest neighbour".to_owned()
+            } else {
+                format!("{k}-th neighbour")
+            }
+        ),
+    })
 }
 
 /// The random stream [`density_spacing`] draws its sample from.
@@ -73,34 +97,29 @@ fn kth_neighbour_median(
     seed: u64,
     purpose: &str,
 ) -> Result<f64> {
-    let entries: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
-        Error::InvalidParameter {
-            name: "points",
-            reason: format!("cannot build a k-d tree: {e:?}"),
-        }
-    })?;
+    crate::points::check_finite(points)?;
+    let first = points[0];
+    if points.iter().all(|&p| p == first) {
+        return Err(crate::normals::no_surface(points.len() as u64, first));
+    }
+    let knn = Knn::new(points, |i| i)?;
     let picks = sample_picks(points.len(), sample, seed, purpose);
     let n = NonZero::new(k + 1).ok_or(Error::InvalidParameter {
         name: "k",
         reason: "overflow".into(),
     })?;
+    // The query point itself is the nearest (distance 0); the (k+1)-th is the k-th neighbour.
+    // Coincident points count as distance 0.
     let mut d: Vec<f64> = picks
         .iter()
-        .map(|&i| {
-            // The query point itself is the nearest (distance 0); the last is the k-th
-            // neighbour. Coincident points count as distance 0.
-            let nn = tree
-                .query(&entries[i])
-                .nearest_n::<SquaredEuclidean<f64>>(n)
-                .execute();
-            nn.last().map_or(0.0, |x| x.distance.sqrt())
-        })
+        .map(|&i| knn.kth_distance2(points[i], n).sqrt())
         .collect();
-    median_of(&mut d).ok_or(Error::InvalidParameter {
+    let median = median_of(&mut d).ok_or(Error::InvalidParameter {
         name: "sample",
         reason: "no point to measure".into(),
-    })
+    })?;
+    check_median(median, k, picks.len())?;
+    Ok(median)
 }
 
 #[cfg(test)]
@@ -114,6 +133,31 @@ mod tests {
             .collect();
         assert!((median_spacing(&pts, 1000, 1).unwrap() - 0.5).abs() < 1e-12);
         assert!(median_spacing(&pts[..1], 10, 1).is_err());
+    }
+
+    #[test]
+    fn a_spacing_of_zero_is_refused_with_the_reason() {
+        let same = vec![DVec3::ONE; 50];
+        let err = density_spacing(&same, 8, 100, 1).unwrap_err().to_string();
+        assert!(err.contains("all 50 points coincide"), "{err}");
+        // Two thirds of the points in clusters of 10 copies: the median 8-th neighbour is 0.
+        let mut pts: Vec<DVec3> = (0..300)
+            .map(|i| DVec3::new(f64::from(i % 20), f64::from(i / 20), 0.0))
+            .collect();
+        for c in 0..60 {
+            pts.extend(std::iter::repeat_n(
+                DVec3::new(f64::from(c), 100.0, 0.0),
+                10,
+            ));
+        }
+        let err = density_spacing(&pts, 8, 10_000, 1).unwrap_err().to_string();
+        assert!(
+            err.contains("8 or more copies at their very position"),
+            "{err}"
+        );
+        // A third: the clean points decide.
+        pts.truncate(300 + 15 * 10);
+        assert!(density_spacing(&pts, 8, 10_000, 1).unwrap() > 0.0);
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! Spilling to disk for out-of-core builds: a scratch directory beside the output file, removed
-//! with everything in it when the build ends (also after an error or a panic), and files of
-//! fixed-size records in it, written once and read back by range.
+//! with everything in it when the build ends (also after an error or a panic; on a signal
+//! through [`crate::scratch`]'s registry; after a crash by the next run beside the same
+//! output), and files of fixed-size records in it, written once and read back by range.
 //!
 //! A [`Scratch`] can be told to fail its writes after a number of bytes
 //! ([`Scratch::fail_after`]), which is how tests play a disk that fills: the error is the one a
@@ -16,6 +17,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 #[derive(Debug)]
 pub struct Scratch {
     dir: PathBuf,
+    _registered: crate::scratch::Registered,
     next: AtomicU64,
     written: Arc<AtomicU64>,
     usage: Arc<Usage>,
@@ -52,17 +54,24 @@ struct Usage {
 }
 
 impl Scratch {
-    /// Creates `.NAME.chunks-PID-K/` beside `out` (the disk the output goes to).
+    /// Creates `.NAME.chunks-HOST-PID-K/` beside `out` (the disk the output goes to), after
+    /// removing the stale scratch of this host's dead processes there
+    /// ([`crate::scratch::remove_stale_in`]).
     pub fn beside(out: &Path) -> io::Result<Self> {
-        static COUNTER: AtomicU64 = AtomicU64::new(0);
-        let name = out
-            .file_name()
-            .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
-        let k = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir = out.with_file_name(format!(".{name}.chunks-{}-{k}", std::process::id()));
+        if let Some(parent) = out.parent() {
+            let parent = if parent.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                parent
+            };
+            crate::scratch::remove_stale_in(parent);
+        }
+        let dir = crate::scratch::beside(out, "chunks");
+        let registered = crate::scratch::register(&dir);
         std::fs::create_dir(&dir)?;
         Ok(Self {
             dir,
+            _registered: registered,
             next: AtomicU64::new(0),
             written: Arc::new(AtomicU64::new(0)),
             usage: Arc::new(Usage::default()),

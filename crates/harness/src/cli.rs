@@ -178,7 +178,8 @@ pub enum Command {
         in_memory: bool,
     },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
-    /// scanners, and the read time (`points=N ... read_seconds=T points_per_second=R`).
+    /// scanners, coincident points (`distinct_positions=M duplicates=D most_copies=C`), and
+    /// the read time (`points=N ... read_seconds=T points_per_second=R`).
     Inspect {
         /// The file.
         file: PathBuf,
@@ -242,6 +243,19 @@ pub enum Command {
     },
     /// Print the built-in sweeps (every method's grid), a starting point for `--config`.
     Sweeps,
+    /// List the scratch and staging folders and files that runs left beside their outputs
+    /// (`.NAME.chunks-HOST-PID-K`, `.NAME.partial-…`, `.NAME.previous-…`) in the given folders
+    /// and below, with their state: stale (this host's, its process gone), in use, or another
+    /// host's (a shared file system: left alone). A dry run unless `--remove`, which removes
+    /// the stale ones (a `previous` folder whose output is missing is put back) and lock
+    /// files no process holds. One line per path, then `N stale path(s)`.
+    Clean {
+        /// Folders to look in (default: the working directory).
+        folders: Vec<PathBuf>,
+        /// Remove what is stale (without it, only list).
+        #[arg(long)]
+        remove: bool,
+    },
     /// Write the viewer pages of the visibility and lod experiments' real datasets
     /// (reports/viewer/, each at most 5 MiB) and assemble reports/README.md from the
     /// experiments' results.

@@ -8,7 +8,9 @@
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page; [`rss`]: peak memory;
 //! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
 //!   every method's visible set; [`cli`], [`run`] (the dispatcher) and [`commands`] (their
-//!   bodies): the `pointsight` command.
+//!   bodies): the `pointsight` command;
+//! - [`guard`]: what every command runs under: outputs checked and locked, stale scratch
+//!   reclaimed, signals answered.
 //!
 //! Only this crate does command-line parsing, plotting and report I/O; the method crates
 //! return values and typed errors.
@@ -18,6 +20,7 @@ pub mod commands;
 pub mod datasets;
 pub mod experiments;
 pub mod fetch;
+pub mod guard;
 pub mod lod_build;
 pub mod output;
 pub mod progress;
@@ -41,11 +44,14 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         cli.manifest.as_deref(),
     )?);
     registry::register_external(&cli.methods_dir)?;
+    // Outputs checked and locked, stale scratch reclaimed, signals answered (issue 41).
+    let _guard = guard::begin(&cli.command)?;
     match cli.command {
         Command::Fetch => commands::data::fetch(&data_dir)?,
         Command::Datasets => commands::data::list_datasets(&data_dir, cli.manifest.as_deref())?,
         Command::Methods => commands::catalogue::list_methods()?,
         Command::Sweeps => commands::catalogue::sweeps(),
+        Command::Clean { folders, remove } => guard::clean_command(folders, remove)?,
         Command::Export { dataset, out } => commands::data::export(&dataset, &out, &data_dir)?,
         Command::Inspect {
             file,

@@ -172,6 +172,32 @@ pub fn build(
     out: &Path,
     progress: bool,
 ) -> Result<Built> {
+    naming(
+        cloud_path,
+        build_unnamed(cloud_path, method, memory_limit, out, progress),
+    )
+}
+
+/// `result`, its error prefixed with the cloud file when it does not name it already (a
+/// cloud without a surface, a method refusing it).
+fn naming<T>(cloud_path: &Path, result: Result<T>) -> Result<T> {
+    result.map_err(|e| {
+        let name = cloud_path.display().to_string();
+        if format!("{e:#}").contains(&name) {
+            e
+        } else {
+            e.context(name)
+        }
+    })
+}
+
+fn build_unnamed(
+    cloud_path: &Path,
+    method: &str,
+    memory_limit: u64,
+    out: &Path,
+    progress: bool,
+) -> Result<Built> {
     if !OUT_OF_CORE.contains(&method) {
         bail!(
             "lod-build: method {method:?} has no out-of-core build (these have: {OUT_OF_CORE:?})"
@@ -340,6 +366,10 @@ pub fn build(
 /// `qsplat::ooc::in_memory`, or `cloud::ooc::prepare_in_memory` and `spt::ooc::in_memory`): the reference the out-of-core build equals, and the baseline
 /// of its rate and memory.
 pub fn build_in_memory(cloud_path: &Path, method: &str, out: &Path) -> Result<Built> {
+    naming(cloud_path, build_in_memory_unnamed(cloud_path, method, out))
+}
+
+fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Result<Built> {
     if !OUT_OF_CORE.contains(&method) {
         bail!("lod-build: method {method:?} has no file (these have: {OUT_OF_CORE:?})");
     }

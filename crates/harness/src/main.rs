@@ -10,7 +10,7 @@ fn main() -> ExitCode {
     match harness::run(cli) {
         Ok(code) => code,
         Err(err) => {
-            eprintln!("error: {err:#}");
+            eprintln!("error: {}", harness::guard::error_text(&err));
             ExitCode::FAILURE
         }
     }

@@ -65,7 +65,9 @@ impl CameraFlags {
                 let r = 0.5 * (extent / unit).length();
                 let d = (to_eye / unit).length();
                 if d > 1.0001 * r {
-                    ((2.0 * (r / d).asin()).to_degrees() * 1.05).min(170.0)
+                    // At least 10^-6 degrees: an eye too far for any field of view is refused
+                    // by the view check (`Dataset::check_views`) with its reason.
+                    ((2.0 * (r / d).asin()).to_degrees() * 1.05).clamp(1e-6, 170.0)
                 } else {
                     90.0
                 }
@@ -259,6 +261,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
             "with --cloud, give a camera: --eye X,Y,Z (and optionally --target, --up, --fov-y, --width, --height) or --views FILE"
         );
     }
+    ds.check_views()?;
     Ok(ds)
 }
 

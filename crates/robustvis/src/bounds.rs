@@ -43,7 +43,6 @@ use std::num::NonZero;
 
 use cloud::glam::{DMat3, DVec3};
 use cloud::rng::{RngExt, seeded};
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 
 use crate::{Result, RobustError};
@@ -103,12 +102,10 @@ pub fn estimate_noise(points: &[DVec3], k: usize, sample: usize, seed: u64) -> R
     if let Some(i) = points.iter().position(|p| !p.is_finite()) {
         return Err(RobustError::NonFinite(Some(i)));
     }
-    let entries: Vec<[f64; 3]> = points.iter().map(|p| p.to_array()).collect();
-    let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
-        RobustError::InvalidParameter {
-            name: "points",
-            reason: format!("cannot build a k-d tree: {e:?}"),
-        }
+    // Neighbours in `cloud::knn`'s canonical order: coincident points cost no more than others.
+    let knn = cloud::knn::Knn::new(points, |i| i).map_err(|e| RobustError::InvalidParameter {
+        name: "points",
+        reason: e.to_string(),
     })?;
     let mut rng = seeded(seed, "robustvis-noise");
     let picks: Vec<usize> = if points.len() <= sample {
@@ -125,11 +122,8 @@ pub fn estimate_noise(points: &[DVec3], k: usize, sample: usize, seed: u64) -> R
     let mut variances: Vec<f64> = picks
         .par_iter()
         .map(|&i| {
-            let nn = tree
-                .query(&entries[i])
-                .nearest_n::<SquaredEuclidean<f64>>(n)
-                .execute();
-            let nbrs: Vec<DVec3> = nn.iter().map(|x| points[x.item as usize]).collect();
+            let nn = knn.canonical_knn(points[i], n);
+            let nbrs: Vec<DVec3> = nn.iter().map(|x| points[x.1 as usize]).collect();
             smallest_eigenvalue(covariance(&nbrs))
         })
         .collect();

@@ -141,6 +141,24 @@ overflow = bytearray(las)
 struct.pack_into("<H", overflow, 105, 1024)
 struct.pack_into("<Q", overflow, 247, 1 << 60)
 binary("las_count_overflow.las", overflow)
+# Issue 41: corruption read as data. A point outside the header's box (its X moved by 100,000
+# units of the 0.001 scale), the same point inside a LAZ whose box was shrunk, an x scale of 0,
+# a count below the records the file holds, and LAS 1.4's two counts disagreeing.
+outside = bytearray(las)
+struct.pack_into("<i", outside, 375 + 2 * 34, 100_000_000)
+binary("las_outside_box.las", outside)
+small_box = bytearray(laz)
+struct.pack_into("<d", small_box, 179, 500001.0)  # max x below the points' 500002.375
+binary("laz_outside_box.laz", small_box)
+scale0 = bytearray(las)
+struct.pack_into("<d", scale0, 131, 0.0)
+binary("las_scale_zero.las", scale0)
+too_few = bytearray(las)
+struct.pack_into("<Q", too_few, 247, 3)  # 3 announced, 5 records present
+binary("las_count_too_low.las", too_few)
+disagree = bytearray(las)
+struct.pack_into("<I", disagree, 107, 3)  # legacy 3, 64-bit 5
+binary("las_count_mismatch.las", disagree)
 
 # ---- E57 (from pye57's tiny.e57: 1024-byte pages, each ending in the CRC-32C of its 1020)
 e57 = valid("tiny.e57")

@@ -139,6 +139,27 @@ impl Model {
     }
 }
 
+/// A number for a message: plain when moderate, else in scientific notation.
+fn num(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e7).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:.6e}")
+    }
+}
+
+/// A point for a message.
+fn point(p: DVec3) -> String {
+    format!("({}, {}, {})", num(p.x), num(p.y), num(p.z))
+}
+
+/// How near a point the eye may be, in diameters of the cloud ([`Camera::check_view_of`]).
+pub const EYE_CLEARANCE: f64 = 1e-9;
+
+/// The least extent of a cloud, as a fraction of its farthest distance from the eye
+/// ([`Camera::check_view_of`]): single precision's epsilon, 2^-23.
+pub const MIN_EXTENT: f64 = f32::EPSILON as f64;
+
 /// A camera: a pose (eye and orientation), a projection model and an image size.
 ///
 /// Build it with [`Camera::new`] (a look-at pinhole with a vertical field of view),
@@ -606,6 +627,74 @@ impl Camera {
     /// fy), or the equivalent `1 / pixel_size_at(1)` of the other models.
     pub fn focal_px(&self) -> f64 {
         1.0 / self.pixel_size_at(1.0)
+    }
+
+    /// Fails when this camera cannot look at the cloud `positions` (in the frame the methods
+    /// see: a dataset's recentred one), with the same refusal for the ground truth and every
+    /// method (issue 41; before, an eye on a point gave HPR's refusal, 1 point for the ray
+    /// cast and 0 for the reference):
+    /// - the eye within [`EYE_CLEARANCE`] of the cloud's diameter of a point: the direction to
+    ///   that point, and so its visibility, is undefined;
+    /// - the eye so far that the cloud's extent is below [`MIN_EXTENT`] of its distance: the
+    ///   coordinates relative to the eye can no longer tell the cloud's points apart at the
+    ///   precision of single-precision depth buffers (the ground truth's raster and the splats
+    ///   hold depths so), and at f64's own limit every point collapses onto one (an eye at
+    ///   10^300 made the ground truth call a whole sphere visible).
+    ///
+    /// Orthographic cameras have no centre of projection and are not checked. A cloud of one
+    /// position has no diameter and is left to the methods (which refuse it).
+    pub fn check_view_of(&self, positions: &[DVec3]) -> Result<()> {
+        use rayon::prelude::*;
+        if matches!(self.model, Model::Orthographic { .. }) || positions.is_empty() {
+            return Ok(());
+        }
+        let Some(bbox) = crate::bbox::Aabb::from_points(positions) else {
+            return Ok(());
+        };
+        let extent = bbox.max - bbox.min;
+        // Lengths of vectors scaled by their largest component: no overflow near f64's ends.
+        let length = |v: DVec3| {
+            let m = v.abs().max_element();
+            if m > 0.0 && m.is_finite() {
+                m * (v / m).length()
+            } else {
+                m
+            }
+        };
+        let diameter = length(extent);
+        if !(diameter > 0.0) {
+            return Ok(());
+        }
+        let far = length(bbox.center() - self.eye) + 0.5 * diameter;
+        if diameter < MIN_EXTENT * far {
+            return Err(Error::DegenerateCamera(format!(
+                "the eye at {} is {} from the cloud, {} times its extent {}: beyond {} times, \
+                 the cloud is below the precision of its coordinates as seen from the eye",
+                point(self.eye),
+                num(far),
+                num(far / diameter),
+                num(diameter),
+                num(1.0 / MIN_EXTENT)
+            )));
+        }
+        let eye = self.eye;
+        let nearest = positions
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| (length(*p - eye), i))
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        if let Some((d, i)) = nearest
+            && d <= EYE_CLEARANCE * diameter
+        {
+            return Err(Error::DegenerateCamera(format!(
+                "the eye at {} is {} from point {i}, within {EYE_CLEARANCE:e} of the cloud's \
+                 diameter {}: seen from a point of the cloud, visibility is undefined",
+                point(eye),
+                num(d),
+                num(diameter)
+            )));
+        }
+        Ok(())
     }
 
     /// Fails with an error naming `method` and this camera's model unless the model is one of

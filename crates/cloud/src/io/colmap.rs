@@ -11,6 +11,10 @@
 //! - `#` lines are comments. COLMAP's pixel convention (the centre of the top-left pixel is
 //!   (0.5, 0.5)) is ours, so cx, cy are used as they are.
 //!
+//! - The header comments COLMAP writes (`# Number of cameras: N`, `# Number of images: N,
+//!   mean observations per image: M`) are checked against the lines read: a file cut short is
+//!   an error, not fewer views. Files without them (written by hand) are read as they are.
+//!
 //! Errors name the file and the line.
 
 use std::collections::BTreeMap;
@@ -32,17 +36,61 @@ pub struct ColmapImage {
     pub camera: Camera,
 }
 
-fn lines(path: &Path) -> Result<Vec<(usize, String)>, ReadError> {
+/// The data lines of a model file (number, text), and the count its header comment declares
+/// (`# Number of images: N, ...`, as COLMAP writes it) with that comment's line number.
+struct Lines {
+    data: Vec<(usize, String)>,
+    declared: Option<(usize, u64)>,
+}
+
+fn lines(path: &Path, what: &str) -> Result<Lines, ReadError> {
     let reader = open(path)?;
-    let mut out = Vec::new();
+    let mut out = Lines {
+        data: Vec::new(),
+        declared: None,
+    };
+    let key = format!("Number of {what}:");
     for (k, line) in reader.lines().enumerate() {
         let line =
             line.map_err(|e| ReadError::new(path, Location::Line(k + 1), ReadErrorKind::Io(e)))?;
-        if !line.trim_start().starts_with('#') {
-            out.push((k + 1, line));
+        let trimmed = line.trim_start();
+        if let Some(comment) = trimmed.strip_prefix('#') {
+            if let Some(rest) = comment.trim_start().strip_prefix(&key)
+                && out.declared.is_none()
+            {
+                let digits: String = rest
+                    .trim_start()
+                    .chars()
+                    .take_while(char::is_ascii_digit)
+                    .collect();
+                out.declared = digits.parse().ok().map(|n| (k + 1, n));
+            }
+        } else {
+            out.data.push((k + 1, line));
         }
     }
     Ok(out)
+}
+
+/// Fails when the file declares a count of `what` other than `found` (a file cut short, or
+/// lines lost).
+fn check_declared(path: &Path, lines: &Lines, what: &str, found: usize) -> Result<(), ReadError> {
+    match lines.declared {
+        Some((line, n)) if n != found as u64 => Err(ReadError::new(
+            path,
+            Location::Line(line),
+            ReadErrorKind::Truncated {
+                what: if what == "images" {
+                    "images"
+                } else {
+                    "cameras"
+                },
+                expected: usize::try_from(n).unwrap_or(usize::MAX),
+                found,
+            },
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn numbers(tokens: &[&str]) -> Result<Vec<f64>, ReadErrorKind> {
@@ -58,7 +106,8 @@ fn integer(token: &str) -> Result<u64, ReadErrorKind> {
 /// Reads `cameras.txt`: camera id → (model, width, height).
 pub fn read_cameras(path: &Path) -> Result<BTreeMap<u64, (Model, u32, u32)>, ReadError> {
     let mut cameras = BTreeMap::new();
-    for (line_no, line) in lines(path)? {
+    let lines = lines(path, "cameras")?;
+    for (line_no, line) in lines.data.iter().cloned() {
         let here = |kind| ReadError::new(path, Location::Line(line_no), kind);
         let tokens: Vec<&str> = line.split_whitespace().collect();
         if tokens.is_empty() {
@@ -123,6 +172,7 @@ pub fn read_cameras(path: &Path) -> Result<BTreeMap<u64, (Model, u32, u32)>, Rea
             ))));
         }
     }
+    check_declared(path, &lines, "cameras", cameras.len())?;
     Ok(cameras)
 }
 
@@ -130,7 +180,8 @@ pub fn read_cameras(path: &Path) -> Result<BTreeMap<u64, (Model, u32, u32)>, Rea
 pub fn read_colmap(images_txt: &Path) -> Result<Vec<ColmapImage>, ReadError> {
     let cameras_txt: PathBuf = images_txt.with_file_name("cameras.txt");
     let cameras = read_cameras(&cameras_txt)?;
-    let lines = lines(images_txt)?;
+    let all = lines(images_txt, "images")?;
+    let lines = &all.data;
     let mut images = Vec::new();
     let mut k = 0;
     while k < lines.len() {
@@ -173,6 +224,7 @@ pub fn read_colmap(images_txt: &Path) -> Result<Vec<ColmapImage>, ReadError> {
         // Skip the image's 2-d points line.
         k += 2;
     }
+    check_declared(images_txt, &all, "images", images.len())?;
     if images.is_empty() {
         return Err(ReadError::new(
             images_txt,
@@ -262,5 +314,40 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("unit quaternion"), "{err}");
+    }
+
+    #[test]
+    fn colmap_s_own_counts_are_checked() {
+        let dir = tempfile::tempdir().unwrap();
+        // Cut short after the first image (of 2 declared).
+        let cut = "# Image list\n# Number of images: 2, mean observations per image: 1\n\
+                   1 1 0 0 0 0 0 5 1 front.jpg\n100.5 200.5 -1\n";
+        let err = read_colmap(&write(dir.path(), CAMERAS, cut))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(
+                "images.txt: line 2: truncated: the header announces 2 images but the \
+                          data ends after 1"
+            ),
+            "{err}"
+        );
+        let cameras = format!("# Number of cameras: 3\n{CAMERAS}");
+        let err = read_colmap(&write(dir.path(), &cameras, IMAGES))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("cameras.txt: line 1") && err.contains("3 cameras"),
+            "{err}"
+        );
+        // The counts right: read.
+        let whole = format!("# Number of images: 2\n{IMAGES}");
+        let cameras = format!("# Number of cameras: 2\n{CAMERAS}");
+        assert_eq!(
+            read_colmap(&write(dir.path(), &cameras, &whole))
+                .unwrap()
+                .len(),
+            2
+        );
     }
 }

@@ -21,6 +21,7 @@ use glam::DVec3;
 use las::{Builder, Color, Point, PointDataBuilder, Reader, Transform, Vector, Writer};
 
 use super::Loaded;
+use super::las_header::{RawHeader, check_counts_and_scale, check_laz, parallel_safe, raw_header};
 use crate::error::{Error, Location, ReadError, ReadErrorKind};
 use crate::points::PointCloud;
 
@@ -35,247 +36,6 @@ pub struct LasOptions {
     /// Decode LAZ on one thread even where the parallel decoder would be used (to compare the
     /// two; the answer is the same).
     pub one_thread: bool,
-}
-
-/// The bytes of the smallest LAS header (LAS 1.0 to 1.2, §2.2 of the specification).
-const MIN_HEADER: u64 = 227;
-
-/// The fields of the public header block the checks below need, read from the raw bytes
-/// (the `las` crate does not expose the offsets).
-struct RawHeader {
-    /// "Offset to point data" (byte 96, u32).
-    point_data: u64,
-    /// Whether the point format's compression bits (6 and 7) are set (LAZ).
-    compressed: bool,
-    /// "Point data record length" (byte 105, u16).
-    record: u64,
-    /// The point count the `las` crate will use: the legacy 32-bit count (byte 107), or when
-    /// it is 0 the LAS 1.4 64-bit count (byte 247).
-    points: u64,
-    /// "Header size" (byte 94): where the VLRs start.
-    header_size: u64,
-    /// "Number of variable length records" (byte 100).
-    vlrs: u32,
-}
-
-fn raw_header(path: &Path, len: u64) -> Result<RawHeader, ReadError> {
-    use std::io::Read;
-    if len < MIN_HEADER {
-        return Err(ReadError::new(
-            path,
-            Location::Byte(len),
-            ReadErrorKind::BadHeader(format!(
-                "the file ends after {len} bytes, inside the LAS header (at least \
-                 {MIN_HEADER} bytes)"
-            )),
-        ));
-    }
-    let mut head = [0u8; 255];
-    let got = (len as usize).min(head.len());
-    super::open(path)?
-        .read_exact(&mut head[..got])
-        .map_err(|e| ReadError::new(path, Location::Byte(0), ReadErrorKind::Io(e)))?;
-    let u32_at = |i: usize| u32::from_le_bytes([head[i], head[i + 1], head[i + 2], head[i + 3]]);
-    let header_size = u16::from_le_bytes([head[94], head[95]]);
-    let legacy = u64::from(u32_at(107));
-    let large = if (head[24], head[25]) >= (1, 4) && got >= 255 {
-        let mut b = [0u8; 8];
-        b.copy_from_slice(&head[247..255]);
-        u64::from_le_bytes(b)
-    } else {
-        0
-    };
-    Ok(RawHeader {
-        point_data: u64::from(u32_at(96)),
-        compressed: head[104] & 0xC0 != 0,
-        record: u64::from(u16::from_le_bytes([head[105], head[106]])),
-        points: if legacy != 0 { legacy } else { large },
-        header_size: u64::from(header_size),
-        vlrs: u32_at(100),
-    })
-}
-
-/// Reads `buf.len()` bytes at `offset`, as a located error when the file is shorter.
-fn read_at(path: &Path, offset: u64, buf: &mut [u8]) -> Result<(), ReadError> {
-    use std::io::{Read, Seek, SeekFrom};
-    let mut file = std::fs::File::open(path)
-        .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?;
-    file.seek(SeekFrom::Start(offset))
-        .and_then(|_| file.read_exact(buf))
-        .map_err(|e| ReadError::new(path, Location::Byte(offset), ReadErrorKind::Io(e)))
-}
-
-/// The structure of a LAZ file checked before `laz` decodes it, because `laz` trusts it: it
-/// panics on a LASzip record without items and reserves whatever chunk count the chunk table
-/// announces (a 598-byte file asked for 16 GB). Checked here (LAZ 1.4 specification, §2.2
-/// the LASzip VLR, §2.3 the chunk table): the LASzip VLR exists, lists at least one item and
-/// has the length its item count implies; the chunk table lies inside the file and announces no
-/// more chunks than there are points (each chunk holds at least one).
-fn check_laz(path: &Path, raw: &RawHeader, len: u64) -> Result<(), ReadError> {
-    let bad = |at: u64, message: String| {
-        Err(ReadError::new(
-            path,
-            Location::Byte(at),
-            ReadErrorKind::BadHeader(message),
-        ))
-    };
-    // The LASzip VLR.
-    if laszip_vlr(path, raw, len)?.is_none() {
-        return bad(
-            raw.header_size,
-            "a compressed point format without a LASzip VLR".to_owned(),
-        );
-    }
-    // The chunk table.
-    if raw.point_data + 8 > len {
-        return bad(len, "truncated LAZ: no chunk table offset".to_owned());
-    }
-    let mut offset = [0u8; 8];
-    read_at(path, raw.point_data, &mut offset)?;
-    let table = i64::from_le_bytes(offset);
-    let table = match u64::try_from(table) {
-        Ok(t) if t.checked_add(8).is_some_and(|end| end <= len) && t >= raw.point_data + 8 => t,
-        // -1: the writer did not record it; `laz` then finds the table at the end.
-        _ if table == -1 => return Ok(()),
-        _ => {
-            return bad(
-                len,
-                format!(
-                    "truncated LAZ: the chunk table should be at byte {table} but the file ends \
-                     at byte {len}"
-                ),
-            );
-        }
-    };
-    let mut head = [0u8; 8];
-    read_at(path, table, &mut head)?;
-    let chunks = u64::from(u32::from_le_bytes([head[4], head[5], head[6], head[7]]));
-    if chunks > raw.points.max(1) || chunks > len {
-        return bad(
-            table + 4,
-            format!(
-                "the LAZ chunk table announces {chunks} chunks for {} points",
-                raw.points
-            ),
-        );
-    }
-    Ok(())
-}
-
-/// Whether a LAZ file (already through [`check_laz`]) may go to the parallel decoder: its
-/// chunk table, read and checked here, describes the points and bytes the file has, so that
-/// none of the decoder's assertions and buffer sizes can depend on a corrupt number. Any doubt
-/// is `false` (the sequential decoder then reads it, or reports what is wrong):
-/// - the LASzip VLR parses, its items' sizes add up to the header's record length, and its
-///   chunks are fixed-size with 1 ≤ chunk size ≤ points, or variable-size;
-/// - the chunk table's offset is recorded (not −1) and the table has at least two chunks;
-/// - fixed-size: ⌈points / chunk size⌉ chunks; variable-size: every chunk has 1 to 2^31 − 1
-///   points and their sum is the point count;
-/// - every chunk has 1 to 2^31 − 1 bytes and their sum fits between the table's offset and the
-///   table (sums checked for overflow).
-fn parallel_safe(path: &Path, raw: &RawHeader, len: u64) -> bool {
-    use std::io::{Seek, SeekFrom};
-    let Ok(Some(body)) = laszip_vlr(path, raw, len) else {
-        return false;
-    };
-    // The items' sizes (6 bytes each after the 34-byte head: type, size, version), in u64.
-    let item_bytes: u64 = body[34..]
-        .chunks_exact(6)
-        .map(|c| u64::from(u16::from_le_bytes([c[2], c[3]])))
-        .sum();
-    let Ok(vlr) = laz::LazVlr::from_buffer(&body) else {
-        return false;
-    };
-    let points = raw.points;
-    let variable = vlr.uses_variable_size_chunks();
-    let chunk_size = u64::from(vlr.chunk_size());
-    if item_bytes != raw.record || (!variable && !(1..=points).contains(&chunk_size)) {
-        return false;
-    }
-    let mut offset = [0u8; 8];
-    if read_at(path, raw.point_data, &mut offset).is_err() {
-        return false;
-    }
-    let Ok(table) = u64::try_from(i64::from_le_bytes(offset)) else {
-        return false;
-    };
-    if table < raw.point_data + 8 || table + 8 > len {
-        return false;
-    }
-    let Ok(mut file) = std::fs::File::open(path) else {
-        return false;
-    };
-    if file.seek(SeekFrom::Start(raw.point_data)).is_err() {
-        return false;
-    }
-    let Ok(chunks) = laz::laszip::ChunkTable::read_from(std::io::BufReader::new(&mut file), &vlr)
-    else {
-        return false;
-    };
-    let entries = chunks.as_ref();
-    // `laz` decodes each count as an i32 and widens it: a negative one is near 2^64, so every
-    // count must be below 2^31 and the sums are checked (a wrapped sum could pass).
-    let small = |x: u64| (1..1 << 31).contains(&x);
-    let sum = |f: fn(&laz::laszip::ChunkTableEntry) -> u64| {
-        entries.iter().try_fold(0u64, |a, e| {
-            small(f(e)).then(|| a.checked_add(f(e))).flatten()
-        })
-    };
-    // The chunks lie between the table's offset field and the table.
-    let data = table - raw.point_data - 8;
-    let counts_ok = if variable {
-        sum(|e| e.point_count) == Some(points)
-    } else {
-        entries.len() as u64 == points.div_ceil(chunk_size)
-    };
-    entries.len() >= 2 && counts_ok && sum(|e| e.byte_count).is_some_and(|b| b <= data)
-}
-
-/// The LASzip VLR's body (`None`: the file has none): the first VLR whose user id is exactly
-/// `laszip encoded` (the bytes before its first NUL, as `las` reads it) and whose record id is
-/// 22204, the one `las` hands to `laz`. An error when any VLR runs past the end of the file or
-/// that one has not the length its item count implies.
-fn laszip_vlr(path: &Path, raw: &RawHeader, len: u64) -> Result<Option<Vec<u8>>, ReadError> {
-    let bad = |at: u64, message: String| {
-        Err(ReadError::new(
-            path,
-            Location::Byte(at),
-            ReadErrorKind::BadHeader(message),
-        ))
-    };
-    let mut at = raw.header_size;
-    let mut found = None;
-    for _ in 0..raw.vlrs {
-        let mut head = [0u8; 54];
-        if at + 54 > len {
-            return bad(
-                at,
-                format!("the VLR at byte {at} runs past the end of the file"),
-            );
-        }
-        read_at(path, at, &mut head)?;
-        let user = &head[2..18];
-        let user = &user[..user.iter().position(|&c| c == 0).unwrap_or(user.len())];
-        let record_id = u16::from_le_bytes([head[18], head[19]]);
-        let length = u64::from(u16::from_le_bytes([head[20], head[21]]));
-        if found.is_none() && user == b"laszip encoded" && record_id == 22204 {
-            if length < 34 || at + 54 + length > len {
-                return bad(at, format!("the LASzip VLR has {length} bytes"));
-            }
-            let mut body = vec![0u8; length as usize];
-            read_at(path, at + 54, &mut body)?;
-            let n = u64::from(u16::from_le_bytes([body[32], body[33]]));
-            if n == 0 || 34 + 6 * n != length {
-                return bad(
-                    at + 54 + 32,
-                    format!("the LASzip VLR lists {n} items in {length} bytes (34 + 6 per item)"),
-                );
-            }
-            found = Some(body);
-        }
-        at += 54 + length;
-    }
-    Ok(found)
 }
 
 /// Reads a LAS or LAZ file whole.
@@ -367,6 +127,7 @@ impl LasStream {
                 )),
             ));
         }
+        check_counts_and_scale(path, &raw)?;
         // The point count against the file, before the `las` crate multiplies it by the record
         // length (which overflows for absurd counts): uncompressed records must fit in the file;
         // LAZ never compresses below a byte a point.
@@ -513,23 +274,52 @@ impl LasStream {
                 },
             ));
         }
+        let (lo, hi) = raw.box_with_slack();
         for (k, point) in self.chunk.points().enumerate() {
             let point = point.map_err(malformed)?;
             let index = (read + k as u64) as usize;
+            let at = if raw.compressed {
+                Location::File
+            } else {
+                Location::Byte(raw.point_data + index as u64 * record)
+            };
+            let xyz = [point.x, point.y, point.z];
+            if let Some(&value) = xyz.iter().find(|v| !v.is_finite()) {
+                return Err(ReadError::new(
+                    path,
+                    at,
+                    ReadErrorKind::NonFinite { index, value },
+                ));
+            }
+            // Every point in the header's box (corrupt data decodes to points anywhere).
+            if (0..3).any(|a| !(lo[a] <= xyz[a] && xyz[a] <= hi[a])) {
+                let (blo, bhi) = raw.bounds;
+                return Err(ReadError::new(
+                    path,
+                    at,
+                    ReadErrorKind::Malformed(format!(
+                        "point {index} at ({}, {}, {}) lies outside the header's box \
+                         ({}, {}, {}) .. ({}, {}, {}){}",
+                        xyz[0],
+                        xyz[1],
+                        xyz[2],
+                        blo[0],
+                        blo[1],
+                        blo[2],
+                        bhi[0],
+                        bhi[1],
+                        bhi[2],
+                        if raw.compressed {
+                            " (corrupt compressed data, or a wrong box)"
+                        } else {
+                            " (corrupt data, or a wrong box)"
+                        }
+                    )),
+                ));
+            }
             let class = u8::from(point.classification);
             if !keep(class) {
                 continue;
-            }
-            if let Some(&value) = [point.x, point.y, point.z].iter().find(|v| !v.is_finite()) {
-                return Err(ReadError::new(
-                    path,
-                    if raw.compressed {
-                        Location::File
-                    } else {
-                        Location::Byte(raw.point_data + index as u64 * record)
-                    },
-                    ReadErrorKind::NonFinite { index, value },
-                ));
             }
             cloud.positions.push(DVec3::new(point.x, point.y, point.z));
             if let Some(v) = cloud.intensity.as_mut() {
@@ -766,6 +556,40 @@ mod tests {
             let b = read_las(&streamed, &LasOptions::default()).unwrap().cloud;
             assert_eq!(a.positions, b.positions);
         }
+    }
+
+    /// LAS 1.4's legacy count of 0 and extended VLRs after the points (COPC's hierarchy) are
+    /// legal; the records before the EVLRs are what the count must cover.
+    #[test]
+    fn extended_vlrs_after_the_points_are_legal() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats");
+        let mut bytes = std::fs::read(root.join("tiny.las")).unwrap();
+        assert_eq!(&bytes[107..111], &[0, 0, 0, 0], "the seed's legacy count is 0");
+        let at = bytes.len() as u64;
+        // One EVLR: 60-byte header (reserved, user id, record id, length, description), then
+        // 16 bytes of payload.
+        let mut evlr = vec![0u8; 60];
+        evlr[2..7].copy_from_slice(b"copc\0");
+        evlr[18..20].copy_from_slice(&1000u16.to_le_bytes());
+        evlr[20..28].copy_from_slice(&16u64.to_le_bytes());
+        evlr.extend_from_slice(&[7u8; 16]);
+        bytes.extend_from_slice(&evlr);
+        bytes[235..243].copy_from_slice(&at.to_le_bytes());
+        bytes[243..247].copy_from_slice(&1u32.to_le_bytes());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("evlr.las");
+        std::fs::write(&path, &bytes).unwrap();
+        let cloud = read_las(&path, &LasOptions::default()).unwrap().cloud;
+        assert_eq!(cloud.len(), 5);
+        // The same file with 3 announced: the 5 records before the EVLRs say otherwise.
+        bytes[247..255].copy_from_slice(&3u64.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let err = read_las(&path, &LasOptions::default()).unwrap_err().to_string();
+        assert!(
+            err.contains("announces 3 points but the point data holds 5 records")
+                && err.contains("up to the extended VLRs at byte 545"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -22,6 +22,8 @@ pub mod colmap;
 pub mod e57;
 #[cfg(feature = "formats")]
 pub mod las;
+#[cfg(feature = "formats")]
+mod las_header;
 pub mod obj;
 pub mod off;
 #[cfg(feature = "formats")]
@@ -193,6 +195,8 @@ fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadErro
             ));
         }
     };
+    regular_file(path)?;
+    atomic::note_input(path);
     match format {
         Format::Ply => ply::read_ply(path),
         Format::Off => off::read_off(path),
@@ -247,11 +251,35 @@ fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadErro
     }
 }
 
-/// Opens a file for buffered reading, mapping failures to a [`ReadError`].
+/// Opens a file for buffered reading, mapping failures to a [`ReadError`]; notes it as an
+/// input ([`atomic::note_input`]). Anything but a regular file (a FIFO, a device, a folder) is
+/// refused before it is opened: opening a FIFO blocks until a writer comes.
 fn open(path: &Path) -> Result<io::BufReader<std::fs::File>, ReadError> {
+    regular_file(path)?;
+    atomic::note_input(path);
     std::fs::File::open(path)
         .map(|f| io::BufReader::with_capacity(1 << 16, f))
         .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))
+}
+
+/// Fails unless `path` is a regular file (links followed): a reader opens nothing else.
+pub fn regular_file(path: &Path) -> Result<(), ReadError> {
+    let meta = std::fs::metadata(path)
+        .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::Io(e)))?;
+    if meta.is_file() {
+        return Ok(());
+    }
+    Err(ReadError::new(
+        path,
+        Location::File,
+        ReadErrorKind::Unsupported(if meta.is_dir() {
+            "not a regular file but a directory".to_owned()
+        } else {
+            "not a regular file but a FIFO, a socket or a device: not read, since reading one \
+             can block forever"
+                .to_owned()
+        }),
+    ))
 }
 
 /// A `BufRead` adaptor that counts the bytes consumed, for byte offsets in binary errors.

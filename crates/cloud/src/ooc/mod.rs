@@ -313,6 +313,13 @@ pub fn prepare<E: From<Error>>(
     if n == 0 {
         return Err(Error::EmptyCloud.into());
     }
+    // Estimated normals and the density spacing need a surface (as `prepare_in_memory`'s).
+    if (matches!(opts.normals, Normals::Estimate { .. })
+        || matches!(opts.radius, Radius::DensitySpacing { .. }))
+        && (n < 3 || bbox.0 == bbox.1)
+    {
+        return Err(Error::Cloud(crate::normals::no_surface(n, bbox.0)).into());
+    }
     if n > u64::from(u32::MAX) {
         return Err(Error::InvalidParameter {
             name: "points",
@@ -407,6 +414,7 @@ pub fn prepare<E: From<Error>>(
                     name: "sample",
                     reason: "no point to measure".into(),
                 })?;
+            crate::spacing::check_median(median, k, spacing_d.len()).map_err(Error::Cloud)?;
             factor * crate::spacing::density_from_kth(median, k)
         }
     };

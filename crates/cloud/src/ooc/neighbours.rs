@@ -8,7 +8,7 @@
 //! hold no other chunk's point, the regions being separated by the split planes); one pass over
 //! all chunks sends every point within a chunk's halo radius of its box to that chunk's halo
 //! file. The k nearest neighbours over chunk + halo are then the true ones, taken in
-//! `crate::normals::canonical_knn`'s order (which no tree changes), so the normals and the
+//! `crate::knn`'s canonical order (which no tree changes), so the normals and the
 //! spacing sample's distances are the in-memory ones; when the normals' k is the halo's, the
 //! first pass's query already gives the normal of every point whose ball lies inside its chunk
 //! (the same neighbours in the same order), kept in a scratch file, and the halo pass searches
@@ -58,11 +58,9 @@ impl Preparer<'_> {
         for (c, r2) in halo2.iter_mut().enumerate() {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
-            let entries: Vec<[f64; 3]> = l.positions.iter().map(|p| p.to_array()).collect();
-            let own = (entries.len() >= kk.get())
-                .then(|| kd_tree(&entries))
+            let own = (l.positions.len() >= kk.get())
+                .then(|| crate::knn::Knn::new(&l.positions, |item| l.index[item as usize]))
                 .transpose()?;
-            drop(entries);
             let bbox = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
             let overlap = set.overlap;
             let inside = |p: DVec3, d: f64| {
@@ -71,10 +69,8 @@ impl Preparer<'_> {
             let per_point = crate::normals::per_point_in_spatial_order(&l.positions, |i| {
                 let p = l.positions[i];
                 match own.as_ref().filter(|_| single) {
-                    Some(tree) => {
-                        let nb = crate::normals::canonical_knn(tree, p, kk, |item| {
-                            l.index[item as usize]
-                        });
+                    Some(knn) => {
+                        let nb = knn.canonical_knn(p, kk);
                         let d2 = nb.last().map_or(f64::INFINITY, |x| x.0);
                         if inside(p, d2.sqrt()) {
                             let n = crate::normals::covariance_normal(
@@ -86,12 +82,15 @@ impl Preparer<'_> {
                         }
                     }
                     None => {
-                        let tree = own.as_ref().unwrap_or(&sample_tree);
-                        let nn = tree
-                            .query(&p.to_array())
-                            .nearest_n::<SquaredEuclidean<f64>>(kk)
-                            .execute();
-                        let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
+                        let d2 = match own.as_ref() {
+                            Some(knn) => knn.kth_distance2(p, kk),
+                            None => sample_tree
+                                .query(&p.to_array())
+                                .nearest_n::<SquaredEuclidean<f64>>(kk)
+                                .execute()
+                                .last()
+                                .map_or(f64::INFINITY, |x| x.distance),
+                        };
                         (if inside(p, d2.sqrt()) { 0.0 } else { d2 }, None)
                     }
                 }
@@ -179,7 +178,8 @@ impl Preparer<'_> {
                     reason: format!(
                         "a chunk of {m} points needs a halo of {h} points for its neighbour \
                          searches, more than the limit holds ({budget} points); the cloud is \
-                         too sparse around that chunk for this limit"
+                         too sparse around that chunk, or holds many copies of a point there, \
+                         for this limit"
                     ),
                 });
             }
@@ -201,9 +201,7 @@ impl Preparer<'_> {
                 })?;
             }
             drop(halo);
-            let entries: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
-            let tree = kd_tree(&entries)?;
-            drop(entries);
+            let knn = crate::knn::Knn::new(&positions, |item| index[item as usize])?;
             if let Some(k) = estimate {
                 let k = NonZero::new(k).unwrap_or(kk);
                 let chunk = &l.positions[..m];
@@ -233,8 +231,7 @@ impl Preparer<'_> {
                         return n;
                     }
                     let p = chunk[i];
-                    let nb =
-                        crate::normals::canonical_knn(&tree, p, k, |item| index[item as usize]);
+                    let nb = knn.canonical_knn(p, k);
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
                     );
@@ -248,16 +245,12 @@ impl Preparer<'_> {
                     let lo = picks.partition_point(|&x| x < g);
                     let hi = picks.partition_point(|&x| x <= g);
                     if hi > lo {
-                        let nn = tree
-                            .query(&l.positions[i].to_array())
-                            .nearest_n::<SquaredEuclidean<f64>>(k1)
-                            .execute();
-                        let d = nn.last().map_or(0.0, |x| x.distance.sqrt());
+                        let d = knn.kth_distance2(l.positions[i], k1).sqrt();
                         spacing_d.extend(std::iter::repeat_n(d, hi - lo));
                     }
                 }
             }
-            drop((tree, positions, index));
+            drop((knn, positions, index));
             if estimate.is_some() {
                 // The chunk again, with its normals.
                 let mut w = self.store.create()?;

@@ -130,6 +130,9 @@ pub fn inspect(
             s.position.x, s.position.y, s.position.z
         );
     }
+    // Coincident points (real scans have them; normals and spacings take them in bounded work).
+    let (distinct, duplicates, most) = cloud::knn::coincidence(&c.positions);
+    println!("distinct_positions={distinct} duplicates={duplicates} most_copies={most}");
     println!(
         "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
          points_per_second={:.0}",

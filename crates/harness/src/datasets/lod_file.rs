@@ -36,6 +36,8 @@ pub struct LodFileDataset {
 
 /// Opens the LOD file at `path` (its header checked) with views from `views`.
 pub fn open(name: &str, path: &Path, views: &ViewsFrom) -> Result<LodFileDataset> {
+    // A FIFO or a device would block the reads below forever.
+    cloud::io::regular_file(path).with_context(|| format!("dataset {name}"))?;
     let info = registry::lod_file::file_info(path).with_context(|| format!("dataset {name}"))?;
     let mut files = vec![SourceFile {
         path: path.to_owned(),

@@ -167,6 +167,19 @@ impl Dataset {
         })
     }
 
+    /// Fails unless every view can look at the cloud (`cloud::Camera::check_view_of`: no eye
+    /// on a point, none so far that the cloud is below its coordinates' precision), naming the
+    /// view: the one check the ground truth and every method share, made wherever a dataset
+    /// gets its views (its own, a views file, the camera flags).
+    pub fn check_views(&self) -> Result<()> {
+        for (k, camera) in self.views.iter().enumerate() {
+            camera
+                .check_view_of(&self.cloud.positions)
+                .with_context(|| format!("view {k} of dataset {}", self.name))?;
+        }
+        Ok(())
+    }
+
     /// View `k`, or an error naming the valid range.
     pub fn view(&self, k: usize) -> Result<&Camera> {
         self.views.get(k).with_context(|| {
@@ -213,10 +226,14 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
                 m.path.display()
             );
         }
-        return load_files(&manifest_dataset(m, name, e)?)
-            .with_context(|| format!("dataset {name} of {}", m.path.display()));
+        let ds = load_files(&manifest_dataset(m, name, e)?)
+            .with_context(|| format!("dataset {name} of {}", m.path.display()))?;
+        ds.check_views()?;
+        return Ok(ds);
     }
-    builtin::load(info(name)?, data_dir)
+    let ds = builtin::load(info(name)?, data_dir)?;
+    ds.check_views()?;
+    Ok(ds)
 }
 
 /// The built LOD file of dataset `name` when the manifest gives it one (`lod_file`), opened

@@ -140,17 +140,22 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
         );
     }
 
-    let staging = out.with_file_name(format!(".{name}.partial"));
-    if staging.exists() {
-        std::fs::remove_dir_all(&staging)?;
+    // This process's own staging folder (`cloud::scratch`: removed on a signal, reclaimed
+    // after a crash).
+    let staging = cloud::scratch::beside(out, "partial");
+    let registered = cloud::scratch::register(&staging);
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create {}", parent.display()))?;
     }
-    std::fs::create_dir_all(&staging)
+    std::fs::create_dir(&staging)
         .with_context(|| format!("cannot create {}", staging.display()))?;
     let result = fill(exp, parts, &staging, out);
     if result.is_err() {
         // Best effort: the error that stopped the merge is the one to report.
         let _ = std::fs::remove_dir_all(&staging);
     }
+    drop(registered);
     result
 }
 

@@ -129,6 +129,7 @@ impl Context {
                 .iter()
                 .map(|c| ds.camera_from_world(c))
                 .collect();
+            ds.check_views()?;
         }
         self.record_files(&ds.files);
         Ok(ds)
@@ -200,9 +201,11 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
 /// cells ([`Experiment::shardable`]) is one cell, dealt by its position in [`EXPERIMENTS`].
 ///
 /// Everything is written into a staging folder beside the output folder
-/// (`.NAME.partial`), which replaces the output folder only when the experiment has finished:
-/// an interrupted run leaves the previous results as they were, and a run that fails (an
-/// error anywhere after the staging folder was made) removes its staging folder too.
+/// (`.NAME.partial-HOST-PID-K`, this process's own), which replaces the output folder only
+/// when the experiment has finished: an interrupted run leaves the previous results as they
+/// were, and a run that fails (an error anywhere after the staging folder was made) removes
+/// its staging folder too; a signal removes it through `cloud::scratch`'s registry, and a
+/// run killed outright leaves it to the next run beside the same output, which reclaims it.
 pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     if let Some(shard) = ctx.shard
         && !exp.shardable()
@@ -222,21 +225,22 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
         &ctx.datasets,
         serde_json::Value::Null,
     );
-    let out = &ctx.out_dir;
-    let file_name = out
-        .file_name()
-        .with_context(|| format!("{} has no folder name", out.display()))?
-        .to_string_lossy()
-        .into_owned();
-    let staging = out.with_file_name(format!(".{file_name}.partial"));
-    let previous = out.with_file_name(format!(".{file_name}.previous"));
-    for stale in [&staging, &previous] {
-        if stale.exists() {
-            std::fs::remove_dir_all(stale)
-                .with_context(|| format!("cannot remove {}", stale.display()))?;
-        }
+    // A link to a folder is written through (the folder it names is replaced).
+    let out = &cloud::io::atomic::folder_target(&ctx.out_dir)?;
+    out.file_name()
+        .with_context(|| format!("{} has no folder name", out.display()))?;
+    // This process's own staging and aside folders (`.NAME.partial-HOST-PID-K`): never
+    // another run's; those of dead runs on this host are reclaimed first (`cloud::scratch`).
+    let out_dir = out.parent().filter(|p| !p.as_os_str().is_empty());
+    if let Some(parent) = out_dir {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("cannot create {}", parent.display()))?;
     }
-    std::fs::create_dir_all(&staging)
+    cloud::scratch::remove_stale_in(out_dir.unwrap_or(Path::new(".")));
+    let staging = cloud::scratch::beside(out, "partial");
+    let previous = cloud::scratch::beside(out, "previous");
+    let registered = cloud::scratch::register(&staging);
+    std::fs::create_dir(&staging)
         .with_context(|| format!("cannot create {}", staging.display()))?;
     let result =
         stage(exp, ctx, meta, start, &staging).and_then(|()| swap_in(&staging, out, &previous));
@@ -245,6 +249,7 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
         // effort: the error that stopped the run is the one to report.)
         let _ = std::fs::remove_dir_all(&staging);
     }
+    drop(registered);
     result.map(|()| true)
 }
 
