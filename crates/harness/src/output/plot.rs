@@ -1,4 +1,5 @@
-//! Plots as PNG files, on a headless machine without system fonts.
+//! Plots as PNG files, on a headless machine without system fonts (the scale experiment's,
+//! until it moves to [`super::figure`]).
 //!
 //! `plotters` draws into an in-memory RGB buffer with its `ab_glyph` text backend and the
 //! DejaVu Sans font embedded by the `dejavu` crate (registered once as "sans-serif"), so no
@@ -7,11 +8,9 @@
 //! one code path for every axis combination.
 
 use std::path::Path;
-use std::sync::OnceLock;
 
 use anyhow::{Result, anyhow, bail};
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 
 use super::write_png;
 
@@ -31,18 +30,7 @@ pub const PALETTE: [RGBColor; 10] = [
 
 const FONT: &str = "sans-serif";
 
-pub(crate) fn ensure_font() -> Result<()> {
-    static REGISTERED: OnceLock<bool> = OnceLock::new();
-    let ok = *REGISTERED.get_or_init(|| {
-        plotters::style::register_font(FONT, FontStyle::Normal, dejavu::sans::regular()).is_ok()
-            && plotters::style::register_font(FONT, FontStyle::Bold, dejavu::sans::bold()).is_ok()
-    });
-    if ok {
-        Ok(())
-    } else {
-        Err(anyhow!("the embedded DejaVu font did not load"))
-    }
-}
+use super::figure::ensure_font;
 
 /// How a series is drawn.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -252,9 +252,17 @@ impl LodPage<'_> {
                     (c.z * 255.0).round() as u8,
                 ]);
             }
+            // The method's look in every figure of the report ("full detail": the full cloud's).
+            let family = if m.name == "full detail" {
+                "full"
+            } else {
+                m.name.as_str()
+            };
             methods.push(serde_json::json!({
                 "name": m.name,
                 "setting": m.setting,
+                "family": family,
+                "style": crate::output::style::style(family, "default"),
                 "n": shown,
                 "n_total": n,
                 "seconds": m.seconds,
@@ -303,6 +311,7 @@ impl LodPage<'_> {
                 "height": cam.height,
             },
             "methods": methods,
+            "markers": crate::output::style::marker_shapes(),
         }))
     }
 

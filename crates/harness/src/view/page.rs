@@ -167,13 +167,7 @@ fn b64(bytes: &[u8]) -> String {
     base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
-/// Escapes text for HTML element content and attribute values.
-pub fn escape_html(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+pub use crate::output::escape_html;
 
 /// One page's content.
 #[derive(Debug, Clone, Copy)]
@@ -225,9 +219,13 @@ impl Page<'_> {
                 }
             }
             let s = Score::of_on_surface(&r.visible, truth, off);
+            // The method's look in every figure of the report: its family at this setting.
+            let family = crate::output::style::family(&r.name, &r.setting);
             methods.push(serde_json::json!({
                 "name": r.name,
                 "setting": r.setting,
+                "family": family,
+                "style": crate::output::style::style(&family, "default"),
                 "visible": b64(&bitset(&ord, |i| flags[i])),
                 "n_visible_total": r.visible.len(),
                 "seconds": r.seconds,
@@ -297,6 +295,7 @@ impl Page<'_> {
                 "fp": FALSE_POSITIVE, "off": OFF_SURFACE,
             },
             "methods": methods,
+            "markers": crate::output::style::marker_shapes(),
         }))
     }
 
