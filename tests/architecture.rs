@@ -266,12 +266,12 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
     ),
     // Scale's cells.
     (
-        "experiments/scale.rs",
+        "experiments/scale/cell.rs",
         "hull",
         "scale's hull-* cells measure the hulls",
     ),
     (
-        "experiments/scale.rs",
+        "experiments/scale/cell.rs",
         "hpr",
         "scale's hull-* cells: HPR's flip before the hull",
     ),

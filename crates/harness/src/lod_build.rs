@@ -19,6 +19,8 @@ use anyhow::{Context, Result, bail};
 use cloud::glam::{DVec3, Vec3};
 use qsplat::ooc::{self, Normals, Options, Point, Radius, Stage};
 
+use crate::rss::peak_rss;
+
 /// The density-spacing rule of the `lod` experiment.
 pub const SPACING_K: usize = 8;
 /// Points the spacing samples.
@@ -106,19 +108,6 @@ pub fn options(memory_limit: u64, has_normals: bool, colors: bool) -> Options {
         },
         fail_after_bytes: None,
     }
-}
-
-/// Peak resident set size of this process (`VmHWM`), bytes (0 where unknown).
-pub fn peak_rss() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
-        })
-        .map_or(0, |kb| kb * 1024)
 }
 
 /// Builds `method`'s file of the cloud in `cloud_path` into `out` within `memory_limit`
