@@ -154,13 +154,8 @@ pub struct Series {
     pub draw: Draw,
     /// Its style: a function of (family, variant) ([`style::style`], [`style::ordinal`]).
     pub style: Style,
-    /// The points (non-finite ones are left out of the twin and the picture).
-    #[serde(serialize_with = "finite_points")]
+    /// The points ([`Figure::panels`] keeps only those it can draw).
     pub points: Vec<Point>,
-}
-
-fn finite_points<S: serde::Serializer>(points: &[Point], s: S) -> Result<S::Ok, S::Error> {
-    s.collect_seq(points.iter().filter(|p| p.finite()))
 }
 
 impl Series {
@@ -317,9 +312,14 @@ pub fn arrange(series: Vec<Series>, shared: Vec<Series>) -> Vec<Panel> {
                 panel.extend(chosen.into_iter().map(Series::as_context));
             }
             let own: Vec<Series> = series.iter().filter(|s| &s.family == f).cloned().collect();
-            // The panel names the family, and the method when it is named otherwise.
+            // The panel names the family, and the methods when they are named otherwise (not
+            // FAMILY-something).
             let methods = super::distinct(own.iter().map(|s| s.method.as_str()));
-            let title = if methods.iter().all(|m| m == f) {
+            let title = if methods.iter().all(|m| {
+                m == f
+                    || m.strip_prefix(f.as_str())
+                        .is_some_and(|r| r.starts_with('-'))
+            }) {
                 f.clone()
             } else {
                 format!("{} ({f})", methods.join(", "))
@@ -357,14 +357,30 @@ impl Figure {
         self
     }
 
-    /// With these panels.
-    pub fn panels(mut self, panels: Vec<Panel>) -> Self {
+    /// True when `p` can be drawn on this figure's axes (finite; positive on a log axis).
+    fn plottable(&self, p: &Point) -> bool {
+        p.finite() && (!self.x.log || p.x > 0.0) && (!self.y.log || p.y > 0.0)
+    }
+
+    /// With these panels, holding what is drawn and nothing else: points that cannot be drawn
+    /// (not finite, or not positive on a log axis) are left out, then series without a point
+    /// (a method that never finished), then panels without a series of their own.
+    pub fn panels(mut self, mut panels: Vec<Panel>) -> Self {
+        for panel in &mut panels {
+            for s in &mut panel.series {
+                s.points.retain(|p| self.plottable(p));
+            }
+            panel.series.retain(|s| !s.points.is_empty());
+        }
+        panels.retain(|p| p.series.iter().any(|s| !s.context));
         self.panels = panels;
         self
     }
 
-    /// With `series` (and `shared`) arranged by [`arrange`].
-    pub fn series(self, series: Vec<Series>, shared: Vec<Series>) -> Self {
+    /// With `series` (and `shared`) arranged by [`arrange`], series without a plottable point
+    /// left out first (so they take no panel).
+    pub fn series(self, mut series: Vec<Series>, shared: Vec<Series>) -> Self {
+        series.retain(|s| s.points.iter().any(|p| self.plottable(p)));
         self.panels(arrange(series, shared))
     }
 
@@ -375,7 +391,7 @@ impl Figure {
             .iter()
             .flat_map(|p| &p.series)
             .flat_map(|s| &s.points)
-            .any(|p| p.finite() && (!self.x.log || p.x > 0.0) && (!self.y.log || p.y > 0.0))
+            .any(|p| self.plottable(p))
     }
 
     /// Every series that is not context, once per identity (method, family, variant, label),
@@ -1152,6 +1168,25 @@ mod tests {
         assert!(fig.style_clash().is_none());
         let dir = tempfile::tempdir().unwrap();
         fig.write(dir.path()).unwrap();
+    }
+
+    #[test]
+    fn series_without_points_are_left_out() {
+        let fig = Figure::new("d", "d", Axis::log("x"), Axis::linear("y")).series(
+            vec![
+                series("hpr", "hpr-linear", "best", Draw::Line),
+                Series::new(
+                    "chull",
+                    "hull-chull",
+                    "",
+                    Draw::Points,
+                    vec![Point::new(f64::NAN, 1.0)],
+                ),
+            ],
+            vec![],
+        );
+        assert_eq!(fig.legend().len(), 1);
+        assert_eq!(fig.legend()[0].method, "hpr");
     }
 
     #[test]

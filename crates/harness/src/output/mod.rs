@@ -6,7 +6,6 @@
 
 pub mod figure;
 pub mod meta;
-pub mod plot;
 pub mod render;
 pub mod report;
 pub mod results;

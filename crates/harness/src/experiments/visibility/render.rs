@@ -782,7 +782,13 @@ pub(super) fn render(
          0.02.\n\n{}\n\n<details><summary>View by view</summary>\n\n{}\n</details>\n\n\
          ### Image space (per-pixel methods)\n\nA ray cast shows at most one point per pixel: \
          `pixel precision` is the share of covered pixels whose point is truly visible, `mesh \
-         coverage` the share of the mesh's pixels that got a point.\n\n{}\n{pictures}\
+         coverage` the share of the mesh's pixels that got a point.\n\n{}\n\
+         ### Figures\n\nF1 against time per dataset, past ten families one panel per family (the \
+         others' settings in grey; the Pareto front's points numbered and named under the \
+         legend), then each family's F1 against its main parameter, one panel per dataset. A \
+         family has one colour and a variant one marker in every figure; a peer's marker is \
+         hollow. Each figure's data (series, styles, points with their setting and seconds) \
+         is the JSON file of its name.\n\n{pictures}\
          {peers_md}{off_surface}{no_mesh}Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv){}.\n",
         markdown_table(
             &[
