@@ -256,13 +256,14 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
     (
         "lod_build.rs",
         "qsplat",
-        "pointsight lod-build writes QSplat files out of core (qsplat::ooc) and prepares the \
-         points of the SPT build (qsplat::ooc::prepare)",
+        "pointsight lod-build writes QSplat files out of core (qsplat::ooc, after the \
+         method-neutral cloud::ooc::prepare)",
     ),
     (
         "lod_build.rs",
         "spt",
-        "pointsight lod-build writes sequential point tree files out of core (spt::ooc)",
+        "pointsight lod-build writes sequential point tree files out of core (spt::ooc, fed by \
+         cloud::ooc::prepare)",
     ),
     // Scale's cells.
     (
