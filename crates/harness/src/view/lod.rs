@@ -252,17 +252,9 @@ impl LodPage<'_> {
                     (c.z * 255.0).round() as u8,
                 ]);
             }
-            // The method's look in every figure of the report ("full detail": the full cloud's).
-            let family = if m.name == "full detail" {
-                "full"
-            } else {
-                m.name.as_str()
-            };
             methods.push(serde_json::json!({
                 "name": m.name,
                 "setting": m.setting,
-                "family": family,
-                "style": crate::output::style::style(family, "default"),
                 "n": shown,
                 "n_total": n,
                 "seconds": m.seconds,
@@ -284,7 +276,8 @@ impl LodPage<'_> {
             )
         };
         let target = cam.target;
-        Ok(serde_json::json!({
+        // Each method's look in every figure of the report, beside its name.
+        Ok(super::page::with_styles(serde_json::json!({
             "kind": "lod",
             "title": format!("{}, view {}, level of detail at {}× distance", self.ds.name(), self.view, self.distance),
             "dataset": self.ds.name(),
@@ -311,8 +304,7 @@ impl LodPage<'_> {
                 "height": cam.height,
             },
             "methods": methods,
-            "markers": crate::output::style::marker_shapes(),
-        }))
+        })))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.

@@ -60,6 +60,33 @@ pub fn bundle() -> Result<String> {
     )
 }
 
+/// The family a page's method is styled by (`output::style`): the registry's at its setting;
+/// the LOD page's `full detail`, the full cloud's (`full`).
+pub fn method_family(name: &str, setting: &str) -> String {
+    if name == "full detail" {
+        "full".to_owned()
+    } else {
+        crate::output::style::family(name, setting)
+    }
+}
+
+/// A page's data with each method's family and style (in `variant` `default`: every page shows
+/// the methods at their default setting) and the marker shapes its swatches are drawn from.
+pub fn with_styles(mut data: serde_json::Value) -> serde_json::Value {
+    if let Some(methods) = data["methods"].as_array_mut() {
+        for m in methods {
+            let family = method_family(
+                m["name"].as_str().unwrap_or_default(),
+                m["setting"].as_str().unwrap_or_default(),
+            );
+            m["style"] = serde_json::json!(crate::output::style::style(&family, "default"));
+            m["family"] = serde_json::json!(family);
+        }
+    }
+    data["markers"] = crate::output::style::marker_shapes();
+    data
+}
+
 /// What the methods are coloured against.
 #[derive(Debug, Clone)]
 pub struct Truth {
@@ -219,13 +246,9 @@ impl Page<'_> {
                 }
             }
             let s = Score::of_on_surface(&r.visible, truth, off);
-            // The method's look in every figure of the report: its family at this setting.
-            let family = crate::output::style::family(&r.name, &r.setting);
             methods.push(serde_json::json!({
                 "name": r.name,
                 "setting": r.setting,
-                "family": family,
-                "style": crate::output::style::style(&family, "default"),
                 "visible": b64(&bitset(&ord, |i| flags[i])),
                 "n_visible_total": r.visible.len(),
                 "seconds": r.seconds,
@@ -256,7 +279,8 @@ impl Page<'_> {
         } else {
             String::new()
         };
-        Ok(serde_json::json!({
+        // Each method's look in every figure of the report, beside its name.
+        Ok(with_styles(serde_json::json!({
             "title": format!("{}, view {}", ds.name(), self.view),
             "dataset": ds.name(),
             "view": self.view,
@@ -295,8 +319,7 @@ impl Page<'_> {
                 "fp": FALSE_POSITIVE, "off": OFF_SURFACE,
             },
             "methods": methods,
-            "markers": crate::output::style::marker_shapes(),
-        }))
+        })))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.

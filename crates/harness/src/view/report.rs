@@ -268,6 +268,47 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
     Ok(entries)
 }
 
+/// Rewrites the report's viewer pages (`viewer/pages.json`) from their own embedded data,
+/// without measuring: the current viewer script, each method's style, the links to the
+/// results pages (`pointsight tables`). Returns how many; none when the viewer script is not
+/// built (said on standard error) or there are no pages.
+pub fn refresh(reports: &Path) -> Result<usize> {
+    let list = reports.join("viewer/pages.json");
+    if !list.exists() {
+        return Ok(0);
+    }
+    let text = std::fs::read_to_string(&list)
+        .with_context(|| format!("cannot read {}", list.display()))?;
+    let entries: Vec<Entry> =
+        serde_json::from_str(&text).with_context(|| format!("malformed {}", list.display()))?;
+    let script = match page::bundle() {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("viewer pages not refreshed: {e:#}");
+            return Ok(0);
+        }
+    };
+    const OPEN: &str = "<script id=\"pointsight-data\" type=\"application/json\">";
+    let mut n = 0;
+    for e in &entries {
+        let path = reports.join("viewer").join(&e.file);
+        let html = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let json = html
+            .split_once(OPEN)
+            .and_then(|(_, rest)| rest.split_once("</script>"))
+            .map(|(json, _)| json)
+            .with_context(|| format!("{} holds no page data", path.display()))?;
+        let data: serde_json::Value = serde_json::from_str(json)
+            .with_context(|| format!("malformed page data in {}", path.display()))?;
+        let experiment = if e.kind == "lod" { "lod" } else { "visibility" };
+        let page = page::html_of(&with_links(page::with_styles(data), experiment), &script)?;
+        write_atomic(&path, page.as_bytes())?;
+        n += 1;
+    }
+    Ok(n)
+}
+
 /// The report page's section on the viewer pages (empty when there are none).
 pub fn section(reports: &Path) -> Result<String> {
     let path = reports.join("viewer/pages.json");
