@@ -15,12 +15,12 @@ fetch: setup
     cargo run -q -p harness -- fetch
 
 # Run every test, the real-data checks included, then the Python package's tests and the
-# viewer's tests in headless Chromium.
+# browser tests of the viewer and the results pages in headless Chromium.
 test: fetch python web browser
     POINTSIGHT_REAL_DATA=1 cargo test --workspace
     .venv/bin/pytest -q crates/python/tests
     cargo build -q -p harness --bin pointsight
-    cd web && node --test --test-concurrency=1 test/viewer.test.js
+    cd web && node --test --test-concurrency=1 test/viewer.test.js test/results.test.js
 
 # Build the viewer's script web/dist/viewer.js (three.js bundled by esbuild; npm ci when
 # needed), which `pointsight view` embeds; safe to re-run.
@@ -31,10 +31,11 @@ web:
 browser:
     scripts/browser.sh
 
-# The viewer's tests alone: pages from `pointsight view`, opened from disk in headless Chromium.
+# The browser tests alone: the viewer's pages from `pointsight view` and the results pages from
+# `pointsight tables`, opened from disk in headless Chromium.
 test-browser: web browser
     cargo build -q -p harness --bin pointsight
-    cd web && node --test --test-concurrency=1 test/viewer.test.js
+    cd web && node --test --test-concurrency=1 test/viewer.test.js test/results.test.js
 
 # Build the Python package into .venv for development (maturin develop, release profile,
 # the workspace's target folder).

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Builds the viewer's script, web/dist/viewer.js (three.js and the viewer bundled by esbuild,
-# both pinned by web/package-lock.json), that `pointsight view` embeds in its pages. Installs
-# the npm packages (npm ci) when node_modules is missing or older than the lockfile, and
-# rebuilds only when a source is newer than the bundle. Safe to re-run.
+# Builds the pages' scripts: web/dist/viewer.js (three.js and the viewer), that `pointsight view`
+# embeds in its pages, and web/dist/results.js (Observable Plot and the results page), that
+# `pointsight report` and `tables` embed in each experiment's results.html; bundled by esbuild,
+# every package pinned by web/package-lock.json. Installs the npm packages (npm ci) when
+# node_modules is missing or older than the lockfile, and rebuilds only when a source is newer
+# than a bundle. Safe to re-run.
 set -euo pipefail
 cd "$(dirname "$0")/../web"
 if ! command -v npm >/dev/null; then
@@ -13,8 +15,12 @@ if [ ! -f node_modules/.package-lock.json ] || [ package-lock.json -nt node_modu
   echo "web: npm ci"
   npm ci --no-audit --no-fund --loglevel=error
 fi
-if [ ! -f dist/viewer.js ] || [ -n "$(find src package-lock.json -newer dist/viewer.js -print -quit)" ]; then
-  echo "web: building dist/viewer.js"
+stale=0
+for out in dist/viewer.js dist/results.js; do
+  if [ ! -f "$out" ] || [ -n "$(find src package-lock.json -newer "$out" -print -quit)" ]; then stale=1; fi
+done
+if [ "$stale" = 1 ]; then
+  echo "web: building dist/viewer.js and dist/results.js"
   npm run -s build
 fi
-echo "web: ok (dist/viewer.js, $(wc -c <dist/viewer.js) bytes)"
+echo "web: ok (dist/viewer.js, $(wc -c <dist/viewer.js) bytes; dist/results.js, $(wc -c <dist/results.js) bytes)"

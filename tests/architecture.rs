@@ -1121,6 +1121,11 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
         "pointsight lod-build: the QSplat and SPT files built out of core (MAY_NAME)",
     ),
     (
+        "output/style.rs",
+        "the report's one style table (issue 39): each family's colour, dash and peer marker \
+         assigned in one place, so a method looks the same in every figure and page",
+    ),
+    (
         "view/mod.rs",
         "\"reference\" titles the ground truth's panel (truth::Reference), not a method run",
     ),
@@ -1148,7 +1153,8 @@ fn harness_modules_name_methods_in_strings_only_where_listed() {
         "{names:?}"
     );
     let mut found: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
-    for src in harness_sources() {
+    // Test modules in files of their own are tests: they may name what they test.
+    for src in without_tests(harness_sources()) {
         for l in src.literals.iter().filter(|l| names.contains(*l)) {
             found.entry(src.file.clone()).or_default().insert(l.clone());
         }

@@ -1,7 +1,10 @@
 //! `pointsight bench --quick` end to end on a synthetic dataset (no download) into a
 //! temporary folder: every experiment's CSVs have their columns and rows, every PNG decodes to
 //! a non-trivial image, `README.md` links only files that exist, and no staging folder is
-//! left behind.
+//! left behind. Over the same run: every figure has its JSON twin, whose series have pairwise
+//! distinct styles (context aside), and a method in a variant has one style in every figure;
+//! each experiment with figures has its results page holding them; the combined README keeps
+//! one top heading and its tables have as many cells a row as their header.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -41,7 +44,7 @@ fn files_under(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
-fn bench(reports: &Path) {
+fn bench(reports: &Path, results_script: &Path) {
     let out = Command::new(env!("CARGO_BIN_EXE_pointsight"))
         .args([
             "bench",
@@ -52,6 +55,7 @@ fn bench(reports: &Path) {
         ])
         .arg(reports)
         .env("POINTSIGHT_DATA", "/nonexistent/pointsight-data")
+        .env("POINTSIGHT_RESULTS_JS", results_script)
         .output()
         .expect("the pointsight binary runs");
     assert!(
@@ -65,7 +69,10 @@ fn bench(reports: &Path) {
 fn quick_bench_writes_a_complete_report() {
     let tmp = tempfile::tempdir().expect("temporary folder");
     let reports = tmp.path().join("reports");
-    bench(&reports);
+    // A stand-in for web/dist/results.js (the browser tests drive the real one).
+    let script = tmp.path().join("results.js");
+    std::fs::write(&script, "/* results page script */").expect("writable");
+    bench(&reports, &script);
 
     for (file, header) in CSVS {
         let text = std::fs::read_to_string(reports.join(file)).expect(file);
@@ -173,4 +180,137 @@ fn quick_bench_writes_a_complete_report() {
         );
     }
     assert!(readme.contains("git revision") && readme.contains("cores"));
+
+    figures_have_twins_with_distinct_and_consistent_styles(&reports, &files);
+    readme_keeps_its_structure(&readme);
+}
+
+/// A series' identity: the same method in the same variant must look the same everywhere.
+type Identity = (String, String, String);
+
+fn figures_have_twins_with_distinct_and_consistent_styles(reports: &Path, files: &[PathBuf]) {
+    let mut seen: std::collections::BTreeMap<Identity, (String, String)> = Default::default();
+    let mut twins = 0;
+    let mut experiments_with_figures = std::collections::BTreeSet::new();
+    for png in files
+        .iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+    {
+        let json = png.with_extension("json");
+        let name = png
+            .strip_prefix(reports)
+            .unwrap_or(png)
+            .display()
+            .to_string();
+        // Pictures of point sets (renders, strips, SRN's images) have no data to re-plot.
+        let stem = png.file_stem().and_then(|s| s.to_str()).unwrap_or("");
+        if stem == "renders" || stem.starts_with("strip_") || name.contains("/srn/") {
+            continue;
+        }
+        let text = std::fs::read_to_string(&json)
+            .unwrap_or_else(|e| panic!("{name} has no JSON twin: {e}"));
+        let fig: serde_json::Value = serde_json::from_str(&text).expect("a JSON twin");
+        assert_eq!(fig["format"], "pointsight-figure/1", "{name}");
+        assert_eq!(
+            fig["png"].as_str(),
+            png.file_name().and_then(|f| f.to_str()),
+            "{name}"
+        );
+        twins += 1;
+        if let Some(exp) = png.parent().and_then(|p| p.file_name()) {
+            experiments_with_figures.insert(exp.to_string_lossy().into_owned());
+        }
+        // Pairwise distinct styles among the series that are not context.
+        let mut in_figure: std::collections::BTreeMap<String, Identity> = Default::default();
+        for panel in fig["panels"].as_array().expect("panels") {
+            for s in panel["series"].as_array().expect("series") {
+                let field = |k: &str| s[k].as_str().unwrap_or_default().to_owned();
+                assert!(
+                    s["points"].as_array().is_some_and(|p| !p.is_empty()) || s["context"] == true,
+                    "{name}: {} has no point",
+                    field("label")
+                );
+                if s["context"] == true {
+                    continue;
+                }
+                let id = (field("method"), field("family"), field("variant"));
+                let style = s["style"].to_string();
+                if let Some(other) = in_figure.get(&style) {
+                    assert_eq!(
+                        other, &id,
+                        "{name}: {other:?} and {id:?} share the style {style}"
+                    );
+                }
+                in_figure.insert(style.clone(), id.clone());
+                match seen.get(&id) {
+                    Some((first, where_)) => assert_eq!(
+                        first, &style,
+                        "{id:?} looks one way in {where_} and another in {name}"
+                    ),
+                    None => {
+                        seen.insert(id, (style, name.clone()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(twins >= 10, "only {twins} figures with a twin");
+    // The same method keeps its look across experiments (HPR's linear kernel is in the
+    // visibility, robustness, background and scale figures).
+    let hpr: Vec<&(String, String)> = seen
+        .iter()
+        .filter(|((_, family, _), _)| family == "hpr-linear")
+        .map(|(_, v)| v)
+        .collect();
+    let colours: std::collections::BTreeSet<String> = hpr
+        .iter()
+        .map(|(style, _)| {
+            let v: serde_json::Value = serde_json::from_str(style).expect("a style");
+            v["color"].as_str().unwrap_or_default().to_owned()
+        })
+        .collect();
+    assert!(hpr.len() >= 3, "hpr-linear in only {} variants", hpr.len());
+    assert_eq!(colours.len(), 1, "hpr-linear has the colours {colours:?}");
+    // Each experiment with figures has its results page, holding every figure.
+    for exp in &experiments_with_figures {
+        let page = std::fs::read_to_string(reports.join(exp).join("results.html"))
+            .unwrap_or_else(|e| panic!("{exp} has no results page: {e}"));
+        assert!(page.contains("/* results page script */"), "{exp}");
+        for png in files.iter().filter(|p| {
+            p.extension().is_some_and(|e| e == "png")
+                && p.parent()
+                    .and_then(|d| d.file_name())
+                    .is_some_and(|d| d.to_string_lossy() == *exp)
+                && p.with_extension("json").is_file()
+        }) {
+            let id = png.file_stem().and_then(|s| s.to_str()).unwrap_or_default();
+            assert!(
+                page.contains(&format!("\"id\":\"{id}\"")),
+                "{exp}/results.html lacks {id}"
+            );
+        }
+    }
+}
+
+/// Regression (issue 39): the LOD section put `# Level of detail` into the combined README,
+/// under its `## lod`, and its Builds table had 7 header cells and 8 a row.
+fn readme_keeps_its_structure(readme: &str) {
+    let top: Vec<&str> = readme.lines().filter(|l| l.starts_with("# ")).collect();
+    assert_eq!(top, ["# pointsight results"], "top headings");
+    let cells = |line: &str| line.trim().trim_matches('|').split('|').count();
+    let mut header: Option<(usize, &str)> = None;
+    for line in readme.lines() {
+        if !line.starts_with('|') {
+            header = None;
+            continue;
+        }
+        match header {
+            None => header = Some((cells(line), line)),
+            Some((n, head)) => assert_eq!(
+                cells(line),
+                n,
+                "a table row has not the header's cells:\n{head}\n{line}"
+            ),
+        }
+    }
 }

@@ -15,7 +15,7 @@
 import * as THREE from 'three';
 
 import { bytesOf } from './data.js';
-import { el, fmt, fragmentOptions, makeStage } from './stage.js';
+import { el, fmt, fragmentOptions, linksOf, makeStage, nameCell } from './stage.js';
 
 const VERTEX = `
 attribute float radius;
@@ -99,7 +99,7 @@ export function lodMain(data) {
         el(
           'tr',
           { class: j === k ? 'method chosen' : 'method', title: o.setting, onclick: () => setMethod(j) },
-          el('td', {}, o.name),
+          nameCell(o, data.markers),
           el('td', {}, o.n_total.toLocaleString()),
           el('td', {}, o.psnr == null ? 'ref.' : fmt(o.psnr, 2)),
           el('td', {}, fmt(o.seconds, 4)),
@@ -118,6 +118,7 @@ export function lodMain(data) {
   panel.append(
     el('h1', {}, data.title),
     el('div', { class: 'note' }, data.note),
+    ...[linksOf(data)].filter(Boolean),
     el('label', {}, 'method ', select),
     setting,
     table,

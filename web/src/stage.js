@@ -7,6 +7,8 @@
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
+import { swatch } from './swatch.js';
+
 /** The URL fragment's options: #k=v&k=v. */
 export function fragmentOptions() {
   const out = {};
@@ -30,6 +32,23 @@ export function el(tag, attrs = {}, ...children) {
   return e;
 }
 
+/**
+ * A method's name cell: its swatch (the style the harness gives it, as in every figure of the
+ * report) and its name.
+ */
+export function nameCell(m, markers) {
+  const td = el('td', {});
+  if (m.style && markers) td.append(swatch(m.style, markers, { line: false }));
+  td.append(m.name);
+  return td;
+}
+
+/** The page's links (`data.links`: the report's results pages), as a paragraph; null if none. */
+export function linksOf(data) {
+  if (!data.links || !data.links.length) return null;
+  return el('div', { class: 'note links' }, ...data.links.flatMap((l, k) => [k ? ' · ' : '', el('a', { href: l.href }, l.label)]));
+}
+
 /** A number with `digits` decimals, or an en dash. */
 export function fmt(x, digits = 4) {
   return x == null || Number.isNaN(x) ? '–' : Number(x).toFixed(digits);
@@ -48,6 +67,7 @@ html, body { margin: 0; height: 100%; font: 13px/1.35 system-ui, sans-serif; col
 #ps-panel td:first-child, #ps-panel th:first-child { text-align: left; }
 #ps-panel tr.method { cursor: pointer; }
 #ps-panel tr.chosen { background: #dde8ff; }
+#ps-panel .ps-swatch { vertical-align: -2px; margin-right: 5px; }
 #ps-panel .swatch { display: inline-block; width: 11px; height: 11px; margin-right: 5px;
   vertical-align: -1px; border: 1px solid #999; }
 #ps-panel .note { color: #555; font-size: 12px; margin: 6px 0; }

@@ -24,7 +24,7 @@ import {
   positionsOf,
 } from './data.js';
 import { lodMain } from './lod.js';
-import { el, fmt, fragmentOptions, makeStage } from './stage.js';
+import { el, fmt, fragmentOptions, linksOf, makeStage, nameCell } from './stage.js';
 
 const CLASS_NAMES = {
   [HIDDEN]: 'hidden',
@@ -129,7 +129,7 @@ function main(data) {
         el(
           'tr',
           { class: k === state.method ? 'method chosen' : 'method', title: m.setting, onclick: () => setMethod(k) },
-          el('td', {}, m.name),
+          nameCell(m, data.markers),
           el('td', {}, fmt(m.scores[0])),
           el('td', {}, fmt(m.scores[1])),
           el('td', {}, fmt(m.scores[2])),
@@ -159,6 +159,7 @@ function main(data) {
   panel.append(
     el('h1', {}, data.title),
     el('div', { class: 'note' }, data.note),
+    ...[linksOf(data)].filter(Boolean),
     el('label', {}, 'method ', select),
     setting,
     scores,

@@ -168,6 +168,8 @@ pub fn tables(reports: &Path) -> Result<()> {
             reports.display()
         );
     }
+    // The viewer pages keep their measured data; their script, styles and links are redrawn.
+    view::report::refresh(reports)?;
     assemble_report(reports)?;
     println!(
         "redrew {rendered} experiment(s); wrote {}",

@@ -27,7 +27,7 @@ use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
 use crate::datasets::Dataset;
-use crate::output::plot::{Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 use registry::scoring::Score;
@@ -212,11 +212,12 @@ impl Experiment for BackgroundExperiment {
     fn render(&self, dir: &Path) -> Result<()> {
         let frames: Vec<Frame> = read_csv(&dir.join("results.csv"))?;
         let datasets = crate::output::distinct(frames.iter().map(|f| f.dataset.as_str()));
-        let mut f1_series = Vec::new();
-        let mut age_series = Vec::new();
+        let mut f1_panels: Vec<Panel> = Vec::new();
+        let mut age_panels: Vec<Panel> = Vec::new();
         let mut table = Vec::new();
-        for (di, d) in datasets.iter().enumerate() {
-            for (mi, mode) in ["synchronous", "background"].iter().enumerate() {
+        for d in &datasets {
+            let (mut f1_series, mut age_series) = (Vec::new(), Vec::new());
+            for mode in ["synchronous", "background"] {
                 let fs: Vec<&Frame> = frames
                     .iter()
                     .filter(|f| f.dataset == *d && f.mode == *mode)
@@ -224,32 +225,32 @@ impl Experiment for BackgroundExperiment {
                 if fs.is_empty() {
                     continue;
                 }
-                let color = Some(2 * di + mi);
                 // Frames before the first result show nothing; they are counted but not plotted.
                 let shown: Vec<&&Frame> =
                     fs.iter().filter(|f| f.camera_time_s.is_finite()).collect();
                 let first_result = shown.first().map_or(f64::NAN, |f| f.time_s);
-                let mut s = Series::new(
-                    format!("{d} {mode}"),
+                // HPR (linear kernel) in two modes: the mode is the variant.
+                f1_series.push(Series::new(
+                    "hpr",
+                    "hpr-linear",
+                    mode,
+                    Draw::Line,
                     shown
                         .iter()
                         .filter(|f| f.f1.is_finite())
-                        .map(|f| (f.time_s, f.f1))
+                        .map(|f| Point::new(f.time_s, f.f1))
                         .collect(),
-                    Mark::LinePoints,
-                );
-                s.color = color;
-                f1_series.push(s);
-                let mut a = Series::new(
-                    format!("{d} {mode}"),
+                ));
+                age_series.push(Series::new(
+                    "hpr",
+                    "hpr-linear",
+                    mode,
+                    Draw::Line,
                     fs.iter()
                         .filter(|f| f.age_s.is_finite())
-                        .map(|f| (f.time_s, 1000.0 * f.age_s))
+                        .map(|f| Point::new(f.time_s, 1000.0 * f.age_s))
                         .collect(),
-                    Mark::Line,
-                );
-                a.color = color;
-                age_series.push(a);
+                ));
                 let scored: Vec<f64> = shown
                     .iter()
                     .map(|f| f.f1)
@@ -288,31 +289,39 @@ impl Experiment for BackgroundExperiment {
                     ),
                 ]);
             }
+            f1_panels.push(Panel {
+                title: d.clone(),
+                series: f1_series,
+            });
+            age_panels.push(Panel {
+                title: d.clone(),
+                series: age_series,
+            });
         }
-        Chart {
-            title: "F1 of the displayed visible set along the orbit".into(),
-            x_label: "time (s)".into(),
-            y_label: "F1 against the reference of the current camera".into(),
-            series: f1_series,
-            ..Chart::default()
-        }
-        .save(&dir.join("f1_time.png"), 1000, 520)?;
-        Chart {
-            title: "Age of the displayed visible set".into(),
-            x_label: "time (s)".into(),
-            y_label: "age (ms)".into(),
-            series: age_series,
-            ..Chart::default()
-        }
-        .save(&dir.join("age_time.png"), 1000, 420)?;
+        let f1 = Figure::new(
+            "f1_time",
+            "F1 of the displayed visible set along the orbit",
+            Axis::linear("time (s)"),
+            Axis::linear("F1 against the reference of the current camera"),
+        )
+        .panels(f1_panels)
+        .write(dir)?;
+        let age = Figure::new(
+            "age_time",
+            "Age of the displayed visible set",
+            Axis::linear("time (s)"),
+            Axis::linear("age (ms)"),
+        )
+        .panels(age_panels)
+        .write(dir)?;
         let summary = format!(
             "Seed 000 §5 measured: HPR (γ = {GAMMA}, exact hull) in a worker thread with \
              front/back buffers against computing it synchronously every frame, while the camera \
              orbits at half a bounding-sphere radius per second (the paper's speed), 60 frames \
              per second, in real time on this machine. F1 is against the reference of the camera \
              at the moment the frame is shown. Ages and F1 count the frames from the first visible set \
-             on (before it, the background version shows nothing).\n\n{}\n![F1 over time](f1_time.png)\n\n\
-             ![age over time](age_time.png)\n\nPer-frame rows: [results.csv](results.csv).\n",
+             on (before it, the background version shows nothing).\n\n{}\n{f1}{age}Per-frame rows: \
+             [results.csv](results.csv).\n",
             markdown_table(
                 &[
                     "dataset",

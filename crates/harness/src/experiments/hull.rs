@@ -35,7 +35,7 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
-use crate::output::plot::{Bars, Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 use registry::scoring::Score;
@@ -406,43 +406,58 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
         .filter(|k| rows.iter().any(|r| r.perturb == *k))
         .collect();
 
-    // Plot 1: seconds per implementation per dataset (k = 0, median over views and γ).
-    Bars {
-        title: "HPR time per hull implementation (k = 0; median over views and gamma)".into(),
-        y_label: "seconds (flip + hull + mapping)".into(),
-        y_log: true,
-        categories: datasets.clone(),
-        groups: hulls
+    // Plot 1: seconds per implementation per dataset (k = 0, median over views and γ), a
+    // dot per implementation and dataset (quartiles over views and γ as bars).
+    let quartiles = |pick: &dyn Fn(&Row) -> bool| {
+        let mut v: Vec<f64> = rows
+            .iter()
+            .filter(|r| r.status == "ok" && pick(r))
+            .map(|r| r.seconds)
+            .collect();
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v.get(((v.len() - 1) as f64 * q).round() as usize).copied();
+        (!v.is_empty()).then(|| (at(0.25).unwrap_or(f64::NAN), at(0.75).unwrap_or(f64::NAN)))
+    };
+    let seconds = Figure::new(
+        "seconds",
+        "HPR time per hull implementation (k = 0; median over views and gamma)",
+        Axis::categories("dataset", datasets.clone()),
+        Axis::log("seconds (flip + hull + mapping; bars: quartiles)"),
+    )
+    .interval("first to third quartile over views and gamma")
+    .series(
+        hulls
             .iter()
             .map(|h| {
-                (
-                    h.to_string(),
-                    datasets
-                        .iter()
-                        .map(|d| {
-                            median_of(
-                                rows,
-                                |r| r.dataset == *d && r.hull == *h && r.perturb == 0.0,
-                                |r| r.seconds,
-                            )
-                        })
-                        .collect(),
-                )
+                let points = datasets
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(k, d)| {
+                        let pick = |r: &Row| r.dataset == *d && r.hull == *h && r.perturb == 0.0;
+                        let m = median_of(rows, pick, |r| r.seconds)?;
+                        let (lo, hi) = quartiles(&pick)?;
+                        Some(Point::new(k as f64, m).y_interval(lo, hi).seconds(m))
+                    })
+                    .collect();
+                Series::new(h, &format!("hull-{h}"), "", Draw::Points, points)
             })
             .collect(),
-    }
-    .save(&dir.join("seconds.png"), 1000, 520)?;
+        Vec::new(),
+    )
+    .write(dir)?;
 
-    // Plot 2: speed-up against visibility lost, one point per k, for own and qhull.
-    let mut series = Vec::new();
+    // Plot 2: speed-up against visibility lost, one point per k, for own and qhull; a panel
+    // per dataset.
+    let mut panels = Vec::new();
     for d in &datasets {
+        let mut series = Vec::new();
         for h in ["qhull", "own"] {
             let base = median_of(
                 rows,
                 |r| r.dataset == *d && r.hull == h && r.perturb == 0.0,
                 |r| r.seconds,
             );
-            let pts: Vec<(f64, f64)> = perturbs
+            let pts: Vec<Point> = perturbs
                 .iter()
                 .filter_map(|&k| {
                     let t = median_of(
@@ -455,16 +470,27 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
                         |r| r.dataset == *d && r.hull == h && r.perturb == k,
                         |r| r.jaccard_vs_exact,
                     )?;
-                    Some((100.0 * (1.0 - j), base? / t))
+                    Some(
+                        Point::new(100.0 * (1.0 - j), base? / t)
+                            .seconds(t)
+                            .setting(format!("perturb={k}")),
+                    )
                 })
                 .collect();
             if !pts.is_empty() {
-                series.push(Series::new(format!("{d} {h}"), pts, Mark::LinePoints));
+                series.push(Series::new(h, &format!("hull-{h}"), "", Draw::Line, pts));
             }
         }
+        if !series.is_empty() {
+            panels.push(Panel {
+                title: d.clone(),
+                series,
+            });
+        }
     }
-    Chart {
-        title: format!(
+    let perturbation = Figure::new(
+        "perturbation",
+        format!(
             "Perturbation: speed-up vs visible set lost (k = {})",
             perturbs
                 .iter()
@@ -472,50 +498,59 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
                 .collect::<Vec<_>>()
                 .join(", ")
         ),
-        x_label: "visible set lost: 100 x (1 - Jaccard vs exact)".into(),
-        y_label: "speed-up over k = 0".into(),
-        y_log: true,
-        series,
-        ..Chart::default()
-    }
-    .save(&dir.join("perturbation.png"), 1000, 560)?;
+        Axis::linear("visible set lost: 100 x (1 - Jaccard vs exact)"),
+        Axis::log("speed-up over k = 0"),
+    )
+    .panels(panels);
+    let perturbation = if perturbation.is_empty() {
+        String::new()
+    } else {
+        perturbation.write(dir)?
+    };
 
-    // Plot 3: F1 against γ (own, k = 0, mean over views).
-    Chart {
-        title: "HPR F1 against the reference as gamma grows (exact hull, k = 0)".into(),
-        x_label: "gamma (R = max|p - C| x 10^gamma)".into(),
-        y_label: "F1".into(),
-        series: datasets
+    // Plot 3: F1 against γ (own, k = 0, mean over views), a panel per dataset.
+    let f1_gamma = Figure::new(
+        "f1_gamma",
+        "HPR F1 against the reference as gamma grows (exact hull, k = 0)",
+        Axis::linear("gamma (R = max|p - C| x 10^gamma)"),
+        Axis::linear("F1 (mean over views)"),
+    )
+    .panels(
+        datasets
             .iter()
-            .map(|d| {
-                Series::new(
-                    d.clone(),
-                    GAMMAS
-                        .iter()
-                        .map(|&g| {
-                            (
-                                g,
-                                mean(
-                                    rows.iter()
-                                        .filter(ok)
-                                        .filter(|r| {
-                                            r.dataset == *d
-                                                && r.hull == "own"
-                                                && r.perturb == 0.0
-                                                && r.gamma == g
-                                        })
-                                        .map(|r| r.f1_vs_reference),
-                                ),
-                            )
-                        })
-                        .collect(),
-                    Mark::LinePoints,
-                )
+            .map(|d| Panel {
+                title: d.clone(),
+                series: vec![
+                    Series::new(
+                        "hpr",
+                        "hpr-linear",
+                        "settings",
+                        Draw::Line,
+                        GAMMAS
+                            .iter()
+                            .map(|&g| {
+                                let rs: Vec<&Row> = rows
+                                    .iter()
+                                    .filter(ok)
+                                    .filter(|r| {
+                                        r.dataset == *d
+                                            && r.hull == "own"
+                                            && r.perturb == 0.0
+                                            && r.gamma == g
+                                    })
+                                    .collect();
+                                Point::new(g, mean(rs.iter().map(|r| r.f1_vs_reference)))
+                                    .seconds(mean(rs.iter().map(|r| r.seconds)))
+                                    .setting(format!("gamma={g}"))
+                            })
+                            .collect(),
+                    )
+                    .label("hpr (own hull)"),
+                ],
             })
             .collect(),
-        ..Chart::default()
-    }
-    .save(&dir.join("f1_gamma.png"), 900, 500)?;
+    )
+    .write(dir)?;
 
     // The comparison table: per dataset and implementation, at k = 0.
     let mut table = Vec::new();
@@ -585,9 +620,7 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
          Grid and skips: see the rows with status `error: skipped`.\n\n\
          **own vs Qhull (Qt), k = 0:** identical visible sets in {identical} of {} configurations; \
          lowest Jaccard {}.\n\n{cgal}{}\n\
-         ![seconds per implementation](seconds.png)\n\n\
-         ![speed-up vs visibility lost](perturbation.png)\n\n\
-         ![F1 vs gamma](f1_gamma.png)\n\n\
+         {seconds}{perturbation}{f1_gamma}\
          ### Seed 000 Table 1, regenerated\n\n{}\nRaw rows: [results.csv](results.csv); the table alone: [table1.md](table1.md).\n",
         pairs.len(),
         if pairs.is_empty() {

@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
-use crate::output::plot::{Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 
@@ -137,7 +137,7 @@ impl Experiment for ReferenceExperiment {
                 .push(r);
         }
         let mut table = Vec::new();
-        let mut series = Vec::new();
+        let mut panels: Vec<Panel> = Vec::new();
         for ((dataset, variant), rs) in &groups {
             let n = rs.len() as f64;
             let min = rs.iter().map(|r| r.agreement).fold(f64::INFINITY, f64::min);
@@ -168,29 +168,39 @@ impl Experiment for ReferenceExperiment {
                 format!("{:.3}", rs.iter().map(|r| r.seconds).sum::<f64>() / n),
                 format!("{:.3}", rs.iter().map(|r| r.exact_seconds).sum::<f64>() / n),
             ]);
-            series.push(Series::new(
-                format!("{dataset} {variant}"),
+            // One panel per dataset: the two ground truths (each a family of its own) over the
+            // views.
+            let series = Series::new(
+                variant,
+                variant,
+                "",
+                Draw::Line,
                 rs.iter()
-                    .map(|r| (r.view as f64, 100.0 * r.agreement))
+                    .map(|r| Point::new(r.view as f64, 100.0 * r.agreement).seconds(r.seconds))
                     .collect(),
-                Mark::LinePoints,
-            ));
+            );
+            match panels.last_mut() {
+                Some(p) if p.title == *dataset => p.series.push(series),
+                _ => panels.push(Panel {
+                    title: dataset.clone(),
+                    series: vec![series],
+                }),
+            }
         }
-        Chart {
-            title: "Reference vs exact segment test".into(),
-            x_label: "view".into(),
-            y_label: "agreement (% of points)".into(),
-            series,
-            ..Chart::default()
-        }
-        .save(&dir.join("agreement.png"), 900, 500)?;
+        let figure = Figure::new(
+            "agreement",
+            "Reference vs exact segment test, per view",
+            Axis::linear("view"),
+            Axis::linear("agreement (% of points)"),
+        )
+        .panels(panels)
+        .write(dir)?;
         let summary = format!(
             "Agreement of the z-buffer ground truth with the exact segment–triangle test (every \
              point's segment from the eye against the mesh, BVH, f64). `zbuffer` is the depth \
              buffer decision alone; `reference` (the default ground truth) resolves ambiguous \
              silhouette points with the exact test. The requirement is at least 99.5% on every \
-             view of the bunny.\n\n{}\n![agreement per view](agreement.png)\n\nRaw rows: \
-             [results.csv](results.csv).\n",
+             view of the bunny.\n\n{}\n{figure}Raw rows: [results.csv](results.csv).\n",
             markdown_table(
                 &[
                     "dataset",

@@ -50,7 +50,8 @@ use truth::{Reference, ReferenceParams};
 use super::lod::noise::{self, LOD_NOISE, LodRow};
 use super::{Context, Experiment, markdown_table};
 use crate::datasets::{self, Degraded};
-use crate::output::plot::{Bars, Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Point, Series};
+use crate::output::style;
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
 
@@ -397,13 +398,13 @@ impl Experiment for RobustnessExperiment {
 
     fn render(&self, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
-        // (dataset, degradation, method, setting) -> level -> F1 per view.
-        let mut groups: BTreeMap<Curve, BTreeMap<i64, Vec<f64>>> = BTreeMap::new();
-        let mut clean: BTreeMap<(String, String, String), Vec<f64>> = BTreeMap::new();
+        // (dataset, degradation, method, setting) -> level -> the rows of the views.
+        let mut groups: BTreeMap<Curve, BTreeMap<i64, Vec<&Row>>> = BTreeMap::new();
+        let mut clean: BTreeMap<(String, String, String), Vec<&Row>> = BTreeMap::new();
         for r in &rows {
             let key = (r.dataset.clone(), r.method.clone(), r.setting.clone());
             if r.degradation == "clean" {
-                clean.entry(key).or_default().push(r.f1);
+                clean.entry(key).or_default().push(r);
             } else {
                 groups
                     .entry((
@@ -415,7 +416,7 @@ impl Experiment for RobustnessExperiment {
                     .or_default()
                     .entry((r.level * 1e6).round() as i64)
                     .or_default()
-                    .push(r.f1);
+                    .push(r);
             }
         }
         let datasets: Vec<String> = {
@@ -431,7 +432,9 @@ impl Experiment for RobustnessExperiment {
              (`auto`, recomputed on each degraded cloud), as the data degrades. Truth: the \
              reference visibility of each point's clean source (the sample it was made from, or \
              the noise-free hit of a scanner ray); outliers are scored apart. Lines: median \
-             over the views; dots: first and third quartiles.\n\n",
+             over the views; bars: first to third quartile. More than ten lines make small \
+             multiples, one panel per method with the others' `best` in grey. Every figure's \
+             data is the JSON file of its name (method, setting, variant, style and points).\n\n",
         );
         let axes = [
             ("noise", "Gaussian noise σ (density spacings)", true),
@@ -451,7 +454,6 @@ impl Experiment for RobustnessExperiment {
         for ds in &datasets {
             for (axis, label, _) in axes {
                 let mut series = Vec::new();
-                let mut color = 0;
                 for ((d, a, method, setting), levels) in &groups {
                     if d != ds || a != axis {
                         continue;
@@ -460,15 +462,19 @@ impl Experiment for RobustnessExperiment {
                         .get(&(ds.clone(), method.clone(), setting.clone()))
                         .cloned()
                         .unwrap_or_default();
-                    let mut med = vec![(0.0, median(base.clone()))];
-                    let mut quart = vec![(0.0, stats(&base).q1), (0.0, stats(&base).q3)];
-                    for (level, f1s) in levels {
-                        let x = *level as f64 / 1e6;
-                        med.push((x, median(f1s.clone())));
-                        let st = stats(f1s);
-                        quart.push((x, st.q1));
-                        quart.push((x, st.q3));
+                    let point = |x: f64, rs: &[&Row]| {
+                        let f1: Vec<f64> = rs.iter().map(|r| r.f1).collect();
+                        let st = stats(&f1);
+                        Point::new(x, median(f1))
+                            .y_interval(st.q1, st.q3)
+                            .seconds(median(rs.iter().map(|r| r.seconds).collect()))
+                            .setting(rs.first().map_or("", |r| r.params.as_str()))
+                    };
+                    let mut pts = vec![point(0.0, &base)];
+                    for (level, rs) in levels {
+                        pts.push(point(*level as f64 / 1e6, rs));
                     }
+                    let med: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
                     if axis == "noise" {
                         // The σ at which the median F1 first falls below 0.9 (linear between
                         // levels); "> max" when it never does, "clean" when it starts below.
@@ -483,31 +489,25 @@ impl Experiment for RobustnessExperiment {
                         };
                         thresholds.push(vec![ds.clone(), method.clone(), setting.clone(), text]);
                     }
-                    let label = format!("{method} {setting}");
-                    series.push(Series {
-                        color: Some(color),
-                        ..Series::new(label.clone(), med, Mark::LinePoints)
-                    });
-                    series.push(Series {
-                        color: Some(color),
-                        ..Series::new(String::new(), quart, Mark::Points)
-                    });
-                    color += 1;
+                    let params = base
+                        .first()
+                        .or_else(|| levels.values().flatten().next())
+                        .map_or("", |r| r.params.as_str());
+                    let family = style::family(method, params);
+                    series.push(Series::new(method, &family, setting, Draw::Line, pts));
                 }
                 if series.is_empty() {
                     continue;
                 }
-                let file = format!("f1_{axis}_{ds}.png");
-                Chart {
-                    title: format!("{ds}: F1 against {axis}"),
-                    x_label: label.into(),
-                    y_label: "F1 (median over views; dots: quartiles)".into(),
-                    y_range: Some((0.0, 1.0)),
-                    series,
-                    ..Chart::default()
-                }
-                .save(&dir.join(&file), 1000, 560)?;
-                text.push_str(&format!("![{ds}: F1 against {axis}]({file})\n\n"));
+                let fig = Figure::new(
+                    format!("f1_{axis}_{ds}"),
+                    format!("{ds}: F1 against {axis}"),
+                    Axis::linear(label),
+                    Axis::linear("F1 (median over views; bars: quartiles)"),
+                )
+                .interval("first to third quartile over the views")
+                .series(series, Vec::new());
+                text.push_str(&fig.write(dir)?);
             }
         }
         // Simulated scans: median F1 per method and setting, one cluster per scan.
@@ -527,13 +527,15 @@ impl Experiment for RobustnessExperiment {
                 .collect();
             names.sort();
             names.dedup();
-            let groups = names
+            let series: Vec<Series> = names
                 .iter()
                 .map(|(m, st)| {
-                    let values = scans
+                    let mut params = "";
+                    let points = scans
                         .iter()
-                        .map(|d| {
-                            let f1: Vec<f64> = rows
+                        .enumerate()
+                        .filter_map(|(k, d)| {
+                            let rs: Vec<&Row> = rows
                                 .iter()
                                 .filter(|r| {
                                     &r.dataset == d
@@ -541,26 +543,36 @@ impl Experiment for RobustnessExperiment {
                                         && &r.method == m
                                         && &r.setting == st
                                 })
-                                .map(|r| r.f1)
                                 .collect();
-                            (!f1.is_empty()).then(|| median(f1))
+                            let first = rs.first()?;
+                            params = first.params.as_str();
+                            let f1: Vec<f64> = rs.iter().map(|r| r.f1).collect();
+                            let q = stats(&f1);
+                            Some(
+                                Point::new(k as f64, median(f1))
+                                    .y_interval(q.q1, q.q3)
+                                    .seconds(median(rs.iter().map(|r| r.seconds).collect()))
+                                    .setting(first.params.clone()),
+                            )
                         })
                         .collect();
-                    (format!("{m} {st}"), values)
+                    Series::new(m, &style::family(m, params), st, Draw::Points, points)
                 })
                 .collect();
-            Bars {
-                title: "Simulated scans: F1 (median over views)".into(),
-                y_label: "F1".into(),
-                categories: scans.clone(),
-                groups,
-                ..Bars::default()
-            }
-            .save(&dir.join("f1_scans.png"), 1000, 500)?;
+            let fig = Figure::new(
+                "f1_scans",
+                "Simulated scans: F1 (median over views)",
+                Axis::categories("simulated scan", scans.clone()),
+                Axis::linear("F1 (median over views; bars: quartiles)"),
+            )
+            .interval("first to third quartile over the views")
+            .series(series, Vec::new());
+            let md = fig.write(dir)?;
             text.push_str(
                 "On the simulated scans `best` is the grid value best on the scan itself (an \
-                 oracle: there is no clean version to tune on).\n\n![F1 on simulated scans](f1_scans.png)\n\n",
+                 oracle: there is no clean version to tune on).\n\n",
             );
+            text.push_str(&md);
         }
         let not_run: Vec<String> = crate::output::meta::RunMeta::read(dir)
             .ok()
@@ -603,26 +615,29 @@ impl Experiment for RobustnessExperiment {
             d.dedup();
             d
         };
-        // The full render first, then the methods in the order the rows give them.
-        let mut lod_methods: Vec<&str> = vec!["full"];
-        for r in &lod {
-            if !lod_methods.contains(&r.method.as_str()) {
-                lod_methods.push(&r.method);
-            }
-        }
+        // The noisy full cloud first, then the LOD methods in the order of the results.
+        let lod_methods: Vec<String> = {
+            let mut m = crate::output::distinct(lod.iter().map(|r| r.method.as_str()));
+            m.sort_by_key(|m| m != "full");
+            m
+        };
         for ds in &lod_sets {
             for (metric, file_metric) in [("PSNR (dB)", "psnr"), ("SSIM", "ssim")] {
                 let mut series = Vec::new();
-                for (color, method) in lod_methods.iter().enumerate() {
+                for method in &lod_methods {
                     let mut points = Vec::new();
+                    let mut params = String::new();
                     for &sigma in LOD_NOISE {
-                        let vals: Vec<f64> = lod
+                        let rs: Vec<&LodRow> = lod
                             .iter()
                             .filter(|r| {
                                 &r.dataset == ds
-                                    && r.method == *method
+                                    && &r.method == method
                                     && (r.sigma - sigma).abs() < 1e-12
                             })
+                            .collect();
+                        let vals: Vec<f64> = rs
+                            .iter()
                             .map(|r| {
                                 if file_metric == "psnr" {
                                     r.psnr
@@ -631,41 +646,45 @@ impl Experiment for RobustnessExperiment {
                                 }
                             })
                             .collect();
+                        let q = stats(&vals);
                         let m = median(vals);
                         // PSNR of an identical image is capped (100 dB): the noise-free full
                         // cloud is the reference itself; left out of the plot, kept in the table.
                         if m.is_finite() && !(file_metric == "psnr" && m >= 99.0) {
-                            points.push((sigma, m));
+                            params = rs.first().map_or(String::new(), |r| r.params.clone());
+                            points.push(
+                                Point::new(sigma, m)
+                                    .y_interval(q.q1, q.q3)
+                                    .setting(params.clone()),
+                            );
                         }
                     }
                     if !points.is_empty() {
-                        series.push(Series {
-                            color: Some(color),
-                            ..Series::new(*method, points, Mark::LinePoints)
-                        });
+                        series.push(
+                            Series::new(method, method, "", Draw::Line, points).setting(params),
+                        );
                     }
                 }
                 if series.is_empty() {
                     continue;
                 }
-                let file = format!("lod_{file_metric}_{ds}.png");
-                Chart {
-                    title: format!("{ds}: LOD {metric} against the clean full render"),
-                    x_label: "Gaussian noise σ (density spacings)".into(),
-                    y_label: format!("{metric}, median over views"),
-                    series,
-                    ..Chart::default()
-                }
-                .save(&dir.join(&file), 1000, 520)?;
-                text.push_str(&format!("![{ds}: LOD {metric}]({file})\n\n"));
+                let fig = Figure::new(
+                    format!("lod_{file_metric}_{ds}"),
+                    format!("{ds}: LOD {metric} against the clean full render"),
+                    Axis::linear("Gaussian noise σ (density spacings)"),
+                    Axis::linear(format!("{metric}, median over views (bars: quartiles)")),
+                )
+                .interval("first to third quartile over the views")
+                .series(series, Vec::new());
+                text.push_str(&fig.write(dir)?);
             }
             for &sigma in LOD_NOISE {
-                for &method in &lod_methods {
+                for method in &lod_methods {
                     let rs: Vec<&LodRow> = lod
                         .iter()
                         .filter(|r| {
                             &r.dataset == ds
-                                && r.method == method
+                                && &r.method == method
                                 && (r.sigma - sigma).abs() < 1e-12
                         })
                         .collect();

@@ -1,12 +1,15 @@
-//! Everything the harness writes: atomic files, CSV, run metadata, plots, the report page.
+//! Everything the harness writes: atomic files, CSV, run metadata, figures (a JSON twin and a
+//! PNG from one description, in one style table), the report page.
 //!
 //! Every file is written to a temporary name beside its target and renamed into place, so an
 //! interrupted run leaves the previous version or the new one, never half a file.
 
+pub mod figure;
 pub mod meta;
-pub mod plot;
 pub mod render;
 pub mod report;
+pub mod results;
+pub mod style;
 
 use std::fs;
 use std::path::Path;
@@ -25,6 +28,30 @@ pub fn distinct<'a>(items: impl IntoIterator<Item = &'a str>) -> Vec<String> {
         }
     }
     out
+}
+
+/// Escapes text for HTML element content and attribute values.
+pub fn escape_html(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Relative link targets in a markdown text (for checking that they exist).
+pub fn link_targets(markdown: &str) -> Vec<String> {
+    let mut targets = Vec::new();
+    let mut rest = markdown;
+    while let Some(pos) = rest.find("](") {
+        rest = &rest[pos + 2..];
+        if let Some(end) = rest.find(')') {
+            let t = &rest[..end];
+            if !(t.starts_with("http://") || t.starts_with("https://") || t.starts_with('#')) {
+                targets.push(t.to_owned());
+            }
+        }
+    }
+    targets
 }
 
 /// Writes `bytes` to `path` atomically (creating its folder): [`cloud::io::atomic`].

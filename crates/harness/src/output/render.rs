@@ -13,7 +13,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use plotters::prelude::*;
 
-use super::plot::ensure_font;
+use super::figure::{ensure_font, wrap_text};
 use super::write_png;
 
 /// Class colours.
@@ -124,30 +124,51 @@ pub fn footprint(camera: &Camera, points: &[DVec3], margin: u32) -> (u32, u32, u
 }
 
 /// Composes panels (all the same size) into a grid with `cols` columns, a caption over each
-/// and a legend line at the bottom; writes the PNG.
+/// (wrapped to the panel's width: captions never run into each other) and a legend at the
+/// bottom (wrapped to the picture's width); writes the PNG.
 pub fn compose(panels: &[Panel], cols: usize, legend: &str, path: &Path) -> Result<()> {
     ensure_font()?;
     let first = panels
         .first()
         .ok_or_else(|| anyhow!("no panel to compose"))?;
     let (pw, ph) = (first.width, first.height);
-    let caption = 28u32;
     let rows = panels.len().div_ceil(cols) as u32;
-    let (w, h) = (cols as u32 * pw, rows * (ph + caption) + 30);
+    let w = cols as u32 * pw;
+    let title_font: TextStyle = ("sans-serif", 18).into_font().color(&BLACK);
+    let legend_font: TextStyle = ("sans-serif", 16).into_font().color(&BLACK);
+    // Line breaks first, on a scratch area (text measuring needs a drawing area).
+    let (captions, legend_lines) = {
+        let mut scratch = vec![255u8; 3];
+        let area = BitMapBackend::with_buffer(&mut scratch, (1, 1)).into_drawing_area();
+        let captions: Vec<Vec<String>> = panels
+            .iter()
+            .map(|p| wrap_text(&area, &p.title, &title_font, pw.saturating_sub(16)))
+            .collect();
+        (
+            captions,
+            wrap_text(&area, legend, &legend_font, w.saturating_sub(16)),
+        )
+    };
+    let caption_lines = captions.iter().map(Vec::len).max().unwrap_or(1).max(1) as u32;
+    let caption = 8 + 21 * caption_lines;
+    let legend_h = 10 + 20 * legend_lines.len() as u32;
+    let h = rows * (ph + caption) + legend_h;
     let mut buf = vec![255u8; w as usize * h as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         for (k, panel) in panels.iter().enumerate() {
             let (cx, cy) = ((k % cols) as u32 * pw, (k / cols) as u32 * (ph + caption));
-            root.draw_text(
-                &panel.title,
-                &("sans-serif", 18).into_font().color(&BLACK),
-                (cx as i32 + 8, cy as i32 + 5),
-            )
-            .map_err(|e| anyhow!("{e:?}"))?;
-            for y in 0..ph {
-                for x in 0..pw {
-                    let k = 3 * (y as usize * pw as usize + x as usize);
+            for (l, line) in captions[k].iter().enumerate() {
+                root.draw_text(
+                    line,
+                    &title_font,
+                    (cx as i32 + 8, cy as i32 + 5 + 21 * l as i32),
+                )
+                .map_err(|e| anyhow!("{e:?}"))?;
+            }
+            for y in 0..ph.min(panel.height) {
+                for x in 0..pw.min(panel.width) {
+                    let k = 3 * (y as usize * panel.width as usize + x as usize);
                     let c = &panel.rgb[k..k + 3];
                     if c != [255, 255, 255] {
                         root.draw_pixel(
@@ -167,13 +188,56 @@ pub fn compose(panels: &[Panel], cols: usize, legend: &str, path: &Path) -> Resu
             ))
             .map_err(|e| anyhow!("{e:?}"))?;
         }
-        root.draw_text(
-            legend,
-            &("sans-serif", 16).into_font().color(&BLACK),
-            (8, h as i32 - 24),
-        )
-        .map_err(|e| anyhow!("{e:?}"))?;
+        for (l, line) in legend_lines.iter().enumerate() {
+            root.draw_text(
+                line,
+                &legend_font,
+                (8, (h - legend_h) as i32 + 6 + 20 * l as i32),
+            )
+            .map_err(|e| anyhow!("{e:?}"))?;
+        }
         root.present().map_err(|e| anyhow!("{e:?}"))?;
     }
     write_png(path, w, h, &buf)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression (issue 39): renders.png's captions ran into the next panel ("threshold=0.25
+    /// (F1 0.9" over "vardensity k=16 ..."). Long captions are wrapped: no caption pixel lies
+    /// right of its own panel's column.
+    #[test]
+    fn captions_wrap_inside_their_panel() {
+        let dir = tempfile::tempdir().unwrap();
+        let panel = |title: &str| Panel {
+            title: title.to_owned(),
+            width: 240,
+            height: 60,
+            rgb: vec![255; 240 * 60 * 3],
+        };
+        let panels = vec![
+            panel("screenspace tol=0.01 half_width=2 levels=3 sectors=8 threshold=0.25 (F1 0.972)"),
+            panel("vardensity tol=0.01 k=16 max_radius=32 threshold=0.9 (F1 0.955)"),
+        ];
+        let path = dir.path().join("c.png");
+        compose(&panels, 2, "a legend that is long enough to need a second line when the picture is only 480 pixels wide", &path).unwrap();
+        let img = image::open(&path).unwrap().to_rgb8();
+        assert_eq!(img.width(), 480);
+        // Text rows: the caption band above the first panel's frame.
+        let frame_top = (0..img.height())
+            .find(|&y| img.get_pixel(0, y).0 == [200, 200, 200])
+            .unwrap();
+        assert!(
+            frame_top >= 8 + 2 * 21,
+            "captions were not wrapped: {frame_top}"
+        );
+        for y in 0..frame_top {
+            // The first caption stays left of the second panel (a margin of 4 pixels).
+            for x in 236..244 {
+                assert_eq!(img.get_pixel(x, y).0, [255, 255, 255], "({x}, {y})");
+            }
+        }
+    }
 }

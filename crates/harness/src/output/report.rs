@@ -4,6 +4,9 @@
 //! to that folder) and `metadata.json`. The report page lists the experiments it is given (the
 //! caller passes the experiment registry's names and summaries, in registry order), each with its run line (date, revision, compiler, CPU) and its summary, links
 //! rewritten relative to the reports folder. Experiments without results are named as such.
+//! Each experiment with figures also gets its interactive results page ([`results`]), linked
+//! from its section and from the contents, and linking back to the section and to the 3D
+//! viewer pages of its datasets.
 
 use std::fs;
 use std::path::Path;
@@ -11,7 +14,26 @@ use std::path::Path;
 use anyhow::Result;
 
 use super::meta::RunMeta;
-use super::write_atomic;
+use super::{results, write_atomic};
+
+/// The report's 3D viewer pages listed in `viewer/pages.json`: (kind, dataset, file); none
+/// when there is no list or it does not parse.
+fn viewer_pages(reports_dir: &Path) -> Vec<(String, String, String)> {
+    let Ok(text) = fs::read_to_string(reports_dir.join("viewer/pages.json")) else {
+        return Vec::new();
+    };
+    let Ok(serde_json::Value::Array(entries)) = serde_json::from_str(&text) else {
+        return Vec::new();
+    };
+    entries
+        .iter()
+        .map(|e| {
+            let text = |k: &str| e[k].as_str().unwrap_or_default().to_owned();
+            (text("kind"), text("dataset"), text("file"))
+        })
+        .filter(|(_, _, file)| !file.is_empty())
+        .collect()
+}
 
 /// Rewrites the relative link targets of markdown `](target)` to `](prefix/target)`.
 pub fn prefix_links(markdown: &str, prefix: &str) -> String {
@@ -33,21 +55,7 @@ pub fn prefix_links(markdown: &str, prefix: &str) -> String {
     out
 }
 
-/// Relative link targets in a markdown text (for checking that they exist).
-pub fn link_targets(markdown: &str) -> Vec<String> {
-    let mut targets = Vec::new();
-    let mut rest = markdown;
-    while let Some(pos) = rest.find("](") {
-        rest = &rest[pos + 2..];
-        if let Some(end) = rest.find(')') {
-            let t = &rest[..end];
-            if !(t.starts_with("http://") || t.starts_with("https://") || t.starts_with('#')) {
-                targets.push(t.to_owned());
-            }
-        }
-    }
-    targets
-}
+pub use super::{escape_html, link_targets};
 
 /// An experiment the report page lists: its name (= folder) and one-line summary.
 #[derive(Debug, Clone, Copy)]
@@ -99,14 +107,59 @@ pub fn assemble(reports_dir: &Path, experiments: &[Section<'_>], viewer: &str) -
     }
     let mut contents = String::from("## Contents\n\n");
     let mut sections = String::new();
+    // Each experiment's interactive results page, when the results script is built.
+    let script = results::bundle()?;
+    let viewer_pages = viewer_pages(reports_dir);
+    let mut unwritten = Vec::new();
     for exp in experiments {
         let dir = reports_dir.join(exp.name);
         let summary = dir.join("summary.md");
+        let page = match &script {
+            Some(script) if summary.exists() => {
+                let mut links = vec![results::Link {
+                    label: "the report's section".into(),
+                    href: format!("../README.md#{}", exp.name),
+                }];
+                links.extend(
+                    viewer_pages
+                        .iter()
+                        .filter(|(kind, _, _)| {
+                            (exp.name == "visibility" && kind.is_empty())
+                                || (exp.name == "lod" && kind == "lod")
+                        })
+                        .map(|(_, dataset, file)| results::Link {
+                            label: format!("3D viewer: {dataset}"),
+                            href: format!("../viewer/{file}"),
+                        }),
+                );
+                results::write_page(&dir, exp.name, exp.summary, &links, script)?
+            }
+            None if !results::figures(&dir)?.is_empty() => {
+                unwritten.push(exp.name);
+                false
+            }
+            _ => false,
+        };
+        let interactive = if page {
+            format!(" ([interactive figures]({}/{}))", exp.name, results::PAGE)
+        } else {
+            String::new()
+        };
         contents.push_str(&format!(
-            "- [{}](#{}): {}\n",
+            "- [{}](#{}){interactive}: {}\n",
             exp.name, exp.name, exp.summary
         ));
         sections.push_str(&format!("\n## {}\n\n", exp.name));
+        if page {
+            sections.push_str(&format!(
+                "Interactive figures (hover a point for its method, setting, score and time; \
+                 hide series and families): [{}/{}]({}/{}).\n\n",
+                exp.name,
+                results::PAGE,
+                exp.name,
+                results::PAGE
+            ));
+        }
         match fs::read_to_string(&summary) {
             Ok(text) => {
                 if let Ok(meta) = RunMeta::read(&dir) {
@@ -151,6 +204,16 @@ pub fn assemble(reports_dir: &Path, experiments: &[Section<'_>], viewer: &str) -
     }
     if !viewer.is_empty() {
         contents.push_str("- [viewer](#viewer): interactive 3D pages of the visible sets\n");
+    }
+    if !unwritten.is_empty() {
+        eprintln!(
+            "report: no interactive results pages for {}: web/dist/results.js is not built (`just web`)",
+            unwritten.join(", ")
+        );
+        contents.push_str(
+            "\nThe interactive results pages were not written: their script, \
+             `web/dist/results.js`, was not built (`just web`, then `pointsight report`).\n",
+        );
     }
     page.push_str(&contents);
     page.push_str(&sections);

@@ -277,7 +277,8 @@ impl LodPage<'_> {
             )
         };
         let target = cam.target;
-        Ok(serde_json::json!({
+        // Each method's look in every figure of the report, beside its name.
+        Ok(super::page::with_styles(serde_json::json!({
             "kind": "lod",
             "title": format!("{}, view {}, level of detail at {}× distance", self.ds.name(), self.view, self.distance),
             "dataset": self.ds.name(),
@@ -304,7 +305,7 @@ impl LodPage<'_> {
                 "height": cam.height,
             },
             "methods": methods,
-        }))
+        })))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.

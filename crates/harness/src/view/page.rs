@@ -60,6 +60,33 @@ pub fn bundle() -> Result<String> {
     )
 }
 
+/// The family a page's method is styled by (`output::style`): the registry's at its setting;
+/// the LOD page's `full detail`, the full cloud's (`full`).
+pub fn method_family(name: &str, setting: &str) -> String {
+    if name == "full detail" {
+        "full".to_owned()
+    } else {
+        crate::output::style::family(name, setting)
+    }
+}
+
+/// A page's data with each method's family and style (in `variant` `default`: every page shows
+/// the methods at their default setting) and the marker shapes its swatches are drawn from.
+pub fn with_styles(mut data: serde_json::Value) -> serde_json::Value {
+    if let Some(methods) = data["methods"].as_array_mut() {
+        for m in methods {
+            let family = method_family(
+                m["name"].as_str().unwrap_or_default(),
+                m["setting"].as_str().unwrap_or_default(),
+            );
+            m["style"] = serde_json::json!(crate::output::style::style(&family, "default"));
+            m["family"] = serde_json::json!(family);
+        }
+    }
+    data["markers"] = crate::output::style::marker_shapes();
+    data
+}
+
 /// What the methods are coloured against.
 #[derive(Debug, Clone)]
 pub struct Truth {
@@ -167,13 +194,7 @@ fn b64(bytes: &[u8]) -> String {
     base64::engine::general_purpose::STANDARD.encode(bytes)
 }
 
-/// Escapes text for HTML element content and attribute values.
-pub fn escape_html(text: &str) -> String {
-    text.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
+pub use crate::output::escape_html;
 
 /// One page's content.
 #[derive(Debug, Clone, Copy)]
@@ -258,7 +279,8 @@ impl Page<'_> {
         } else {
             String::new()
         };
-        Ok(serde_json::json!({
+        // Each method's look in every figure of the report, beside its name.
+        Ok(with_styles(serde_json::json!({
             "title": format!("{}, view {}", ds.name(), self.view),
             "dataset": ds.name(),
             "view": self.view,
@@ -297,7 +319,7 @@ impl Page<'_> {
                 "fp": FALSE_POSITIVE, "off": OFF_SURFACE,
             },
             "methods": methods,
-        }))
+        })))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.

@@ -4,7 +4,9 @@
 //! level-of-detail page of view 0 at the experiment's farther distance with every default LOD
 //! method, into `reports/viewer/DATASET-lod.html`. Each is at most [`MAX_PAGE_BYTES`] (a
 //! uniform subsample when the whole would not fit, which the page says);
-//! `reports/viewer/pages.json` lists them for the report page ([`section`]).
+//! `reports/viewer/pages.json` lists them for the report page ([`section`]). Each links to its
+//! experiment's interactive results page and to the report; each method shows its swatch, the
+//! style it has in every figure.
 
 use std::path::Path;
 
@@ -77,6 +79,19 @@ pub fn real_datasets(reports: &Path, experiment: &str) -> Result<Vec<String>> {
         .collect())
 }
 
+/// A report page's data with links to the report and to `experiment`'s results page (written
+/// beside it by `pointsight report`, [`crate::output::results`]).
+fn with_links(mut data: serde_json::Value, experiment: &str) -> serde_json::Value {
+    data["links"] = serde_json::json!([
+        {
+            "label": format!("the {experiment} experiment's figures (interactive)"),
+            "href": format!("../{experiment}/{}", crate::output::results::PAGE),
+        },
+        {"label": "the report", "href": format!("../README.md#{experiment}")},
+    ]);
+    data
+}
+
 /// The page `html_at(k)` for the largest limit k from `start` down (5 % at a time) whose page
 /// is at most [`MAX_PAGE_BYTES`], or the page at k = 1; with that k.
 fn fit(start: usize, html_at: impl Fn(usize) -> Result<String>) -> Result<(String, usize)> {
@@ -130,7 +145,7 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
              its default setting."
         );
         let (html, max_points) = fit(max_points, |k| {
-            page::Page {
+            let data = page::Page {
                 ds: &ds,
                 view,
                 camera: &camera,
@@ -139,7 +154,8 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
                 max_points: Some(k),
                 note: Some(&note),
             }
-            .html(&script)
+            .data()?;
+            page::html_of(&with_links(data, "visibility"), &script)
         })?;
         let file = format!("{name}.html");
         write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
@@ -216,7 +232,7 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
             "The report's level-of-detail page of {name}, view {view} at {distance}× its              distance (the lod experiment's farther distance), every LOD method at its default              setting."
         );
         let (html, max_splats) = fit(max_splats, |k| {
-            lod::LodPage {
+            let data = lod::LodPage {
                 ds: &ds,
                 view,
                 distance,
@@ -225,7 +241,8 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
                 max_splats: Some(k),
                 note: Some(&note),
             }
-            .html(&script)
+            .data()?;
+            page::html_of(&with_links(data, "lod"), &script)
         })?;
         let file = format!("{name}-lod.html");
         write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
@@ -249,6 +266,47 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
         });
     }
     Ok(entries)
+}
+
+/// Rewrites the report's viewer pages (`viewer/pages.json`) from their own embedded data,
+/// without measuring: the current viewer script, each method's style, the links to the
+/// results pages (`pointsight tables`). Returns how many; none when the viewer script is not
+/// built (said on standard error) or there are no pages.
+pub fn refresh(reports: &Path) -> Result<usize> {
+    let list = reports.join("viewer/pages.json");
+    if !list.exists() {
+        return Ok(0);
+    }
+    let text = std::fs::read_to_string(&list)
+        .with_context(|| format!("cannot read {}", list.display()))?;
+    let entries: Vec<Entry> =
+        serde_json::from_str(&text).with_context(|| format!("malformed {}", list.display()))?;
+    let script = match page::bundle() {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("viewer pages not refreshed: {e:#}");
+            return Ok(0);
+        }
+    };
+    const OPEN: &str = "<script id=\"pointsight-data\" type=\"application/json\">";
+    let mut n = 0;
+    for e in &entries {
+        let path = reports.join("viewer").join(&e.file);
+        let html = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let json = html
+            .split_once(OPEN)
+            .and_then(|(_, rest)| rest.split_once("</script>"))
+            .map(|(json, _)| json)
+            .with_context(|| format!("{} holds no page data", path.display()))?;
+        let data: serde_json::Value = serde_json::from_str(json)
+            .with_context(|| format!("malformed page data in {}", path.display()))?;
+        let experiment = if e.kind == "lod" { "lod" } else { "visibility" };
+        let page = page::html_of(&with_links(page::with_styles(data), experiment), &script)?;
+        write_atomic(&path, page.as_bytes())?;
+        n += 1;
+    }
+    Ok(n)
 }
 
 /// The report page's section on the viewer pages (empty when there are none).

@@ -190,7 +190,7 @@ pub(super) fn table(reads: &[FileRead]) -> String {
         })
         .collect();
     format!(
-        "\n## Selection from built files\n\nDatasets that are a built file (`lod_file`). A QSplat \
+        "\n### Selection from built files\n\nDatasets that are a built file (`lod_file`). A QSplat \
          file: each view's selection reads the pages it needs through a cache of {} MiB (the \
          cache keeps pages from the views before it; the repeats are served from it). A \
          sequential point tree's: each cut reads the prefix of the list its view needs block \

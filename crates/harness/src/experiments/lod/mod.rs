@@ -48,7 +48,7 @@ use super::{Context, Experiment, markdown_table};
 mod from_file;
 pub mod noise;
 mod srn_table;
-use crate::output::plot::{Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Point, Series};
 use crate::output::render::{Panel, compose};
 use crate::output::{distinct, read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -547,12 +547,14 @@ fn render_outputs(
     distances.sort_by(f64::total_cmp);
     distances.dedup();
     let methods = distinct(rows.iter().map(|r| r.method.as_str()));
-    let mut summary = String::from("# Level of detail\n\n");
+    // The summary goes into the report under `## lod`: its own headings start at `###`.
+    let mut summary = String::new();
     summary.push_str(
         "Each method's splats rendered with `splat::render` and compared with the full-cloud \
          render of the same view (PSNR over covered pixels, SSIM on luma, holes = reference \
          pixels left empty); `seconds` is the selection alone (an external method's own \
-         reported seconds). Means over the views.\n\n",
+         reported seconds). Means over the views. Each method has its colour, each distance \
+         its marker; every figure's data is the JSON file of its name.\n\n",
     );
     for n in not_run {
         summary.push_str(&format!("- not run: {n}\n"));
@@ -563,49 +565,44 @@ fn render_outputs(
     for ds in &datasets {
         let series_of = |f: &dyn Fn(&Mean) -> (f64, f64)| -> Vec<Series> {
             let mut out = Vec::new();
-            for (mi, m) in methods.iter().enumerate() {
-                for (di, &d) in distances.iter().enumerate() {
-                    let pts: Vec<(f64, f64)> = means(rows, ds, d, m).iter().map(f).collect();
-                    if pts.is_empty() {
+            for m in &methods {
+                for &d in &distances {
+                    let points: Vec<Point> = means(rows, ds, d, m)
+                        .iter()
+                        .map(|mean| {
+                            let (x, y) = f(mean);
+                            Point::new(x, y).seconds(mean.2).setting(mean.0.clone())
+                        })
+                        .collect();
+                    if points.is_empty() {
                         continue;
                     }
-                    let mut s = Series::new(
-                        format!("{m}, distance ×{d}"),
-                        pts,
-                        if di == 0 {
-                            Mark::LinePoints
-                        } else {
-                            Mark::Points
-                        },
+                    out.push(
+                        Series::new(m, m, &format!("×{d}"), Draw::Line, points)
+                            .label(format!("{m}, distance ×{d}")),
                     );
-                    s.color = Some(mi);
-                    out.push(s);
                 }
             }
             out
         };
-        Chart {
-            title: format!("{ds}: PSNR against splats drawn (mean over views)"),
-            x_label: "points rendered".into(),
-            y_label: "PSNR vs full render (dB)".into(),
-            x_log: true,
-            series: series_of(&|m| (m.1, m.3)),
-            ..Chart::default()
-        }
-        .save(&dir.join(format!("psnr_vs_points_{ds}.png")), 1000, 650)?;
-        Chart {
-            title: format!("{ds}: selection time against splats drawn"),
-            x_label: "points rendered".into(),
-            y_label: "selection time (s)".into(),
-            x_log: true,
-            y_log: true,
-            series: series_of(&|m| (m.1, m.2)),
-            ..Chart::default()
-        }
-        .save(&dir.join(format!("time_vs_points_{ds}.png")), 1000, 650)?;
-        summary.push_str(&format!(
-            "## {ds}\n\n![PSNR](psnr_vs_points_{ds}.png)\n\n![time](time_vs_points_{ds}.png)\n\n![renders](strip_{ds}.png)\n\n"
-        ));
+        let psnr = Figure::new(
+            format!("psnr_vs_points_{ds}"),
+            format!("{ds}: PSNR against splats drawn (mean over views)"),
+            Axis::log("points rendered"),
+            Axis::linear("PSNR vs full render (dB)"),
+        )
+        .series(series_of(&|m| (m.1, m.3)), Vec::new());
+        let time = Figure::new(
+            format!("time_vs_points_{ds}"),
+            format!("{ds}: selection time against splats drawn"),
+            Axis::log("points rendered"),
+            Axis::log("selection time (s)"),
+        )
+        .series(series_of(&|m| (m.1, m.2)), Vec::new());
+        summary.push_str(&format!("### {ds}\n\n"));
+        summary.push_str(&psnr.write(dir)?);
+        summary.push_str(&time.write(dir)?);
+        summary.push_str(&format!("![renders](strip_{ds}.png)\n\n"));
         let mut table = Vec::new();
         for &d in &distances {
             for m in &methods {
@@ -638,7 +635,7 @@ fn render_outputs(
         ));
         summary.push('\n');
     }
-    summary.push_str("## Builds\n\n");
+    summary.push_str("### Builds\n\n");
     summary.push_str(&markdown_table(
         &[
             "dataset",
@@ -647,6 +644,7 @@ fn render_outputs(
             "seconds",
             "nodes",
             "bytes per point",
+            "QSplat bytes per point (4 a node, no colour)",
             "M points/s",
         ],
         &builds

@@ -239,7 +239,7 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
 
 /// The table in Markdown, with each model's pictures.
 pub(super) fn table(rows: &[SrnRow], repeats: u64) -> String {
-    let mut s = String::from("## Seed 003 Table 1, regenerated\n\n");
+    let mut s = String::from("### Seed 003 Table 1, regenerated\n\n");
     s.push_str(&format!(
         "SRN (eq. 2) at density scale 1 with the JPEG2000 masking importance of the texture \
          (eq. 1, CDF 9/7, 5 levels, 5 × 5 non-causal neighbourhood). The paper's models and \

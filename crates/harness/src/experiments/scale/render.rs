@@ -1,6 +1,7 @@
-//! The scale experiment's report: time and memory against size on log–log axes, a chart per
-//! family (visibility methods, hulls, LOD), the fitted slopes ([`fit`]) and what did not
-//! finish, and the out-of-core builds' details.
+//! The scale experiment's report: time and memory against size on log–log axes, a figure per
+//! group (visibility methods, hulls, LOD; small multiples by family past ten series), the
+//! fitted slopes ([`fit`]) and what did not finish (each reason once, [`not_finished`]), and
+//! the out-of-core builds' details.
 
 use std::path::Path;
 
@@ -9,7 +10,8 @@ use anyhow::Result;
 use super::plan::OOC_SUFFIX;
 use super::row::Row;
 use crate::experiments::markdown_table;
-use crate::output::plot::{Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Point, Series};
+use crate::output::style;
 use crate::output::{read_csv, write_atomic};
 
 /// Draws the plots and writes `summary.md` of the results in `dir`.
@@ -18,8 +20,11 @@ pub fn render(dir: &Path) -> Result<()> {
     let mut methods: Vec<String> = rows.iter().map(|r| r.method.clone()).collect();
     methods.dedup();
     let mut table = Vec::new();
-    // Three families, a chart each (time and memory), so colours stay distinct.
-    let family = |m: &str| {
+    // Three groups, a figure each (time and memory): visibility methods, hulls, LOD builds and
+    // selections. A series is its method's family (an LOD cell `NAME-build`, `NAME-select`,
+    // `NAME-build-ooc`: family NAME, the operation its variant; a visibility method at its
+    // default setting: variant `default`).
+    let group = |m: &str| {
         if m.starts_with("hull-") {
             1
         } else if m.ends_with("-build") || m.ends_with("-select") || m.ends_with(OOC_SUFFIX) {
@@ -28,11 +33,23 @@ pub fn render(dir: &Path) -> Result<()> {
             0
         }
     };
+    let identity = |m: &str| -> (String, String) {
+        for op in ["-build-ooc", "-build", "-select"] {
+            if let Some(base) = m.strip_suffix(op) {
+                return (base.to_owned(), op[1..].to_owned());
+            }
+        }
+        if m.starts_with("hull-") {
+            (m.to_owned(), String::new())
+        } else {
+            (style::family(m, ""), "default".to_owned())
+        }
+    };
     let mut time_series: [Vec<Series>; 3] = Default::default();
     let mut memory_series: [Vec<Series>; 3] = Default::default();
     for m in &methods {
-        let f = family(m);
-        let color = time_series[f].len();
+        let g = group(m);
+        let (family, variant) = identity(m);
         let ok: Vec<&Row> = rows
             .iter()
             .filter(|r| &r.method == m && r.status == "ok")
@@ -45,28 +62,38 @@ pub fn render(dir: &Path) -> Result<()> {
         let t_fit = fit(&times);
         let m_fit = fit(&mems);
         let slope = |f: Option<(f64, f64)>| f.map_or("-".into(), |(s, _)| format!("{s:.2}"));
-        time_series[f].push(Series {
-            color: Some(color),
-            ..Series::new(
-                format!("{m} (slope {}, {} sizes)", slope(t_fit), times.len()),
-                times,
-                Mark::LinePoints,
+        let points = |y: &dyn Fn(&Row) -> f64| -> Vec<Point> {
+            ok.iter()
+                .map(|r| Point::new(r.n_points as f64, y(r)).seconds(r.seconds))
+                .collect()
+        };
+        time_series[g].push(
+            Series::new(m, &family, &variant, Draw::Line, points(&|r| r.seconds)).label(format!(
+                "{m} (slope {}, {} sizes)",
+                slope(t_fit),
+                times.len()
+            )),
+        );
+        memory_series[g].push(
+            Series::new(
+                m,
+                &family,
+                &variant,
+                Draw::Line,
+                points(&|r| r.peak_rss_bytes as f64),
             )
-        });
-        memory_series[f].push(Series {
-            color: Some(color),
-            ..Series::new(
-                format!("{m} (slope {}, {} sizes)", slope(m_fit), mems.len()),
-                mems,
-                Mark::LinePoints,
-            )
-        });
+            .label(format!(
+                "{m} (slope {}, {} sizes)",
+                slope(m_fit),
+                mems.len()
+            )),
+        );
         let largest = ok.iter().map(|r| r.n_points).max().unwrap_or(0);
-        let not_ok: Vec<String> = rows
-            .iter()
-            .filter(|r| &r.method == m && r.status != "ok")
-            .map(|r| format!("{}: {}", r.n_points, r.status))
-            .collect();
+        let not_ok = not_finished(
+            rows.iter()
+                .filter(|r| &r.method == m && r.status != "ok")
+                .map(|r| (r.n_points, r.status.as_str())),
+        );
         table.push(vec![
             m.clone(),
             slope(t_fit),
@@ -85,11 +112,7 @@ pub fn render(dir: &Path) -> Result<()> {
                 .map_or("-".into(), |r| {
                     format!("{:.0}", r.peak_rss_bytes as f64 / 1048576.0)
                 }),
-            if not_ok.is_empty() {
-                "-".into()
-            } else {
-                not_ok.join("; ")
-            },
+            not_ok,
         ]);
     }
     let names = ["visibility", "hulls", "lod"];
@@ -103,31 +126,26 @@ pub fn render(dir: &Path) -> Result<()> {
         if times.is_empty() {
             continue;
         }
-        Chart {
-            title: format!("Time against cloud size: {}", captions[k]),
-            x_label: "points".into(),
-            y_label: "seconds".into(),
-            x_log: true,
-            y_log: true,
-            series: times,
-            ..Chart::default()
-        }
-        .save(&dir.join(format!("seconds_{}.png", names[k])), 1000, 600)?;
-        Chart {
-            title: format!("Peak memory (the cell process's RSS): {}", captions[k]),
-            x_label: "points".into(),
-            y_label: "bytes".into(),
-            x_log: true,
-            y_log: true,
-            series: mems,
-            ..Chart::default()
-        }
-        .save(&dir.join(format!("memory_{}.png", names[k])), 1000, 600)?;
-        images.push_str(&format!(
-            "![time, {c}](seconds_{n}.png)\n\n![memory, {c}](memory_{n}.png)\n\n",
-            c = captions[k],
-            n = names[k]
-        ));
+        images.push_str(
+            &Figure::new(
+                format!("seconds_{}", names[k]),
+                format!("Time against cloud size: {}", captions[k]),
+                Axis::log("points"),
+                Axis::log("seconds"),
+            )
+            .series(times, Vec::new())
+            .write(dir)?,
+        );
+        images.push_str(
+            &Figure::new(
+                format!("memory_{}", names[k]),
+                format!("Peak memory (the cell process's RSS): {}", captions[k]),
+                Axis::log("points"),
+                Axis::log("bytes"),
+            )
+            .series(mems, Vec::new())
+            .write(dir)?,
+        );
     }
     let meta = crate::output::meta::RunMeta::read(dir).ok();
     let parameter = |key: &str| {
@@ -198,6 +216,29 @@ pub fn render(dir: &Path) -> Result<()> {
     write_atomic(&dir.join("summary.md"), text.as_bytes())
 }
 
+/// The sizes that did not finish, grouped by why: `"10000000, 100000000: refused: ..."`, each
+/// reason once (`-` when every size finished).
+pub fn not_finished<'a>(cells: impl Iterator<Item = (u64, &'a str)>) -> String {
+    let mut groups: Vec<(Vec<u64>, &str)> = Vec::new();
+    for (n, status) in cells {
+        match groups.iter_mut().find(|(_, s)| *s == status) {
+            Some((sizes, _)) => sizes.push(n),
+            None => groups.push((vec![n], status)),
+        }
+    }
+    if groups.is_empty() {
+        return "-".into();
+    }
+    groups
+        .iter()
+        .map(|(sizes, status)| {
+            let sizes: Vec<String> = sizes.iter().map(ToString::to_string).collect();
+            format!("{}: {status}", sizes.join(", "))
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// Least-squares slope and intercept of log10 y against log10 x.
 pub fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
     let pts: Vec<(f64, f64)> = points
@@ -224,6 +265,35 @@ pub fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Regression (issue 39): the committed table said "10000000: refused: its memory per
+    /// point is not declared (...); 100000000: refused: its memory per point is not declared
+    /// (...)", the reason twice in one row.
+    #[test]
+    fn a_reason_is_given_once_for_all_its_sizes() {
+        let why = "refused: its memory per point is not declared (memory_bytes_per_point in an \
+                   external method's method.toml, Method::scale for a built-in one), so it is not \
+                   run above 1000000 points";
+        let text = not_finished(
+            [
+                (10_000_000, why),
+                (100_000_000, why),
+                (1_000_000_000, "skipped: the previous size did not finish"),
+            ]
+            .into_iter(),
+        );
+        assert_eq!(
+            text.matches("memory per point is not declared").count(),
+            1,
+            "{text}"
+        );
+        assert!(
+            text.starts_with(&format!("10000000, 100000000: {why}; ")),
+            "{text}"
+        );
+        assert!(text.ends_with("1000000000: skipped: the previous size did not finish"));
+        assert_eq!(not_finished(std::iter::empty()), "-");
+    }
 
     #[test]
     fn the_fit_recovers_a_power_law() {

@@ -14,7 +14,7 @@ use super::papers::best_setting;
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
 use crate::experiments::markdown_table;
-use crate::output::plot::{Chart, Mark, Series};
+use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::render::{classified_panel, compose, footprint};
 use crate::output::{distinct, write_atomic};
 use registry::scoring::Score;
@@ -231,68 +231,93 @@ fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Resu
             (a.min(x), b.max(x))
         });
     let x_log = lo > 0.0 && hi / lo > 100.0;
-    let mut series = Vec::new();
+    // The lines of a panel: each combination of the other varying keys, ranked over the
+    // family's settings (so a combination keeps its style in every panel).
+    let line_of = |s: &Setting| {
+        others
+            .iter()
+            .map(|k| format!("{k}={}", s.text(k).unwrap_or_default()))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let mut lines: Vec<String> = distinct(
+        fixed
+            .iter()
+            .map(|(_, s)| line_of(s))
+            .collect::<Vec<_>>()
+            .iter()
+            .map(String::as_str),
+    );
+    lines.sort();
+    let method = fixed.first().map_or(fam, |(r, _)| r.method.as_str());
+    let mut panels = Vec::new();
     for d in datasets {
-        let mut lines: BTreeMap<String, BTreeMap<i64, (f64, Vec<f64>)>> = BTreeMap::new();
+        let mut by_line: BTreeMap<String, BTreeMap<i64, (f64, Vec<&Row>)>> = BTreeMap::new();
         for (r, s) in fixed.iter().filter(|(r, _)| r.dataset == *d) {
             let Some(x) = s.number(&key) else { continue };
             let x = if negate { -x } else { x };
-            let line = others
-                .iter()
-                .map(|k| format!("{k}={}", s.text(k).unwrap_or_default()))
-                .collect::<Vec<_>>()
-                .join(" ");
-            let e = lines
-                .entry(line)
+            by_line
+                .entry(line_of(s))
                 .or_default()
                 .entry((x * 1e9).round() as i64)
-                .or_insert((x, Vec::new()));
-            e.1.push(r.f1);
+                .or_insert((x, Vec::new()))
+                .1
+                .push(r);
         }
-        for (line, pts) in lines {
-            let label = if line.is_empty() {
-                d.clone()
-            } else {
-                format!("{d} {line}")
-            };
-            let mut sr = Series::new(
-                label,
-                pts.values()
-                    .map(|(x, f)| (*x, mean(f.iter().copied())))
-                    .collect(),
-                Mark::LinePoints,
-            );
-            sr.y_spread = pts
+        let mut series = Vec::new();
+        for (line, pts) in by_line {
+            let points = pts
                 .values()
-                .map(|(_, f)| {
-                    f.iter()
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-                            (a.min(v), b.max(v))
-                        })
+                .map(|(x, rs)| {
+                    let (lo, hi) = rs
+                        .iter()
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), r| {
+                            (a.min(r.f1), b.max(r.f1))
+                        });
+                    Point::new(*x, mean(rs.iter().map(|r| r.f1)))
+                        .y_interval(lo, hi)
+                        .seconds(mean(rs.iter().map(|r| r.seconds)))
+                        .setting(rs[0].params.clone())
                 })
                 .collect();
+            let rank = lines.iter().position(|l| *l == line).unwrap_or(0);
+            let sr = if line.is_empty() {
+                Series::new(method, fam, "settings", Draw::Line, points).label(fam)
+            } else {
+                Series::new(method, fam, &line, Draw::Line, points)
+                    .label(line.clone())
+                    .ranked(rank)
+            };
             series.push(sr);
         }
+        if !series.is_empty() {
+            panels.push(Panel {
+                title: d.clone(),
+                series,
+            });
+        }
     }
-    if series.is_empty() {
+    if panels.is_empty() {
         return Ok(None);
     }
-    let file = format!("f1_{fam}.png");
     let shown = if negate {
         format!("-{key}")
     } else {
         key.clone()
     };
-    Chart {
-        title: format!("{fam}: F1 against {shown}"),
-        x_label: format!("{shown}{}", if x_log { " (log)" } else { "" }),
-        y_label: "F1 (mean over views; bars: lowest to highest view)".into(),
-        x_log,
-        series,
-        ..Chart::default()
-    }
-    .save(&dir.join(&file), 900, 500)?;
-    Ok(Some(file))
+    let fig = Figure::new(
+        format!("f1_{fam}"),
+        format!("{fam}: F1 against {shown}, one panel per dataset"),
+        if x_log {
+            Axis::log(format!("{shown} (log)"))
+        } else {
+            Axis::linear(shown.clone())
+        },
+        Axis::linear("F1 (mean over views; bars: lowest to highest view)"),
+    )
+    .interval("lowest to highest view")
+    .panels(panels);
+    Ok(Some(fig.write(dir)?))
 }
 
 /// The peers' section: per dataset, peer and peer setting, the method of ours it is paired
@@ -529,8 +554,9 @@ pub(super) fn render(
     // timed runs and the lowest and highest F1), Pareto front marked, per dataset.
     for d in &datasets {
         let mut series = Vec::new();
-        let mut all: Vec<(f64, f64)> = Vec::new();
-        for (k, fam) in families.iter().enumerate() {
+        // Every setting's point, with its family and setting, for the front.
+        let mut all: Vec<(f64, f64, String)> = Vec::new();
+        for fam in &families {
             let mut by: BTreeMap<&str, Vec<&Row>> = BTreeMap::new();
             for r in rows
                 .iter()
@@ -538,63 +564,69 @@ pub(super) fn render(
             {
                 by.entry(&r.params).or_default().push(r);
             }
-            let pts: Vec<(f64, f64)> = by
-                .values()
-                .map(|rs| {
-                    (
-                        mean(rs.iter().map(|r| r.seconds)),
-                        mean(rs.iter().map(|r| r.f1)),
-                    )
-                })
-                .collect();
-            let spread = |f: &dyn Fn(&Row) -> (f64, f64)| -> Vec<(f64, f64)> {
-                by.values()
-                    .map(|rs| {
+            let Some(first) = by.values().next().and_then(|rs| rs.first()) else {
+                continue;
+            };
+            let method = first.method.clone();
+            let points: Vec<Point> = by
+                .iter()
+                .map(|(params, rs)| {
+                    let fold = |f: &dyn Fn(&Row) -> (f64, f64)| {
                         rs.iter()
                             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), r| {
                                 let (a, b) = f(r);
                                 (lo.min(a), hi.max(b))
                             })
-                    })
-                    .collect()
-            };
-            all.extend(&pts);
-            let mut s = Series::new(fam.clone(), pts, Mark::Points);
-            s.color = Some(k);
-            s.x_spread = spread(&|r| (r.seconds_min, r.seconds_max));
-            s.y_spread = spread(&|r| (r.f1, r.f1));
-            series.push(s);
+                    };
+                    let seconds = mean(rs.iter().map(|r| r.seconds));
+                    let (xl, xh) = fold(&|r| (r.seconds_min, r.seconds_max));
+                    let (yl, yh) = fold(&|r| (r.f1, r.f1));
+                    Point::new(seconds, mean(rs.iter().map(|r| r.f1)))
+                        .x_interval(xl, xh)
+                        .y_interval(yl, yh)
+                        .seconds(seconds)
+                        .setting(params.to_string())
+                })
+                .collect();
+            all.extend(points.iter().map(|p| {
+                (
+                    p.x,
+                    p.y,
+                    format!("{fam} {}", short(p.setting.as_deref().unwrap_or(""))),
+                )
+            }));
+            series.push(
+                Series::new(&method, fam, "settings", Draw::Points, points).label(fam.clone()),
+            );
         }
+        all.retain(|p| p.0.is_finite() && p.1.is_finite() && p.0 > 0.0);
         all.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut front: Vec<(f64, f64)> = Vec::new();
-        for p in all {
-            if front.last().is_none_or(|l| p.1 > l.1) {
-                front.push(p);
+        let mut front: Vec<Point> = Vec::new();
+        for (x, y, name) in all {
+            if front.last().is_none_or(|l| y > l.y) {
+                front.push(Point {
+                    name: Some(name),
+                    ..Point::new(x, y).seconds(x)
+                });
             }
         }
-        let mut ring = Series::new("Pareto front", front.clone(), Mark::Rings);
-        ring.color = Some(7);
-        series.push(ring);
-        let mut line = Series::new("", front, Mark::Line);
-        line.color = Some(7);
-        series.push(line);
-        let file = format!("pareto_{d}.png");
-        Chart {
-            title: format!("{d}: F1 against time, every method and setting (mean over views)"),
-            x_label: "seconds per view (log; bars: fastest to slowest run over the views)".into(),
-            y_label: "F1 against the reference (bars: lowest to highest view)".into(),
-            x_log: true,
-            series,
-            ..Chart::default()
-        }
-        .save(&dir.join(&file), 1000, 560)?;
-        pictures.push_str(&format!("![{d} Pareto]({file})\n\n"));
+        let front = Series::new("Pareto front", "pareto-front", "", Draw::Front, front)
+            .label("Pareto front (numbered: see below)");
+        let fig = Figure::new(
+            format!("pareto_{d}"),
+            format!("{d}: F1 against time, every method and setting (mean over views)"),
+            Axis::log("seconds per view (log; bars: fastest to slowest run over the views)"),
+            Axis::linear("F1 against the reference (bars: lowest to highest view)"),
+        )
+        .interval("lowest to highest view")
+        .series(series, vec![front]);
+        pictures.push_str(&fig.write(dir)?);
     }
 
     // F1 against each family's main parameter.
     for fam in &families {
-        if let Some(file) = param_chart(dir, rows, &datasets, fam)? {
-            pictures.push_str(&format!("![{file}]({file})\n\n"));
+        if let Some(md) = param_chart(dir, rows, &datasets, fam)? {
+            pictures.push_str(&md);
         }
     }
 
@@ -750,7 +782,13 @@ pub(super) fn render(
          0.02.\n\n{}\n\n<details><summary>View by view</summary>\n\n{}\n</details>\n\n\
          ### Image space (per-pixel methods)\n\nA ray cast shows at most one point per pixel: \
          `pixel precision` is the share of covered pixels whose point is truly visible, `mesh \
-         coverage` the share of the mesh's pixels that got a point.\n\n{}\n{pictures}\
+         coverage` the share of the mesh's pixels that got a point.\n\n{}\n\
+         ### Figures\n\nF1 against time per dataset, past ten families one panel per family (the \
+         others' settings in grey; the Pareto front's points numbered and named under the \
+         legend), then each family's F1 against its main parameter, one panel per dataset. A \
+         family has one colour and a variant one marker in every figure; a peer's marker is \
+         hollow. Each figure's data (series, styles, points with their setting and seconds) \
+         is the JSON file of its name.\n\n{pictures}\
          {peers_md}{off_surface}{no_mesh}Raw rows: [results.csv](results.csv), [pixels.csv](pixels.csv){}.\n",
         markdown_table(
             &[

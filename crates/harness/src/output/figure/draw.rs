@@ -1,0 +1,624 @@
+//! The PNG of a figure: panels, axes zoomed to the data, dashed lines and shaped markers in
+//! pixel space, the legend in a column right of the panels (see the parent module).
+
+use anyhow::Result;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontTransform;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::*;
+
+pub(super) const PANEL_W: u32 = 320;
+pub(super) const PANEL_H: u32 = 250;
+
+impl Figure {
+    /// A small multiple's size: larger when there are few.
+    pub(super) fn panel_size(&self) -> (u32, u32) {
+        match self.panels.len() {
+            0..=2 => (480, 340),
+            3 | 4 => (420, 300),
+            _ => (PANEL_W, PANEL_H),
+        }
+    }
+}
+pub(super) const TITLE_H: u32 = 40;
+
+pub(super) fn transform(v: f64, log: bool) -> Option<f64> {
+    if log {
+        (v > 0.0 && v.is_finite()).then(|| v.log10())
+    } else {
+        v.is_finite().then_some(v)
+    }
+}
+
+pub(super) fn tick(v: f64, log: bool) -> String {
+    if log {
+        let value = 10f64.powf(v);
+        if (v - v.round()).abs() < 1e-9 {
+            format_number(value)
+        } else {
+            String::new()
+        }
+    } else {
+        format_number(v)
+    }
+}
+
+/// Short human formatting for tick labels.
+pub fn format_number(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if a >= 1e6 {
+        format!("{:.0}M", v / 1e6)
+    } else if a >= 1e4 {
+        format!("{:.0}k", v / 1e3)
+    } else if a >= 100.0 {
+        format!("{v:.0}")
+    } else if a >= 1.0 {
+        format!("{v:.2}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_owned()
+    } else if a >= 1e-3 {
+        format!("{v:.4}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_owned()
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// The range of `values` padded by 5 % (half a decade, or 5 % of the value, when flat).
+pub(super) fn padded(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)> {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if lo > hi {
+        return None;
+    }
+    Some(if lo == hi {
+        let d = if log { 0.5 } else { lo.abs().max(1e-3) * 0.05 };
+        (lo - d, hi + d)
+    } else {
+        let d = (hi - lo) * 0.05;
+        (lo - d, hi + d)
+    })
+}
+
+/// The on/off pieces of the polyline `pts` under a dash `pattern` (pixels; empty: the whole
+/// line), continuing the pattern across vertices.
+pub fn dash_segments(pts: &[(f64, f64)], pattern: &[f64]) -> Vec<[(f64, f64); 2]> {
+    let mut out = Vec::new();
+    if pattern.is_empty() {
+        out.extend(pts.windows(2).map(|w| [w[0], w[1]]));
+        return out;
+    }
+    let (mut k, mut left) = (0usize, pattern[0]);
+    for w in pts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+        let mut t = 0.0;
+        while t < len {
+            let step = left.min(len - t);
+            if k % 2 == 0 {
+                let p = |s: f64| (a.0 + (b.0 - a.0) * s / len, a.1 + (b.1 - a.1) * s / len);
+                out.push([p(t), p(t + step)]);
+            }
+            t += step;
+            left -= step;
+            if left <= 1e-9 {
+                k = (k + 1) % pattern.len();
+                left = pattern[k];
+            }
+        }
+    }
+    out
+}
+
+/// `text` cut to at most `width` pixels in `font`, with an ellipsis when cut.
+pub(super) fn fit_text(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    text: &str,
+    font: &TextStyle,
+    width: u32,
+) -> String {
+    let fits = |t: &str| {
+        area.estimate_text_size(t, font)
+            .map(|(w, _)| w <= width)
+            .unwrap_or(true)
+    };
+    if fits(text) {
+        return text.to_owned();
+    }
+    let chars: Vec<char> = text.chars().collect();
+    let (mut lo, mut hi) = (0usize, chars.len());
+    while lo < hi {
+        let mid = (lo + hi).div_ceil(2);
+        let t: String = chars[..mid].iter().collect::<String>() + "…";
+        if fits(&t) { lo = mid } else { hi = mid - 1 }
+    }
+    chars[..lo].iter().collect::<String>() + "…"
+}
+
+/// The lines of `text` wrapped at spaces to at most `width` pixels in `font` (a word longer
+/// than the width is cut with an ellipsis).
+pub(crate) fn wrap_text(
+    area: &DrawingArea<BitMapBackend<'_>, Shift>,
+    text: &str,
+    font: &TextStyle,
+    width: u32,
+) -> Vec<String> {
+    let fits = |t: &str| {
+        area.estimate_text_size(t, font)
+            .map(|(w, _)| w <= width)
+            .unwrap_or(true)
+    };
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split(' ').filter(|w| !w.is_empty()) {
+        let candidate = if line.is_empty() {
+            word.to_owned()
+        } else {
+            format!("{line} {word}")
+        };
+        if fits(&candidate) {
+            line = candidate;
+        } else {
+            if !line.is_empty() {
+                lines.push(std::mem::take(&mut line));
+            }
+            line = if fits(word) {
+                word.to_owned()
+            } else {
+                fit_text(area, word, font, width)
+            };
+        }
+    }
+    if !line.is_empty() {
+        lines.push(line);
+    }
+    lines
+}
+
+/// The width in pixels of `text` in the figures' font at `size` points.
+pub(super) fn text_width(text: &str, size: u32) -> u32 {
+    let mut scratch = vec![255u8; 3];
+    let area = BitMapBackend::with_buffer(&mut scratch, (1, 1)).into_drawing_area();
+    area.estimate_text_size(text, &(FONT, size).into_font().into())
+        .map_or(0, |(w, _)| w)
+}
+
+/// The letter standing for category `k` when the names do not fit under their slots.
+pub(super) fn category_key(k: usize) -> String {
+    let letters = b"abcdefghijklmnopqrstuvwxyz";
+    format!(
+        "{}{}",
+        letters[k % 26] as char,
+        if k >= 26 {
+            (k / 26).to_string()
+        } else {
+            String::new()
+        }
+    )
+}
+
+/// What the legend column lists.
+pub(super) enum LegendLine<'a> {
+    Series(&'a Series),
+    Context,
+    Key(String),
+}
+
+impl Figure {
+    /// True when the category names do not fit under their slots: the axis shows letters,
+    /// the legend says what they stand for.
+    pub(super) fn category_keys(&self) -> bool {
+        let n = self.x.categories.len();
+        if n == 0 {
+            return false;
+        }
+        let single = self.panels.len() <= 1;
+        let plot_w = if single {
+            1000 - 100
+        } else {
+            self.panel_size().0 - 75
+        };
+        let size = if single { 14 } else { 11 };
+        let widest = self
+            .x
+            .categories
+            .iter()
+            .map(|c| text_width(c, size))
+            .max()
+            .unwrap_or(0);
+        widest + 8 > plot_w / n as u32
+    }
+
+    pub(super) fn legend_lines(&self) -> Vec<LegendLine<'_>> {
+        let mut out: Vec<LegendLine<'_>> =
+            self.legend().into_iter().map(LegendLine::Series).collect();
+        if self
+            .panels
+            .iter()
+            .flat_map(|p| &p.series)
+            .any(|s| s.context)
+        {
+            out.push(LegendLine::Context);
+        }
+        if self.category_keys() {
+            for (k, c) in self.x.categories.iter().enumerate() {
+                out.push(LegendLine::Key(format!("{}  {c}", category_key(k))));
+            }
+        }
+        // The names of numbered points (a Pareto front's), once.
+        let mut named = Vec::new();
+        for s in self.legend().into_iter().filter(|s| s.draw == Draw::Front) {
+            for (k, p) in s.points.iter().filter(|p| p.finite()).enumerate() {
+                let line = format!("{} {}", k + 1, p.name.clone().unwrap_or_default());
+                if !named.contains(&line) {
+                    named.push(line);
+                }
+            }
+        }
+        out.extend(named.into_iter().map(LegendLine::Key));
+        out
+    }
+
+    /// The picture, RGB, `w` × `h`.
+    pub(super) fn draw(&self, w: u32, h: u32) -> Result<Vec<u8>> {
+        ensure_font()?;
+        let e = |e: &dyn std::fmt::Debug| anyhow!("{e:?}");
+        let (xl, yl) = (self.x.log, self.y.log);
+        let categorical = !self.x.categories.is_empty();
+        // Shared ranges over every panel, intervals included.
+        let all = self
+            .panels
+            .iter()
+            .flat_map(|p| &p.series)
+            .flat_map(|s| &s.points);
+        let xs = all
+            .clone()
+            .flat_map(|p| [Some(p.x), p.x_lo, p.x_hi])
+            .flatten();
+        let ys = all.flat_map(|p| [Some(p.y), p.y_lo, p.y_hi]).flatten();
+        let (x0, x1) = if categorical {
+            (-0.5, self.x.categories.len() as f64 - 0.5)
+        } else {
+            padded(xs.filter_map(|v| transform(v, xl)), xl)
+                .ok_or_else(|| anyhow!("figure {:?} has no plottable point", self.id))?
+        };
+        let (y0, y1) = padded(ys.filter_map(|v| transform(v, yl)), yl)
+            .ok_or_else(|| anyhow!("figure {:?} has no plottable point", self.id))?;
+
+        let mut buf = vec![255u8; w as usize * h as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+            root.fill(&WHITE).map_err(|x| e(&x))?;
+            let title_font: TextStyle = (FONT, 19).into_font().color(&BLACK);
+            let title = fit_text(&root, &self.title, &title_font, w - 20);
+            root.draw_text(&title, &title_font, (12, 10))
+                .map_err(|x| e(&x))?;
+            let plot_w = w - LEGEND_W;
+            let (cols, rows) = self.grid();
+            let single = self.panels.len() <= 1;
+            let (pw, ph) = if single {
+                (plot_w, h - TITLE_H)
+            } else {
+                self.panel_size()
+            };
+            let marker_r = if single { 4.5 } else { 3.5 };
+            for (k, panel) in self.panels.iter().enumerate() {
+                let (c, r) = ((k % cols) as u32, (k / cols) as u32);
+                let left = if single { 0 } else { 40 } + c * pw;
+                let area = root.clone().shrink((left, TITLE_H + r * ph), (pw, ph));
+                let mut builder = ChartBuilder::on(&area);
+                builder
+                    .margin(8)
+                    .margin_right(14)
+                    .x_label_area_size(if single { 48 } else { 34 })
+                    .y_label_area_size(if single { 72 } else { 46 });
+                if !panel.title.is_empty() {
+                    let font: TextStyle = (FONT, 14).into_font().into();
+                    builder.caption(fit_text(&root, &panel.title, &font, pw - 20), font);
+                }
+                let mut chart = builder
+                    .build_cartesian_2d(x0..x1, y0..y1)
+                    .map_err(|x| e(&x))?;
+                let cats: Vec<String> = if self.category_keys() {
+                    (0..self.x.categories.len()).map(category_key).collect()
+                } else {
+                    self.x.categories.clone()
+                };
+                let x_fmt = move |v: &f64| {
+                    if cats.is_empty() {
+                        tick(*v, xl)
+                    } else {
+                        let i = v.round();
+                        if (v - i).abs() < 1e-6 && i >= 0.0 {
+                            cats.get(i as usize).cloned().unwrap_or_default()
+                        } else {
+                            String::new()
+                        }
+                    }
+                };
+                let y_fmt = move |v: &f64| tick(*v, yl);
+                let mut mesh = chart.configure_mesh();
+                mesh.label_style((FONT, if single { 14 } else { 11 }))
+                    .axis_desc_style((FONT, if single { 15 } else { 12 }))
+                    .x_label_formatter(&x_fmt)
+                    .y_label_formatter(&y_fmt)
+                    .light_line_style(RGBColor(238, 238, 238))
+                    .bold_line_style(RGBColor(215, 215, 215));
+                if categorical {
+                    mesh.x_labels(2 * self.x.categories.len() + 1)
+                        .disable_x_mesh();
+                } else if !single {
+                    mesh.x_labels(5).y_labels(5);
+                }
+                if single {
+                    mesh.x_desc(&self.x.label).y_desc(&self.y.label);
+                }
+                mesh.draw().map_err(|x| e(&x))?;
+                let to_px = |x: f64, y: f64| -> Option<(f64, f64)> {
+                    let (tx, ty) = (transform(x, xl)?, transform(y, yl)?);
+                    let (px, py) = chart.backend_coord(&(tx, ty));
+                    Some((px as f64, py as f64))
+                };
+                let visible: Vec<&Series> = panel.series.iter().collect();
+                let n_dodge = visible.iter().filter(|s| !s.context).count().max(1);
+                let mut dodge_k = 0usize;
+                for s in visible {
+                    // Categorical axes: the series of a category side by side.
+                    let dx = if categorical && !s.context {
+                        let slot = 0.8 / n_dodge as f64;
+                        let d = (dodge_k as f64 - (n_dodge as f64 - 1.0) / 2.0) * slot.min(0.12);
+                        dodge_k += 1;
+                        d
+                    } else {
+                        0.0
+                    };
+                    draw_series(&root, s, &to_px, dx, marker_r).map_err(|x| e(&x))?;
+                }
+            }
+            // Small multiples: the axis descriptions once, under and left of the grid.
+            if !single {
+                let font: TextStyle = (FONT, 14).into_font().color(&BLACK);
+                let grid_w = cols as u32 * pw;
+                let x_text = fit_text(&root, &self.x.label, &font, grid_w);
+                let centre_x = Pos::new(HPos::Center, VPos::Top);
+                root.draw_text(
+                    &x_text,
+                    &font.pos(centre_x),
+                    (
+                        (40 + grid_w / 2) as i32,
+                        (TITLE_H + rows as u32 * ph + 8) as i32,
+                    ),
+                )
+                .map_err(|x| e(&x))?;
+                let grid_h = rows as u32 * ph;
+                // At most two lines in the 40 pixels left of the grid.
+                let mut y_lines = wrap_text(&root, &self.y.label, &font, grid_h - 20);
+                if y_lines.len() > 2 {
+                    let rest = y_lines[1..].join(" ");
+                    y_lines = vec![
+                        y_lines[0].clone(),
+                        fit_text(&root, &rest, &font, grid_h - 20),
+                    ];
+                }
+                let rotated = font
+                    .transform(FontTransform::Rotate270)
+                    .pos(Pos::new(HPos::Center, VPos::Top));
+                for (l, line) in y_lines.iter().enumerate() {
+                    root.draw_text(
+                        line,
+                        &rotated,
+                        (2 + 18 * l as i32, (TITLE_H + grid_h / 2) as i32),
+                    )
+                    .map_err(|x| e(&x))?;
+                }
+            }
+            // The legend column.
+            let legend = root
+                .clone()
+                .shrink((plot_w, TITLE_H), (LEGEND_W, h - TITLE_H));
+            draw_legend(&legend, &self.legend_lines()).map_err(|x| e(&x))?;
+            root.present().map_err(|x| e(&x))?;
+        }
+        Ok(buf)
+    }
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type DrawResult = std::result::Result<
+    (),
+    DrawingAreaErrorKind<<BitMapBackend<'static> as DrawingBackend>::ErrorType>,
+>;
+
+pub(super) fn rgb(c: [u8; 3]) -> RGBColor {
+    RGBColor(c[0], c[1], c[2])
+}
+
+/// A marker of `style` centred at `(x, y)`, radius `r` pixels: a circle for the round
+/// markers, else the style's polygon.
+pub(super) fn draw_marker(area: &Area<'_>, style: &Style, (x, y): (f64, f64), r: f64) -> DrawResult {
+    let color = rgb(style.color);
+    let hollow = style.hollow || style.marker == Marker::Ring;
+    let centre = (x.round() as i32, y.round() as i32);
+    let round = match style.marker {
+        Marker::Circle => Some(r),
+        Marker::Ring => Some(1.6 * r),
+        Marker::Dot => Some(0.55 * r),
+        _ => None,
+    };
+    if let Some(radius) = round {
+        let radius = radius.round().max(1.0) as i32;
+        if hollow {
+            area.draw(&Circle::new(centre, radius, WHITE.filled()))?;
+            area.draw(&Circle::new(centre, radius, color.stroke_width(2)))?;
+        } else {
+            area.draw(&Circle::new(centre, radius, color.filled()))?;
+        }
+        return Ok(());
+    }
+    let poly: Vec<(i32, i32)> = style
+        .marker
+        .polygon()
+        .iter()
+        .map(|[u, v]| ((x + u * r).round() as i32, (y + v * r).round() as i32))
+        .collect();
+    area.draw(&Polygon::new(
+        poly.clone(),
+        if hollow {
+            WHITE.filled()
+        } else {
+            color.filled()
+        },
+    ))?;
+    let mut outline = poly.clone();
+    outline.push(poly[0]);
+    area.draw(&PathElement::new(
+        outline,
+        color.stroke_width(if hollow { 2 } else { 1 }),
+    ))?;
+    Ok(())
+}
+
+pub(super) fn draw_polyline(
+    area: &Area<'_>,
+    pts: &[(f64, f64)],
+    color: RGBColor,
+    width: u32,
+    pattern: &[f64],
+) -> DrawResult {
+    for [a, b] in dash_segments(pts, pattern) {
+        area.draw(&PathElement::new(
+            vec![
+                (a.0.round() as i32, a.1.round() as i32),
+                (b.0.round() as i32, b.1.round() as i32),
+            ],
+            color.stroke_width(width),
+        ))?;
+    }
+    Ok(())
+}
+
+pub(super) fn draw_series(
+    area: &Area<'_>,
+    s: &Series,
+    to_px: &dyn Fn(f64, f64) -> Option<(f64, f64)>,
+    dx: f64,
+    r: f64,
+) -> DrawResult {
+    let color = rgb(s.style.color);
+    let pts: Vec<(&Point, (f64, f64))> = s
+        .points
+        .iter()
+        .filter_map(|p| Some((p, to_px(p.x + dx, p.y)?)))
+        .collect();
+    if s.context {
+        let xy: Vec<(f64, f64)> = pts.iter().map(|(_, q)| *q).collect();
+        if s.has_line() {
+            draw_polyline(area, &xy, color, 1, &[])?;
+        } else {
+            for &q in &xy {
+                draw_marker(area, &CONTEXT, q, r)?;
+            }
+        }
+        return Ok(());
+    }
+    // Intervals under the marks.
+    let faint = color.mix(0.55).stroke_width(1);
+    for (p, _) in &pts {
+        if let (Some(lo), Some(hi)) = (p.y_lo, p.y_hi)
+            && let (Some(a), Some(b)) = (to_px(p.x + dx, lo), to_px(p.x + dx, hi))
+        {
+            area.draw(&PathElement::new(
+                vec![(a.0 as i32, a.1 as i32), (b.0 as i32, b.1 as i32)],
+                faint,
+            ))?;
+        }
+        if let (Some(lo), Some(hi)) = (p.x_lo, p.x_hi)
+            && let (Some(a), Some(b)) = (to_px(lo + dx, p.y), to_px(hi + dx, p.y))
+        {
+            area.draw(&PathElement::new(
+                vec![(a.0 as i32, a.1 as i32), (b.0 as i32, b.1 as i32)],
+                faint,
+            ))?;
+        }
+    }
+    let xy: Vec<(f64, f64)> = pts.iter().map(|(_, q)| *q).collect();
+    if s.has_line() {
+        draw_polyline(area, &xy, color, 2, s.style.dash.pattern())?;
+    }
+    // Dense lines: a marker every few points, enough to tell the series apart.
+    let stride = xy.len().div_ceil(40).max(1);
+    for (k, &q) in xy.iter().enumerate() {
+        if k % stride == 0 || k + 1 == xy.len() {
+            draw_marker(area, &s.style, q, r)?;
+        }
+    }
+    if s.draw == Draw::Front {
+        let font: TextStyle = (FONT, if r < 4.0 { 10 } else { 12 })
+            .into_font()
+            .color(&BLACK);
+        for (k, &(x, y)) in xy.iter().enumerate() {
+            // Numbers alternate above and below the ring, so neighbours do not collide.
+            let dy = if k % 2 == 0 {
+                -r * 1.6 - 14.0
+            } else {
+                r * 1.6 + 2.0
+            };
+            area.draw_text(
+                &(k + 1).to_string(),
+                &font,
+                ((x + 3.0) as i32, (y + dy) as i32),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResult {
+    let centred = Pos::new(HPos::Left, VPos::Center);
+    let font: TextStyle = (FONT, 13).into_font().color(&BLACK).pos(centred);
+    let small: TextStyle = (FONT, 11)
+        .into_font()
+        .color(&RGBColor(60, 60, 60))
+        .pos(centred);
+    let (w, _) = area.dim_in_pixel();
+    let mut y = 14.0;
+    for line in lines {
+        match line {
+            LegendLine::Series(s) => {
+                // The dash is part of the identity: shown also for series drawn as markers.
+                draw_polyline(
+                    area,
+                    &[(8.0, y), (40.0, y)],
+                    rgb(s.style.color),
+                    2,
+                    s.style.dash.pattern(),
+                )?;
+                draw_marker(area, &s.style, (24.0, y), 4.5)?;
+                let text = fit_text(area, &s.label, &font, w - 56);
+                area.draw_text(&text, &font, (48, y as i32))?;
+                y += 18.0;
+            }
+            LegendLine::Context => {
+                draw_polyline(area, &[(8.0, y), (40.0, y)], rgb(CONTEXT.color), 1, &[])?;
+                draw_marker(area, &CONTEXT, (24.0, y), 4.5)?;
+                area.draw_text("other families (context)", &font, (48, y as i32))?;
+                y += 18.0;
+            }
+            LegendLine::Key(text) => {
+                let text = fit_text(area, text, &small, w - 20);
+                area.draw_text(&text, &small, (14, y as i32))?;
+                y += 15.0;
+            }
+        }
+    }
+    Ok(())
+}
+

@@ -1,0 +1,194 @@
+// The experiments' results pages in a real browser (Debian's headless Chromium): pages written by
+// `pointsight tables` from the committed robustness and lod results, opened from disk. Every
+// figure draws as many series as its data lists; a series hidden from the legend is gone from
+// the picture, a family unticked leaves none of its colour; hovering a point names it (method,
+// setting, score with its interval). Skipped (with the reason) only outside CI when Chromium is
+// missing.
+
+import assert from 'node:assert/strict';
+import { cpSync, mkdirSync, readFileSync } from 'node:fs';
+import { join } from 'node:path';
+import { pathToFileURL } from 'node:url';
+import { after, before, test } from 'node:test';
+
+import { REPO, launch, pointsight, scratch, skipReason } from './browser.js';
+
+const skip = skipReason() || false;
+let browser;
+let dir;
+
+before(async () => {
+  if (skip) return;
+  dir = scratch();
+  // The committed results, redrawn by this build (figures, twins and pages).
+  for (const exp of ['robustness', 'lod']) {
+    mkdirSync(join(dir, exp));
+    for (const f of ['results.csv', 'metadata.json', 'lod.csv', 'builds.csv', 'srn_table.csv']) {
+      try {
+        cpSync(join(REPO, 'reports', exp, f), join(dir, exp, f));
+      } catch {
+        // Not every experiment has every file.
+      }
+    }
+  }
+  pointsight(['tables', '--reports', dir]);
+  browser = await launch();
+});
+after(async () => {
+  if (browser) await browser.close();
+});
+
+/** The page's embedded data. */
+function dataOf(file) {
+  const html = readFileSync(file, 'utf8');
+  return JSON.parse(html.match(/<script id="pointsight-data" type="application\/json">(.*?)<\/script>/s)[1]);
+}
+
+async function open(file) {
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  const errors = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  await page.goto(pathToFileURL(file).href);
+  await page.waitForFunction(() => window.resultsReady === true || window.resultsError, null, { timeout: 60_000 });
+  const error = await page.evaluate(() => window.resultsError || null);
+  if (error || errors.length) throw new Error(`page error: ${error || errors.join('; ')}`);
+  return page;
+}
+
+/** The series drawn in figure `fi`: the distinct `ps-series-FI-P-S` classes in its SVGs. */
+async function drawn(page, fi) {
+  return page.evaluate((fi) => {
+    const out = new Set();
+    for (const e of document.querySelectorAll(`[class*="ps-series-${fi}-"]`)) {
+      for (const c of e.classList) if (c.startsWith(`ps-series-${fi}-`)) out.add(c);
+    }
+    return [...out].sort();
+  }, fi);
+}
+
+/** Pixels of the figure `id` within 12 of `rgb` (per channel), from a screenshot. */
+async function colourPixels(page, id, rgb) {
+  const box = await page.locator(`.figure[data-figure="${id}"] .panels`).boundingBox();
+  const png = await page.screenshot({ clip: box });
+  return page.evaluate(
+    async ([b64, rgb]) => {
+      const img = new Image();
+      img.src = `data:image/png;base64,${b64}`;
+      await img.decode();
+      const c = document.createElement('canvas');
+      [c.width, c.height] = [img.width, img.height];
+      const ctx = c.getContext('2d');
+      ctx.drawImage(img, 0, 0);
+      const d = ctx.getImageData(0, 0, c.width, c.height).data;
+      let n = 0;
+      for (let p = 0; p < d.length; p += 4) {
+        if (Math.abs(d[p] - rgb[0]) <= 12 && Math.abs(d[p + 1] - rgb[1]) <= 12 && Math.abs(d[p + 2] - rgb[2]) <= 12) n++;
+      }
+      return n;
+    },
+    [png.toString('base64'), rgb],
+  );
+}
+
+const rgbOf = (hex) => [1, 3, 5].map((k) => parseInt(hex.slice(k, k + 2), 16));
+
+test('every figure draws the series its data lists', { skip }, async () => {
+  for (const exp of ['robustness', 'lod']) {
+    const file = join(dir, exp, 'results.html');
+    const data = dataOf(file);
+    assert.ok(data.figures.length >= 2, `${exp}: ${data.figures.length} figures`);
+    const page = await open(file);
+    for (const [fi, fig] of data.figures.entries()) {
+      const listed = fig.panels.reduce((n, p) => n + p.series.length, 0);
+      const got = await drawn(page, fi);
+      assert.equal(got.length, listed, `${exp}/${fig.id}: ${got.length} series drawn, ${listed} in the data`);
+    }
+    await page.screenshot({ path: join(dir, `${exp}-results.png`), fullPage: false });
+    await page.close();
+  }
+});
+
+test('a series hidden from the legend is gone from the picture', { skip }, async () => {
+  const file = join(dir, 'robustness', 'results.html');
+  const data = dataOf(file);
+  const fi = data.figures.findIndex((f) => f.id.startsWith('f1_noise_'));
+  assert.ok(fi >= 0, 'no noise figure');
+  const fig = data.figures[fi];
+  const page = await open(file);
+  const before = await drawn(page, fi);
+  // The first legend entry, clicked as a reader would.
+  const entry = page.locator(`.figure[data-figure="${fig.id}"] .legend .entry`).first();
+  const key = await entry.getAttribute('data-key');
+  await entry.click();
+  const owned = [];
+  fig.panels.forEach((p, pi) =>
+    p.series.forEach((s, si) => {
+      if (`${s.method}|${s.family}|${s.variant}|${s.label}` === key) owned.push(`ps-series-${fi}-${pi}-${si}`);
+    }),
+  );
+  assert.ok(owned.length >= 1, `no series has key ${key}`);
+  const after = await drawn(page, fi);
+  assert.equal(after.length, before.length - owned.length, `${key}: ${before.length} → ${after.length}`);
+  for (const c of owned) assert.ok(!after.includes(c), `${c} is still drawn`);
+  // A click again brings it back.
+  await entry.click();
+  assert.equal((await drawn(page, fi)).length, before.length);
+
+  // A family unticked: none of its colour is left in the picture (its own panel and its grey
+  // context copies alike).
+  const s = fig.panels.flatMap((p) => p.series).find((x) => !x.context && x.family === 'raycast');
+  assert.ok(s, 'raycast is in the noise figure');
+  const rgb = rgbOf(s.style.color);
+  const present = await colourPixels(page, fig.id, rgb);
+  assert.ok(present > 100, `raycast's colour covers only ${present} pixels`);
+  await page.locator('#ps-families input[data-family="raycast"]').uncheck();
+  const left = await colourPixels(page, fig.id, rgb);
+  // pcu-raycast, the peer of raycast, shares its colour: untick it too.
+  await page.locator('#ps-families input[data-family="pcu-raycast"]').uncheck();
+  const none = await colourPixels(page, fig.id, rgb);
+  console.log(`raycast's colour: ${present} px, ${left} px without raycast, ${none} px without pcu-raycast too`);
+  assert.ok(left < present, `${left} >= ${present}`);
+  assert.equal(none, 0, `${none} pixels of raycast's colour left`);
+  await page.close();
+});
+
+test('hovering a point names it', { skip }, async () => {
+  const file = join(dir, 'lod', 'results.html');
+  const data = dataOf(file);
+  const fi = data.figures.findIndex((f) => f.id.startsWith('psnr_vs_points_'));
+  assert.ok(fi >= 0, 'no PSNR figure');
+  const fig = data.figures[fi];
+  const page = await open(file);
+  // Every marker's centre on the screen, with its series and point.
+  const dots = await page.evaluate((fi) => {
+    const out = [];
+    for (const g of document.querySelectorAll(`g[aria-label="dot"][class*="ps-series-${fi}-"]`)) {
+      const cls = [...g.classList].find((c) => c.startsWith(`ps-series-${fi}-`));
+      [...g.querySelectorAll('path, circle')].forEach((e, k) => {
+        const r = e.getBoundingClientRect();
+        out.push({ cls, k, x: r.x + r.width / 2, y: r.y + r.height / 2 });
+      });
+    }
+    return out;
+  }, fi);
+  // A marker with no other within 25 px: the one the pointer will be nearest to.
+  const lone = dots.find((d) => dots.every((o) => o === d || Math.hypot(o.x - d.x, o.y - d.y) > 25));
+  assert.ok(lone, `no isolated point among ${dots.length}`);
+  const [, , pi, si] = lone.cls.split('-').slice(1).map(Number);
+  const s = fig.panels[pi].series[si];
+  const p = s.points[lone.k];
+  await page.mouse.move(lone.x, lone.y);
+  await page.waitForFunction(() => {
+    const t = document.querySelector('g[aria-label="tip"]');
+    return t && t.textContent.length > 0;
+  });
+  const text = await page.evaluate(() => document.querySelector('g[aria-label="tip"]').textContent);
+  console.log(`hover over ${s.label} point ${lone.k}: ${text}`);
+  assert.ok(text.includes(s.label), `tip ${text} does not name ${s.label}`);
+  const setting = (p.setting || s.setting).replaceAll(';', ' ');
+  assert.ok(text.includes(setting), `tip ${text} lacks the setting ${setting}`);
+  assert.ok(text.includes(Number(p.y.toPrecision(4)).toString()), `tip ${text} lacks the score ${p.y}`);
+  assert.ok(text.includes('seconds'), `tip ${text} lacks the time`);
+  await page.screenshot({ path: join(dir, 'lod-hover.png') });
+  await page.close();
+});
