@@ -27,7 +27,8 @@
 //!   "seconds": T, "nodes": K, "bytes": B}` (its own build time); then per view and setting it
 //!   reads `{"view": K, "camera": CAMERA, "params": JSON}` and answers `{"visible": [...],
 //!   "radius": R, "seconds": T}`, R one splat radius (world units) for all or a list, one per
-//!   index.
+//!   index, and optionally `"bytes_read": B`, the bytes the selection read from the program's
+//!   own file (a COPC file), reported as a file selection's reads ([`LodSelector::reads`]).
 //! - The answer is checked with bounded memory: a line longer than the cloud's index range
 //!   allows ([`answer_limit`]: 1 MiB plus 24 bytes per point), a `visible_file` larger than
 //!   that, more indices than points, indices outside 0..N and repeated ones are errors (the
@@ -81,7 +82,7 @@ use serde::Deserialize;
 use splat::render::Splat;
 
 use crate::error::{Error, Result};
-use crate::lod::{LodBuilt, LodInput, LodMethod, LodSelector, LodSize};
+use crate::lod::{LodBuilt, LodInput, LodMethod, LodSelector, LodSize, Reads};
 use crate::{Input, Method, MethodSweep, Output, ParamSpec, Params, Prepared};
 
 /// The newest protocol version this crate speaks.
@@ -1223,6 +1224,7 @@ impl LodBuilt for ExternalLodBuilt {
             params: serde_json::Value::Object(pairs).to_string(),
             last: Vec::new(),
             seconds: None,
+            bytes_read: None,
         }))
     }
 }
@@ -1233,6 +1235,8 @@ struct ExternalLodSel<'s> {
     params: String,
     last: Vec<(u32, f64)>,
     seconds: Option<f64>,
+    /// The last answer's `bytes_read`.
+    bytes_read: Option<u64>,
 }
 
 impl ExternalLodSel<'_> {
@@ -1277,17 +1281,28 @@ impl ExternalLodSel<'_> {
                 return Err(format!("splat radius {r} is not a positive number"));
             }
             let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
-            *answer.lock().map_err(|_| "lock")? =
-                Some((visible.into_iter().zip(radii).collect::<Vec<_>>(), seconds));
+            let bytes_read =
+                match v.get("bytes_read") {
+                    None => None,
+                    Some(b) => Some(b.as_u64().ok_or_else(|| {
+                        format!("\"bytes_read\" {b} is not a whole number of bytes")
+                    })?),
+                };
+            *answer.lock().map_err(|_| "lock")? = Some((
+                visible.into_iter().zip(radii).collect::<Vec<_>>(),
+                seconds,
+                bytes_read,
+            ));
             Ok(())
         })?;
-        let (last, seconds) = answer
+        let (last, seconds, bytes_read) = answer
             .into_inner()
             .ok()
             .flatten()
             .ok_or_else(|| external_error(session.method, "no answer"))?;
         self.last = last;
         self.seconds = Some(seconds.unwrap_or(wall));
+        self.bytes_read = bytes_read;
         Ok(())
     }
 }
@@ -1327,6 +1342,15 @@ impl LodSelector for ExternalLodSel<'_> {
 
     fn reported_seconds(&self) -> Option<f64> {
         self.seconds
+    }
+
+    fn reads(&self) -> Option<Reads> {
+        // The program's own file, read as it says; it keeps no cache pointsight knows of.
+        self.bytes_read.map(|bytes_read| Reads {
+            bytes_read,
+            cache_bytes: 0,
+            selection_bytes: (self.last.len() * size_of::<Splat>()) as u64,
+        })
     }
 
     fn splats(&self) -> Vec<Splat> {
@@ -1539,7 +1563,7 @@ for line in sys.stdin:
     req = json.loads(line)
     k = int(req["params"]["keep"])
     print(json.dumps({"visible": list(range(k))[::-1], "radius": [0.5 + i for i in range(k)][::-1],
-                      "seconds": 0.25 + req["view"]}), flush=True)
+                      "seconds": 0.25 + req["view"], "bytes_read": 1000 * k}), flush=True)
 "#;
         let dir = folder(
             "protocol = 2\nkind = \"lod\"\ncommand = [\"python3\", \"m.py\"]\n\
@@ -1584,6 +1608,11 @@ for line in sys.stdin:
         let camera = test_camera();
         sel.select_at(4, &camera).unwrap();
         assert_eq!(sel.reported_seconds(), Some(4.25));
+        // Its bytes read, as a file selection's reads.
+        let reads = sel.reads().unwrap();
+        assert_eq!(reads.bytes_read, 3000);
+        assert_eq!(reads.cache_bytes, 0);
+        assert_eq!(reads.selection_bytes, 3 * size_of::<Splat>() as u64);
         let splats = sel.splats();
         // Sorted by index, each with its own radius (the answer's order was reversed).
         let radii: Vec<f32> = splats.iter().map(|s| s.radius).collect();
