@@ -256,22 +256,23 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
     (
         "lod_build.rs",
         "qsplat",
-        "pointsight lod-build writes QSplat files out of core (qsplat::ooc) and prepares the \
-         points of the SPT build (qsplat::ooc::prepare)",
+        "pointsight lod-build writes QSplat files out of core (qsplat::ooc, after the \
+         method-neutral cloud::ooc::prepare)",
     ),
     (
         "lod_build.rs",
         "spt",
-        "pointsight lod-build writes sequential point tree files out of core (spt::ooc)",
+        "pointsight lod-build writes sequential point tree files out of core (spt::ooc, fed by \
+         cloud::ooc::prepare)",
     ),
     // Scale's cells.
     (
-        "experiments/scale.rs",
+        "experiments/scale/cell.rs",
         "hull",
         "scale's hull-* cells measure the hulls",
     ),
     (
-        "experiments/scale.rs",
+        "experiments/scale/cell.rs",
         "hpr",
         "scale's hull-* cells: HPR's flip before the hull",
     ),

@@ -8,8 +8,8 @@ use cloud::glam::DVec3;
 use cloud::synth::{SpherePlane, sphere_point_visible};
 use cloud::{Camera, Model};
 use harness::datasets::{self, Dataset};
-use harness::methods::{self, Output, Params, kernel};
-use harness::score::Score;
+use registry::score::Score;
+use registry::{Output, Params, kernel};
 
 fn load(name: &str) -> Dataset {
     datasets::load(name, Path::new("/nonexistent")).expect("a synthetic dataset")
@@ -28,7 +28,7 @@ fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<O
         camera: *camera,
     }];
     let cell = kernel::Cell {
-        method: methods::method(method).expect("a registered method"),
+        method: registry::method(method).expect("a registered method"),
         params: Params::parse(set).expect("valid parameters"),
         views: &views,
         repeats: 1,

@@ -6,7 +6,7 @@
 //!
 //! A program of its own (`harness = false`), as a program embedding the registry is: it
 //! registers its methods first thing in `main`, and forwards a scale cell to
-//! `harness::experiments::scale::cell_entry`, because the scale experiment runs each cell by
+//! `harness::experiments::scale::child::cell_entry`, because the scale experiment runs each cell by
 //! re-running the current executable (this test binary) as a child process.
 
 use std::collections::BTreeSet;
@@ -296,7 +296,7 @@ fn main() -> ExitCode {
     };
     registry::register_external(&methods).expect("the external folder loads");
     if let Some(code) =
-        experiments::scale::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
+        experiments::scale::child::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
     {
         return code;
     }

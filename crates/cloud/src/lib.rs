@@ -11,7 +11,8 @@
 //! - lossless recentring of georeferenced clouds ([`recentre`]);
 //! - synthetic scenes with analytic visibility ([`synth`]) and seeded random streams ([`rng`]);
 //! - the front/back buffer with a background thread of seed 000 §5 ([`double_buffer`]);
-//! - scratch files for out-of-core builds ([`spill`]).
+//! - scratch files for out-of-core builds ([`spill`]) and the method-neutral out-of-core
+//!   preparation of an LOD build: chunks, normals, leaf radius ([`ooc`]).
 //!
 //! This crate knows nothing of any method, of experiments, plots or the command line.
 
@@ -25,6 +26,7 @@ pub mod io;
 pub mod memory;
 pub mod mesh;
 pub mod normals;
+pub mod ooc;
 pub mod points;
 pub mod recentre;
 pub mod rng;

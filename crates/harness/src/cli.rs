@@ -153,20 +153,7 @@ pub enum Command {
     /// One cell of the `scale` experiment, in its own process (internal): prints one JSON line
     /// with the seconds and the process's peak RSS.
     #[command(hide = true)]
-    ScaleCell {
-        /// The dataset whose mesh is sampled.
-        #[arg(long)]
-        dataset: String,
-        /// The cell's method.
-        #[arg(long)]
-        method: String,
-        /// Points.
-        #[arg(long)]
-        n: u64,
-        /// The method's setting (a `registry::Setting` label; empty: its defaults).
-        #[arg(long, default_value = "")]
-        setting: String,
-    },
+    ScaleCell(crate::experiments::scale::child::CellArgs),
     /// Build an LOD method's file from a point file (LAS, LAZ, PLY, E57, ...) within a memory
     /// limit: out of core when the cloud does not fit (scratch files in a hidden folder beside
     /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints

@@ -1,6 +1,7 @@
 //! `pointsight lod-build`: an LOD method's file built from a point file within a memory limit
-//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`; `spt::ooc` after
-//! `qsplat::ooc::prepare`), the same bytes as the in-memory build when it does.
+//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`, which starts from
+//! `cloud::ooc::prepare`; `spt::ooc` fed by `cloud::ooc::prepare`), the same bytes as the
+//! in-memory build when it does.
 //!
 //! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
 //! neighbour estimates oriented away from the centroid when it has none; the leaf radius
@@ -17,7 +18,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
 use cloud::glam::{DVec3, Vec3};
-use qsplat::ooc::{self, Normals, Options, Point, Radius, Stage};
+use cloud::ooc::{Normals, Point, Radius};
+
+use crate::rss::peak_rss;
 
 /// The density-spacing rule of the `lod` experiment.
 pub const SPACING_K: usize = 8;
@@ -87,12 +90,16 @@ pub fn parse_size(text: &str) -> Result<u64> {
     Ok(bytes as u64)
 }
 
-/// The options of the `lod` experiment's preparation for a cloud with or without normals and
-/// colours, under `memory_limit`.
-pub fn options(memory_limit: u64, has_normals: bool, colors: bool) -> Options {
-    Options {
+/// The options of the `lod` experiment's preparation for a cloud with or without normals,
+/// under `memory_limit`, in chunks of `bytes_per_point` (the method's).
+pub fn prepare_options(
+    memory_limit: u64,
+    has_normals: bool,
+    bytes_per_point: u64,
+) -> cloud::ooc::Options {
+    cloud::ooc::Options {
         memory_limit,
-        colors,
+        bytes_per_point,
         normals: if has_normals {
             Normals::Given
         } else {
@@ -108,23 +115,30 @@ pub fn options(memory_limit: u64, has_normals: bool, colors: bool) -> Options {
     }
 }
 
-/// Peak resident set size of this process (`VmHWM`), bytes (0 where unknown).
-pub fn peak_rss() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmHWM:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|kb| kb.parse::<u64>().ok())
-        })
-        .map_or(0, |kb| kb * 1024)
+/// QSplat's build options from the preparation's, with or without colours.
+fn qsplat_options(prepare: &cloud::ooc::Options, colors: bool) -> qsplat::ooc::Options {
+    qsplat::ooc::Options {
+        memory_limit: prepare.memory_limit,
+        colors,
+        normals: prepare.normals,
+        radius: prepare.radius,
+        fail_after_bytes: prepare.fail_after_bytes,
+    }
+}
+
+/// The progress bar's words for a stage of the preparation.
+fn prepare_stage(stage: cloud::ooc::Stage) -> &'static str {
+    match stage {
+        cloud::ooc::Stage::Read => "reading",
+        cloud::ooc::Stage::Split => "splitting into chunks",
+        cloud::ooc::Stage::Neighbours => "normals and spacing",
+    }
 }
 
 /// Builds `method`'s file of the cloud in `cloud_path` into `out` within `memory_limit`
 /// bytes (`progress`: a bar on a terminal). The public entry a scale cell calls.
 ///
-/// `spt`: the points are prepared by `qsplat::ooc::prepare` (the same normals and leaf radius
+/// `spt`: the points are prepared by `cloud::ooc::prepare` (the same normals and leaf radius
 /// as the QSplat build, out of core) and piped into `spt::ooc` (leaf diameter twice the
 /// radius, as the `lod` experiment gives SPT), one stage after the other under the same limit.
 pub fn build(
@@ -150,19 +164,6 @@ pub fn build(
             b.set_position(count);
         }
     };
-    let mut report = |stage: Stage, count: u64| {
-        set(
-            match stage {
-                Stage::Read => "reading",
-                Stage::Split => "splitting into chunks",
-                Stage::Neighbours => "normals and spacing",
-                Stage::Build => "building chunk roots",
-                Stage::Encode => "encoding chunks",
-                Stage::Write => "writing levels",
-            },
-            count,
-        );
-    };
     let mut las_stream = None;
     let mut loaded = None;
     let (has_normals, colors) = if is_las {
@@ -183,13 +184,12 @@ pub fn build(
         loaded = Some(c);
         flags
     };
-    let opts = options(memory_limit, has_normals, colors);
     let mut chunk = cloud::PointCloud {
         colors: colors.then(Vec::new),
         ..cloud::PointCloud::default()
     };
     let mut at = 0usize;
-    let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> {
+    let mut source = |batch: &mut Vec<Point>| -> Result<bool, cloud::ooc::error::Error> {
         if let Some(stream) = las_stream.as_mut() {
             chunk.positions.clear();
             if let Some(c) = chunk.colors.as_mut() {
@@ -197,7 +197,7 @@ pub fn build(
             }
             let more = stream
                 .next_into(&mut chunk)
-                .map_err(|e| qsplat::Error::Cloud(cloud::Error::Read(e)))?;
+                .map_err(|e| cloud::ooc::error::Error::Cloud(cloud::Error::Read(e)))?;
             batch.extend(chunk.positions.iter().enumerate().map(|(i, &p)| Point {
                 position: p,
                 normal: Vec3::ZERO,
@@ -218,6 +218,11 @@ pub fn build(
         }
     };
     let built = if method == "spt" {
+        let opts = prepare_options(memory_limit, has_normals, spt::ooc::PREPARE_BYTES_PER_POINT);
+        let (prepared, summary) = cloud::ooc::prepare(&mut source, &opts, out, &mut |s, n| {
+            set(prepare_stage(s), n)
+        })?;
+        drop(loaded.take());
         let mut spt_build = spt::ooc::Builder::new(
             &spt::ooc::Options {
                 memory_limit,
@@ -226,33 +231,20 @@ pub fn build(
             },
             out,
         )?;
-        let mut failed: Option<spt::Error> = None;
         let mut batch = Vec::new();
-        let mut sink = |pts: &[Point], index: &[u64]| -> qsplat::Result<()> {
+        prepared.for_each_chunk(|points| -> Result<()> {
             batch.clear();
-            batch.extend(pts.iter().zip(index).map(|(p, &i)| spt::ooc::Point {
-                position: p.position,
-                normal: p.normal,
-                color: p.color,
-                index: i,
+            batch.extend((0..points.positions.len()).map(|i| spt::ooc::Point {
+                position: points.positions[i],
+                normal: points.normals[i],
+                color: points.colors[i],
+                index: points.index[i],
             }));
-            spt_build.push(&batch).map_err(|e| {
-                let text = e.to_string();
-                failed = Some(e);
-                qsplat::Error::InvalidParameter {
-                    name: "spt",
-                    reason: text,
-                }
-            })
-        };
-        let prepared = ooc::prepare(&mut source, &opts, out, &mut report, &mut sink);
-        if let Some(e) = failed {
-            return Err(e.into());
-        }
-        let prepared = prepared?;
-        drop(loaded.take());
-        let summary = spt_build.finish(
-            2.0 * prepared.leaf_radius,
+            Ok(spt_build.push(&batch)?)
+        })?;
+        drop(prepared);
+        let built = spt_build.finish(
+            2.0 * summary.leaf_radius,
             &mut |stage: spt::ooc::Stage, count: u64| {
                 set(
                     match stage {
@@ -266,19 +258,34 @@ pub fn build(
             },
         )?;
         Built {
-            points: summary.points,
+            points: built.points,
             seconds: 0.0,
             peak_rss_bytes: 0,
-            chunks: summary.chunks,
-            top_levels: summary.top_nodes as u32,
-            largest_halo: prepared.largest_halo,
-            leaf_radius: prepared.leaf_radius,
+            chunks: built.chunks,
+            top_levels: built.top_nodes as u32,
+            largest_halo: summary.largest_halo,
+            leaf_radius: summary.leaf_radius,
             file_bytes: 0,
-            scratch_bytes: summary.scratch_bytes + prepared.scratch_bytes,
-            scratch_peak_bytes: prepared.scratch_peak_bytes.max(summary.scratch_peak_bytes),
+            scratch_bytes: built.scratch_bytes + summary.scratch_bytes,
+            scratch_peak_bytes: summary.scratch_peak_bytes.max(built.scratch_peak_bytes),
         }
     } else {
-        let summary = ooc::build_file(&mut source, &opts, out, &mut report)?;
+        let opts = qsplat_options(
+            &prepare_options(memory_limit, has_normals, qsplat::ooc::BYTES_PER_POINT),
+            colors,
+        );
+        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> { Ok(source(batch)?) };
+        let summary = qsplat::ooc::build_file(&mut source, &opts, out, &mut |stage, count| {
+            set(
+                match stage {
+                    qsplat::ooc::Stage::Prepare(s) => prepare_stage(s),
+                    qsplat::ooc::Stage::Build => "building chunk roots",
+                    qsplat::ooc::Stage::Encode => "encoding chunks",
+                    qsplat::ooc::Stage::Write => "writing levels",
+                },
+                count,
+            )
+        })?;
         Built {
             points: summary.points,
             seconds: 0.0,
@@ -304,7 +311,7 @@ pub fn build(
 }
 
 /// The in-memory build of the same file (the whole cloud read, then
-/// `qsplat::ooc::in_memory`): the reference the out-of-core build equals, and the baseline
+/// `qsplat::ooc::in_memory`, or `cloud::ooc::prepare_in_memory` and `spt::ooc::in_memory`): the reference the out-of-core build equals, and the baseline
 /// of its rate and memory.
 pub fn build_in_memory(cloud_path: &Path, method: &str, out: &Path) -> Result<Built> {
     if !OUT_OF_CORE.contains(&method) {
@@ -314,15 +321,21 @@ pub fn build_in_memory(cloud_path: &Path, method: &str, out: &Path) -> Result<Bu
     let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
     let c = loaded.cloud;
     let n = c.len() as u64;
-    let opts = options(u64::MAX, c.normals.is_some(), c.colors.is_some());
     let positions: Vec<DVec3> = c.positions;
     let radius = if method == "spt" {
-        let (normals, radius) = ooc::prepare_in_memory(&positions, c.normals, &opts)?;
+        let opts = prepare_options(
+            u64::MAX,
+            c.normals.is_some(),
+            spt::ooc::PREPARE_BYTES_PER_POINT,
+        );
+        let (normals, radius) = cloud::ooc::prepare_in_memory(&positions, c.normals, &opts)?;
         let spt = spt::ooc::in_memory(positions, normals, c.colors, 2.0 * radius)?;
         spt::file::write(&spt, out)?;
         radius
     } else {
-        let (tree, radius) = ooc::in_memory(positions, c.normals, c.colors, &opts)?;
+        let prepare = prepare_options(u64::MAX, c.normals.is_some(), qsplat::ooc::BYTES_PER_POINT);
+        let opts = qsplat_options(&prepare, c.colors.is_some());
+        let (tree, radius) = qsplat::ooc::in_memory(positions, c.normals, c.colors, &opts)?;
         qsplat::file::write(&tree, out)?;
         radius
     };

@@ -2,7 +2,7 @@
 //! many views at once (a folder of index files).
 //!
 //! Per-dataset preparation (k-d tree, BVH) is done once; for many views, methods that say so
-//! ([`crate::methods::Method::parallel_views`]) answer views in parallel, the others one after
+//! ([`registry::Method::parallel_views`]) answer views in parallel, the others one after
 //! another (their single view already uses every core).
 
 use std::path::{Path, PathBuf};
@@ -14,9 +14,9 @@ use cloud::glam::DVec3;
 
 use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
-use crate::methods::{self, Output, Params, kernel};
 use crate::output;
-use crate::score::Score;
+use registry::score::Score;
+use registry::{Output, Params, kernel};
 
 /// A camera given on the command line (world coordinates); what is absent gets a default that
 /// fits the cloud.
@@ -262,7 +262,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
 /// Runs the request; prints the contract lines.
 pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let params = Params::parse(&req.set)?;
-    let method = methods::method(&req.method)?;
+    let method = registry::method(&req.method)?;
     let ds = load_source(&req.source, data_dir)?;
     let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {

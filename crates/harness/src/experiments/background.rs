@@ -30,7 +30,7 @@ use crate::datasets::Dataset;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
-use crate::score::Score;
+use registry::score::Score;
 
 /// Seconds of orbit (quick mode: half).
 pub const DURATION: f64 = 6.0;

@@ -38,7 +38,7 @@ use super::{Context, Experiment, markdown_table};
 use crate::output::plot::{Bars, Chart, Mark, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
-use crate::score::Score;
+use registry::score::Score;
 
 /// Hull implementations compared, in report order.
 pub const HULLS: &[&str] = &["own", "qhull", "qhull-qj", "parry", "quickhull", "chull"];

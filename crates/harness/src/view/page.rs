@@ -20,7 +20,7 @@ use truth::{Reference, ReferenceParams};
 use super::MethodRun;
 use crate::datasets::Dataset;
 use crate::output::render::{FALSE_NEGATIVE, FALSE_POSITIVE, HIDDEN, TRUE_POSITIVE};
-use crate::score::Score;
+use registry::score::Score;
 
 /// Colour of off-surface points and outliers (a class apart, never scored).
 pub const OFF_SURFACE: [u8; 3] = [255, 150, 0];

@@ -43,7 +43,7 @@ mod peers;
 mod render;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
-use crate::score::Score;
+use registry::score::Score;
 use render::{peers_summary, render, render_bunny};
 
 /// The experiment.

@@ -17,7 +17,7 @@ use crate::experiments::markdown_table;
 use crate::output::plot::{Chart, Mark, Series};
 use crate::output::render::{classified_panel, compose, footprint};
 use crate::output::{distinct, write_atomic};
-use crate::score::Score;
+use registry::score::Score;
 
 /// Every family of `rows`, in the order they first appear.
 fn families_of(rows: &[Row]) -> Vec<String> {

@@ -1,0 +1,325 @@
+//! Step 3 of the preparation: each chunk's neighbourhoods completed by a *halo*, so that its
+//! points' k nearest neighbours, normals and density-spacing distances are those of the whole
+//! cloud, bit for bit.
+//!
+//! Every point of a chunk gets an upper bound of its k-th neighbour distance (from the chunk,
+//! or from the input's strided sample for a chunk of fewer than k points); the chunk's halo
+//! radius is the largest bound of the points whose ball leaves the chunk's box (balls inside it
+//! hold no other chunk's point, the regions being separated by the split planes); one pass over
+//! all chunks sends every point within a chunk's halo radius of its box to that chunk's halo
+//! file. The k nearest neighbours over chunk + halo are then the true ones, taken in
+//! `crate::normals::canonical_knn`'s order (which no tree changes), so the normals and the
+//! spacing sample's distances are the in-memory ones; when the normals' k is the halo's, the
+//! first pass's query already gives the normal of every point whose ball lies inside its chunk
+//! (the same neighbours in the same order), kept in a scratch file, and the halo pass searches
+//! only the points near the borders.
+
+use std::collections::HashMap;
+use std::num::NonZero;
+
+use glam::{DVec3, Vec3};
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+
+use super::chunks::{PartKind, Set};
+use super::error::{Error, Result};
+use super::record::{REC, pack, position_of, unpack};
+use super::{HALO_BUFFER, NEIGHBOUR_BYTES_PER_POINT, Point, Preparer, Stage};
+use crate::spill::{SpillFile, SpillWriter};
+
+impl Preparer<'_> {
+    /// Normals and the spacing sample's distances, chunk by chunk with halos (module doc,
+    /// step 3); returns the largest halo.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn neighbourhoods(
+        &mut self,
+        root: usize,
+        sample: &[(DVec3, u64)],
+        k_halo: usize,
+        estimate: Option<usize>,
+        centroid: DVec3,
+        picks: Option<&(Vec<u64>, usize)>,
+        spacing_d: &mut Vec<f64>,
+    ) -> Result<u64> {
+        let kk = NonZero::new(k_halo.max(1)).ok_or(Error::InvalidParameter {
+            name: "k",
+            reason: "zero".into(),
+        })?;
+        let sample_entries: Vec<[f64; 3]> = sample.iter().map(|s| s.0.to_array()).collect();
+        let sample_tree = kd_tree(&sample_entries)?;
+        // (a) Every chunk's halo radius. When the normals' k is the halo's, the one query per
+        // point also gives the normal of every point whose ball lies inside its chunk's box:
+        // its neighbours are its true ones, in `canonical_knn`'s order, so the normal is the
+        // one (c) would compute (bit for bit); it is kept in a scratch file (NaN: left to (c),
+        // which then searches only the points near the borders).
+        let single = estimate == Some(kk.get());
+        let mut halo2 = vec![0.0f64; self.store.chunks.len()];
+        let mut early: Vec<Option<SpillFile>> =
+            (0..self.store.chunks.len()).map(|_| None).collect();
+        for (c, r2) in halo2.iter_mut().enumerate() {
+            let set = self.store.chunks[c].clone();
+            let l = self.store.load_set(&set)?;
+            let entries: Vec<[f64; 3]> = l.positions.iter().map(|p| p.to_array()).collect();
+            let own = (entries.len() >= kk.get())
+                .then(|| kd_tree(&entries))
+                .transpose()?;
+            drop(entries);
+            let bbox = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
+            let overlap = set.overlap;
+            let inside = |p: DVec3, d: f64| {
+                !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d)
+            };
+            let per_point = crate::normals::per_point_in_spatial_order(&l.positions, |i| {
+                let p = l.positions[i];
+                match own.as_ref().filter(|_| single) {
+                    Some(tree) => {
+                        let nb = crate::normals::canonical_knn(tree, p, kk, |item| {
+                            l.index[item as usize]
+                        });
+                        let d2 = nb.last().map_or(f64::INFINITY, |x| x.0);
+                        if inside(p, d2.sqrt()) {
+                            let n = crate::normals::covariance_normal(
+                                nb.iter().map(|x| l.positions[x.1 as usize]),
+                            );
+                            (0.0, Some(crate::normals::orient(n, p - centroid)))
+                        } else {
+                            (d2, None)
+                        }
+                    }
+                    None => {
+                        let tree = own.as_ref().unwrap_or(&sample_tree);
+                        let nn = tree
+                            .query(&p.to_array())
+                            .nearest_n::<SquaredEuclidean<f64>>(kk)
+                            .execute();
+                        let d2 = nn.last().map_or(f64::INFINITY, |x| x.distance);
+                        (if inside(p, d2.sqrt()) { 0.0 } else { d2 }, None)
+                    }
+                }
+            });
+            *r2 = per_point.iter().map(|x| x.0).fold(0.0, f64::max);
+            if single && own.is_some() {
+                let mut w = self
+                    .store
+                    .scratch
+                    .create(12)
+                    .map_err(|e| self.store.io(e))?;
+                for (_, n) in &per_point {
+                    let n = n.unwrap_or(Vec3::NAN);
+                    let mut rec = [0u8; 12];
+                    for (a, v) in n.to_array().iter().enumerate() {
+                        rec[4 * a..4 * a + 4].copy_from_slice(&v.to_le_bytes());
+                    }
+                    w.push(&rec).map_err(|e| self.store.io(e))?;
+                }
+                early[c] = Some(w.finish().map_err(|e| self.store.io(e))?);
+            }
+        }
+        // Slack for the rounding of box distances against point distances.
+        let slack = |r2: f64| r2 * (1.0 + 1e-9) + f64::MIN_POSITIVE;
+        for t in 0..self.store.parts.len() {
+            self.store.parts[t].halo2 = match &self.store.parts[t].kind {
+                PartKind::Chunk(c) => slack(halo2[*c]),
+                PartKind::Inner(kids) => kids
+                    .iter()
+                    .map(|&k| self.store.parts[k].halo2)
+                    .fold(0.0, f64::max),
+            };
+        }
+        // (b) One pass sending every point to the halos it lies in.
+        let mut halos: Vec<Option<SpillWriter>> =
+            (0..self.store.chunks.len()).map(|_| None).collect();
+        let mut buffered: HashMap<usize, Vec<[u8; REC]>> = HashMap::new();
+        let mut buffered_bytes = 0usize;
+        let mut stack = Vec::new();
+        for d in 0..self.store.chunks.len() {
+            let set = self.store.chunks[d].clone();
+            self.store.for_each(&set, |r| {
+                let p = position_of(r);
+                stack.clear();
+                stack.push(root);
+                while let Some(t) = stack.pop() {
+                    let top = &self.store.parts[t];
+                    if box_dist2(p, top.bbox) > top.halo2 {
+                        continue;
+                    }
+                    match &top.kind {
+                        PartKind::Inner(kids) => stack.extend(kids.iter().copied()),
+                        PartKind::Chunk(c) if *c != d => {
+                            buffered.entry(*c).or_default().push(*r);
+                            buffered_bytes += REC;
+                        }
+                        PartKind::Chunk(_) => {}
+                    }
+                }
+                if buffered_bytes >= HALO_BUFFER {
+                    self.flush_halos(&mut buffered, &mut halos)?;
+                    buffered_bytes = 0;
+                }
+                Ok(())
+            })?;
+        }
+        self.flush_halos(&mut buffered, &mut halos)?;
+        // (c) Each chunk with its halo: normals and the spacing sample's distances.
+        let budget = self.cap * self.opts.bytes_per_point / NEIGHBOUR_BYTES_PER_POINT;
+        let mut largest = 0u64;
+        self.done = 0;
+        for (c, halo) in halos.into_iter().enumerate() {
+            let set = self.store.chunks[c].clone();
+            let mut l = self.store.load_set(&set)?;
+            let m = l.positions.len();
+            let halo = match halo {
+                Some(w) => Some(w.finish().map_err(|e| self.store.io(e))?),
+                None => None,
+            };
+            let h = halo.as_ref().map_or(0, SpillFile::len);
+            largest = largest.max(h);
+            if (m as u64 + h) > budget {
+                return Err(Error::InvalidParameter {
+                    name: "memory_limit",
+                    reason: format!(
+                        "a chunk of {m} points needs a halo of {h} points for its neighbour \
+                         searches, more than the limit holds ({budget} points); the cloud is \
+                         too sparse around that chunk for this limit"
+                    ),
+                });
+            }
+            let mut positions = l.positions.clone();
+            let mut index = l.index.clone();
+            if let Some(hf) = &halo {
+                let hs = Set {
+                    file: hf.clone(),
+                    start: 0,
+                    count: h,
+                    bbox: None,
+                    overlap: false,
+                };
+                self.store.for_each(&hs, |r| {
+                    let (p, i) = unpack(r);
+                    positions.push(p.position);
+                    index.push(i);
+                    Ok(())
+                })?;
+            }
+            drop(halo);
+            let entries: Vec<[f64; 3]> = positions.iter().map(|p| p.to_array()).collect();
+            let tree = kd_tree(&entries)?;
+            drop(entries);
+            if let Some(k) = estimate {
+                let k = NonZero::new(k).unwrap_or(kk);
+                let chunk = &l.positions[..m];
+                // The normals (a) found (NaN where it left them to this pass).
+                let known: Vec<Vec3> = match early[c].take() {
+                    Some(f) => {
+                        let mut r = f.reader(0, m as u64).map_err(|e| self.store.io(e))?;
+                        let mut rec = [0u8; 12];
+                        let mut out = Vec::with_capacity(m);
+                        while r.next_into(&mut rec).map_err(|e| self.store.io(e))? {
+                            let v = |a: usize| {
+                                f32::from_le_bytes([
+                                    rec[4 * a],
+                                    rec[4 * a + 1],
+                                    rec[4 * a + 2],
+                                    rec[4 * a + 3],
+                                ])
+                            };
+                            out.push(Vec3::new(v(0), v(1), v(2)));
+                        }
+                        out
+                    }
+                    None => vec![Vec3::NAN; m],
+                };
+                l.normals = crate::normals::per_point_in_spatial_order(chunk, |i| {
+                    if let Some(&n) = known.get(i).filter(|n| !n.x.is_nan()) {
+                        return n;
+                    }
+                    let p = chunk[i];
+                    let nb =
+                        crate::normals::canonical_knn(&tree, p, k, |item| index[item as usize]);
+                    let n = crate::normals::covariance_normal(
+                        nb.iter().map(|x| positions[x.1 as usize]),
+                    );
+                    crate::normals::orient(n, p - centroid)
+                });
+            }
+            if let Some((picks, ks)) = picks {
+                let k1 = NonZero::new(ks + 1).unwrap_or(kk);
+                for i in 0..m {
+                    let g = l.index[i];
+                    let lo = picks.partition_point(|&x| x < g);
+                    let hi = picks.partition_point(|&x| x <= g);
+                    if hi > lo {
+                        let nn = tree
+                            .query(&l.positions[i].to_array())
+                            .nearest_n::<SquaredEuclidean<f64>>(k1)
+                            .execute();
+                        let d = nn.last().map_or(0.0, |x| x.distance.sqrt());
+                        spacing_d.extend(std::iter::repeat_n(d, hi - lo));
+                    }
+                }
+            }
+            drop((tree, positions, index));
+            if estimate.is_some() {
+                // The chunk again, with its normals.
+                let mut w = self.store.create()?;
+                let mut rec = [0u8; REC];
+                for i in 0..m {
+                    let p = Point {
+                        position: l.positions[i],
+                        normal: l.normals[i],
+                        color: l.colors[i],
+                    };
+                    pack(&p, l.index[i], &mut rec);
+                    w.push(&rec).map_err(|e| self.store.io(e))?;
+                }
+                let file = w.finish().map_err(|e| self.store.io(e))?;
+                self.store.chunks[c] = Set {
+                    file,
+                    start: 0,
+                    count: m as u64,
+                    bbox: set.bbox,
+                    overlap: set.overlap,
+                };
+            }
+            self.done += m as u64;
+            (self.progress)(Stage::Neighbours, self.done);
+        }
+        Ok(largest)
+    }
+
+    fn flush_halos(
+        &self,
+        buffered: &mut HashMap<usize, Vec<[u8; REC]>>,
+        halos: &mut [Option<SpillWriter>],
+    ) -> Result<()> {
+        for (c, recs) in buffered.drain() {
+            let w = match &mut halos[c] {
+                Some(w) => w,
+                None => halos[c].insert(
+                    self.store
+                        .scratch
+                        .create(REC)
+                        .map_err(|e| self.store.io(e))?,
+                ),
+            };
+            for r in &recs {
+                w.push(r).map_err(|e| self.store.io(e))?;
+            }
+            // Release the writer's buffer until more arrives.
+            w.flush().map_err(|e| self.store.io(e))?;
+        }
+        Ok(())
+    }
+}
+
+/// Squared distance from `p` to the box `(lo, hi)`.
+fn box_dist2(p: DVec3, (lo, hi): (DVec3, DVec3)) -> f64 {
+    let d = (lo - p).max(DVec3::ZERO).max(p - hi);
+    d.length_squared()
+}
+
+fn kd_tree(entries: &[[f64; 3]]) -> Result<ImmutableKdTree<f64, 3>> {
+    ImmutableKdTree::<f64, 3>::new_from_slice(entries).map_err(|e| Error::InvalidParameter {
+        name: "positions",
+        reason: format!("cannot build a k-d tree: {e:?}"),
+    })
+}

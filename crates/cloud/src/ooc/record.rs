@@ -1,0 +1,39 @@
+//! A prepared point on disk: the fixed-size record of a point (position, normal, colour) and
+//! its index in the input, as the scratch files hold it.
+
+use glam::{DVec3, Vec3};
+
+use super::Point;
+
+/// Bytes of a point on disk: position, normal, colour, index in the input.
+pub(super) const REC: usize = 24 + 12 + 3 + 8;
+
+/// `p` and its input index as a record.
+pub(super) fn pack(p: &Point, index: u64, b: &mut [u8; REC]) {
+    for k in 0..3 {
+        b[8 * k..8 * k + 8].copy_from_slice(&p.position[k].to_le_bytes());
+        b[24 + 4 * k..28 + 4 * k].copy_from_slice(&p.normal[k].to_le_bytes());
+    }
+    b[36..39].copy_from_slice(&p.color);
+    b[39..47].copy_from_slice(&index.to_le_bytes());
+}
+
+/// A record's point and input index.
+pub(super) fn unpack(b: &[u8; REC]) -> (Point, u64) {
+    let f = |o: usize| f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
+    let g = |o: usize| f32::from_le_bytes(b[o..o + 4].try_into().unwrap_or([0; 4]));
+    (
+        Point {
+            position: DVec3::new(f(0), f(8), f(16)),
+            normal: Vec3::new(g(24), g(28), g(32)),
+            color: [b[36], b[37], b[38]],
+        },
+        u64::from_le_bytes(b[39..47].try_into().unwrap_or([0; 8])),
+    )
+}
+
+/// A record's position alone.
+pub(super) fn position_of(b: &[u8; REC]) -> DVec3 {
+    let f = |o: usize| f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
+    DVec3::new(f(0), f(8), f(16))
+}

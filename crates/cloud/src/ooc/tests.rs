@@ -1,0 +1,147 @@
+//! The preparation against the in-memory one: every point's normal and the leaf radius bit
+//! for bit, whatever the chunks; bad inputs and limits.
+
+use glam::{DVec3, Vec3};
+
+use super::*;
+use crate::rng::{RngExt, seeded};
+
+/// A wavy sheet with clusters of coincident points (which the split halves by position).
+fn cloud(n: usize, seed: u64) -> Vec<Point> {
+    let mut rng = seeded(seed, "cloud-ooc-test");
+    let mut pts = Vec::with_capacity(n);
+    while pts.len() < n {
+        let (x, y) = (rng.random::<f64>(), rng.random::<f64>());
+        let p = DVec3::new(x, y, 0.1 * (6.0 * x).sin() * (4.0 * y).cos());
+        let copies = if rng.random::<f64>() < 0.02 { 3 } else { 1 };
+        for _ in 0..copies {
+            pts.push(Point {
+                position: p,
+                normal: Vec3::Z,
+                color: [rng.random(), 0, 0],
+            });
+        }
+    }
+    pts.truncate(n);
+    pts
+}
+
+fn options(memory_limit: u64) -> Options {
+    Options {
+        memory_limit,
+        bytes_per_point: 640,
+        normals: Normals::Estimate { k: 16 },
+        radius: Radius::DensitySpacing {
+            k: 8,
+            sample: 2_000,
+            seed: 1,
+            factor: 1.5,
+        },
+        fail_after_bytes: None,
+    }
+}
+
+fn run(pts: &[Point], opts: &Options, out: &Path) -> Result<(Prepared, Summary)> {
+    let mut at = 0;
+    let mut source = |batch: &mut Vec<Point>| -> Result<bool> {
+        let end = (at + 5_000).min(pts.len());
+        batch.extend_from_slice(&pts[at..end]);
+        at = end;
+        Ok(at < pts.len())
+    };
+    prepare(&mut source, opts, out, &mut |_, _| {})
+}
+
+#[test]
+fn chunked_normals_and_radius_are_the_in_memory_ones() {
+    let pts = cloud(30_000, 4);
+    let positions: Vec<DVec3> = pts.iter().map(|p| p.position).collect();
+    let (want_normals, want_radius) =
+        prepare_in_memory(&positions, None, &options(u64::MAX)).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.lod");
+    for limit in [RESERVE + MIN_CHUNK * 640, RESERVE + 9_000 * 640, 1 << 30] {
+        let (prepared, summary) = run(&pts, &options(limit), &out).unwrap();
+        assert_eq!(
+            summary.leaf_radius.to_bits(),
+            want_radius.to_bits(),
+            "{summary:?}"
+        );
+        let mut seen = vec![false; pts.len()];
+        prepared
+            .for_each_chunk(|c| -> Result<()> {
+                for (i, &g) in c.index.iter().enumerate() {
+                    let g = g as usize;
+                    assert!(!seen[g], "point {g} twice");
+                    seen[g] = true;
+                    assert_eq!(c.positions[i], positions[g]);
+                    assert_eq!(c.colors[i], pts[g].color);
+                    assert_eq!(c.normals[i].to_array(), want_normals[g].to_array(), "{g}");
+                }
+                Ok(())
+            })
+            .unwrap();
+        assert!(seen.iter().all(|&s| s));
+        match &prepared {
+            Prepared::Chunked(chunks) => {
+                assert!(limit < 1 << 30 && chunks.len() >= 3, "{summary:?}");
+                assert_eq!(chunks.len() as u64, summary.chunks);
+                let leaves = chunks
+                    .parts()
+                    .iter()
+                    .filter(|p| matches!(p.kind, PartKind::Chunk(_)))
+                    .count();
+                assert_eq!(leaves, chunks.len());
+            }
+            Prepared::Whole(_) => assert_eq!(limit, 1 << 30),
+        }
+        drop(prepared);
+        // The scratch folder goes with the result.
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}
+
+#[test]
+fn bad_inputs_and_limits_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.lod");
+    let e = run(&cloud(100, 1), &options(16 << 20), &out).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::InvalidParameter {
+                name: "memory_limit",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert!(matches!(
+        run(&[], &options(1 << 30), &out),
+        Err(Error::EmptyCloud)
+    ));
+    let mut pts = cloud(100, 1);
+    pts[3].position.x = f64::INFINITY;
+    assert!(matches!(
+        run(&pts, &options(1 << 30), &out),
+        Err(Error::Cloud(crate::Error::NonFinite { index: 3 }))
+    ));
+    let given = Options {
+        normals: Normals::Given,
+        ..options(1 << 30)
+    };
+    let mut pts = cloud(100, 1);
+    pts[5].normal = Vec3::NAN;
+    let e = run(&pts, &given, &out).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            Error::InvalidParameter {
+                name: "normals",
+                ..
+            }
+        ),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}

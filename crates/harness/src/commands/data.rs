@@ -1,0 +1,198 @@
+//! The data commands: `fetch` (the real meshes), `datasets` (the list, with what is ready),
+//! `export` (a dataset as a PLY or LAS file), `inspect` (what a file holds) and `views` (a
+//! dataset's cameras as the views CSV or JSON lines).
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{Result, bail};
+
+use crate::cli::ViewsFormat;
+use crate::{datasets, output};
+
+/// `pointsight fetch`.
+pub fn fetch(data_dir: &Path) -> Result<()> {
+    let report = crate::fetch::fetch(data_dir)?;
+    for f in &report.present {
+        println!("{f}: present, checksum ok");
+    }
+    for f in &report.written {
+        println!("{f}: fetched, checksum ok");
+    }
+    println!("data folder: {}", data_dir.display());
+    Ok(())
+}
+
+/// `pointsight datasets`.
+pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
+    for d in datasets::REGISTRY {
+        let ready = match d.mesh_file() {
+            None => "generated",
+            Some(m) if crate::fetch::mesh_path(data_dir, &m).exists() => "ready",
+            Some(_) => "needs-fetch",
+        };
+        println!(
+            "{:<20} {:>8}  {:<11}  {}",
+            d.name, d.n_points, ready, d.description
+        );
+    }
+    if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
+        for (name, e) in &m.datasets {
+            let ready = [&e.cloud, &e.mesh, &e.lod_file]
+                .into_iter()
+                .flatten()
+                .all(|p| m.resolve(p).exists());
+            println!(
+                "{name:<20} {:>8}  {:<11}  {}",
+                e.sample.map_or("-".to_owned(), |s| s.n.to_string()),
+                if ready { "ready" } else { "missing-file" },
+                if e.description.is_empty() {
+                    format!("from {}", m.path.display())
+                } else {
+                    e.description.clone()
+                }
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `pointsight export`.
+pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
+    let ds = datasets::load(dataset, data_dir)?;
+    // In world coordinates (the recentring and rescaling undone: exact).
+    let positions = ds.world_positions();
+    let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
+    let n = positions.len();
+    if is_las {
+        let with_attributes = cloud::PointCloud {
+            positions,
+            colors: ds.cloud.colors,
+            intensity: ds.cloud.intensity,
+            classification: ds.cloud.classification,
+            ..Default::default()
+        };
+        // Whole or not at all (cloud::io::atomic).
+        let scale = cloud::io::las::write_las(out, &with_attributes)?;
+        println!(
+            "dataset={dataset} points={n} file={} scale={scale:e}",
+            out.display()
+        );
+    } else {
+        let positions_only = cloud::PointCloud {
+            positions,
+            ..Default::default()
+        };
+        cloud::io::ply_write::write_ply(out, &positions_only)?;
+        println!("dataset={dataset} points={n} file={}", out.display());
+    }
+    Ok(())
+}
+
+/// `pointsight inspect`.
+pub fn inspect(
+    file: &Path,
+    format: Option<String>,
+    classes: Option<Vec<u8>>,
+    scan: Option<usize>,
+) -> Result<()> {
+    let options = cloud::io::ReadOptions {
+        format: super::parse_format(format)?,
+        classes,
+        scan,
+    };
+    let start = std::time::Instant::now();
+    let loaded = cloud::io::read_with(file, &options)?;
+    let seconds = start.elapsed().as_secs_f64();
+    let c = &loaded.cloud;
+    let mut attributes = Vec::new();
+    for (name, present) in [
+        ("normals", c.normals.is_some()),
+        ("colors", c.colors.is_some()),
+        ("uvs", c.uvs.is_some()),
+        ("intensity", c.intensity.is_some()),
+        ("classification", c.classification.is_some()),
+        ("scan", c.scan.is_some()),
+    ] {
+        if present {
+            attributes.push(name);
+        }
+    }
+    if let Some(b) = c.bbox() {
+        println!(
+            "bbox_min={},{},{} bbox_max={},{},{}",
+            b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+        );
+    }
+    for (k, s) in loaded.scanners.iter().enumerate() {
+        println!(
+            "scanner={k} position={},{},{}",
+            s.position.x, s.position.y, s.position.z
+        );
+    }
+    println!(
+        "file={} points={} faces={} attributes={} read_seconds={seconds:.6} \
+         points_per_second={:.0}",
+        file.display(),
+        c.len(),
+        loaded.triangles.len(),
+        if attributes.is_empty() {
+            "-".to_owned()
+        } else {
+            attributes.join(",")
+        },
+        c.len() as f64 / seconds.max(1e-12)
+    );
+    Ok(())
+}
+
+/// `pointsight views`: a dataset's views as CSV or JSON lines, to a file or standard output.
+pub fn views(
+    dataset: &str,
+    out: Option<&Path>,
+    format: ViewsFormat,
+    data_dir: &Path,
+) -> Result<()> {
+    let ds = datasets::load(dataset, data_dir)?;
+    let text = match format {
+        ViewsFormat::Csv => views_csv(&ds.views)?,
+        ViewsFormat::Jsonl => cloud::io::views::write_views(&ds.views),
+    };
+    match out {
+        Some(path) => output::write_atomic(path, text.as_bytes())?,
+        None => std::io::stdout().write_all(text.as_bytes())?,
+    }
+    Ok(())
+}
+
+/// The views CSV of the output contract (look-at pinhole views; other models need the JSON
+/// lines format).
+pub fn views_csv(views: &[cloud::Camera]) -> Result<String> {
+    if let Some(c) = views.iter().find(|c| c.fov_y_deg().is_none()) {
+        bail!(
+            "the views CSV holds pinhole views only; this dataset has {} views: use --format jsonl",
+            c.model().name()
+        );
+    }
+    let mut s = String::from(
+        "view,eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,fov_y_deg,width,height\n",
+    );
+    for (k, c) in views.iter().enumerate() {
+        s.push_str(&format!(
+            "{k},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            c.eye.x,
+            c.eye.y,
+            c.eye.z,
+            c.target.x,
+            c.target.y,
+            c.target.z,
+            c.up.x,
+            c.up.y,
+            c.up.z,
+            c.fov_y_deg().unwrap_or_default(),
+            c.width,
+            c.height
+        ));
+    }
+    Ok(s)
+}

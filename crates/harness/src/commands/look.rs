@@ -1,0 +1,60 @@
+//! The commands that look at visible sets, `visible` (one method on one view or many, with
+//! `--score`; its body is [`crate::visible`]) and `view` (the interactive 3D page of every
+//! method's visible set, [`crate::view`], or of each LOD method's selection with `--lod`): the
+//! command line's source flags made a [`visible::Source`].
+
+use std::path::Path;
+
+use anyhow::Result;
+
+use crate::{cli, view, visible};
+
+/// `pointsight visible`'s `--view`: as given, else every camera of a views file alone, else 0.
+pub fn default_view(view: Option<String>, source: &cli::SourceArgs) -> String {
+    view.unwrap_or_else(|| if source.views.is_some() { "all" } else { "0" }.into())
+}
+
+/// `pointsight visible`.
+pub fn visible(request: &visible::Request, data_dir: &Path) -> Result<()> {
+    visible::run(request, data_dir).map_err(cli::frame_set)
+}
+
+/// `pointsight view`: the page of `request`, an LOD page with `lod` (its eye at `distance`
+/// times the view's distance); prints the page's line.
+pub fn view(request: &view::Request, lod: bool, distance: f64, data_dir: &Path) -> Result<()> {
+    let page = if lod {
+        view::lod::run(request, view::lod::LodRequest { distance }, data_dir)?
+    } else {
+        if distance != view::lod::DEFAULT_DISTANCE {
+            anyhow::bail!("--distance is for level-of-detail pages (--lod)");
+        }
+        view::run(request, data_dir)?
+    };
+    println!("{}", page.line());
+    Ok(())
+}
+
+/// The source flags of `visible` and `view` as a [`visible::Source`].
+pub fn source_of(a: cli::SourceArgs) -> Result<visible::Source> {
+    Ok(visible::Source {
+        dataset: a.dataset,
+        cloud: a.cloud,
+        mesh: a.mesh,
+        read: cloud::io::ReadOptions {
+            format: super::parse_format(a.format)?,
+            classes: a.classes,
+            scan: a.scan,
+        },
+        merge_scans: a.merge_scans,
+        surface_tolerance: a.surface_tolerance,
+        camera: visible::CameraFlags {
+            eye: a.eye,
+            target: a.target,
+            up: a.up,
+            fov_y_deg: a.fov_y,
+            width: a.width,
+            height: a.height,
+        },
+        views: a.views,
+    })
+}
