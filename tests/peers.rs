@@ -989,7 +989,7 @@ fn copc_lod_selection_equals_a_brute_force_over_its_hierarchy() {
             );
             for (g, e) in got.iter().zip(&expected) {
                 compared += 1;
-                if (g.1 - e.1).abs() > 1e-5 * e.1 {
+                if (g.1 - e.1).abs() > 1e-6 * e.1 {
                     assert!(
                         near_a_cell_border(&truth, positions[&g.0], depth),
                         "view {v} threshold {t}: point {} radius {} expected {}",

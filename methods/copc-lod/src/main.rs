@@ -216,8 +216,10 @@ fn answer(file: &copc::Copc, request: &serde_json::Value, radii: &select::Radii)
             }
             let r = select::radius_of(file, &selected, k, p, radii);
             if r != last_radius.0 {
-                // A few distinct radii: each written once.
-                last_radius = (r, format!("{r:.5e}"));
+                // A few distinct radii: each written once, as the shortest text of the f32
+                // pointsight keeps (at most 12 characters: an answer stays within the
+                // protocol's 24 bytes a point with indices below 10^8).
+                last_radius = (r, format!("{:e}", r as f32));
             }
             let sep = if count == 0 { "" } else { "," };
             // Writing to a String cannot fail.

@@ -34,11 +34,16 @@
 //! the sizes that finished.
 
 //!
+//! The peer's out-of-core build, `copc_converter-build-ooc` ([`copc`]): copc_converter from the
+//! same LAZ, with the same thread count and memory limit, beside ours.
+//!
 //! Modules: [`plan`] (cells, sizes, caps, skip rules), [`child`] (a cell in its own process),
-//! [`cell`] (a cell's body), [`row`] (what a cell reports), [`render`] (the report).
+//! [`cell`] (a cell's body), [`copc`] (the peer's build), [`row`] (what a cell reports),
+//! [`render`] (the report).
 
 pub mod cell;
 pub mod child;
+pub mod copc;
 pub mod plan;
 pub mod render;
 pub mod row;
@@ -179,6 +184,7 @@ impl Experiment for ScaleExperiment {
             "sizes": in_core_sizes,
             "out_of_core": {
                 "methods": crate::lod_build::OUT_OF_CORE,
+                "peer": copc::COPC_CONVERTER,
                 "sizes": ooc_sizes,
                 "memory_limit_bytes": OOC_LIMIT,
                 "cap_seconds": OOC_CAP.as_secs(),

@@ -64,10 +64,17 @@ pub const OOC_DISK_PER_POINT: u64 = 175;
 /// (about 91) beside the file (84.6 at 10^7): about 188, and a quarter more for margin.
 pub const SPT_OOC_DISK_PER_POINT: u64 = 235;
 
+/// Disk copc_converter's out-of-core cell needs per point: the LAZ input (11.4), its scratch
+/// folder (at most 40.7 at 10^7 points, 388 MiB, read every 200 ms) and the COPC file (9.5):
+/// 62, and a quarter more for margin and for what the readings missed.
+pub const COPC_OOC_DISK_PER_POINT: u64 = 80;
+
 /// Disk the out-of-core cell of `method` needs per point.
 pub fn ooc_disk_per_point(method: &str) -> u64 {
     if method.starts_with("spt") {
         SPT_OOC_DISK_PER_POINT
+    } else if method.starts_with(super::copc::COPC_CONVERTER) {
+        COPC_OOC_DISK_PER_POINT
     } else {
         OOC_DISK_PER_POINT
     }
@@ -146,6 +153,14 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         unavailable: None,
         out_of_core: true,
     }));
+    // The peer's build from the same LAZ (`copc`).
+    out.push(CellKind {
+        name: format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER),
+        setting: Setting::default(),
+        scale: Scale::PerPoint(0),
+        unavailable: super::copc::converter().err(),
+        out_of_core: true,
+    });
     out
 }
 
