@@ -13,7 +13,10 @@
 #   libgl1-mesa-dri (Mesa's software rasteriser);
 # - pcl-voxel: Debian's libpcl-dev (about 400 packages, 1.1 GB installed, 150 s on the
 #   development machine), then builds methods/pcl-voxel/pcl_voxel;
-# - py3dtiles-lod: py3dtiles with its PLY reader (`py3dtiles[ply]`, PyPI) into .venv.
+# - py3dtiles-lod: py3dtiles with its PLY reader (`py3dtiles[ply]`, PyPI) into .venv;
+# - copc-lod: copc_converter from crates.io (`cargo install --locked`, pinned) and the peer's
+#   own program (methods/copc-lod, its committed Cargo.lock), both into .tools/bin (about
+#   2.5 minutes on 2 cores, most of it copc_converter's build).
 # Debian packages go in with --no-install-recommends. The peers share one protocol helper per
 # language in methods/_shared/ (the Python peers import it, the C++ ones include it).
 set -euo pipefail
@@ -105,6 +108,19 @@ py3dtiles_() {
   fi
 }
 
+copc() {
+  local version=0.16.0 dir=methods/copc-lod
+  if [ "$(.tools/bin/copc_converter --version 2>/dev/null)" != "copc_converter $version" ]; then
+    echo "peers: cargo install copc_converter $version into .tools"
+    cargo install -q --locked --version "$version" --root .tools copc_converter
+  fi
+  if [ ! -x .tools/bin/copc-lod ] || [ -n "$(find "$dir/src" "$dir/Cargo.toml" "$dir/Cargo.lock" \
+      -newer .tools/bin/copc-lod)" ]; then
+    echo "peers: building $dir into .tools/bin"
+    cargo install -q --locked --path "$dir" --root .tools --target-dir .tools/target --force
+  fi
+}
+
 test -x .venv/bin/python || python3 -m venv .venv
 timed open3d-hpr open3d
 timed cgal-hpr cgal
@@ -112,9 +128,11 @@ timed pcu-raycast pcu
 timed vtk-zbuffer vtk_
 timed pcl-voxel pcl
 timed py3dtiles-lod py3dtiles_
+timed copc-lod copc
 echo "peers: ok ($(.venv/bin/python -c 'import open3d; print("open3d", open3d.__version__)'),"\
 " $(methods/cgal-hpr/cgal_hpr --version),"\
 " point-cloud-utils $(.venv/bin/python -c 'import importlib.metadata as m; print(m.version("point-cloud-utils"))'),"\
 " vtk $(.venv/bin/python -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())'),"\
 " $(methods/pcl-voxel/pcl_voxel --version),"\
-" py3dtiles $(.venv/bin/python -c 'import importlib.metadata as m; print(m.version("py3dtiles"))'))"
+" py3dtiles $(.venv/bin/python -c 'import importlib.metadata as m; print(m.version("py3dtiles"))'),"\
+" $(.tools/bin/copc-lod --version))"

@@ -4,7 +4,9 @@
 //! `results.csv` (method `qsplat` or `spt`), plus `file_reads.csv`: per selection, the bytes
 //! it read from the file, the bytes the page cache held after it (0 for SPT, which keeps no
 //! cache) and the bytes of the selection itself, so that selection memory can be read against
-//! what the view draws.
+//! what the view draws. An external LOD method that selects from a file of its own (the COPC
+//! peer, `methods/copc-lod`) says per view what it read (the protocol's `bytes_read`): its
+//! rows join the same file and table, from `lod`'s in-memory datasets.
 //!
 //! The reference is every leaf of the file (QSplat: its decoded, quantised spheres; SPT: its
 //! leaf discs; the files keep no other positions), streamed in batches of [`LEAF_BATCH`] into
@@ -35,6 +37,9 @@ pub const LEAF_BATCH: usize = 1 << 20;
 pub struct FileRead {
     /// Dataset name.
     pub dataset: String,
+    /// The method that selected (`qsplat`, `spt`, or an external method with its own file).
+    #[serde(default)]
+    pub method: String,
     /// View index.
     pub view: usize,
     /// Eye distance factor.
@@ -127,6 +132,7 @@ pub(super) fn measure(
                 let r = s.reads.unwrap_or_default();
                 reads.push(FileRead {
                     dataset: name.to_owned(),
+                    method: method.name.to_owned(),
                     view,
                     distance,
                     params: row.params.clone(),
@@ -160,24 +166,32 @@ pub(super) fn measure(
 /// distance and setting.
 pub(super) fn table(reads: &[FileRead]) -> String {
     let mib = |b: f64| format!("{:.2}", b / f64::from(1u32 << 20));
-    let mut keys: Vec<(String, f64, String)> = Vec::new();
+    let mut keys: Vec<(String, String, f64, String)> = Vec::new();
     for r in reads {
-        let k = (r.dataset.clone(), r.distance, r.params.clone());
+        let k = (
+            r.dataset.clone(),
+            r.method.clone(),
+            r.distance,
+            r.params.clone(),
+        );
         if !keys.contains(&k) {
             keys.push(k);
         }
     }
     let rows: Vec<Vec<String>> = keys
         .iter()
-        .map(|(ds, d, p)| {
+        .map(|(ds, m, d, p)| {
             let of: Vec<&FileRead> = reads
                 .iter()
-                .filter(|r| &r.dataset == ds && r.distance == *d && &r.params == p)
+                .filter(|r| {
+                    &r.dataset == ds && &r.method == m && r.distance == *d && &r.params == p
+                })
                 .collect();
             let n = of.len() as f64;
             let mean = |f: &dyn Fn(&FileRead) -> f64| of.iter().map(|r| f(r)).sum::<f64>() / n;
             vec![
                 ds.clone(),
+                m.clone(),
                 format!("×{d}"),
                 p.clone(),
                 format!("{:.0}", mean(&|r| r.points_rendered as f64)),
@@ -196,12 +210,15 @@ pub(super) fn table(reads: &[FileRead]) -> String {
          sequential point tree's: each cut reads the prefix of the list its view needs block \
          by block, then the splats it selected, and keeps no cache (0 MiB; the repeats read \
          again, from the operating system's page cache). The reference is the file's leaves, \
-         streamed. Means over the views; `read` is what a view's first selection read; \
+         streamed. A peer that selects from a file of its own (`copc-lod`: the COPC file it \
+         built, its hierarchy held in memory, each selected node's chunk read per view) on an \
+         in-memory dataset: what it says it read, no cache. Means over the views; `read` is what a view's first selection read; \
          `selection ms` is the median of the timed runs.\n\n{}",
         CACHE_BYTES >> 20,
         super::markdown_table(
             &[
                 "dataset",
+                "method",
                 "distance",
                 "setting",
                 "points",

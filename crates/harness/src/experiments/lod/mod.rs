@@ -278,6 +278,7 @@ fn measure_dataset(
     name: &str,
     rows: &mut Vec<Row>,
     builds: &mut Vec<BuildRow>,
+    reads: &mut Vec<FileRead>,
 ) -> Result<()> {
     let mut ds = ctx.dataset(name)?;
     for v in &ds.views {
@@ -313,6 +314,9 @@ fn measure_dataset(
             build_repeats: 1,
         };
         let mut levels: Vec<Panel> = Vec::new();
+        // The reads of a method that selects from a file of its own (an external method's
+        // `bytes_read`), its file's bytes filled in once the build says them.
+        let mut m_reads: Vec<FileRead> = Vec::new();
         let built = kernel::run_lod(&cell, &input, |k, v, selection| {
             let (view, distance) = at[v];
             let mut row = Row::new(
@@ -326,6 +330,21 @@ fn measure_dataset(
             match selection {
                 Ok(s) => {
                     let img = score(&mut row, &s, &references[v], &views[v].camera);
+                    if let Some(r) = s.reads {
+                        m_reads.push(FileRead {
+                            dataset: name.to_owned(),
+                            method: m.name.to_owned(),
+                            view,
+                            distance,
+                            params: row.params.clone(),
+                            points_rendered: row.points_rendered,
+                            seconds: row.seconds,
+                            bytes_read: r.bytes_read,
+                            cache_bytes: r.cache_bytes,
+                            selection_bytes: r.selection_bytes,
+                            file_bytes: 0,
+                        });
+                    }
                     // Three levels per method in the strip: the finest, the middle and the
                     // coarsest setting, at view 0 and the near distance.
                     let last = settings.len() - 1;
@@ -341,6 +360,12 @@ fn measure_dataset(
             }
             ds_rows.push((v, row));
         });
+        if let Ok(b) = &built {
+            for mut r in m_reads {
+                r.file_bytes = b.size.bytes as u64;
+                reads.push(r);
+            }
+        }
         match built {
             Ok(b) => builds.push(BuildRow {
                 dataset: name.to_owned(),
@@ -438,7 +463,7 @@ impl Experiment for LodExperiment {
                     ctx.record_files(&file.files);
                     from_file::measure(ctx, &file, &mut rows, &mut reads)?;
                 }
-                None => measure_dataset(ctx, name, &mut rows, &mut builds)?,
+                None => measure_dataset(ctx, name, &mut rows, &mut builds, &mut reads)?,
             }
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;

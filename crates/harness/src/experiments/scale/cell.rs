@@ -155,6 +155,9 @@ fn ooc_cell(
             left > 0
         })?;
         let prepare_seconds = ready();
+        if method == super::copc::COPC_CONVERTER {
+            return super::copc::build_cell(&input, &dir, n, prepare_seconds);
+        }
         let out = dir.join(format!("{method}.lod"));
         let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
         let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
@@ -275,5 +278,41 @@ mod tests {
             .is_err()
         );
         assert!(!ooc_dir(dir.path(), "spt-build-ooc", 100).exists());
+    }
+
+    #[test]
+    fn copc_converter_builds_from_the_same_laz_and_leaves_nothing() {
+        if let Err(why) = super::super::copc::converter() {
+            // The peer's tool: `just peers` installs it, and CI runs that first.
+            assert!(std::env::var("CI").as_deref() != Ok("true"), "{why}");
+            eprintln!("skipped: {why}");
+            return;
+        }
+        let mesh = cloud::synth::icosphere(3);
+        let bbox = mesh.bbox().unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let view = kernel::View {
+            index: 0,
+            camera: cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default()).unwrap()[0],
+        };
+        let out = ooc_cell(
+            "copc_converter",
+            &mesh,
+            &bbox,
+            20_000,
+            dir.path(),
+            (&Setting::default(), &view),
+            || 0.25,
+        )
+        .unwrap();
+        assert!(out.seconds > 0.0 && out.prepare_seconds == 0.25);
+        assert!(
+            out.detail.contains("--memory-limit 1024 MiB") && out.detail.contains("COPC file"),
+            "{}",
+            out.detail
+        );
+        // The converter's peak is counted in the cell's.
+        assert!(out.peak_rss_bytes > crate::rss::peak_rss(), "{out:?}");
+        assert!(!ooc_dir(dir.path(), "copc_converter-build-ooc", 20_000).exists());
     }
 }

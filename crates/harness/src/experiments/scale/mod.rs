@@ -34,11 +34,16 @@
 //! the sizes that finished.
 
 //!
+//! The peer's out-of-core build, `copc_converter-build-ooc` ([`copc`]): copc_converter from the
+//! same LAZ, with the same thread count and memory limit, beside ours.
+//!
 //! Modules: [`plan`] (cells, sizes, caps, skip rules), [`child`] (a cell in its own process),
-//! [`cell`] (a cell's body), [`row`] (what a cell reports), [`render`] (the report).
+//! [`cell`] (a cell's body), [`copc`] (the peer's build), [`row`] (what a cell reports),
+//! [`render`] (the report).
 
 pub mod cell;
 pub mod child;
+pub mod copc;
 pub mod plan;
 pub mod render;
 pub mod row;
@@ -126,7 +131,7 @@ impl Experiment for ScaleExperiment {
                     detail: String::new(),
                 };
                 // An out-of-core cell's disk: its build's (`NAME-build-ooc`).
-                let disk_per_point = crate::lod_build::disk_per_point(
+                let disk_per_point = plan::ooc_disk_per_point(
                     method.strip_suffix(plan::OOC_SUFFIX).unwrap_or(method),
                 );
                 let needed_disk = n.saturating_mul(disk_per_point);
@@ -182,12 +187,14 @@ impl Experiment for ScaleExperiment {
             "sizes": in_core_sizes,
             "out_of_core": {
                 "methods": crate::lod_build::OUT_OF_CORE,
+                "peer": copc::COPC_CONVERTER,
                 "sizes": ooc_sizes,
                 "memory_limit_bytes": OOC_LIMIT,
                 "cap_seconds": OOC_CAP.as_secs(),
                 "prepare_cap_seconds": (OOC_CAP * PREPARE_CAP_FACTOR).as_secs(),
                 "disk_bytes_per_point": crate::lod_build::OOC_DISK_PER_POINT,
                 "spt_disk_bytes_per_point": crate::lod_build::SPT_OOC_DISK_PER_POINT,
+                "copc_converter_disk_bytes_per_point": plan::COPC_OOC_DISK_PER_POINT,
                 "input": "LAZ (point format 0) written streamed by the cell from the same seeded samples",
             },
             "seed": SEED,

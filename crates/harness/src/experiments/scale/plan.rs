@@ -52,6 +52,21 @@ pub const OOC_LIMIT: u64 = 1 << 30;
 /// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
 pub const OOC_CAP: Duration = Duration::from_secs(3600);
 
+/// Disk copc_converter's out-of-core cell needs per point: the LAZ input (11.4), its scratch
+/// folder (at most 40.7 at 10^7 points, 388 MiB, read every 200 ms) and the COPC file (9.5):
+/// 62, and a quarter more for margin and for what the readings missed.
+pub const COPC_OOC_DISK_PER_POINT: u64 = 80;
+
+/// Disk the out-of-core cell of `name` (`NAME-build-ooc` without its suffix) needs per point:
+/// the peer's converter's, else our build's (`lod_build::disk_per_point`).
+pub fn ooc_disk_per_point(name: &str) -> u64 {
+    if name == super::copc::COPC_CONVERTER {
+        COPC_OOC_DISK_PER_POINT
+    } else {
+        crate::lod_build::disk_per_point(name)
+    }
+}
+
 /// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
 pub fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
     decades(6, if quick { 6 } else { 9 }, max_points)
@@ -125,6 +140,14 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         unavailable: None,
         out_of_core: true,
     }));
+    // The peer's build from the same LAZ (`copc`).
+    out.push(CellKind {
+        name: format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER),
+        setting: Setting::default(),
+        memory: Memory::PerPoint(0),
+        unavailable: super::copc::converter().err(),
+        out_of_core: true,
+    });
     out
 }
 

@@ -14,6 +14,40 @@ use crate::output::figure::{Axis, Draw, Figure, Point, Series};
 use crate::output::style;
 use crate::output::{read_csv, write_atomic};
 
+/// Per size where copc_converter's cell finished: each of our out-of-core builds' rate over
+/// its rate (points per second), from the same run.
+fn rates_against_the_peer(rows: &[Row]) -> String {
+    let peer = format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER);
+    let mut out = String::new();
+    for p in rows.iter().filter(|r| r.method == peer && r.status == "ok") {
+        let ours: Vec<String> = rows
+            .iter()
+            .filter(|r| {
+                r.method.ends_with(OOC_SUFFIX)
+                    && r.method != peer
+                    && r.n_points == p.n_points
+                    && r.status == "ok"
+            })
+            .map(|r| {
+                format!(
+                    "`{}` {:.2}×",
+                    r.method,
+                    (r.n_points as f64 / r.seconds) / (p.n_points as f64 / p.seconds)
+                )
+            })
+            .collect();
+        if !ours.is_empty() {
+            out.push_str(&format!(
+                "\nAt {} points, our rate over copc_converter's ({:.2} M points/s): {}.\n",
+                p.n_points,
+                p.n_points as f64 / p.seconds / 1e6,
+                ours.join(", ")
+            ));
+        }
+    }
+    out
+}
+
 /// Draws the plots and writes `summary.md` of the results in `dir`.
 pub fn render(dir: &Path) -> Result<()> {
     let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
@@ -177,8 +211,10 @@ pub fn render(dir: &Path) -> Result<()> {
     } else {
         format!(
             "\nOut-of-core builds (`pointsight lod-build` of a LAZ file the cell wrote from \
-             the same samples; `seconds` includes reading and decoding it):\n\n{}",
-            ooc.concat()
+             the same samples, and the peer copc_converter's build of that file with the same \
+             thread count and memory limit; `seconds` includes reading and decoding it):\n\n{}{}",
+            ooc.concat(),
+            rates_against_the_peer(&rows)
         )
     };
     let opted_out = if opted_out.is_empty() {
@@ -293,6 +329,37 @@ mod tests {
         );
         assert!(text.ends_with("1000000000: skipped: the previous size did not finish"));
         assert_eq!(not_finished(std::iter::empty()), "-");
+    }
+
+    #[test]
+    fn our_rates_are_given_over_the_peers_at_each_size() {
+        let row = |method: &str, n: u64, seconds: f64, status: &str| Row {
+            method: method.into(),
+            n_points: n,
+            seconds,
+            peak_rss_bytes: 0,
+            status: status.into(),
+            prepare_seconds: 0.0,
+            detail: String::new(),
+        };
+        let rows = [
+            row("qsplat-build-ooc", 1_000_000, 5.0, "ok"),
+            row("spt-build-ooc", 1_000_000, 8.0, "ok"),
+            row("copc_converter-build-ooc", 1_000_000, 2.0, "ok"),
+            row("qsplat-build-ooc", 10_000_000, 50.0, "ok"),
+            row(
+                "copc_converter-build-ooc",
+                10_000_000,
+                f64::NAN,
+                "timeout after 3600 s",
+            ),
+        ];
+        let text = rates_against_the_peer(&rows);
+        assert_eq!(
+            text,
+            "\nAt 1000000 points, our rate over copc_converter's (0.50 M points/s): \
+             `qsplat-build-ooc` 0.40×, `spt-build-ooc` 0.25×.\n"
+        );
     }
 
     #[test]

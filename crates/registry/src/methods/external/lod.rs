@@ -12,7 +12,7 @@ use super::manifest::{ExternalMethod, external_error};
 use super::session::Session;
 use super::visibility::params_json;
 use crate::error::Result;
-use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
+use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, Reads, args_of};
 use crate::params::Reader;
 
 /// An external level-of-detail method.
@@ -91,6 +91,7 @@ impl LodBuilt for ExternalLodBuilt {
             params: &args_of::<Args>(args, self.name)?.0,
             last: Vec::new(),
             seconds: None,
+            bytes_read: None,
         }))
     }
 }
@@ -101,6 +102,8 @@ struct ExternalLodSel<'s> {
     params: &'s str,
     last: Vec<(u32, f64)>,
     seconds: Option<f64>,
+    /// The last answer's `bytes_read`: the bytes its selection read from the program's own file.
+    bytes_read: Option<u64>,
 }
 
 impl ExternalLodSel<'_> {
@@ -145,17 +148,27 @@ impl ExternalLodSel<'_> {
                 return Err(format!("splat radius {r} is not a positive number"));
             }
             let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
-            *answer.lock().map_err(|_| "lock")? =
-                Some((visible.into_iter().zip(radii).collect::<Vec<_>>(), seconds));
+            let bytes_read = match v.get("bytes_read") {
+                None => None,
+                Some(b) => Some(b.as_u64().ok_or_else(|| {
+                    format!("\"bytes_read\" {b} is not a whole number of bytes")
+                })?),
+            };
+            *answer.lock().map_err(|_| "lock")? = Some((
+                visible.into_iter().zip(radii).collect::<Vec<_>>(),
+                seconds,
+                bytes_read,
+            ));
             Ok(())
         })?;
-        let (last, seconds) = answer
+        let (last, seconds, bytes_read) = answer
             .into_inner()
             .ok()
             .flatten()
             .ok_or_else(|| external_error(session.method, "no answer"))?;
         self.last = last;
         self.seconds = Some(seconds.unwrap_or(wall));
+        self.bytes_read = bytes_read;
         Ok(())
     }
 }
@@ -195,6 +208,15 @@ impl LodSelector for ExternalLodSel<'_> {
 
     fn reported_seconds(&self) -> Option<f64> {
         self.seconds
+    }
+
+    fn reads(&self) -> Option<Reads> {
+        // The program's own file, read as it says; it keeps no cache pointsight knows of.
+        self.bytes_read.map(|bytes_read| Reads {
+            bytes_read,
+            cache_bytes: 0,
+            selection_bytes: (self.last.len() * size_of::<Splat>()) as u64,
+        })
     }
 
     fn splats(&self) -> Vec<Splat> {

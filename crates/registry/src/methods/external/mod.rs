@@ -31,7 +31,8 @@
 //!   "seconds": T, "nodes": K, "bytes": B}` (its own build time); then per view and setting it
 //!   reads `{"view": K, "camera": CAMERA, "params": JSON}` and answers `{"visible": [...],
 //!   "radius": R, "seconds": T}`, R one splat radius (world units) for all or a list, one per
-//!   index.
+//!   index, and optionally `"bytes_read": B`, the bytes the selection read from the program's
+//!   own file (a COPC file), reported as a file selection's reads (`LodSelector::reads`).
 //! - The answer is checked with bounded memory: a line longer than the cloud's index range
 //!   allows ([`answer_limit`]: 1 MiB plus 24 bytes per point), a `visible_file` larger than
 //!   that, more indices than points, indices outside 0..N and repeated ones are errors (the
