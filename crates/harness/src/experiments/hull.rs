@@ -204,6 +204,7 @@ impl Experiment for HullExperiment {
                 for &gamma in GAMMAS {
                     let mut exact: Option<Vec<u32>> = None;
                     for (hull_name, hull) in &hulls {
+                        progress::at(name, hull_name);
                         for &perturb in perturbs {
                             bar.inc(1);
                             let mut row = Row {

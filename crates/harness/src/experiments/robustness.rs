@@ -328,6 +328,7 @@ impl Experiment for RobustnessExperiment {
                     })
                     .collect::<Result<_>>()?;
                 for (method, sweep) in &methods {
+                    progress::at(name, method.name());
                     let run = |kind: &str, setting: &Setting| {
                         run_views(
                             name, case, &truths, &kviews, *method, kind, setting, repeats,
