@@ -95,21 +95,18 @@ pub fn bench(
     for name in chosen.iter().flatten() {
         datasets::check(name)?;
     }
-    let to_run: Vec<&'static dyn experiments::Experiment> = match &only {
-        None => experiments::EXPERIMENTS.to_vec(),
-        Some(names) => {
-            let mut out = Vec::new();
-            for exp in experiments::EXPERIMENTS {
-                if names.iter().any(|n| n == exp.name()) {
-                    out.push(*exp);
-                }
-            }
-            for n in names {
-                experiments::experiment(n)?;
-            }
-            out
-        }
-    };
+    for name in only.iter().flatten() {
+        experiments::experiment(name)?;
+    }
+    // In report order, whatever the order of `--experiments`.
+    let to_run: Vec<&'static dyn experiments::Experiment> = experiments::EXPERIMENTS
+        .iter()
+        .copied()
+        .filter(|e| {
+            only.as_ref()
+                .is_none_or(|o| o.iter().any(|n| n == e.name()))
+        })
+        .collect();
     let datasets_of = |exp: &dyn experiments::Experiment| -> Vec<String> {
         match &chosen {
             Some(list) => list.clone(),
@@ -120,14 +117,14 @@ pub fn bench(
                 .collect(),
         }
     };
-    // The report's viewer pages need the viewer's script: say so before measuring for hours.
-    let visibility_datasets = datasets_of(experiments::experiment("visibility")?);
-    if sweep.shard.is_none()
-        && to_run.iter().any(|e| e.name() == "visibility")
-        && visibility_datasets
-            .iter()
-            .any(|d| datasets::info(d).is_ok_and(|i| i.needs_fetch()))
-    {
+    // The report's viewer pages (the visibility and lod experiments' fetched datasets) need
+    // the viewer's script: say so before measuring for hours.
+    let pages = to_run
+        .iter()
+        .filter(|e| ["visibility", "lod"].contains(&e.name()))
+        .flat_map(|e| datasets_of(*e))
+        .any(|d| datasets::info(&d).is_ok_and(|i| i.needs_fetch()));
+    if sweep.shard.is_none() && pages {
         view::page::bundle()?;
     }
     let progress = progress::Run::start(
