@@ -10,6 +10,16 @@ default:
 setup:
     scripts/bootstrap.sh
 
+# Put `pointsight` on the PATH: the release binary in PREFIX/bin, the methods and page scripts
+# beside it in PREFIX/share/pointsight (docs/install.md); safe to re-run.
+install prefix="~/.local": setup web
+    scripts/install.sh --prefix {{prefix}}
+
+# Remove what `just install` put into PREFIX.
+uninstall prefix="~/.local":
+    cargo uninstall -q --root {{prefix}} harness 2>/dev/null || true
+    rm -rf {{prefix}}/bin/pointsight {{prefix}}/share/pointsight
+
 # Download the real meshes into bench-data/ (checksummed; does nothing when present).
 fetch: setup
     cargo run -q -p harness -- fetch
@@ -53,7 +63,8 @@ peers: python
 build: setup
     cargo build --release -p harness
 
-# Run every experiment in full and write reports/ (add --quick for the short version).
+# Run every experiment in full and write reports/ (--quick: the short version, into
+# reports-quick/).
 bench *args: build web
     target/release/pointsight fetch
     target/release/pointsight bench {{args}}

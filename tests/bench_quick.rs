@@ -63,6 +63,16 @@ fn bench(reports: &Path, results_script: &Path) {
         "bench failed: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Standard error is not a terminal here: no progress on it (warnings may be).
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    for progress in [
+        "experiment 1 of",
+        "== reference",
+        "done in",
+        "viewer pages: ",
+    ] {
+        assert!(!stderr.contains(progress), "{progress}: {stderr}");
+    }
 }
 
 #[test]

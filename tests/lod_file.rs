@@ -188,6 +188,27 @@ fn the_lod_experiment_selects_from_a_built_file() {
     );
     let summary = std::fs::read_to_string(out.join("summary.md")).unwrap();
     assert!(summary.contains("Selection from built files"), "{summary}");
+    // The Builds table has the file's row (the file opened; its size per point), where it was
+    // empty for a built file; seed 003's table was not asked for.
+    let builds = std::fs::read_to_string(out.join("builds.csv")).unwrap();
+    let row = builds
+        .lines()
+        .find(|l| l.starts_with("ball-built,qsplat,120000,"))
+        .unwrap_or_else(|| panic!("no build row: {builds}"));
+    let bytes_per_point: f64 = row.rsplit(',').next().unwrap().parse().unwrap();
+    assert!(
+        (bytes_per_point - file_bytes as f64 / 120_000.0).abs() < 1e-9,
+        "{row}"
+    );
+    assert!(
+        summary.contains("| ball-built | qsplat | 120000 |"),
+        "{summary}"
+    );
+    assert!(
+        std::fs::read_to_string(out.join("srn_table.csv"))
+            .unwrap()
+            .is_empty()
+    );
     assert!(out.join("strip_ball-built.png").exists());
     // The file's checksum is in the run's metadata.
     let meta = std::fs::read_to_string(out.join("metadata.json")).unwrap();

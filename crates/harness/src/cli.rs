@@ -5,30 +5,34 @@ use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
+pub use crate::visible::ParallelViews;
+
 /// pointsight: a benchmark harness for point-cloud visibility and level-of-detail methods.
+///
+/// Folders: the data folder and the methods folder are the flags' (or their environment
+/// variables'), else the clone's `bench-data/` and `methods/` when the working directory is
+/// inside a pointsight clone, else the per-user data folder (`$XDG_DATA_HOME/pointsight` or
+/// `~/.local/share/pointsight`) and the methods installed beside the binary
+/// (`PREFIX/share/pointsight/methods`); `harness::paths` is the rule.
 #[derive(Debug, Parser)]
-#[command(name = "pointsight", version, about, long_about = None)]
+#[command(name = "pointsight", version = crate::paths::VERSION, about, long_about)]
 pub struct Cli {
     /// A dataset manifest (TOML) naming datasets made of your files; default:
     /// `pointsight.toml` in the working directory when it exists.
     #[arg(long, global = true, env = "POINTSIGHT_MANIFEST")]
     pub manifest: Option<PathBuf>,
-    /// Folder of external methods (`NAME/method.toml` each; see methods/README.md).
-    #[arg(
-        long,
-        global = true,
-        env = "POINTSIGHT_METHODS",
-        default_value = "methods"
-    )]
-    pub methods_dir: PathBuf,
-    /// Folder of fetched data.
-    #[arg(
-        long,
-        global = true,
-        env = "POINTSIGHT_DATA",
-        default_value = "bench-data"
-    )]
-    pub data_dir: PathBuf,
+    /// Folder of external methods (`NAME/method.toml` each; see methods/README.md); default:
+    /// the clone's `methods/`, else `PREFIX/share/pointsight/methods` beside the binary.
+    #[arg(long, global = true, env = "POINTSIGHT_METHODS")]
+    pub methods_dir: Option<PathBuf>,
+    /// Folder of fetched data; default: the clone's `bench-data/`, else
+    /// `$XDG_DATA_HOME/pointsight` (or `~/.local/share/pointsight`).
+    #[arg(long, global = true, env = "POINTSIGHT_DATA")]
+    pub data_dir: Option<PathBuf>,
+    /// No progress on standard error (bars, the run's line, notes); warnings and errors stay.
+    /// Progress is drawn only when standard error is a terminal anyway.
+    #[arg(long, short = 'q', global = true)]
+    pub quiet: bool,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -41,6 +45,10 @@ pub struct Cli {
 pub enum Command {
     /// Download the real meshes (Debian's libcgal-demo) into the data folder, checksummed.
     Fetch,
+    /// Where the data, methods and reports folders and the page scripts are for this working
+    /// directory, and which step of the rule chose each (`harness::paths`): one `NAME=PATH
+    /// (why)` line each.
+    Paths,
     /// One line per dataset: name, number of points, availability, description.
     Datasets,
     /// The visibility methods and their --set parameters.
@@ -194,27 +202,34 @@ pub enum Command {
         scan: Option<usize>,
     },
     /// Run an experiment: results.csv, plots and tables into its output folder.
+    ///
+    /// On your own files as `visible` takes them: `--cloud FILE` (and `--mesh FILE` for the
+    /// ground truth) with `--eye X,Y,Z` or `--views FILE`; the dataset is named after the
+    /// file. Without `--cloud`, `--eye` or `--views` replace every dataset's own views.
     Run {
         /// Experiment name.
         experiment: String,
         /// Comma-separated datasets (default: the experiment's own list).
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', conflicts_with = "cloud")]
         datasets: Option<Vec<String>>,
         /// Fewer datasets, views and repeats.
         #[arg(long)]
         quick: bool,
-        /// Output folder (default reports/EXPERIMENT).
+        /// Output folder (default reports/EXPERIMENT, reports-quick/EXPERIMENT with --quick:
+        /// in the clone, else in the working directory).
         #[arg(long)]
         out: Option<PathBuf>,
-        /// A views file (JSON lines or a COLMAP text model) replacing every dataset's own
-        /// views.
-        #[arg(long)]
-        views: Option<PathBuf>,
+        /// Your point and mesh files.
+        #[command(flatten)]
+        files: FileArgs,
+        /// The cameras.
+        #[command(flatten)]
+        camera: CameraArgs,
         /// Sweeps, repeats, shard.
         #[command(flatten)]
         sweep: SweepFlags,
     },
-    /// Run every experiment with its default datasets into reports/, then write the report.
+    /// Run every experiment with its default datasets, then write the report.
     Bench {
         /// Quick mode for every experiment.
         #[arg(long)]
@@ -223,9 +238,13 @@ pub enum Command {
         /// example the synthetic ones, which need no download).
         #[arg(long, value_delimiter = ',')]
         datasets: Option<Vec<String>>,
-        /// Reports folder.
-        #[arg(long, default_value = "reports")]
-        reports: PathBuf,
+        /// Comma-separated experiments to run (default: every one, in report order).
+        #[arg(long, value_delimiter = ',')]
+        experiments: Option<Vec<String>>,
+        /// Reports folder (default reports/, reports-quick/ with --quick: in the clone, else
+        /// in the working directory).
+        #[arg(long)]
+        reports: Option<PathBuf>,
         /// Sweeps, repeats, shard.
         #[command(flatten)]
         sweep: SweepFlags,
@@ -260,15 +279,15 @@ pub enum Command {
     /// (reports/viewer/, each at most 5 MiB) and assemble reports/README.md from the
     /// experiments' results.
     Report {
-        /// Reports folder.
-        #[arg(long, default_value = "reports")]
-        reports: PathBuf,
+        /// Reports folder (default reports/: in the clone, else in the working directory).
+        #[arg(long)]
+        reports: Option<PathBuf>,
     },
     /// Redraw every experiment's tables and plots from its CSVs (no measuring), then the report.
     Tables {
-        /// Reports folder.
-        #[arg(long, default_value = "reports")]
-        reports: PathBuf,
+        /// Reports folder (default reports/: in the clone, else in the working directory).
+        #[arg(long)]
+        reports: Option<PathBuf>,
     },
 }
 
@@ -279,10 +298,21 @@ pub struct SourceArgs {
     /// Dataset name (built-in or from the manifest).
     #[arg(long, required_unless_present = "cloud", conflicts_with = "cloud")]
     pub dataset: Option<String>,
+    /// Your point and mesh files.
+    #[command(flatten)]
+    pub files: FileArgs,
+    /// The cameras.
+    #[command(flatten)]
+    pub camera: CameraArgs,
+}
+
+/// A user's point file and mesh (`visible`, `view`, `run`).
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct FileArgs {
     /// A point file instead of a dataset (ply, off, obj, xyz, las, laz, e57, pcd).
     #[arg(long)]
     pub cloud: Option<PathBuf>,
-    /// A mesh file for the ground truth (`visible --score`, `view`), with `--cloud`.
+    /// A mesh file for the ground truth (`visible --score`, `view`, `run`), with `--cloud`.
     #[arg(long, requires = "cloud")]
     pub mesh: Option<PathBuf>,
     /// The cloud file's format when its extension does not say.
@@ -300,6 +330,11 @@ pub struct SourceArgs {
     /// Off-surface tolerance for scoring (world units; default: one density spacing).
     #[arg(long)]
     pub surface_tolerance: Option<f64>,
+}
+
+/// The cameras (`visible`, `view`, `run`): one from flags, or a views file.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct CameraArgs {
     /// Eye, world coordinates: X,Y,Z.
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub eye: Option<[f64; 3]>,
@@ -331,17 +366,6 @@ pub enum ViewsFormat {
     Csv,
     /// JSON lines, one camera per line, any model.
     Jsonl,
-}
-
-/// How `visible` runs many views.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ParallelViews {
-    /// As the method prefers.
-    Auto,
-    /// One view per thread.
-    Yes,
-    /// One view after another.
-    No,
 }
 
 /// Parses `X,Y,Z`.

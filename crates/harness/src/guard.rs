@@ -53,7 +53,10 @@ pub struct Output {
 
 /// The outputs and input files of a command (the files it names on its command line; the
 /// files of datasets are noted as they are read, `cloud::io::atomic::note_input`).
-pub fn outputs_and_inputs(command: &Command) -> (Vec<Output>, Vec<PathBuf>) {
+pub fn outputs_and_inputs(
+    command: &Command,
+    reports: &dyn Fn(Option<PathBuf>, bool) -> PathBuf,
+) -> (Vec<Output>, Vec<PathBuf>) {
     let file = |p: &Path| Output {
         path: p.to_owned(),
         kind: Kind::File,
@@ -63,7 +66,7 @@ pub fn outputs_and_inputs(command: &Command) -> (Vec<Output>, Vec<PathBuf>) {
         kind: Kind::Folder,
     };
     let source_inputs = |s: &crate::cli::SourceArgs| -> Vec<PathBuf> {
-        [&s.cloud, &s.mesh, &s.views]
+        [&s.files.cloud, &s.files.mesh, &s.camera.views]
             .into_iter()
             .flatten()
             .cloned()
@@ -76,7 +79,7 @@ pub fn outputs_and_inputs(command: &Command) -> (Vec<Output>, Vec<PathBuf>) {
             source, view, out, ..
         } => {
             // As `visible` decides: a views file, `all` or a list make a folder.
-            let many = source.views.is_some()
+            let many = source.camera.views.is_some()
                 || view.as_deref().is_some_and(|v| v.parse::<usize>().is_err());
             (
                 vec![if many { folder(out) } else { file(out) }],
@@ -93,19 +96,30 @@ pub fn outputs_and_inputs(command: &Command) -> (Vec<Output>, Vec<PathBuf>) {
         Command::LodBuild { cloud, out, .. } => (vec![file(out)], vec![cloud.clone()]),
         Command::Run {
             experiment,
+            quick,
             out,
-            views,
+            files,
+            camera,
             sweep,
             ..
         } => {
             let out = out
                 .clone()
-                .unwrap_or_else(|| PathBuf::from("reports").join(experiment));
-            let inputs = [views, &sweep.config].into_iter().flatten().cloned();
+                .unwrap_or_else(|| reports(None, *quick).join(experiment));
+            let inputs = [&files.cloud, &files.mesh, &camera.views, &sweep.config]
+                .into_iter()
+                .flatten()
+                .cloned();
             (vec![folder(&out)], inputs.collect())
         }
-        Command::Bench { reports, sweep, .. } => {
-            let mut outs = vec![folder(reports)];
+        Command::Bench {
+            reports: given,
+            quick,
+            sweep,
+            ..
+        } => {
+            let reports = reports(given.clone(), *quick);
+            let mut outs = vec![folder(&reports)];
             outs.extend(
                 crate::experiments::EXPERIMENTS
                     .iter()
@@ -114,10 +128,11 @@ pub fn outputs_and_inputs(command: &Command) -> (Vec<Output>, Vec<PathBuf>) {
             (outs, sweep.config.iter().cloned().collect())
         }
         Command::Merge { out, shards } => (vec![folder(out)], shards.clone()),
-        Command::Report { reports } | Command::Tables { reports } => {
-            (vec![folder(reports)], Vec::new())
+        Command::Report { reports: given } | Command::Tables { reports: given } => {
+            (vec![folder(&reports(given.clone(), false))], Vec::new())
         }
         Command::Fetch
+        | Command::Paths
         | Command::Datasets
         | Command::Methods
         | Command::ScaleCell { .. }
@@ -143,9 +158,12 @@ impl RunGuard {
 
 /// Installs the signal handler, checks `command`'s outputs against its inputs and what is at
 /// their paths, reclaims stale scratch beside them, and locks them. Call once, before any work.
-pub fn begin(command: &Command) -> Result<RunGuard> {
+pub fn begin(
+    command: &Command,
+    reports: &dyn Fn(Option<PathBuf>, bool) -> PathBuf,
+) -> Result<RunGuard> {
     install_signal_handler();
-    let (outputs, inputs) = outputs_and_inputs(command);
+    let (outputs, inputs) = outputs_and_inputs(command, reports);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let mut locks = Vec::new();
     for out in &outputs {

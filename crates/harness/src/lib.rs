@@ -6,6 +6,9 @@
 //! - [`lod_build`]: LOD files built within a memory limit, out of core (`lod-build`);
 //! - [`experiments`]: the experiment registry and its frame (measure to CSV, render from CSV);
 //! - [`output`]: atomic files, CSV, run metadata, plots, the report page; [`rss`]: peak memory;
+//! - [`paths`]: where the data, methods and reports folders and the page scripts are (the one
+//!   rule, from any working directory); [`progress`]: bars and the run's line on standard
+//!   error;
 //! - [`visible`]: one method on one view or many; [`view`]: the interactive 3D page of
 //!   every method's visible set; [`cli`], [`run`] (the dispatcher) and [`commands`] (their
 //!   bodies): the `pointsight` command;
@@ -23,6 +26,7 @@ pub mod fetch;
 pub mod guard;
 pub mod lod_build;
 pub mod output;
+pub mod paths;
 pub mod progress;
 pub mod rss;
 pub mod shard;
@@ -36,18 +40,35 @@ use anyhow::Result;
 
 use crate::cli::{Cli, Command};
 
-/// Runs a parsed command line: reads the manifest and the external methods, then hands the
-/// command to its body in [`commands`].
+/// Runs a parsed command line: resolves the folders ([`paths`]), reads the manifest and the
+/// external methods, then hands the command to its body in [`commands`].
 pub fn run(cli: Cli) -> Result<ExitCode> {
-    let data_dir = cli.data_dir;
+    progress::set_quiet(cli.quiet);
+    let clone = paths::working_clone();
+    let data = paths::data_dir(cli.data_dir, clone.as_deref())?;
+    let data_dir = data.path.clone();
     datasets::use_manifest(datasets::manifest::Manifest::discover(
         cli.manifest.as_deref(),
     )?);
-    registry::register_external(&cli.methods_dir)?;
+    let methods = paths::methods_dir(cli.methods_dir, clone.as_deref());
+    match methods.warning() {
+        // Said where methods matter; the scale experiment's cells are its children, which
+        // the parent has warned for.
+        Some(warning) => {
+            if uses_methods(&cli.command) {
+                eprintln!("{warning}");
+            }
+        }
+        None => registry::register_external(&methods.path)?,
+    }
+    let reports = |given: Option<std::path::PathBuf>, quick: bool| {
+        given.unwrap_or_else(|| paths::reports_dir(quick, clone.as_deref()))
+    };
     // Outputs checked and locked, stale scratch reclaimed, signals answered (issue 41).
-    let _guard = guard::begin(&cli.command)?;
+    let _guard = guard::begin(&cli.command, &reports)?;
     match cli.command {
         Command::Fetch => commands::data::fetch(&data_dir)?,
+        Command::Paths => commands::data::paths(&data, &methods, clone.as_deref()),
         Command::Datasets => commands::data::list_datasets(&data_dir, cli.manifest.as_deref())?,
         Command::Methods => commands::catalogue::list_methods()?,
         Command::Sweeps => commands::catalogue::sweeps(),
@@ -121,20 +142,55 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             datasets,
             quick,
             out,
-            views,
+            files,
+            camera,
             sweep,
         } => {
-            commands::experiments::run(&experiment, datasets, quick, out, views, &sweep, data_dir)?
+            let request = commands::experiments::RunRequest {
+                experiment,
+                datasets,
+                quick,
+                out,
+                source: commands::look::source_from(None, files, camera)?,
+                reports: reports(None, quick),
+            };
+            commands::experiments::run(&request, &sweep, data_dir)?
         }
         Command::Bench {
             quick,
             datasets,
-            reports,
+            experiments,
+            reports: given,
             sweep,
-        } => commands::experiments::bench(quick, datasets, &reports, &sweep, &data_dir)?,
+        } => commands::experiments::bench(
+            quick,
+            datasets,
+            experiments,
+            &reports(given, quick),
+            &sweep,
+            &data_dir,
+        )?,
         Command::Merge { out, shards } => commands::experiments::merge(&out, &shards)?,
-        Command::Report { reports } => commands::experiments::report(&reports, &data_dir)?,
-        Command::Tables { reports } => commands::experiments::tables(&reports)?,
+        Command::Report { reports: given } => {
+            commands::experiments::report(&reports(given, false), &data_dir)?
+        }
+        Command::Tables { reports: given } => {
+            commands::experiments::tables(&reports(given, false))?
+        }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// True for the commands that run or list external methods, which say when the methods folder
+/// cannot be read.
+fn uses_methods(command: &Command) -> bool {
+    matches!(
+        command,
+        Command::Methods
+            | Command::Visible { .. }
+            | Command::View { .. }
+            | Command::Run { .. }
+            | Command::Bench { .. }
+            | Command::Report { .. }
+    )
 }

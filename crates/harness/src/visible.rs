@@ -14,12 +14,22 @@ use anyhow::{Context, Result, bail};
 use cloud::Camera;
 use cloud::glam::DVec3;
 
-use crate::cli::ParallelViews;
 use crate::datasets::{self, Dataset};
 use registry::scoring::Score;
 use registry::{Output, Params, kernel};
 
 use crate::output;
+
+/// How `visible` runs many views.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ParallelViews {
+    /// As the method prefers.
+    Auto,
+    /// One view per thread.
+    Yes,
+    /// One view after another.
+    No,
+}
 
 /// A camera given on the command line (world coordinates); what is absent gets a default that
 /// fits the cloud.
@@ -85,8 +95,8 @@ impl CameraFlags {
 }
 
 /// Where the points, the mesh and the views come from: a dataset, or a user's files and camera
-/// (shared by `visible` and `view`).
-#[derive(Debug, Clone)]
+/// (shared by `visible`, `view` and `run`).
+#[derive(Debug, Clone, Default)]
 pub struct Source {
     /// Dataset name (ignored with `cloud`).
     pub dataset: Option<String>,
@@ -104,6 +114,32 @@ pub struct Source {
     pub camera: CameraFlags,
     /// A views file replacing the dataset's views.
     pub views: Option<PathBuf>,
+}
+
+impl Source {
+    /// The name of the dataset this source loads: the cloud file's stem, else the dataset's.
+    pub fn name(&self) -> Option<String> {
+        match &self.cloud {
+            Some(path) => Some(file_dataset_name(path)),
+            None => self.dataset.clone(),
+        }
+    }
+
+    /// This source's cameras over dataset `name` instead (no files of its own).
+    pub fn for_dataset(&self, name: &str) -> Self {
+        Self {
+            dataset: Some(name.to_owned()),
+            camera: self.camera.clone(),
+            views: self.views.clone(),
+            ..Self::default()
+        }
+    }
+}
+
+/// The dataset name of a user's point file: its stem.
+pub fn file_dataset_name(path: &Path) -> String {
+    path.file_stem()
+        .map_or("cloud".into(), |s| s.to_string_lossy().into_owned())
 }
 
 /// What `visible` was asked.
@@ -227,9 +263,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
                 }
             }
             datasets::load_files(&datasets::FileDataset {
-                name: path
-                    .file_stem()
-                    .map_or("cloud".into(), |s| s.to_string_lossy().into_owned()),
+                name: file_dataset_name(path),
                 description: format!("{}", path.display()),
                 cloud: Some(path.clone()),
                 sample: None,

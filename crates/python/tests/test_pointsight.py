@@ -297,10 +297,19 @@ def test_readers_on_files_of_other_tools():
     np.testing.assert_array_equal(laz["classification"], [2, 2, 6, 1, 6])
     assert laz["positions"][0].tolist() == [500000.125, 4000000.25, 100.5]
     assert laz["colors"].dtype == np.uint8 and laz["colors"][0].tolist() == [255, 0, 0]
+    # The documented return value: these keys (those the file has), these dtypes and shapes.
+    assert set(laz) <= {"positions", "normals", "colors", "intensity", "classification", "scan", "faces", "scanner_positions"}
+    assert laz["positions"].dtype == np.float64 and laz["positions"].shape == (5, 3)
+    assert laz["classification"].dtype == np.uint8 and laz["classification"].shape == (5,)
+    if "intensity" in laz:
+        assert laz["intensity"].dtype == np.uint16
     six = ps.read_cloud(ROOT / "tests/data/formats/tiny.laz", classes=[6])
     assert len(six["positions"]) == 2
     e57 = ps.read_cloud(ROOT / "tests/data/formats/tiny.e57")
     assert e57["scanner_positions"].tolist()[1] == [10.0, 0.0, 0.0]
+    assert e57["scanner_positions"].dtype == np.float64
+    if "scan" in e57:
+        assert e57["scan"].dtype == np.uint16 and e57["scan"].shape == (len(e57["positions"]),)
     assert ps.read_cloud(ROOT / "tests/data/formats/tiny.e57", scan=1)["positions"].shape == (5, 3)
     with pytest.raises(ValueError, match="read_mesh|faces"):
         ps.read_mesh(ROOT / "tests/data/formats/tiny.laz")

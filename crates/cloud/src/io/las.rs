@@ -564,7 +564,11 @@ mod tests {
     fn extended_vlrs_after_the_points_are_legal() {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../tests/data/formats");
         let mut bytes = std::fs::read(root.join("tiny.las")).unwrap();
-        assert_eq!(&bytes[107..111], &[0, 0, 0, 0], "the seed's legacy count is 0");
+        assert_eq!(
+            &bytes[107..111],
+            &[0, 0, 0, 0],
+            "the seed's legacy count is 0"
+        );
         let at = bytes.len() as u64;
         // One EVLR: 60-byte header (reserved, user id, record id, length, description), then
         // 16 bytes of payload.
@@ -584,7 +588,9 @@ mod tests {
         // The same file with 3 announced: the 5 records before the EVLRs say otherwise.
         bytes[247..255].copy_from_slice(&3u64.to_le_bytes());
         std::fs::write(&path, &bytes).unwrap();
-        let err = read_las(&path, &LasOptions::default()).unwrap_err().to_string();
+        let err = read_las(&path, &LasOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(
             err.contains("announces 3 points but the point data holds 5 records")
                 && err.contains("up to the extended VLRs at byte 545"),

@@ -1,4 +1,5 @@
-//! The data commands: `fetch` (the real meshes), `datasets` (the list, with what is ready),
+//! The data commands: `fetch` (the real meshes), `paths` (where the folders are), `datasets`
+//! (the list, with what is ready),
 //! `export` (a dataset as a PLY or LAS file), `inspect` (what a file holds) and `views` (a
 //! dataset's cameras as the views CSV or JSON lines).
 
@@ -8,7 +9,7 @@ use std::path::Path;
 use anyhow::{Result, bail};
 
 use crate::cli::ViewsFormat;
-use crate::{datasets, output};
+use crate::{datasets, output, paths};
 
 /// `pointsight fetch`.
 pub fn fetch(data_dir: &Path) -> Result<()> {
@@ -21,6 +22,49 @@ pub fn fetch(data_dir: &Path) -> Result<()> {
     }
     println!("data folder: {}", data_dir.display());
     Ok(())
+}
+
+/// `pointsight paths`: each folder and page script with the step of the rule that chose it.
+pub fn paths(data: &paths::Place, methods: &paths::Place, clone: Option<&Path>) {
+    println!("data={} ({})", data.path.display(), data.why());
+    let readable = if methods.warning().is_some() {
+        ", cannot be read"
+    } else {
+        ""
+    };
+    println!(
+        "methods={} ({}{readable})",
+        methods.path.display(),
+        methods.why()
+    );
+    for quick in [false, true] {
+        println!(
+            "{}={}",
+            if quick { "reports_quick" } else { "reports" },
+            paths::reports_dir(quick, clone).display()
+        );
+    }
+    println!(
+        "clone={}",
+        clone.map_or("-".into(), |c| c.display().to_string())
+    );
+    for (file, var) in [
+        ("viewer.js", crate::view::page::BUNDLE_VAR),
+        ("results.js", "POINTSIGHT_RESULTS_JS"),
+    ] {
+        let candidates = paths::script_candidates(file, var);
+        match paths::find_script(&candidates) {
+            Some(p) => println!("{file}={}", p.display()),
+            None => println!(
+                "{file}=- (not found; looked for {})",
+                candidates
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        }
+    }
 }
 
 /// `pointsight datasets`.

@@ -7,41 +7,67 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use crate::{cli, datasets, experiments, output, shard, view};
+use crate::{cli, datasets, experiments, output, progress, shard, view, visible};
+
+/// What `pointsight run` was asked.
+#[derive(Debug, Clone)]
+pub struct RunRequest {
+    /// Experiment name.
+    pub experiment: String,
+    /// `--datasets` (default: the experiment's own list).
+    pub datasets: Option<Vec<String>>,
+    /// Quick mode.
+    pub quick: bool,
+    /// `--out` (default: `reports`/EXPERIMENT).
+    pub out: Option<PathBuf>,
+    /// The user's files (`--cloud`, `--mesh`, ...) and cameras (`--eye`, `--views`).
+    pub source: visible::Source,
+    /// The reports folder of a run without `--out` (`harness::paths::reports_dir`).
+    pub reports: PathBuf,
+}
 
 /// `pointsight run`.
-pub fn run(
-    experiment: &str,
-    datasets: Option<Vec<String>>,
-    quick: bool,
-    out: Option<PathBuf>,
-    views: Option<PathBuf>,
-    sweep: &cli::SweepFlags,
-    data_dir: PathBuf,
-) -> Result<()> {
-    let exp = experiments::experiment(experiment)?;
-    let datasets: Vec<String> = match datasets {
-        Some(list) => list,
-        None => exp
-            .default_datasets(quick)
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
+pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Result<()> {
+    let exp = experiments::experiment(&req.experiment)?;
+    let on_files = req.source.cloud.is_some();
+    let (datasets, seed_tables) = match (&req.source.name(), &req.datasets) {
+        (Some(name), _) if on_files => (vec![name.clone()], false),
+        (_, Some(list)) => (list.clone(), false),
+        _ => (
+            exp.default_datasets(req.quick)
+                .iter()
+                .map(|s| s.to_string())
+                .collect(),
+            true,
+        ),
     };
-    for name in &datasets {
-        datasets::check(name)?;
+    if on_files {
+        if exp.name() == "scale" {
+            bail!(
+                "the scale experiment samples a dataset's mesh at sizes it chooses; it does not \
+                 take --cloud (give a manifest dataset with a mesh: --datasets NAME)"
+            );
+        }
+    } else {
+        for name in &datasets {
+            datasets::check(name)?;
+        }
     }
-    let default_out = out.is_none();
-    let out_dir = out.unwrap_or_else(|| PathBuf::from("reports").join(exp.name()));
+    let default_out = req.out.is_none();
+    let out_dir = req
+        .out
+        .clone()
+        .unwrap_or_else(|| req.reports.join(exp.name()));
     let (sweeps, repeats) = sweep_settings(sweep)?;
     let ctx = experiments::Context {
-        views,
+        source: req.source.clone(),
+        seed_tables,
         sweeps,
         repeats: repeats.unwrap_or(experiments::REPEATS),
         repeats_given: repeats.is_some(),
         time_budget: budget(sweep),
         shard: sweep.shard,
-        ..experiments::Context::new(data_dir, out_dir.clone(), quick, datasets)
+        ..experiments::Context::new(data_dir, out_dir.clone(), req.quick, datasets)
     };
     if !experiments::run(exp, &ctx)? {
         println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
@@ -49,15 +75,17 @@ pub fn run(
     }
     println!("{}: results in {}", exp.name(), out_dir.display());
     if default_out && sweep.shard.is_none() {
-        assemble_report(Path::new("reports"))?;
+        assemble_report(&req.reports)?;
     }
     Ok(())
 }
 
-/// `pointsight bench`.
+/// `pointsight bench`: every experiment (or those `only` names) into `reports`, then the
+/// report; progress on standard error ([`progress::Run`]).
 pub fn bench(
     quick: bool,
     chosen: Option<Vec<String>>,
+    only: Option<Vec<String>>,
     reports: &Path,
     sweep: &cli::SweepFlags,
     data_dir: &Path,
@@ -67,37 +95,58 @@ pub fn bench(
     for name in chosen.iter().flatten() {
         datasets::check(name)?;
     }
-    // The report's viewer pages need the viewer's script: say so before measuring for hours.
-    let visibility_datasets: Vec<String> = match &chosen {
-        Some(list) => list.clone(),
-        None => experiments::experiment("visibility")?
-            .default_datasets(quick)
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
-    };
-    if sweep.shard.is_none()
-        && visibility_datasets
-            .iter()
-            .any(|d| datasets::info(d).is_ok_and(|i| i.needs_fetch()))
-    {
-        view::page::bundle()?;
+    for name in only.iter().flatten() {
+        experiments::experiment(name)?;
     }
-    for exp in experiments::EXPERIMENTS {
-        let datasets = match &chosen {
+    // In report order, whatever the order of `--experiments`.
+    let to_run: Vec<&'static dyn experiments::Experiment> = experiments::EXPERIMENTS
+        .iter()
+        .copied()
+        .filter(|e| {
+            only.as_ref()
+                .is_none_or(|o| o.iter().any(|n| n == e.name()))
+        })
+        .collect();
+    let datasets_of = |exp: &dyn experiments::Experiment| -> Vec<String> {
+        match &chosen {
             Some(list) => list.clone(),
             None => exp
                 .default_datasets(quick)
                 .iter()
                 .map(|s| s.to_string())
                 .collect(),
-        };
+        }
+    };
+    // The report's viewer pages (the visibility and lod experiments' fetched datasets) need
+    // the viewer's script: say so before measuring for hours.
+    let pages = to_run
+        .iter()
+        .filter(|e| ["visibility", "lod"].contains(&e.name()))
+        .flat_map(|e| datasets_of(*e))
+        .any(|d| datasets::info(&d).is_ok_and(|i| i.needs_fetch()));
+    if sweep.shard.is_none() && pages {
+        view::page::bundle()?;
+    }
+    let progress = progress::Run::start(
+        to_run
+            .iter()
+            .map(|exp| {
+                let previous =
+                    previous_seconds(&reports.join(exp.name()), quick, &datasets_of(*exp));
+                (exp.name().to_owned(), previous)
+            })
+            .collect(),
+    );
+    for (k, exp) in to_run.iter().enumerate() {
+        let datasets = datasets_of(*exp);
+        progress.experiment(k, &datasets);
         let ctx = experiments::Context {
             sweeps: sweeps.clone(),
             repeats: repeats.unwrap_or(experiments::REPEATS),
             repeats_given: repeats.is_some(),
             time_budget: budget(sweep),
             shard: sweep.shard,
+            seed_tables: true,
             ..experiments::Context::new(
                 data_dir.to_path_buf(),
                 reports.join(exp.name()),
@@ -105,21 +154,32 @@ pub fn bench(
                 datasets,
             )
         };
-        eprintln!("== {} ({})", exp.name(), exp.summary());
+        progress::note(format!(
+            "== {} ({}/{}): {}",
+            exp.name(),
+            k + 1,
+            to_run.len(),
+            exp.summary()
+        ));
         let t = std::time::Instant::now();
         if experiments::run(*exp, &ctx)? {
-            eprintln!("   done in {:.1} s", t.elapsed().as_secs_f64());
+            progress::note(format!(
+                "   {} done in {}",
+                exp.name(),
+                progress::duration(t.elapsed().as_secs_f64())
+            ));
         } else {
-            eprintln!("   not in shard {}", shard_text(sweep.shard));
+            progress::note(format!("   not in shard {}", shard_text(sweep.shard)));
         }
     }
+    drop(progress);
     match sweep.shard {
         None => {
             view::report::write_all(reports, data_dir)?;
             assemble_report(reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",
-                experiments::EXPERIMENTS.len(),
+                to_run.len(),
                 start.elapsed().as_secs_f64(),
                 reports.join("README.md").display()
             );
@@ -133,6 +193,14 @@ pub fn bench(
         ),
     }
     Ok(())
+}
+
+/// The seconds the previous run into `dir` took (its `metadata.json`), when it was a run of the
+/// same mode over the same datasets and not a shard's.
+fn previous_seconds(dir: &Path, quick: bool, datasets: &[String]) -> Option<f64> {
+    let meta = output::meta::RunMeta::read(dir).ok()?;
+    (meta.quick == quick && meta.datasets == datasets && meta.shard.is_none() && meta.seconds > 0.0)
+        .then_some(meta.seconds)
 }
 
 /// `pointsight merge`: the shards' results merged into `out`, then its report page.

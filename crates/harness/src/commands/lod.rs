@@ -20,7 +20,7 @@ pub fn lod_build(
         lod_build::build_in_memory(cloud, method, out)?
     } else {
         let limit = lod_build::parse_size(memory_limit)?;
-        let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+        let tty = crate::progress::enabled();
         lod_build::build(cloud, method, limit, out, tty)?
     };
     println!(

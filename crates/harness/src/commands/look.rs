@@ -11,7 +11,14 @@ use crate::{cli, view, visible};
 
 /// `pointsight visible`'s `--view`: as given, else every camera of a views file alone, else 0.
 pub fn default_view(view: Option<String>, source: &cli::SourceArgs) -> String {
-    view.unwrap_or_else(|| if source.views.is_some() { "all" } else { "0" }.into())
+    view.unwrap_or_else(|| {
+        if source.camera.views.is_some() {
+            "all"
+        } else {
+            "0"
+        }
+        .into()
+    })
 }
 
 /// `pointsight visible`.
@@ -36,25 +43,35 @@ pub fn view(request: &view::Request, lod: bool, distance: f64, data_dir: &Path) 
 
 /// The source flags of `visible` and `view` as a [`visible::Source`].
 pub fn source_of(a: cli::SourceArgs) -> Result<visible::Source> {
+    source_from(a.dataset, a.files, a.camera)
+}
+
+/// A dataset name or a user's files, and the cameras, as a [`visible::Source`] (`visible`,
+/// `view`, and `run`, which has no `--dataset`).
+pub fn source_from(
+    dataset: Option<String>,
+    f: cli::FileArgs,
+    c: cli::CameraArgs,
+) -> Result<visible::Source> {
     Ok(visible::Source {
-        dataset: a.dataset,
-        cloud: a.cloud,
-        mesh: a.mesh,
+        dataset,
+        cloud: f.cloud,
+        mesh: f.mesh,
         read: cloud::io::ReadOptions {
-            format: super::parse_format(a.format)?,
-            classes: a.classes,
-            scan: a.scan,
+            format: super::parse_format(f.format)?,
+            classes: f.classes,
+            scan: f.scan,
         },
-        merge_scans: a.merge_scans,
-        surface_tolerance: a.surface_tolerance,
+        merge_scans: f.merge_scans,
+        surface_tolerance: f.surface_tolerance,
         camera: visible::CameraFlags {
-            eye: a.eye,
-            target: a.target,
-            up: a.up,
-            fov_y_deg: a.fov_y,
-            width: a.width,
-            height: a.height,
+            eye: c.eye,
+            target: c.target,
+            up: c.up,
+            fov_y_deg: c.fov_y,
+            width: c.width,
+            height: c.height,
         },
-        views: a.views,
+        views: c.views,
     })
 }

@@ -113,6 +113,7 @@ impl Experiment for BackgroundExperiment {
         };
         let mut frames = Vec::new();
         for name in &ctx.datasets {
+            progress::at(name, "hpr (background thread)");
             let ds = ctx.dataset(name)?;
             let points = Arc::new(ds.cloud.positions.clone());
             let mut shown: Vec<(String, usize, f64, f64, Vec<u32>)> = Vec::new();

@@ -181,6 +181,8 @@ impl Experiment for HullExperiment {
         }
         for name in &ctx.datasets {
             let ds = ctx.dataset(name)?;
+            // A dataset with fewer views (one camera from `run hull --eye`) is measured on those.
+            let views = views.min(ds.views.len());
             // Without a mesh the F1 column stays NaN; the rest is measured.
             let reference = ds.mesh.as_ref().map(Reference::new).transpose()?;
             let hulls: Vec<(&str, Box<dyn hull::ConvexHull>)> = HULLS
@@ -204,6 +206,7 @@ impl Experiment for HullExperiment {
                 for &gamma in GAMMAS {
                     let mut exact: Option<Vec<u32>> = None;
                     for (hull_name, hull) in &hulls {
+                        progress::at(name, hull_name);
                         for &perturb in perturbs {
                             bar.inc(1);
                             let mut row = Row {

@@ -33,8 +33,15 @@ pub struct Context {
     pub quick: bool,
     /// Datasets to cover.
     pub datasets: Vec<String>,
-    /// A views file replacing every dataset's own views (`run --views`).
-    pub views: Option<PathBuf>,
+    /// The user's files (`run --cloud FILE`, a dataset named by [`crate::visible::Source::name`])
+    /// and the cameras (`--eye`, `--views`) replacing every dataset's own views: loaded by
+    /// [`crate::visible::load_source`], as `visible` and `view` load theirs. Empty by default.
+    pub source: crate::visible::Source,
+    /// Run the seed tables replicated inside an experiment on their own datasets (seed 003's
+    /// Table 1 in `lod`) whether or not [`Context::datasets`] names them: true for `bench` and
+    /// for `run` with the experiment's own datasets; otherwise a table covers only its datasets
+    /// that are named, and never a user's files.
+    pub seed_tables: bool,
     /// User files the loaded datasets came from, for the run metadata.
     pub files: std::sync::Arc<std::sync::Mutex<Vec<crate::datasets::SourceFile>>>,
     /// Every method's sweep: the built-in grids, the external methods' and `--config`'s.
@@ -61,7 +68,8 @@ impl Context {
             out_dir,
             quick,
             datasets,
-            views: None,
+            source: Default::default(),
+            seed_tables: false,
             files: Default::default(),
             sweeps: registry::Sweeps::builtin(),
             repeats: REPEATS,
@@ -121,18 +129,22 @@ impl Context {
 }
 
 impl Context {
-    /// Loads dataset `name`, with the views of `--views` when given.
+    /// Loads dataset `name` ([`Context::source`]'s files when it names them), with the
+    /// cameras of `--eye` or `--views` when given.
     pub fn dataset(&self, name: &str) -> Result<crate::datasets::Dataset> {
-        let mut ds = crate::datasets::load(name, &self.data_dir)?;
-        if let Some(path) = &self.views {
-            ds.views = cloud::io::views::read_views(path)?
-                .iter()
-                .map(|c| ds.camera_from_world(c))
-                .collect();
-            ds.check_views()?;
-        }
+        let source = if self.source.cloud.is_some() && self.source.name().as_deref() == Some(name) {
+            self.source.clone()
+        } else {
+            self.source.for_dataset(name)
+        };
+        let ds = crate::visible::load_source(&source, &self.data_dir)?;
         self.record_files(&ds.files);
         Ok(ds)
+    }
+
+    /// True when the user's files of `run --cloud` are the run's datasets.
+    pub fn on_user_files(&self) -> bool {
+        self.source.cloud.is_some()
     }
 
     /// Records user files a dataset came from, for the run metadata.

@@ -71,6 +71,7 @@ impl Experiment for ReferenceExperiment {
             };
             let reference = Reference::new(mesh)?;
             let bar = progress::bar(n_views as u64, format!("reference {name}"));
+            progress::at(name, "reference");
             for (view, cam) in ds.views.iter().take(n_views).enumerate() {
                 let start = Instant::now();
                 let exact = reference.exact().visibility(cam.eye, &ds.cloud.positions)?;

@@ -300,7 +300,22 @@ impl Experiment for RobustnessExperiment {
                         Degradation::FallOff { from, ratio },
                     )?);
                 }
-                for &margin in if ctx.quick { JITTER_QUICK } else { JITTER } {
+                // Noise along the normal needs normals: a user's cloud without them (and no
+                // mesh sampled for it) leaves this degradation out, and says so.
+                if ds.cloud.normals.is_none() {
+                    eprintln!(
+                        "robustness: {name} has no normals: the jitter degradation (noise along \
+                         the normal) is left out"
+                    );
+                }
+                let jitter = if ds.cloud.normals.is_none() {
+                    &[][..]
+                } else if ctx.quick {
+                    JITTER_QUICK
+                } else {
+                    JITTER
+                };
+                for &margin in jitter {
                     cases.push(degraded(
                         &ds.cloud,
                         "jitter",
@@ -329,6 +344,7 @@ impl Experiment for RobustnessExperiment {
                     })
                     .collect::<Result<_>>()?;
                 for (method, sweep) in &methods {
+                    progress::at(name, method.name);
                     let run = |kind: &str, setting: &Setting| {
                         run_views(name, case, &truths, &kviews, method, kind, setting, repeats)
                     };

@@ -29,9 +29,9 @@ mod draw;
 #[cfg(test)]
 mod tests;
 
-pub use draw::{dash_segments, format_number};
 pub(crate) use draw::wrap_text;
 use draw::*;
+pub use draw::{dash_segments, format_number};
 
 /// More series than this in one figure: small multiples by family.
 pub const MAX_SERIES: usize = 10;

@@ -114,9 +114,17 @@ impl RunMeta {
     }
 }
 
+/// The revision of the code that runs and whether its work tree had changes: `git` in the
+/// clone the working directory is in (`crate::paths`), else the revision the binary was built
+/// from (an installed binary run elsewhere; its tree's state then unknown, said clean).
 fn git_state() -> (String, bool) {
+    let Some(clone) = crate::paths::working_clone() else {
+        return (crate::paths::BUILD_REVISION.to_owned(), false);
+    };
     let run = |args: &[&str]| {
         Command::new("git")
+            .arg("-C")
+            .arg(&clone)
             .args(args)
             .output()
             .ok()

@@ -300,10 +300,7 @@ fn hash(name: &str) -> u64 {
 fn registered_outside_table() -> Vec<(String, bool)> {
     let mut out: Vec<(String, bool)> = Vec::new();
     for m in registry::cards() {
-        out.push((
-            m.family(&m.default_setting()),
-            m.peer_of.is_some(),
-        ));
+        out.push((m.family(&m.default_setting()), m.peer_of.is_some()));
     }
     out.retain(|(f, _)| !TABLE.iter().any(|e| e.0 == f));
     out.sort();

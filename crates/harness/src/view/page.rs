@@ -9,9 +9,9 @@
 //! off-surface flags and each method's visible set are bitsets (bit i: bit i & 7 of byte
 //! i >> 3). The layout is read by `web/src/data.js`.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use base64::Engine as _;
 use cloud::Camera;
 use cloud::rng::RngExt as _;
@@ -28,36 +28,16 @@ pub const OFF_SURFACE: [u8; 3] = [255, 150, 0];
 /// The environment variable naming a built viewer script instead of `web/dist/viewer.js`.
 pub const BUNDLE_VAR: &str = "POINTSIGHT_VIEWER_JS";
 
-/// Where the viewer's script is looked for: `$POINTSIGHT_VIEWER_JS`, else `web/dist/viewer.js`
-/// under the working directory, else under the workspace this binary was built from.
+/// Where the viewer's script is looked for (`crate::paths::script_candidates`):
+/// `$POINTSIGHT_VIEWER_JS`, else the clone's `web/dist/viewer.js`, else
+/// `PREFIX/share/pointsight/web/viewer.js` beside the binary.
 pub fn bundle_candidates() -> Vec<PathBuf> {
-    if let Some(p) = std::env::var_os(BUNDLE_VAR) {
-        return vec![PathBuf::from(p)];
-    }
-    vec![
-        PathBuf::from("web/dist/viewer.js"),
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../web/dist/viewer.js"),
-    ]
+    crate::paths::script_candidates("viewer.js", BUNDLE_VAR)
 }
 
-/// The viewer's script, or an error saying how to build it.
+/// The viewer's script, or an error saying how to build or install it.
 pub fn bundle() -> Result<String> {
-    let candidates = bundle_candidates();
-    for p in &candidates {
-        if p.is_file() {
-            return std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read the viewer script {}", p.display()));
-        }
-    }
-    bail!(
-        "the viewer's script is not built (looked for {}): run `just web` in the repository \
-         (npm ci and esbuild in web/), or set {BUNDLE_VAR} to a built viewer.js",
-        candidates
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    )
+    crate::paths::script("viewer.js", BUNDLE_VAR)
 }
 
 /// The family a page's method is styled by (`output::style`): the registry's at its setting;

@@ -6,7 +6,10 @@
 //! uniform subsample when the whole would not fit, which the page says);
 //! `reports/viewer/pages.json` lists them for the report page ([`section`]). Each links to its
 //! experiment's interactive results page and to the report; each method shows its swatch, the
-//! style it has in every figure.
+//! style it has in every figure. Pages of an earlier
+//! report that this one no longer lists are removed ([`remove_stale`]): only the files this
+//! module writes (those the previous `pages.json` listed, and pages named as it names them),
+//! nothing else in the folder.
 
 use std::path::Path;
 
@@ -45,6 +48,7 @@ pub struct Entry {
 /// Writes every page of the report ([`write_pages`], [`write_lod_pages`]) and
 /// `viewer/pages.json` (nothing when there is no real dataset in the results).
 pub fn write_all(reports: &Path, data_dir: &Path) -> Result<Vec<Entry>> {
+    let previous = listed(reports);
     let mut entries = write_pages(reports, &real_datasets(reports, "visibility")?, data_dir)?;
     entries.extend(write_lod_pages(
         reports,
@@ -57,7 +61,50 @@ pub fn write_all(reports: &Path, data_dir: &Path) -> Result<Vec<Entry>> {
             serde_json::to_string_pretty(&entries)?.as_bytes(),
         )?;
     }
+    remove_stale(reports, &previous, &entries)?;
     Ok(entries)
+}
+
+/// The files the `pages.json` of `reports` lists (none when there is none or it is unreadable).
+fn listed(reports: &Path) -> Vec<String> {
+    std::fs::read(reports.join("viewer/pages.json"))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<Vec<Entry>>(&bytes).ok())
+        .map(|entries| entries.into_iter().map(|e| e.file).collect())
+        .unwrap_or_default()
+}
+
+/// True for a file name this module writes: `DATASET.html` or `DATASET-lod.html` for a
+/// built-in dataset from fetched files.
+fn is_page_name(file: &str) -> bool {
+    let Some(stem) = file.strip_suffix(".html") else {
+        return false;
+    };
+    let dataset = stem.strip_suffix("-lod").unwrap_or(stem);
+    datasets::REGISTRY
+        .iter()
+        .any(|d| d.name == dataset && d.needs_fetch())
+}
+
+/// Removes from `reports/viewer/` the pages an earlier report wrote (`previous`, or named as
+/// this module names them) that `entries` no longer lists, and `pages.json` when nothing is
+/// listed; anything else in the folder stays.
+pub fn remove_stale(reports: &Path, previous: &[String], entries: &[Entry]) -> Result<()> {
+    let dir = reports.join("viewer");
+    let Ok(read) = std::fs::read_dir(&dir) else {
+        return Ok(());
+    };
+    for entry in read {
+        let name = entry?.file_name().to_string_lossy().into_owned();
+        let owned = is_page_name(&name) || previous.contains(&name);
+        let stale = owned && !entries.iter().any(|e| e.file == name);
+        if stale || (name == "pages.json" && entries.is_empty()) {
+            let path = dir.join(&name);
+            std::fs::remove_file(&path)
+                .with_context(|| format!("cannot remove the stale page {}", path.display()))?;
+        }
+    }
+    Ok(())
 }
 
 /// The datasets of `experiment`'s results (in `reports/EXPERIMENT/results.csv`) that come
@@ -159,12 +206,12 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         })?;
         let file = format!("{name}.html");
         write_atomic(&reports.join("viewer").join(&file), html.as_bytes())?;
-        eprintln!(
+        crate::progress::note(format!(
             "viewer pages: {file}: {} of {} points, {} bytes",
             max_points,
             ds.cloud.len(),
             html.len()
-        );
+        ));
         entries.push(Entry {
             dataset: name.clone(),
             view,
@@ -250,10 +297,10 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
             .iter()
             .map(|s| s.splats.len().min(max_splats))
             .sum();
-        eprintln!(
+        crate::progress::note(format!(
             "viewer pages: {file}: {shown} of {total} splats, {} bytes",
             html.len()
-        );
+        ));
         entries.push(Entry {
             dataset: name.clone(),
             view,
@@ -366,6 +413,47 @@ pub fn section(reports: &Path) -> Result<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn stale_pages_go_and_nothing_else() {
+        let dir = tempfile::tempdir().unwrap();
+        let viewer = dir.path().join("viewer");
+        std::fs::create_dir_all(&viewer).unwrap();
+        for f in [
+            "bunny.html",
+            "dragon-871414.html",
+            "dragon-871414-lod.html",
+            "mine.html",
+            "listed-before.html",
+            "notes.txt",
+            "pages.json",
+        ] {
+            std::fs::write(viewer.join(f), "x").unwrap();
+        }
+        let keep = Entry {
+            dataset: "bunny".into(),
+            view: 0,
+            file: "bunny.html".into(),
+            points: 1,
+            shown: 1,
+            methods: Vec::new(),
+            bytes: 1,
+            kind: String::new(),
+        };
+        remove_stale(dir.path(), &["listed-before.html".into()], &[keep]).unwrap();
+        let mut left: Vec<String> = std::fs::read_dir(&viewer)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        // The dragon's pages (named as this module names them) and the page the previous
+        // listing had are gone; the user's files stay, and so does the listing.
+        assert_eq!(left, ["bunny.html", "mine.html", "notes.txt", "pages.json"]);
+        remove_stale(dir.path(), &[], &[]).unwrap();
+        assert!(!viewer.join("pages.json").exists());
+        assert!(!viewer.join("bunny.html").exists());
+        assert!(viewer.join("mine.html").exists());
+    }
 
     #[test]
     fn the_section_links_every_page_and_says_when_subsampled() {

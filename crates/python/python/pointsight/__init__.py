@@ -321,9 +321,14 @@ def convex_hull_vertices(points: ArrayLike, impl: str = "own") -> np.ndarray:
 
 
 def read_cloud(path: str, *, format: Optional[str] = None, classes: Optional[Sequence[int]] = None, scan: Optional[int] = None) -> dict:
-    """Reads a point file (ply, off, obj, xyz, las, laz, e57, pcd) into a dict of arrays:
-    `positions` (N, 3) and, where the file has them, `normals`, `colors` (uint8), `intensity`,
-    `classification`, `scan`, `faces`, `scanner_positions`."""
+    """Reads a point file (ply, off, obj, xyz, las, laz, e57, pcd; `format` names it when the
+    extension does not, `classes` keeps only those LAS/LAZ classification codes, `scan` reads
+    one E57 scan). Returns a dict of numpy arrays, each key present only where the file has it:
+    `positions` (N, 3) float64, always (the file's coordinates, LAS scale and offset applied);
+    `normals` (N, 3) float64; `colors` (N, 3) uint8; `intensity` (N,) uint16;
+    `classification` (N,) uint8; `scan` (N,) uint16, each point's E57 scan; `faces` (F, 3)
+    int64, a mesh file's triangles; `scanner_positions` (S, 3) float64, the E57 scanners.
+    Raises ValueError naming the file and the line or byte when it cannot be read."""
     return _native.read(str(path), format, list(classes) if classes is not None else None, scan)
 
 

@@ -4,9 +4,11 @@
 //! `results.csv` (method `qsplat` or `spt`), plus `file_reads.csv`: per selection, the bytes
 //! it read from the file, the bytes the page cache held after it (0 for SPT, which keeps no
 //! cache) and the bytes of the selection itself, so that selection memory can be read against
-//! what the view draws. An external LOD method that selects from a file of its own (the COPC
-//! peer, `methods/copc-lod`) says per view what it read (the protocol's `bytes_read`): its
-//! rows join the same file and table, from `lod`'s in-memory datasets.
+//! what the view draws. Its row in `builds.csv` is the file opened (header checked, its first
+//! pages read): the build itself was `pointsight lod-build`'s, in another process. An external
+//! LOD method that selects from a file of its own (the COPC peer, `methods/copc-lod`) says per
+//! view what it read (the protocol's `bytes_read`): its rows join the same file and table, from
+//! `lod`'s in-memory datasets.
 //!
 //! The reference is every leaf of the file (QSplat: its decoded, quantised spheres; SPT: its
 //! leaf discs; the files keep no other positions), streamed in batches of [`LEAF_BATCH`] into
@@ -21,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use splat::render::{Canvas, Image};
 
 use super::{
-    Context, N_VIEWS, Row, SEED, covered_box, panel, render_params, score, views_at, write_strip,
+    BuildRow, Context, Row, SEED, covered_box, panel, render_params, score, views_at, write_strip,
 };
 use crate::datasets::LodFileDataset;
 use crate::progress;
@@ -66,6 +68,7 @@ pub(super) fn measure(
     ds: &LodFileDataset,
     rows: &mut Vec<Row>,
     reads: &mut Vec<FileRead>,
+    builds: &mut Vec<BuildRow>,
 ) -> Result<()> {
     let name = ds.name.as_str();
     for v in &ds.views {
@@ -103,8 +106,17 @@ pub(super) fn measure(
         .get(ds.method)
         .map(|s| s.settings(ctx.quick).to_vec())
         .unwrap_or_default();
+    let opened = std::time::Instant::now();
     let built = registry::lod_file::open_file(&ds.path, CACHE_BYTES)?;
     let file_bytes = built.size().bytes as u64;
+    builds.push(BuildRow {
+        dataset: name.to_owned(),
+        method: ds.method.to_owned(),
+        n_points: ds.n_points as usize,
+        seconds: opened.elapsed().as_secs_f64(),
+        nodes: built.size().nodes,
+        bytes_per_point: file_bytes as f64 / ds.n_points.max(1) as f64,
+    });
     let data = LodData::none(SEED);
     let input = data.input();
     let cell = kernel::LodCell {
@@ -157,7 +169,6 @@ pub(super) fn measure(
     });
     ds_rows.sort_by_key(|(v, _)| *v);
     rows.extend(ds_rows.into_iter().map(|(_, r)| r));
-    debug_assert_eq!(views.len(), N_VIEWS * super::DISTANCES.len());
     let label = format!("{} (from the file)", ds.method);
     write_strip(ctx, name, strip, &[label.as_str()])
 }
@@ -204,7 +215,9 @@ pub(super) fn table(reads: &[FileRead]) -> String {
         })
         .collect();
     format!(
-        "\n### Selection from built files\n\nDatasets that are a built file (`lod_file`). A QSplat \
+        "\n### Selection from built files\n\nDatasets that are a built file (`lod_file`); their rows \
+         in the Builds table are the file opened (header checked, first pages read), the build \
+         having been `pointsight lod-build`'s. A QSplat \
          file: each view's selection reads the pages it needs through a cache of {} MiB (the \
          cache keeps pages from the views before it; the repeats are served from it). A \
          sequential point tree's: each cut reads the prefix of the list its view needs block \

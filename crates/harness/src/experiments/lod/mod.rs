@@ -5,7 +5,8 @@
 //! texture coordinates or, when it has none, the spherical parameterisation of
 //! `srn::param`), so colour detail counts in the image comparison. For each dataset, view
 //! (0..[`N_VIEWS`]) and distance (the view's eye moved along its ray to [`DISTANCES`] times
-//! its distance to the target), the experiment renders:
+//! its distance to the target), the experiment renders (a dataset with fewer than [`N_VIEWS`]
+//! views, such as one camera given with `run lod --eye`, is measured over the views it has):
 //! - the *reference*: every point as a splat of radius [`REF_RADIUS`] density spacings
 //!   (`cloud::spacing::density_spacing`: 1/sqrt(points per unit area); 1.5 spacings leave
 //!   e^(−π·1.5²) ≈ 0.1 % of a randomly sampled surface uncovered), shaded by `splat::render`;
@@ -35,7 +36,7 @@
 use std::collections::BTreeMap;
 use std::path::Path;
 
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 use cloud::{Camera, PointCloud};
 use registry::lod::LodData;
 use registry::scoring::{hole_fraction, psnr, ssim};
@@ -55,7 +56,8 @@ use crate::progress;
 pub use from_file::{CACHE_BYTES as FILE_CACHE_BYTES, FileRead};
 pub use srn_table::SrnRow;
 
-/// Views per dataset.
+/// Views per dataset: the first this many of its views (all of them when it has fewer; at
+/// least one).
 pub const N_VIEWS: usize = 8;
 /// Eye distances, as multiples of the view's eye-to-target distance.
 pub const DISTANCES: &[f64] = &[1.0, FAR_DISTANCE];
@@ -251,17 +253,14 @@ fn score(row: &mut Row, s: &kernel::Selection, reference: &Image, camera: &Camer
 type ViewsAt = (Vec<kernel::View>, Vec<(usize, f64)>);
 
 /// Every (view, distance) of the experiment, in that order, as the kernel's views, with the
-/// (view, distance) of each.
+/// (view, distance) of each: the first [`N_VIEWS`] of `cameras` (all when there are fewer).
 fn views_at(cameras: &[Camera]) -> Result<ViewsAt> {
+    if cameras.is_empty() {
+        anyhow::bail!("the lod experiment needs at least one view; the dataset has none");
+    }
     let mut views = Vec::new();
     let mut at = Vec::new();
-    for view in 0..N_VIEWS {
-        let camera = cameras.get(view).with_context(|| {
-            format!(
-                "the lod experiment needs {N_VIEWS} views; the dataset has {}",
-                cameras.len()
-            )
-        })?;
+    for (view, camera) in cameras.iter().take(N_VIEWS).enumerate() {
         for &factor in DISTANCES {
             views.push(kernel::View {
                 index: view,
@@ -306,6 +305,7 @@ fn measure_dataset(
     let input = data.input();
     let mut ds_rows: Vec<(usize, Row)> = Vec::new();
     for (m, settings) in &methods {
+        progress::at(name, m.name);
         let cell = kernel::LodCell {
             method: m,
             settings,
@@ -455,13 +455,25 @@ impl Experiment for LodExperiment {
         let mut builds = Vec::new();
         let mut reads = Vec::new();
         for name in &ctx.datasets {
-            match crate::datasets::lod_file(name)? {
+            progress::at(name, "");
+            let file = if ctx.on_user_files() {
+                None
+            } else {
+                crate::datasets::lod_file(name)?
+            };
+            match file {
                 Some(mut file) => {
-                    if let Some(p) = &ctx.views {
+                    if ctx.source.camera.eye.is_some() {
+                        anyhow::bail!(
+                            "dataset {name} is a built LOD file: its cameras come from a views \
+                             file (--views FILE), not --eye"
+                        );
+                    }
+                    if let Some(p) = &ctx.source.views {
                         file.views = cloud::io::views::read_views(p)?;
                     }
                     ctx.record_files(&file.files);
-                    from_file::measure(ctx, &file, &mut rows, &mut reads)?;
+                    from_file::measure(ctx, &file, &mut rows, &mut reads, &mut builds)?;
                 }
                 None => measure_dataset(ctx, name, &mut rows, &mut builds, &mut reads)?,
             }
@@ -475,6 +487,7 @@ impl Experiment for LodExperiment {
         write_csv(&ctx.out_dir.join("srn_table.csv"), &srn_rows)?;
         Ok(serde_json::json!({
             "views": N_VIEWS,
+            "seed_tables": ctx.seed_tables,
             "distances": DISTANCES,
             "reference_radius_spacings": REF_RADIUS,
             "sweeps": registry::lod_cards()

@@ -3,6 +3,10 @@
 //! paper's three models or their stand-ins: vase-7171 with a flower texture, torus-22321 with
 //! the flower on one half (Figure 8), armadillo-200004 (for the gargoyle, which is not freely
 //! available) with the marble texture; point counts and render times beside the paper's.
+//!
+//! The table runs on its own datasets only, and only when asked for: every row in `bench` and
+//! in `run lod` with the experiment's own datasets ([`Context::seed_tables`]), else the rows
+//! whose dataset `--datasets` names; never on a user's files (`run lod --cloud`).
 
 use anyhow::{Context as _, Result};
 use registry::lod::colorize;
@@ -92,18 +96,32 @@ const SRN_MODELS: &[SrnModel] = &[
     },
 ];
 
+/// True when the run asks for the table's row on `dataset`: never on a user's files; always in
+/// `bench` and in `run lod` over the experiment's own datasets; else when `--datasets` names it.
+pub(super) fn asked(ctx: &Context, dataset: &str) -> bool {
+    !ctx.on_user_files() && (ctx.seed_tables || ctx.datasets.iter().any(|d| d == dataset))
+}
+
 fn texture_rgb(t: &Texture) -> Vec<u8> {
     t.pixels().iter().flatten().copied().collect()
 }
 
 /// Measures every model of the table whose data is fetched (the others are left out, said on
-/// standard error).
+/// standard error) that the run asks for ([`asked`]).
 pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
+    let models: Vec<&SrnModel> = SRN_MODELS
+        .iter()
+        .filter(|m| asked(ctx, m.dataset))
+        .collect();
+    if models.is_empty() {
+        return Ok(Vec::new());
+    }
     let dir = ctx.out_dir.join("srn");
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let mut rows = Vec::new();
-    let bar = progress::bar(SRN_MODELS.len() as u64, "lod srn table");
-    for m in SRN_MODELS {
+    let bar = progress::bar(models.len() as u64, "lod srn table");
+    for m in models {
+        progress::at(m.dataset, "srn (seed 003 Table 1)");
         let info = datasets::info(m.dataset)?;
         if let Some(mesh) = info.mesh_file()
             && !crate::fetch::mesh_path(&ctx.data_dir, &mesh).exists()
@@ -240,6 +258,19 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
 /// The table in Markdown, with each model's pictures.
 pub(super) fn table(rows: &[SrnRow], repeats: u64) -> String {
     let mut s = String::from("### Seed 003 Table 1, regenerated\n\n");
+    if rows.is_empty() {
+        s.push_str(&format!(
+            "Not run: this run did not ask for it. It runs on its own datasets ({}) in `bench`, \
+             in `run lod` with the experiment's own datasets, or for the ones `--datasets` \
+             names.\n",
+            SRN_MODELS
+                .iter()
+                .map(|m| m.dataset)
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+        return s;
+    }
     s.push_str(&format!(
         "SRN (eq. 2) at density scale 1 with the JPEG2000 masking importance of the texture \
          (eq. 1, CDF 9/7, 5 levels, 5 × 5 non-causal neighbourhood). The paper's models and \

@@ -121,6 +121,7 @@ impl Experiment for ScaleExperiment {
             let mut previous: Option<(f64, f64)> = None;
             let mut before: Option<(f64, f64)> = None;
             for &n in sizes {
+                crate::progress::at(&format!("{n} points"), method);
                 let not_run = |status: String| Row {
                     method: method.to_owned(),
                     n_points: n,

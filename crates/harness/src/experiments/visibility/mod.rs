@@ -343,6 +343,7 @@ impl Experiment for VisibilityExperiment {
                 * views.len();
             let bar = progress::bar(cells as u64, format!("visibility {name}"));
             for (m, sweep) in &methods {
+                progress::at(name, m.name);
                 for setting in sweep.settings(ctx.quick) {
                     let label = setting.label();
                     let family = m.family(setting);

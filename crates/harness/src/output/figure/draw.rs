@@ -443,7 +443,12 @@ pub(super) fn rgb(c: [u8; 3]) -> RGBColor {
 
 /// A marker of `style` centred at `(x, y)`, radius `r` pixels: a circle for the round
 /// markers, else the style's polygon.
-pub(super) fn draw_marker(area: &Area<'_>, style: &Style, (x, y): (f64, f64), r: f64) -> DrawResult {
+pub(super) fn draw_marker(
+    area: &Area<'_>,
+    style: &Style,
+    (x, y): (f64, f64),
+    r: f64,
+) -> DrawResult {
     let color = rgb(style.color);
     let hollow = style.hollow || style.marker == Marker::Ring;
     let centre = (x.round() as i32, y.round() as i32);
@@ -621,4 +626,3 @@ pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResu
     }
     Ok(())
 }
-

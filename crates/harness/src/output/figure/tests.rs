@@ -41,8 +41,7 @@ fn a_figure_writes_its_twin_and_a_png_drawn_from_it() {
         assert!(img.pixels().any(|p| p.0 == c), "{}", s.label);
     }
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("f.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("f.json")).unwrap()).unwrap();
     assert_eq!(json["format"], FORMAT);
     let s0 = &json["panels"][0]["series"][0];
     assert_eq!(s0["method"], "hpr");
@@ -69,8 +68,7 @@ fn more_than_ten_series_become_small_multiples_with_grey_context() {
         all.push(series(f, f, "best", Draw::Line));
         all.push(series(f, f, "auto", Draw::Line));
     }
-    let fig =
-        Figure::new("g", "many", Axis::linear("x"), Axis::linear("y")).series(all, vec![]);
+    let fig = Figure::new("g", "many", Axis::linear("x"), Axis::linear("y")).series(all, vec![]);
     assert_eq!(fig.panels.len(), families.len());
     for (p, f) in fig.panels.iter().zip(families) {
         assert_eq!(p.title, f);

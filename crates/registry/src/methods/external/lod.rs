@@ -148,12 +148,13 @@ impl ExternalLodSel<'_> {
                 return Err(format!("splat radius {r} is not a positive number"));
             }
             let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
-            let bytes_read = match v.get("bytes_read") {
-                None => None,
-                Some(b) => Some(b.as_u64().ok_or_else(|| {
-                    format!("\"bytes_read\" {b} is not a whole number of bytes")
-                })?),
-            };
+            let bytes_read =
+                match v.get("bytes_read") {
+                    None => None,
+                    Some(b) => Some(b.as_u64().ok_or_else(|| {
+                        format!("\"bytes_read\" {b} is not a whole number of bytes")
+                    })?),
+                };
             *answer.lock().map_err(|_| "lock")? = Some((
                 visible.into_iter().zip(radii).collect::<Vec<_>>(),
                 seconds,
