@@ -156,7 +156,13 @@ fn ooc_cell(
         })?;
         let prepare_seconds = ready();
         if method == super::copc::COPC_CONVERTER {
-            return super::copc::build_cell(&input, &dir, n, prepare_seconds);
+            return super::copc::build_cell(
+                &input,
+                &dir,
+                n,
+                prepare_seconds,
+                super::plan::OOC_LIMIT,
+            );
         }
         let out = dir.join(format!("{method}.lod"));
         let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;

@@ -1,7 +1,7 @@
 //! The scale experiment's peer build: copc_converter (crates.io, the `copc-lod` peer's
 //! converter, `methods/copc-lod`) on the same LAZ input as our out-of-core builds
 //! (`NAME-build-ooc`), with the same thread count (rayon's: `RAYON_NUM_THREADS`, else every
-//! core) and the same memory limit ([`OOC_LIMIT`], as `--memory-limit`; copc_converter budgets
+//! core) and the same memory limit (`plan::OOC_LIMIT`, given by the cell, as `--memory-limit`; copc_converter budgets
 //! 75 % of it). Its wall time is the cell's seconds; its peak memory is the largest child's
 //! (`getrusage(RUSAGE_CHILDREN)`, which the cell's peak adds to its own); its scratch folder is
 //! measured every [`SCRATCH_POLL`] for the most it held at once.
@@ -18,7 +18,6 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context as _, Result, bail};
 
-use super::plan::OOC_LIMIT;
 use super::row::CellOutput;
 use crate::rss::peak_rss_with_children;
 
@@ -76,7 +75,13 @@ fn dir_bytes(dir: &Path) -> u64 {
 
 /// Builds the COPC file of `input` (`n` points) in `dir` with copc_converter, timed; the
 /// cell's output (`prepare_seconds` from the cell).
-pub fn build_cell(input: &Path, dir: &Path, n: u64, prepare_seconds: f64) -> Result<CellOutput> {
+pub fn build_cell(
+    input: &Path,
+    dir: &Path,
+    n: u64,
+    prepare_seconds: f64,
+    memory_limit: u64,
+) -> Result<CellOutput> {
     let program = converter().map_err(anyhow::Error::msg)?;
     let out = dir.join("cloud.copc.laz");
     let tmp = dir.join("scratch");
@@ -99,7 +104,7 @@ pub fn build_cell(input: &Path, dir: &Path, n: u64, prepare_seconds: f64) -> Res
             .arg(input)
             .arg(&out)
             .arg("--memory-limit")
-            .arg(format!("{}Mi", OOC_LIMIT >> 20))
+            .arg(format!("{}Mi", memory_limit >> 20))
             .arg("--threads")
             .arg(threads.to_string())
             .arg("--temp-dir")
@@ -136,7 +141,7 @@ pub fn build_cell(input: &Path, dir: &Path, n: u64, prepare_seconds: f64) -> Res
              converter's own), {:.2} M points/s, LAZ {:.0} MiB, scratch {:.0} MiB at most \
              (read every {} ms), COPC file {:.0} MiB; no selection from the file here (the \
              lod experiment's copc-lod selects from its own)",
-            OOC_LIMIT >> 20,
+            memory_limit >> 20,
             mib(converter_peak),
             n as f64 / seconds / 1e6,
             mib(input_bytes),
