@@ -34,18 +34,25 @@ fn partial_path(path: &Path) -> PathBuf {
     crate::scratch::beside(path, "partial")
 }
 
-/// Files this process has read (device, inode).
-static INPUTS: Mutex<Vec<(u64, u64)>> = Mutex::new(Vec::new());
+/// A file's identity: device, inode and modification time (seconds, nanoseconds). The time
+/// tells a file apart from a later one that reuses a deleted file's inode (a file read, then
+/// removed, must not make a new file at its inode count as an input).
+type Identity = (u64, u64, i64, i64);
 
-/// The device and inode of an existing file (symbolic links followed).
+/// Files this process has read.
+static INPUTS: Mutex<Vec<Identity>> = Mutex::new(Vec::new());
+
+/// The identity of an existing file (symbolic links followed).
 #[cfg(unix)]
-fn identity(path: &Path) -> Option<(u64, u64)> {
+fn identity(path: &Path) -> Option<Identity> {
     use std::os::unix::fs::MetadataExt;
-    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+    std::fs::metadata(path)
+        .ok()
+        .map(|m| (m.dev(), m.ino(), m.mtime(), m.mtime_nsec()))
 }
 
 #[cfg(not(unix))]
-fn identity(_path: &Path) -> Option<(u64, u64)> {
+fn identity(_path: &Path) -> Option<Identity> {
     None
 }
 
