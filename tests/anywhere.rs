@@ -344,6 +344,12 @@ fn inside_a_clone_its_folders_are_used_from_any_subfolder() {
         mine.join("zbuffer.py"),
     )
     .unwrap();
+    // The protocol helper it imports (from ../_shared, or beside it).
+    std::fs::copy(
+        clone_root().join("methods/_shared/pointsight_protocol.py"),
+        mine.join("pointsight_protocol.py"),
+    )
+    .unwrap();
     let sub = clone.join("a/b");
     std::fs::create_dir_all(&sub).unwrap();
     let paths = ok(&s.run_in(&sub, &["paths"]));

@@ -232,6 +232,8 @@ def test_an_external_method_loaded_from_python(tmp_path):
     example = ROOT / "methods" / "example-zbuffer"
     shutil.copy(example / "zbuffer.py", folder / "zbuffer.py")
     shutil.copy(example / "method.toml", folder / "method.toml")
+    # The protocol helper it imports (from ../_shared, or beside it).
+    shutil.copy(ROOT / "methods" / "_shared" / "pointsight_protocol.py", folder)
     assert ps.load_methods(tmp_path / "methods") == ["py-test-zbuffer"]
     assert ps.load_methods(tmp_path / "methods") == []  # loading twice is harmless
     assert "py-test-zbuffer" in {m[0] for m in ps.methods()}
