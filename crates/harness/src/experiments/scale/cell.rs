@@ -161,7 +161,7 @@ fn ooc_cell(
                 &dir,
                 n,
                 prepare_seconds,
-                super::plan::OOC_LIMIT,
+                OOC_LIMIT,
             );
         }
         let out = dir.join(format!("{method}.lod"));
