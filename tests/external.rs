@@ -518,3 +518,43 @@ for line in sys.stdin:
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn views_answered_before_a_program_dies_are_written_and_counted() {
+    // Answers views 0..8, dies at view 9 (and again at every later view, restarted).
+    let script = r#"
+import sys, json
+for line in sys.stdin:
+    k = json.loads(line)["view"]
+    if k >= 9:
+        sys.stderr.write("dying at view %d\n" % k)
+        sys.exit(3)
+    print(json.dumps({"visible": [k], "seconds": 0.0}), flush=True)
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    method2(d, "dies-at-9", script, "");
+    let out = d.join("views");
+    let run = visible(d, "dies-at-9", "all", &out);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("view 9: external method dies-at-9: view 9: the program exited")
+            && err.contains("dying at view 9"),
+        "{err}"
+    );
+    assert!(
+        err.contains("9 of the ") && err.contains("views were answered and written to"),
+        "{err}"
+    );
+    let n = std::fs::read_dir(&out).map_or(0, Iterator::count);
+    assert!(err.contains("views 9, 10"), "{err}");
+    assert_eq!(n, 9, "the answered views are written: {err}");
+    for k in 0..9 {
+        assert_eq!(
+            std::fs::read_to_string(out.join(format!("view-{k}.txt"))).unwrap(),
+            format!("{k}\n")
+        );
+    }
+    assert!(!out.join("view-9.txt").exists());
+}
