@@ -304,11 +304,31 @@ impl Session {
                 Err(format!("no answer within {:.1} s", timeout.as_secs_f64()))
             }
             Err(RecvTimeoutError::Disconnected) => {
-                let status = running.child.wait().map(|s| s.to_string());
-                Err(format!(
-                    "the program exited ({}) without an answer",
-                    status.unwrap_or_else(|e| e.to_string())
-                ))
+                // Its output closed: it exited, or it closed it and goes on (not waited for
+                // long; it is killed). It is not reaped here, so its group id stays its own.
+                let deadline = Instant::now() + Duration::from_secs(2);
+                loop {
+                    let status = waitid(
+                        Id::Pid(running.pgid),
+                        WaitPidFlag::WEXITED | WaitPidFlag::WNOHANG | WaitPidFlag::WNOWAIT,
+                    );
+                    let said = match status {
+                        Ok(WaitStatus::Exited(_, code)) => format!("exit status: {code}"),
+                        Ok(WaitStatus::Signaled(_, signal, _)) => {
+                            format!("signal: {} ({})", signal as i32, signal.as_str())
+                        }
+                        Ok(WaitStatus::StillAlive) if Instant::now() < deadline => {
+                            std::thread::sleep(Duration::from_millis(5));
+                            continue;
+                        }
+                        Ok(WaitStatus::StillAlive) => {
+                            return Err("the program closed its output without an answer".into());
+                        }
+                        Ok(other) => format!("{other:?}"),
+                        Err(e) => e.to_string(),
+                    };
+                    return Err(format!("the program exited ({said}) without an answer"));
+                }
             }
         }
     }

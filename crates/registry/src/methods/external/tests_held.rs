@@ -263,3 +263,30 @@ for line in sys.stdin:
         assert!(!err.contains("root:"), "view {k} quotes the file: {err}");
     }
 }
+
+#[test]
+fn a_program_that_closes_its_output_and_lingers_is_not_waited_for() {
+    let script = "import sys, os, time\nsys.stdin.readline()\nos.close(1)\ntime.sleep(60)\n";
+    let dir = folder("protocol = 2\ncommand = [\"python3\", \"m.py\"]\n", script);
+    let views = kernel::View::all(&[test_camera()]);
+    let start = Instant::now();
+    let (_, answers) = run_cell(&dir, &small_cloud(), &views);
+    let err = answers[0].1.as_ref().unwrap_err();
+    assert!(err.contains("closed its output without an answer"), "{err}");
+    assert!(
+        start.elapsed() < Duration::from_secs(30),
+        "{:?}",
+        start.elapsed()
+    );
+    // And one that exits says how.
+    let dir = folder(
+        "protocol = 2\ncommand = [\"python3\", \"m.py\"]\n",
+        "import sys\nsys.stdin.readline()\nsys.exit(3)\n",
+    );
+    let (_, answers) = run_cell(&dir, &small_cloud(), &views);
+    let err = answers[0].1.as_ref().unwrap_err();
+    assert!(
+        err.contains("the program exited (exit status: 3) without an answer"),
+        "{err}"
+    );
+}
