@@ -809,11 +809,11 @@ fn within(mut cmd: Command, seconds: u64) -> Output {
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
-        .unwrap();
+        .expect("the command starts");
     let start = std::time::Instant::now();
     loop {
-        if child.try_wait().unwrap().is_some() {
-            return child.wait_with_output().unwrap();
+        if child.try_wait().expect("its status").is_some() {
+            return child.wait_with_output().expect("its output");
         }
         if start.elapsed().as_secs() > seconds {
             let _ = child.kill();
@@ -904,10 +904,10 @@ fn started(args: &[&str], dir: &Path, marker: &str) -> std::process::Child {
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
-        .unwrap();
+        .expect("the pointsight binary runs");
     let start = std::time::Instant::now();
     while !names(dir).iter().any(|n| n.contains(marker)) {
-        if let Some(status) = child.try_wait().unwrap() {
+        if let Some(status) = child.try_wait().expect("its status") {
             panic!("{args:?} ended ({status}) before {marker} appeared");
         }
         assert!(start.elapsed().as_secs() < 300, "{marker} never appeared");
