@@ -187,7 +187,7 @@ fn broken_programs_are_errors_not_crashes() {
         );
         assert!(!out.exists(), "{name}: no output file on error");
     }
-    // The crash's stderr is quoted from its log.
+    // The crash's stderr is quoted (the end of it, kept in memory).
     let run = pointsight(
         d,
         &[
@@ -347,7 +347,7 @@ fn floods_are_refused_with_bounded_memory() {
     method2(
         d,
         "flood-file",
-        "import sys, json\nfor line in sys.stdin:\n    with open('big.txt', 'wb') as f:\n        f.truncate(4 << 30)\n    print(json.dumps({'visible_file': 'big.txt'}), flush=True)\n",
+        "import sys, json, os\nos.chdir(os.environ['TMPDIR'])\nfor line in sys.stdin:\n    with open('big.txt', 'wb') as f:\n        f.truncate(4 << 30)\n    print(json.dumps({'visible_file': 'big.txt'}), flush=True)\n",
         "",
     );
     // More indices than points, as a list and as a file within the size limit.
@@ -360,7 +360,7 @@ fn floods_are_refused_with_bounded_memory() {
     method2(
         d,
         "too-many-file",
-        "import sys, json\nfor line in sys.stdin:\n    open('many.txt', 'w').write('0 ' * 20001)\n    print(json.dumps({'visible_file': 'many.txt'}), flush=True)\n",
+        "import sys, json, os\nos.chdir(os.environ['TMPDIR'])\nfor line in sys.stdin:\n    open('many.txt', 'w').write('0 ' * 20001)\n    print(json.dumps({'visible_file': 'many.txt'}), flush=True)\n",
         "",
     );
     method2(
@@ -432,4 +432,129 @@ fn manifest_keys_are_checked() {
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
+}
+
+/// Whether process `pid` runs (a zombie does not), waiting up to 5 s for it to end.
+fn still_running(pid: u32) -> bool {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+    loop {
+        let running = std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|stat| {
+            stat.rsplit(')')
+                .next()
+                .is_some_and(|s| !s.trim_start().starts_with('Z'))
+        });
+        if !running || std::time::Instant::now() > deadline {
+            return running;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_signal_ends_the_program_its_children_and_its_points_file() {
+    // It notes its id, its child's and its points file, then hangs on its first view.
+    let script = r#"
+import sys, os, subprocess, time
+args = sys.argv[1:]
+p = subprocess.Popen(["sleep", "60"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                     stderr=subprocess.DEVNULL)
+open("ids.tmp", "w").write("%d %d %s" % (os.getpid(), p.pid, args[args.index("--points") + 1]))
+os.rename("ids.tmp", "ids")
+for line in sys.stdin:
+    time.sleep(60)
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    method2(d, "hangs", script, "timeout_seconds = 100\n");
+    let out = d.join("v.txt");
+    let mut run = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+        .args(["visible", "--dataset", "sphere-20000", "--view", "0"])
+        .args(["--method", "hangs", "--out", out.to_str().unwrap()])
+        .env("POINTSIGHT_METHODS", d)
+        .env("POINTSIGHT_DATA", "/nonexistent")
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("the pointsight binary runs");
+    let ids = d.join("hangs/ids");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(120);
+    while !ids.exists() {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the program never started"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let ids = std::fs::read_to_string(ids).unwrap();
+    let mut words = ids.split(' ');
+    let program: u32 = words.next().unwrap().parse().unwrap();
+    let child: u32 = words.next().unwrap().parse().unwrap();
+    let points = Path::new(words.next().unwrap()).to_owned();
+    assert!(points.exists());
+    // Its first request is on its way: pointsight waits for the answer.
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let term = Command::new("kill")
+        .args(["-TERM", &run.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(term.success());
+    let status = run.wait().unwrap();
+    let left: Vec<u32> = [program, child]
+        .into_iter()
+        .filter(|&p| still_running(p))
+        .collect();
+    for p in &left {
+        // Not left behind by the test either.
+        let _ = Command::new("kill")
+            .args(["-KILL", &p.to_string()])
+            .status();
+    }
+    assert_eq!(status.code(), Some(128 + 15), "{status:?}");
+    assert!(left.is_empty(), "left running: {left:?}");
+    assert!(
+        !points.parent().unwrap().exists(),
+        "{} left behind",
+        points.display()
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn views_answered_before_a_program_dies_are_written_and_counted() {
+    // Answers views 0..8, dies at view 9 (and again at every later view, restarted).
+    let script = r#"
+import sys, json
+for line in sys.stdin:
+    k = json.loads(line)["view"]
+    if k >= 9:
+        sys.stderr.write("dying at view %d\n" % k)
+        sys.exit(3)
+    print(json.dumps({"visible": [k], "seconds": 0.0}), flush=True)
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    method2(d, "dies-at-9", script, "");
+    let out = d.join("views");
+    let run = visible(d, "dies-at-9", "all", &out);
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        err.contains("view 9: external method dies-at-9: view 9: the program exited")
+            && err.contains("dying at view 9"),
+        "{err}"
+    );
+    assert!(
+        err.contains("9 of the ") && err.contains("views were answered and written to"),
+        "{err}"
+    );
+    let n = std::fs::read_dir(&out).map_or(0, Iterator::count);
+    assert!(err.contains("views 9, 10"), "{err}");
+    assert_eq!(n, 9, "the answered views are written: {err}");
+    for k in 0..9 {
+        assert_eq!(
+            std::fs::read_to_string(out.join(format!("view-{k}.txt"))).unwrap(),
+            format!("{k}\n")
+        );
+    }
+    assert!(!out.join("view-9.txt").exists());
 }

@@ -183,10 +183,12 @@ fn external_folder(root: &Path) -> PathBuf {
     let folder = methods.join("kernel-test-zbuffer");
     std::fs::create_dir_all(&folder).expect("a method folder");
     std::fs::copy(example.join("zbuffer.py"), folder.join("zbuffer.py")).expect("the example");
-    // The peers' protocol helper it imports (from ../_shared, or beside it).
+    // The protocol helper it imports, where it looks for it (a methods folder's `_shared/`).
+    let shared = methods.join("_shared");
+    std::fs::create_dir_all(&shared).expect("a _shared folder");
     std::fs::copy(
         example.join("../_shared/pointsight_protocol.py"),
-        folder.join("pointsight_protocol.py"),
+        shared.join("pointsight_protocol.py"),
     )
     .expect("the protocol helper");
     let toml = std::fs::read_to_string(example.join("method.toml")).expect("the example's toml");

@@ -6,6 +6,9 @@
 //! (their single view already uses every core). The `--set` pairs are the method's setting; a
 //! key left out is its default (the card's, as everywhere), and the line before the last says
 //! the setting as it ran: `setting=k=v;...`, every key the method read with its value.
+//! When some of many views fail (an external program that dies at view 9), the views answered
+//! are still written, each file whole, and the error names the first failure, how many views
+//! were answered and which were not.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -383,15 +386,20 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     let start = Instant::now();
     let mut results: Vec<(usize, Output, f64)> = Vec::with_capacity(views.len());
     let mut failure = None;
+    let mut failed = Vec::new();
     let prepared = kernel::run(&cell, ds.input(), |view, answer| match answer {
         Ok(a) => results.push((view.index, a.output, a.timing.median)),
-        Err(e) if failure.is_none() => failure = Some(format!("view {}: {e}", view.index)),
-        Err(_) => {}
+        Err(e) => {
+            failed.push(view.index);
+            failure.get_or_insert_with(|| format!("view {}: {e}", view.index));
+        }
     });
     let preparation = prepared?;
     let prepare_seconds = preparation.seconds;
-    if let Some(f) = failure {
-        bail!(f);
+    if results.is_empty()
+        && let Some(f) = failure
+    {
+        bail!("{f}; none of the {} views was answered", views.len());
     }
     println!(
         "prepare_seconds={prepare_seconds:.6}{} views={} parallel_views={parallel}",
@@ -418,6 +426,18 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             method.name,
             ds.cloud.len(),
             output.visible.len()
+        );
+    }
+    if let Some(f) = failure {
+        // The views answered are written (each file whole); the error names the ones not.
+        let failed: Vec<String> = failed.iter().map(ToString::to_string).collect();
+        bail!(
+            "{f}; {} of the {} views were answered and written to {} (view-K.txt), views {} \
+             were not",
+            results.len(),
+            views.len(),
+            req.out.display(),
+            failed.join(", ")
         );
     }
     println!("setting={}", preparation.setting.label());

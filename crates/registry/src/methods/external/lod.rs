@@ -147,7 +147,7 @@ impl ExternalLodSel<'_> {
             if let Some(r) = radii.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
                 return Err(format!("splat radius {r} is not a positive number"));
             }
-            let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
+            let seconds = session.seconds(&v)?;
             let bytes_read =
                 match v.get("bytes_read") {
                     None => None,

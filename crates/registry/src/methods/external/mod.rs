@@ -21,8 +21,10 @@
 //!   dataset's view index when the caller knows it (`Prepared::visible_at`; a caller that
 //!   does not gets its calls counted), and reads one line from its standard output:
 //!   `{"visible": [indices...], "seconds": T}` (or `"visible_file": PATH` naming a file of
-//!   indices, whitespace-separated), `T` the program's own compute seconds for that view, which
-//!   is what gets reported; or `{"error": MESSAGE}`. End of input means exit. Before its
+//!   indices, whitespace-separated, inside the program's scratch folder: the points file's
+//!   folder, also its `TMPDIR`; a relative PATH is relative to it), `T` the program's own
+//!   compute seconds for that view, which is what gets reported; or `{"error": MESSAGE}`.
+//!   Exactly one line per request. End of input means exit. Before its
 //!   first answer a program may write `{"built": true, "seconds": T}`: its own per-cloud set-up
 //!   (a BVH, a render window), reported apart from the per-view times
 //!   (`Prepared::reported_build_seconds`; again after a restart, the last one kept).
@@ -36,11 +38,19 @@
 //! - The answer is checked with bounded memory: a line longer than the cloud's index range
 //!   allows ([`answer_limit`]: 1 MiB plus 24 bytes per point), a `visible_file` larger than
 //!   that, more indices than points, indices outside 0..N and repeated ones are errors (the
-//!   indices are sorted here). The program's standard error goes to a log file. A view that
-//!   takes longer than `timeout_seconds` (default 300), a program that exits, or an answer
-//!   that is not this protocol is an error naming the method, the view and the log; the
-//!   process is killed and the next view starts a fresh one. A program that is done with
-//!   (the cell is over, or it failed) has its input closed and 3 s to exit before the kill.
+//!   indices are sorted here). Its lies too: a second line with one answer (which would shift
+//!   every later answer by one), a `seconds` that is not a number from 0 to `timeout_seconds`,
+//!   a `visible_file` outside its scratch folder (refused unread; no error quotes a file's
+//!   content). The program's standard error is kept in memory as its last 64 KiB
+//!   (`session::STDERR_TAIL`; nothing on disk). A view that takes longer than
+//!   `timeout_seconds` (default 300), a program that exits, or an answer that is not this
+//!   protocol is an error naming the method, the view and quoting the end of its stderr; the
+//!   program is killed and the next view starts a fresh one.
+//! - Each program runs in a process group of its own, killed as a group (whatever it started
+//!   with it): at once when it fails, and when it is done with (the cell is over) after its
+//!   input is closed and 3 s to exit; when pointsight is stopped by a signal, the harness's
+//!   `cloud::scratch::cleanup` kills the groups still running and removes their scratch
+//!   folders (registered with `cloud::scratch`).
 //!
 //! `method.toml`:
 //!
@@ -76,6 +86,8 @@ pub mod points;
 mod session;
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tests_held;
 mod visibility;
 
 use std::path::Path;

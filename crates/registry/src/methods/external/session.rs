@@ -1,18 +1,29 @@
 //! The wire protocol of an external method: one program per setting ([`Session`]), started in
 //! its folder with the points file and the setting, asked one JSON line per view (and setting,
-//! for the LOD form), its answers read with bounded memory ([`answer_limit`]) and checked; a
-//! program that fails is killed and the next request starts a fresh one, and one the caller is
-//! done with gets the end of its input and [`EXIT_GRACE`] to exit.
+//! for the LOD form), its answers read with bounded memory ([`answer_limit`]) and checked (one
+//! line per request, `seconds`, a `visible_file` confined to its scratch folder); its standard
+//! error kept as a bounded tail in memory ([`STDERR_TAIL`]). Each program runs in a process
+//! group of its own, ended as a group: one that fails is killed at once and the next request
+//! starts a fresh one, one the caller is done with gets the end of its input and
+//! [`EXIT_GRACE`] to exit, and a signal to pointsight kills what still runs (a
+//! `cloud::scratch` hook, with the scratch folder registered there too).
 
+use std::collections::VecDeque;
 use std::ffi::OsString;
 use std::io::{BufRead, BufReader, Read, Write};
+use std::os::unix::fs::OpenOptionsExt;
+use std::os::unix::process::CommandExt;
 use std::path::PathBuf;
 use std::process::{Child, ChildStdin, Command, Stdio};
-use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use cloud::glam::Vec3;
+use nix::fcntl::OFlag;
+use nix::sys::signal::{Signal, killpg};
+use nix::sys::wait::{Id, WaitPidFlag, WaitStatus, waitid};
+use nix::unistd::Pid;
 
 use super::manifest::{ExternalMethod, external_error};
 use super::points::write_points;
@@ -31,33 +42,113 @@ pub fn answer_limit(n_points: usize) -> u64 {
     ANSWER_SLACK.saturating_add(BYTES_PER_INDEX.saturating_mul(n_points as u64))
 }
 
-/// A running program.
+/// The bytes of a program's standard error kept in memory: its last 64 KiB (nothing on disk).
+pub(super) const STDERR_TAIL: usize = 64 << 10;
+
+/// The end of a program's standard error: the last [`STDERR_TAIL`] bytes, and how many it
+/// wrote in all.
+#[derive(Default)]
+struct Tail {
+    bytes: VecDeque<u8>,
+    total: u64,
+}
+
+impl Tail {
+    fn push(&mut self, chunk: &[u8]) {
+        self.total += chunk.len() as u64;
+        let chunk = &chunk[chunk.len().saturating_sub(STDERR_TAIL)..];
+        let over = (self.bytes.len() + chunk.len()).saturating_sub(STDERR_TAIL);
+        self.bytes.drain(..over);
+        self.bytes.extend(chunk);
+    }
+
+    /// Its last five lines (300 characters each at most), for an error message.
+    fn quote(&self) -> String {
+        let (a, b) = self.bytes.as_slices();
+        let text = String::from_utf8_lossy(&[a, b].concat()).into_owned();
+        let tail: Vec<&str> = text
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .rev()
+            .take(5)
+            .collect();
+        if tail.is_empty() {
+            return "its stderr was empty".to_owned();
+        }
+        let kept = if self.total > self.bytes.len() as u64 {
+            format!(" (of {} bytes; the last 64 KiB kept)", self.total)
+        } else {
+            String::new()
+        };
+        format!(
+            "last lines of its stderr{kept}: {}",
+            tail.into_iter()
+                .rev()
+                .map(|l| l.chars().take(300).collect::<String>())
+                .collect::<Vec<_>>()
+                .join(" | ")
+        )
+    }
+}
+
+/// A running program, in a process group of its own (its children with it): ended as a
+/// group, when it is done with, when it fails, and by `cloud::scratch::cleanup` when
+/// pointsight is stopped by a signal.
 struct Running {
     child: Child,
+    /// Its process group (its own id).
+    pgid: Pid,
     /// Its input; `None` once closed (end of input means exit).
     stdin: Option<ChildStdin>,
-    lines: Receiver<std::result::Result<String, String>>,
+    /// Its output's lines, each with whether more bytes had come with it (written before
+    /// the line was taken: a second line to one request).
+    lines: Receiver<std::result::Result<(String, bool), String>>,
     /// No line of it has been read yet (the visibility form's optional `built` line comes
     /// first).
     fresh: bool,
+    /// The request last answered (for a second answer line to it).
+    answered: Option<String>,
+    /// The end of its standard error, and word when it is read to its end.
+    stderr: Arc<Mutex<Tail>>,
+    stderr_done: Receiver<()>,
+    /// Kills the group at `cloud::scratch::cleanup` while it runs.
+    hook: Option<cloud::scratch::HookGuard>,
 }
 
 /// How long a program whose input was closed has to exit before it is killed.
 pub(super) const EXIT_GRACE: Duration = Duration::from_secs(3);
 
+/// Kills process group `pgid`, whatever is left of it.
+fn kill_group(pgid: Pid) {
+    let _ = killpg(pgid, Signal::SIGKILL);
+}
+
+impl Running {
+    /// Whether the program (the group's leader) has exited; it is not reaped, so its id
+    /// (the group's) is not reused before the group is killed.
+    fn exited(&self) -> bool {
+        !matches!(
+            waitid(
+                Id::Pid(self.pgid),
+                WaitPidFlag::WEXITED | WaitPidFlag::WNOHANG | WaitPidFlag::WNOWAIT
+            ),
+            Ok(WaitStatus::StillAlive)
+        )
+    }
+}
+
 impl Drop for Running {
     /// Closes the program's input and gives it [`EXIT_GRACE`] to exit (to remove its temporary
-    /// files, say), then kills it.
+    /// files, say), then kills its process group: the program if it is still there, and
+    /// whatever it started.
     fn drop(&mut self) {
         drop(self.stdin.take());
         let deadline = Instant::now() + EXIT_GRACE;
-        while Instant::now() < deadline {
-            match self.child.try_wait() {
-                Ok(None) => std::thread::sleep(Duration::from_millis(5)),
-                Ok(Some(_)) | Err(_) => break,
-            }
+        while Instant::now() < deadline && !self.exited() {
+            std::thread::sleep(Duration::from_millis(5));
         }
-        let _ = self.child.kill();
+        kill_group(self.pgid);
+        drop(self.hook.take());
         let _ = self.child.wait();
     }
 }
@@ -109,9 +200,14 @@ pub(super) struct Session {
     args: Vec<OsString>,
     pub(super) n_points: usize,
     timeout: Duration,
-    log: PathBuf,
-    _dir: tempfile::TempDir,
+    /// The running program (declared before the folder: it ends before the folder goes).
     process: Mutex<Option<Running>>,
+    /// The program's own scratch folder (the points file's; its `TMPDIR`), resolved: the one
+    /// place a `visible_file` may be.
+    scratch: PathBuf,
+    _dir: tempfile::TempDir,
+    /// The folder, removed by `cloud::scratch::cleanup` if a signal stops pointsight.
+    _registered: cloud::scratch::Registered,
     /// The LOD form: the program greets with its build line.
     lod: bool,
     /// The LOD form's last build line: its own seconds and the structure's size.
@@ -120,11 +216,6 @@ pub(super) struct Session {
 
 impl Session {
     fn start(&self) -> Result<Running> {
-        let log = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&self.log)
-            .map_err(|e| external_error(self.method, e))?;
         let (program, args) = self
             .command
             .split_first()
@@ -133,19 +224,49 @@ impl Session {
             .args(args)
             .args(&self.args)
             .current_dir(&self.folder)
+            .env("TMPDIR", &self.scratch)
+            .process_group(0)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
-            .stderr(Stdio::from(log))
+            .stderr(Stdio::piped())
             .spawn()
             .map_err(|e| external_error(self.method, format!("cannot start {program}: {e}")))?;
-        let stdin = child
-            .stdin
-            .take()
-            .ok_or_else(|| external_error(self.method, "no stdin"))?;
-        let stdout = child
-            .stdout
-            .take()
-            .ok_or_else(|| external_error(self.method, "no stdout"))?;
+        let pgid = Pid::from_raw(child.id().cast_signed());
+        // From here on the group is killed whatever happens: on drop, and on a signal.
+        let hook = cloud::scratch::on_cleanup(move || kill_group(pgid));
+        let (stdin, stdout, stderr) =
+            (child.stdin.take(), child.stdout.take(), child.stderr.take());
+        let mut running = Running {
+            child,
+            pgid,
+            stdin,
+            lines: channel().1,
+            fresh: true,
+            answered: None,
+            stderr: Arc::default(),
+            stderr_done: channel().1,
+            hook: Some(hook),
+        };
+        let (Some(stdout), Some(mut stderr)) = (stdout, stderr) else {
+            return Err(external_error(self.method, "no stdout or stderr"));
+        };
+        let (done_tx, done_rx) = channel();
+        let tail = Arc::clone(&running.stderr);
+        std::thread::spawn(move || {
+            // Read to its end, keeping the last 64 KiB: a program may write gigabytes there.
+            let mut buf = vec![0_u8; 8192];
+            while let Ok(n) = stderr.read(&mut buf) {
+                if n == 0 {
+                    break;
+                }
+                match tail.lock() {
+                    Ok(mut t) => t.push(&buf[..n]),
+                    Err(_) => break,
+                }
+            }
+            let _ = done_tx.send(());
+        });
+        running.stderr_done = done_rx;
         let (tx, rx) = channel();
         let limit = answer_limit(self.n_points);
         std::thread::spawn(move || {
@@ -153,7 +274,8 @@ impl Session {
             loop {
                 match read_line_bounded(&mut reader, limit) {
                     Ok(Some(line)) => {
-                        if tx.send(Ok(line)).is_err() {
+                        let more = !reader.buffer().is_empty();
+                        if tx.send(Ok((line, more))).is_err() {
                             break;
                         }
                     }
@@ -166,43 +288,15 @@ impl Session {
                 }
             }
         });
-        Ok(Running {
-            child,
-            stdin: Some(stdin),
-            lines: rx,
-            fresh: true,
-        })
-    }
-
-    fn log_tail(&self) -> String {
-        // The log's last 4 KiB: a program may write gigabytes there too.
-        let text = std::fs::File::open(&self.log)
-            .and_then(|mut f| {
-                let len = f.metadata()?.len();
-                std::io::Seek::seek(&mut f, std::io::SeekFrom::Start(len.saturating_sub(4096)))?;
-                let mut bytes = Vec::new();
-                f.read_to_end(&mut bytes)?;
-                Ok(String::from_utf8_lossy(&bytes).into_owned())
-            })
-            .unwrap_or_default();
-        let tail: Vec<&str> = text.lines().rev().take(5).collect();
-        if tail.is_empty() {
-            format!("(log {} is empty)", self.log.display())
-        } else {
-            format!(
-                "last lines of its stderr ({}): {}",
-                self.log.display(),
-                tail.into_iter()
-                    .rev()
-                    .map(|l| l.chars().take(300).collect::<String>())
-                    .collect::<Vec<_>>()
-                    .join(" | ")
-            )
-        }
+        running.lines = rx;
+        Ok(running)
     }
 
     /// Waits for one line (the first start's greeting, or an answer).
-    fn receive(running: &mut Running, timeout: Duration) -> std::result::Result<String, String> {
+    fn receive(
+        running: &mut Running,
+        timeout: Duration,
+    ) -> std::result::Result<(String, bool), String> {
         match running.lines.recv_timeout(timeout) {
             Ok(Ok(line)) => Ok(line),
             Ok(Err(e)) => Err(e),
@@ -210,18 +304,38 @@ impl Session {
                 Err(format!("no answer within {:.1} s", timeout.as_secs_f64()))
             }
             Err(RecvTimeoutError::Disconnected) => {
-                let status = running.child.wait().map(|s| s.to_string());
-                Err(format!(
-                    "the program exited ({}) without an answer",
-                    status.unwrap_or_else(|e| e.to_string())
-                ))
+                // Its output closed: it exited, or it closed it and goes on (not waited for
+                // long; it is killed). It is not reaped here, so its group id stays its own.
+                let deadline = Instant::now() + Duration::from_secs(2);
+                loop {
+                    let status = waitid(
+                        Id::Pid(running.pgid),
+                        WaitPidFlag::WEXITED | WaitPidFlag::WNOHANG | WaitPidFlag::WNOWAIT,
+                    );
+                    let said = match status {
+                        Ok(WaitStatus::Exited(_, code)) => format!("exit status: {code}"),
+                        Ok(WaitStatus::Signaled(_, signal, _)) => {
+                            format!("signal: {} ({})", signal as i32, signal.as_str())
+                        }
+                        Ok(WaitStatus::StillAlive) if Instant::now() < deadline => {
+                            std::thread::sleep(Duration::from_millis(5));
+                            continue;
+                        }
+                        Ok(WaitStatus::StillAlive) => {
+                            return Err("the program closed its output without an answer".into());
+                        }
+                        Ok(other) => format!("{other:?}"),
+                        Err(e) => e.to_string(),
+                    };
+                    return Err(format!("the program exited ({said}) without an answer"));
+                }
             }
         }
     }
 
     /// Sends `request` (one JSON line) and reads the answer line; the process is started
     /// first when none runs (`greet` then reads and checks its first line). Errors kill the
-    /// process and name the view `what` and the log.
+    /// process (its group) and name the view `what`, quoting the end of its stderr.
     pub(super) fn ask(
         &self,
         what: &str,
@@ -233,20 +347,28 @@ impl Session {
             .lock()
             .map_err(|_| external_error(self.method, "process lock poisoned"))?;
         let fail = |guard: &mut Option<Running>, why: String| {
-            // Kill it: the next request starts a fresh process.
-            *guard = None;
-            Err(external_error(
-                self.method,
-                format!("{what}: {why}; {}", self.log_tail()),
-            ))
+            // Kill it (its group): the next request starts a fresh process.
+            let quote = guard.take().map_or_else(String::new, |mut running| {
+                // No grace: it failed.
+                kill_group(running.pgid);
+                let tail = Arc::clone(&running.stderr);
+                let done = std::mem::replace(&mut running.stderr_done, channel().1);
+                drop(running);
+                // The group is dead: its stderr ends now.
+                let _ = done.recv_timeout(Duration::from_secs(1));
+                tail.lock()
+                    .map_or_else(|_| String::new(), |t| format!("; {}", t.quote()))
+            });
+            Err(external_error(self.method, format!("{what}: {why}{quote}")))
         };
         if guard.is_none() {
             let mut running = self.start()?;
             if self.lod {
                 // The LOD form builds first and says so (again after a restart).
-                let first = Self::receive(&mut running, self.timeout).and_then(|l| self.greet(&l));
+                let first =
+                    Self::receive(&mut running, self.timeout).and_then(|(l, _)| self.greet(&l));
                 if let Err(why) = first {
-                    drop(running);
+                    *guard = Some(running);
                     return fail(&mut guard, why);
                 }
                 running.fresh = false;
@@ -259,6 +381,28 @@ impl Session {
         let running = guard
             .as_mut()
             .ok_or_else(|| external_error(self.method, "no process"))?;
+        if !running.fresh {
+            // Exactly one answer line per request: a line here answers nothing asked (a
+            // second answer to the last request would shift every later answer by one).
+            let extra = match running.lines.try_recv() {
+                Ok(Ok((line, _))) => Some(trunc(&line)),
+                Ok(Err(e)) => Some(e),
+                Err(_) => None,
+            };
+            if let Some(extra) = extra {
+                let last = running
+                    .answered
+                    .clone()
+                    .unwrap_or_else(|| "the build".to_owned());
+                return fail(
+                    &mut guard,
+                    format!(
+                        "a second answer line to {last} (one line per request; the answers \
+                         would shift by one): {extra}"
+                    ),
+                );
+            }
+        }
         let start = Instant::now();
         let sent = match running.stdin.as_mut() {
             Some(stdin) => stdin
@@ -271,7 +415,7 @@ impl Session {
             return fail(&mut guard, format!("the program is gone ({e})"));
         }
         let mut start = start;
-        let mut line = match Self::receive(running, self.timeout) {
+        let (mut line, mut more) = match Self::receive(running, self.timeout) {
             Ok(line) => line,
             Err(why) => return fail(&mut guard, why),
         };
@@ -281,12 +425,25 @@ impl Session {
                 return fail(&mut guard, why);
             }
             start = Instant::now();
-            line = match Self::receive(running, self.timeout) {
+            (line, more) = match Self::receive(running, self.timeout) {
                 Ok(line) => line,
                 Err(why) => return fail(&mut guard, why),
             };
         }
         let wall = start.elapsed().as_secs_f64();
+        if more {
+            // More came with the answer: which line answers this request is not known.
+            return fail(
+                &mut guard,
+                format!(
+                    "more than one answer line to {what} (one line per request; the answers \
+                     would shift by one): {}",
+                    trunc(&line)
+                ),
+            );
+        }
+        running.fresh = false;
+        running.answered = Some(what.to_owned());
         match parse(&line) {
             Ok(()) => Ok(wall),
             Err(why) => fail(&mut guard, why),
@@ -303,22 +460,36 @@ impl Session {
             ));
         }
         let num = |k: &str| v.get(k).and_then(serde_json::Value::as_f64);
-        if let Some(t) = v.get("seconds").filter(|t| !t.is_null())
-            && !t.as_f64().is_some_and(|t| t.is_finite() && t >= 0.0)
-        {
-            return Err(format!(
-                "its built line's \"seconds\" is not a number >= 0: {}",
-                trunc(line)
-            ));
-        }
+        let seconds = self
+            .seconds(&v)
+            .map_err(|e| format!("its built line's {e}"))?;
         *self.built.lock().map_err(|_| "lock")? = Some((
-            num("seconds"),
+            seconds,
             LodSize {
                 nodes: num("nodes").unwrap_or(0.0).max(0.0) as usize,
                 bytes: num("bytes").unwrap_or(0.0).max(0.0),
             },
         ));
         Ok(())
+    }
+
+    /// An answer's (or build line's) `seconds`, when given: a number of seconds from 0 to the
+    /// method's `timeout_seconds` (no request may take longer), else an error naming it.
+    pub(super) fn seconds(
+        &self,
+        v: &serde_json::Value,
+    ) -> std::result::Result<Option<f64>, String> {
+        let Some(t) = v.get("seconds").filter(|t| !t.is_null()) else {
+            return Ok(None);
+        };
+        let limit = self.timeout.as_secs_f64();
+        match t.as_f64() {
+            Some(s) if s.is_finite() && (0.0..=limit).contains(&s) => Ok(Some(s)),
+            _ => Err(format!(
+                "\"seconds\" {} is not a number >= 0 and at most its timeout of {limit} s",
+                trunc(&t.to_string())
+            )),
+        }
     }
 
     /// The answer's indices, checked against the cloud (bounded: at most `n_points` kept).
@@ -358,30 +529,12 @@ impl Session {
                 )?;
             }
         } else if let Some(path) = v.get("visible_file").and_then(serde_json::Value::as_str) {
-            let path = self.folder.join(path);
-            let limit = answer_limit(n);
-            let file = std::fs::File::open(&path)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            let len = file
-                .metadata()
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?
-                .len();
-            if len > limit {
-                return Err(format!(
-                    "visible_file {} is {len} bytes, more than the {limit} bytes the cloud's \
-                     index range allows (1 MiB + 24 bytes per point): refused unread",
-                    path.display()
-                ));
-            }
-            let mut text = String::new();
-            file.take(limit)
-                .read_to_string(&mut text)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-            for t in text.split_whitespace() {
-                take(
-                    t.parse::<i64>()
-                        .map_err(|_| format!("index {:?} is not an integer", trunc(t)))?,
-                )?;
+            for (k, t) in self.visible_file(path)?.split_whitespace().enumerate() {
+                // Not quoted: only what the program put in its own folder is read, but the
+                // message need not show a file's content.
+                take(t.parse::<i64>().map_err(|_| {
+                    format!("visible_file {path}: its word {} is not an integer", k + 1)
+                })?)?;
             }
         } else {
             return Err(format!(
@@ -391,6 +544,60 @@ impl Session {
         }
         out.sort_unstable();
         Ok(out)
+    }
+
+    /// The text of a `visible_file`: a regular file inside the program's scratch folder (a
+    /// relative path is relative to it), at most [`answer_limit`] bytes. Any other path is
+    /// refused unread, and a refusal never quotes what the file holds.
+    fn visible_file(&self, path: &str) -> std::result::Result<String, String> {
+        // Outside as written (`..` taken as written), or once links are resolved.
+        let mut written = PathBuf::new();
+        for part in self.scratch.join(path).components() {
+            match part {
+                std::path::Component::ParentDir => {
+                    written.pop();
+                }
+                std::path::Component::CurDir => {}
+                other => written.push(other),
+            }
+        }
+        let resolved = written
+            .starts_with(&self.scratch)
+            .then(|| written.canonicalize())
+            .transpose()
+            .map_err(|e| format!("cannot read visible_file {path}: {e}"))?;
+        let Some(resolved) = resolved.filter(|r| r.starts_with(&self.scratch)) else {
+            return Err(format!(
+                "visible_file {path} is outside its scratch folder {} (the folder of its \
+                 --points file): refused unread",
+                self.scratch.display()
+            ));
+        };
+        // Not through a link swapped in since, and not blocking on a FIFO.
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .custom_flags((OFlag::O_NOFOLLOW | OFlag::O_NONBLOCK).bits())
+            .open(&resolved)
+            .map_err(|e| format!("cannot read visible_file {path}: {e}"))?;
+        let meta = file
+            .metadata()
+            .map_err(|e| format!("cannot read visible_file {path}: {e}"))?;
+        if !meta.is_file() {
+            return Err(format!("visible_file {path} is not a regular file"));
+        }
+        let limit = answer_limit(self.n_points);
+        if meta.len() > limit {
+            return Err(format!(
+                "visible_file {path} is {} bytes, more than the {limit} bytes the cloud's \
+                 index range allows (1 MiB + 24 bytes per point): refused unread",
+                meta.len()
+            ));
+        }
+        let mut text = String::new();
+        file.take(limit)
+            .read_to_string(&mut text)
+            .map_err(|e| format!("cannot read visible_file {path}: {e}"))?;
+        Ok(text)
     }
 
     /// A parsed answer line: `{"error": ...}` is an error, else the JSON.
@@ -430,6 +637,11 @@ impl ExternalMethod {
         lod_radius: Option<f64>,
     ) -> Result<Session> {
         let dir = tempfile::tempdir().map_err(|e| external_error(self.name, e))?;
+        let registered = cloud::scratch::register(dir.path());
+        let scratch = dir
+            .path()
+            .canonicalize()
+            .map_err(|e| external_error(self.name, e))?;
         let points = dir.path().join("points.ply");
         let origin = write_points(self.name, self.protocol, &points, cloud, normals)?;
         let mut args: Vec<OsString> = vec![
@@ -474,9 +686,10 @@ impl ExternalMethod {
             args,
             n_points: cloud.len(),
             timeout: self.timeout,
-            log: dir.path().join("stderr.log"),
-            _dir: dir,
             process: Mutex::new(None),
+            scratch,
+            _dir: dir,
+            _registered: registered,
             lod: lod_radius.is_some(),
             built: Mutex::new(None),
         })

@@ -18,7 +18,7 @@ use crate::setting::Setting;
 use crate::visibility::Input;
 
 /// The card of the external method in `folder` (leaked, as registered ones are).
-fn card_in(folder: &std::path::Path) -> &'static Card {
+pub(super) fn card_in(folder: &std::path::Path) -> &'static Card {
     card(Box::leak(Box::new(ExternalMethod::load(folder).unwrap())))
 }
 
@@ -41,7 +41,7 @@ fn a_bounded_line_is_read_and_a_flood_refused_unread() {
 }
 
 /// A 64 × 48 pinhole camera 50 units up the z axis, looking at the origin.
-fn test_camera() -> Camera {
+pub(super) fn test_camera() -> Camera {
     Camera::new(
         cloud::glam::DVec3::new(0.0, 0.0, 50.0),
         cloud::glam::DVec3::ZERO,
@@ -53,7 +53,7 @@ fn test_camera() -> Camera {
     .unwrap()
 }
 
-fn folder(manifest: &str, script: &str) -> tempfile::TempDir {
+pub(super) fn folder(manifest: &str, script: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("method.toml"), manifest).unwrap();
     std::fs::write(dir.path().join("m.py"), script).unwrap();
@@ -95,7 +95,7 @@ fn the_version_is_run_once_and_peer_of_read() {
 /// time to clean up (its temporary files), and one that does not exit is killed after
 /// [`EXIT_GRACE`].
 /// Twenty points, not coplanar.
-fn small_cloud() -> cloud::PointCloud {
+pub(super) fn small_cloud() -> cloud::PointCloud {
     cloud::PointCloud {
         positions: (0..20)
             .map(|i| cloud::glam::DVec3::new(f64::from(i), f64::from(i * i % 7), 1.0))
@@ -105,7 +105,7 @@ fn small_cloud() -> cloud::PointCloud {
 }
 
 /// The external method in `dir` at its default setting over `views`, through the kernel.
-fn run_cell(
+pub(super) fn run_cell(
     dir: &tempfile::TempDir,
     cloud: &cloud::PointCloud,
     views: &[kernel::View],

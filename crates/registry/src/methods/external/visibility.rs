@@ -80,7 +80,7 @@ impl Prep {
             .session
             .ask(&format!("view {view}"), Some(&request), &|line| {
                 let v = Session::json(line)?;
-                let seconds = v.get("seconds").and_then(serde_json::Value::as_f64);
+                let seconds = self.session.seconds(&v)?;
                 let visible = self.session.indices(&v)?;
                 *answer.lock().map_err(|_| "lock")? = Some((visible, seconds));
                 Ok(())
