@@ -1,5 +1,6 @@
 //! `pointsight`: parses the command line and hands over to [`harness::run`]; errors become a
-//! message on standard error and exit code 1 here and only here.
+//! message on standard error and exit code 1 here (for a program that embeds the registry and
+//! runs scale cells, `harness::experiments::scale::child::cell_entry` does the same).
 
 use std::process::ExitCode;
 

@@ -5,7 +5,7 @@
 //! place in a figure, so a method keeps its look in every figure of a run and a reader learns
 //! the key once:
 //!
-//! - **colour and dash by family** (`registry::Method::family`: HPR's kernels are the families
+//! - **colour and dash by family** (`registry::Card::family`: HPR's kernels are the families
 //!   `hpr-linear`, `hpr-exp`, ...; an LOD method is its own family; the hull implementations
 //!   are `hull-NAME`). The colours are Paul Tol's *muted* qualitative scheme (nine colours
 //!   chosen to stay apart under the common colour-vision deficiencies,
