@@ -36,7 +36,7 @@
 //!   index, and optionally `"bytes_read": B`, the bytes the selection read from the program's
 //!   own file (a COPC file), reported as a file selection's reads (`LodSelector::reads`).
 //! - The answer is checked with bounded memory: a line longer than the cloud's index range
-//!   allows ([`answer_limit`]: 1 MiB plus 24 bytes per point), a `visible_file` larger than
+//!   allows ([`answer_limit`]: 1 MiB plus 48 bytes per point), a `visible_file` larger than
 //!   that, more indices than points, indices outside 0..N and repeated ones are errors (the
 //!   indices are sorted here). Its lies too: a second line with one answer (which would shift
 //!   every later answer by one), a `seconds` that is not a number from 0 to `timeout_seconds`,

@@ -33,11 +33,14 @@ use crate::lod::LodSize;
 /// Bytes an answer may take beyond its indices' share (JSON keys, `seconds`, a message).
 const ANSWER_SLACK: u64 = 1 << 20;
 
-/// Bytes per index an answer may take (ten digits, a separator, spaces, a radius).
-const BYTES_PER_INDEX: u64 = 24;
+/// Bytes per index an answer may take: ten digits, a separator and a space, and for an LOD
+/// answer its radius as the shortest text of a float (up to 24 characters, `-1.2345678901234567e-300`)
+/// with its separator. 24 was too few for radii written by Python's `json` (py3dtiles-lod's
+/// answers on the 871k-point dragon were refused at 21,962,512 bytes).
+const BYTES_PER_INDEX: u64 = 48;
 
 /// The longest answer line (and `visible_file`) accepted from a method on a cloud of
-/// `n_points`: 1 MiB plus 24 bytes per point. Longer is a flood, refused before it is read.
+/// `n_points`: 1 MiB plus 48 bytes per point. Longer is a flood, refused before it is read.
 pub fn answer_limit(n_points: usize) -> u64 {
     ANSWER_SLACK.saturating_add(BYTES_PER_INDEX.saturating_mul(n_points as u64))
 }
@@ -177,7 +180,7 @@ pub(super) fn read_line_bounded(
         if (line.len() + chunk.len()) as u64 > limit {
             return Err(format!(
                 "its answer line is longer than {limit} bytes, more than the cloud's index range \
-                 allows (1 MiB + 24 bytes per point): refused unread"
+                 allows (1 MiB + 48 bytes per point): refused unread"
             ));
         }
         line.extend_from_slice(chunk);
@@ -589,7 +592,7 @@ impl Session {
         if meta.len() > limit {
             return Err(format!(
                 "visible_file {path} is {} bytes, more than the {limit} bytes the cloud's \
-                 index range allows (1 MiB + 24 bytes per point): refused unread",
+                 index range allows (1 MiB + 48 bytes per point): refused unread",
                 meta.len()
             ));
         }

@@ -312,6 +312,6 @@ for line in sys.stdin:
 #[test]
 fn the_limit_grows_with_the_cloud() {
     assert_eq!(answer_limit(0), 1 << 20);
-    assert_eq!(answer_limit(10), (1 << 20) + 240);
+    assert_eq!(answer_limit(10), (1 << 20) + 480);
     assert_eq!(answer_limit(usize::MAX), u64::MAX);
 }
