@@ -34,8 +34,28 @@ fn partial_path(path: &Path) -> PathBuf {
     crate::scratch::beside(path, "partial")
 }
 
-/// Files this process has read (device, inode).
-static INPUTS: Mutex<Vec<(u64, u64)>> = Mutex::new(Vec::new());
+/// Files this process has read (device, inode, status-change time in nanoseconds). The
+/// change time tells a file read from a later file given the same inode once the first was
+/// deleted (temporary folders recycle inodes: a new output there was refused as an input).
+static INPUTS: Mutex<Vec<(u64, u64, i128)>> = Mutex::new(Vec::new());
+
+/// [`identity`] with the file's status-change time, for [`INPUTS`].
+#[cfg(unix)]
+fn input_identity(path: &Path) -> Option<(u64, u64, i128)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| {
+        (
+            m.dev(),
+            m.ino(),
+            i128::from(m.ctime()) * 1_000_000_000 + i128::from(m.ctime_nsec()),
+        )
+    })
+}
+
+#[cfg(not(unix))]
+fn input_identity(_path: &Path) -> Option<(u64, u64, i128)> {
+    None
+}
 
 /// The device and inode of an existing file (symbolic links followed).
 #[cfg(unix)]
@@ -51,7 +71,7 @@ fn identity(_path: &Path) -> Option<(u64, u64)> {
 
 /// Notes that this process reads `path`, so that no output replaces it.
 pub fn note_input(path: &Path) {
-    if let Some(id) = identity(path)
+    if let Some(id) = input_identity(path)
         && let Ok(mut inputs) = INPUTS.lock()
         && !inputs.contains(&id)
     {
@@ -113,7 +133,7 @@ pub fn target(path: &Path) -> io::Result<PathBuf> {
                 ),
             ));
         }
-        if identity(&at).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id))) {
+        if input_identity(&at).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id))) {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 format!(

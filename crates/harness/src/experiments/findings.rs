@@ -3,7 +3,8 @@
 //!
 //! One row per condition: visibility per dataset (F1), robustness per degradation (F1 over
 //! its datasets, levels and views), LOD per dataset (PSNR over views and distances), scale per
-//! group (seconds at the largest size a method of the group finished). A row names the best
+//! group (seconds at the largest size a method of the group finished), hull per dataset (the
+//! fastest hull, the runner-up's time over its, paired per cell). A row names the best
 //! method at its best setting on these data, its value with its bootstrap 95 % interval over
 //! the views ([`crate::stats`]: none from fewer than [`crate::stats::MIN_VIEWS`]), the runner-up
 //! and the paired difference (no winner when its interval holds 0), the winner's cost and the
@@ -321,6 +322,18 @@ struct LodRow {
     status: String,
 }
 
+/// The columns of the hull results the findings read.
+#[derive(Deserialize)]
+struct HullRow {
+    dataset: String,
+    view: usize,
+    gamma: f64,
+    hull: String,
+    perturb: f64,
+    seconds: f64,
+    status: String,
+}
+
 /// The columns of the scale results the findings read.
 #[derive(Deserialize)]
 struct ScaleRow {
@@ -487,6 +500,91 @@ fn lod(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     Ok(out)
 }
 
+/// A hull's seconds per (view, γ bits) cell.
+type Times = BTreeMap<(usize, u64), f64>;
+
+/// The fastest hull per dataset on unperturbed input: among the hulls that ran every (view,
+/// γ) the most complete hull ran (others, run on a few cells only, are counted out), the
+/// lowest geometric mean of seconds; the runner-up's time over the winner's, paired per cell,
+/// with its interval.
+fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<HullRow> = read_csv(&dir.join("results.csv"))?;
+    let mut out = Vec::new();
+    let ok: Vec<&HullRow> = rows
+        .iter()
+        .filter(|r| r.status == "ok" && r.perturb == 0.0 && r.seconds > 0.0)
+        .collect();
+    for dataset in distinct(ok.iter().map(|r| r.dataset.as_str())) {
+        let mut cells: BTreeMap<&str, Times> = BTreeMap::new();
+        for r in ok.iter().filter(|r| r.dataset == dataset) {
+            cells
+                .entry(&r.hull)
+                .or_default()
+                .insert((r.view, r.gamma.to_bits()), r.seconds);
+        }
+        let Some(most) = cells.values().max_by_key(|c| c.len()).cloned() else {
+            continue;
+        };
+        let complete: Vec<(&str, &Times)> = cells
+            .iter()
+            .filter(|(_, c)| most.keys().all(|k| c.contains_key(k)))
+            .map(|(h, c)| (*h, c))
+            .collect();
+        let geomean =
+            |c: &Times| (most.keys().map(|k| c[k].ln()).sum::<f64>() / most.len() as f64).exp();
+        let mut ranked: Vec<(&str, f64)> = complete.iter().map(|(h, c)| (*h, geomean(c))).collect();
+        ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+        let Some(&(best, seconds)) = ranked.first() else {
+            continue;
+        };
+        let ratio = ranked.get(1).and_then(|&(runner, _)| {
+            let (r, w): (Vec<f64>, Vec<f64>) = most
+                .keys()
+                .map(|k| (cells[runner][k], cells[best][k]))
+                .unzip();
+            crate::stats::paired_ratio(&r, &w, SEED)
+        });
+        let verdict = match (ranked.len(), ratio.and_then(|e| e.holds(1.0))) {
+            (1, _) => "only method",
+            (_, None) => "indicative",
+            (_, Some(true)) => "no clear winner",
+            (_, Some(false)) => "fastest",
+        };
+        let (dlo, dhi) = ratio.and_then(|e| e.interval).unzip();
+        out.push(Finding {
+            experiment: "hull".into(),
+            condition: format!(
+                "{dataset}, {} of {} hulls on all {} (view, γ) cells",
+                complete.len(),
+                cells.len(),
+                most.len()
+            ),
+            question: "Which convex hull makes HPR fastest?".into(),
+            method: best.to_owned(),
+            setting: String::new(),
+            metric: "seconds (geometric mean)".into(),
+            value: seconds,
+            low: None,
+            high: None,
+            n_views: Some(most.len()),
+            indicative: quick || most.len() < MIN_VIEWS,
+            verdict: verdict.into(),
+            runner_up: ranked.get(1).map_or(String::new(), |r| r.0.to_owned()),
+            runner_up_value: ranked.get(1).map(|r| r.1),
+            difference: ratio.map(|e| e.value),
+            difference_low: dlo,
+            difference_high: dhi,
+            cost_metric: "seconds (geometric mean)".into(),
+            cost: seconds,
+            cheapest: String::new(),
+            cheapest_value: None,
+            cheapest_cost: None,
+            tolerance: 0.0,
+        });
+    }
+    Ok(out)
+}
+
 fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<ScaleRow> = read_csv(&dir.join("results.csv"))?;
     let groups = [(0, "visibility methods"), (1, "hulls"), (2, "LOD builds")];
@@ -592,6 +690,7 @@ pub fn findings(reports_dir: &Path, experiments: &[&str]) -> Result<Vec<Finding>
             "robustness" => robustness(&dir, quick)?,
             "lod" => lod(&dir, quick)?,
             "scale" => scale(&dir, quick)?,
+            "hull" => hull(&dir, quick)?,
             _ => Vec::new(),
         };
         out.extend(found);
@@ -611,7 +710,7 @@ fn num(x: f64, digits: usize) -> String {
 /// Decimals for a metric's values.
 fn digits(metric: &str) -> usize {
     match metric {
-        "F1" => 3,
+        "F1" | "seconds (geometric mean)" => 3,
         "seconds" => 2,
         _ => 1,
     }
@@ -620,7 +719,7 @@ fn digits(metric: &str) -> usize {
 /// A cost in its unit.
 fn cost_text(metric: &str, x: f64) -> String {
     match metric {
-        "seconds per view" => format!("{} s", num(x, 3)),
+        "seconds per view" | "seconds (geometric mean)" => format!("{} s", num(x, 3)),
         "points rendered" => format!("{} pts", num(x, 0)),
         "peak memory (MiB)" => format!("{} MiB", num(x, 0)),
         _ => num(x, 3),
@@ -674,7 +773,13 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
         let runner = if f.runner_up.is_empty() {
             "-".to_owned()
         } else {
+            // The hulls' difference is the runner-up's time over the best's.
+            let ratio = f.metric.starts_with("seconds (");
             let diff = match (f.difference, f.difference_low, f.difference_high) {
+                (Some(x), Some(lo), Some(hi)) if ratio => {
+                    format!("{x:.2}× the time [{lo:.2}, {hi:.2}]")
+                }
+                (Some(x), _, _) if ratio => format!("{x:.2}× the time"),
                 (Some(x), Some(lo), Some(hi)) => {
                     format!("{:+.d$} [{:+.d$}, {:+.d$}]", x, lo, hi, d = d)
                 }

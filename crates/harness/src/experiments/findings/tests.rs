@@ -202,3 +202,102 @@ fn the_report_page_opens_with_the_findings() {
     assert!(page.contains("[visibility/summary.md](visibility/summary.md)"));
     assert!(!page.contains("line 59"));
 }
+
+#[test]
+fn the_fastest_hull_is_paired_per_cell_and_partial_hulls_are_counted_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("dataset,view,gamma,hull,perturb,seconds,status\n");
+    for view in 0..3 {
+        for gamma in [2.0, 3.0] {
+            let base = 0.01 * (1 + view) as f64;
+            csv.push_str(&format!("d,{view},{gamma},own,0,{base},ok\n"));
+            csv.push_str(&format!("d,{view},{gamma},qhull,0,{},ok\n", 2.0 * base));
+            // Perturbed and failed rows do not count.
+            csv.push_str(&format!("d,{view},{gamma},qhull,0.01,0.000001,ok\n"));
+            csv.push_str(&format!("d,{view},{gamma},own,0,0.000001,error: x\n"));
+        }
+    }
+    csv.push_str("d,0,3,chull,0,0.000001,ok\n");
+    std::fs::create_dir_all(dir.path().join("hull")).unwrap();
+    std::fs::write(dir.path().join("hull/results.csv"), csv).unwrap();
+    let found = findings(dir.path(), &["hull"]).unwrap();
+    assert_eq!(found.len(), 1, "{found:?}");
+    let f = &found[0];
+    assert_eq!(f.method, "own");
+    assert_eq!(f.condition, "d, 2 of 3 hulls on all 6 (view, γ) cells");
+    assert_eq!(f.runner_up, "qhull");
+    assert!((f.difference.unwrap() - 2.0).abs() < 1e-9);
+    let (lo, hi) = (f.difference_low.unwrap(), f.difference_high.unwrap());
+    assert!((lo - 2.0).abs() < 1e-9 && (hi - 2.0).abs() < 1e-9);
+    assert_eq!(f.verdict, "fastest");
+    let geomean = (0.01f64 * 0.02 * 0.03).powf(1.0 / 3.0);
+    assert!((f.value - geomean).abs() < 1e-12, "{}", f.value);
+    assert!(markdown(&found, false).contains("qhull: 2.00× the time [2.00, 2.00] (fastest)"));
+}
+
+#[test]
+fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
+    let dir = tempfile::tempdir().unwrap();
+    // `full` renders every point (PSNR 100); within 10 % of the points `fine` (9 %) beats
+    // `coarse` (5 %) by 2 dB; within 30 %, `mid` (25 %) wins.
+    let mut lod = String::from("dataset,view,distance,method,params,points_rendered,psnr,status\n");
+    for view in 0..5 {
+        for (m, p, pts, psnr) in [
+            ("full", "", 1000.0, 100.0),
+            ("mid", "", 250.0, 20.0),
+            ("fine", "k=1", 90.0, 15.0),
+            ("coarse", "k=2", 50.0, 13.0),
+        ] {
+            lod.push_str(&format!("d,{view},1,{m},{p},{pts},{psnr},ok\n"));
+        }
+    }
+    std::fs::create_dir_all(dir.path().join("lod")).unwrap();
+    std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
+    let scale = "method,n_points,seconds,peak_rss_bytes,status\n\
+                 a,1000,0.5,1048576,ok\n\
+                 a,10000,5,2097152,ok\n\
+                 b,1000,0.1,4194304,ok\n\
+                 b,10000,NaN,0,timeout after 40 s\n\
+                 hull-x,1000,0.2,1048576,ok\n\
+                 q-build,100000,3,1048576,ok\n\
+                 q-select,100000,0.01,1048576,ok\n\
+                 r-build,100000,9,524288,ok\n";
+    std::fs::create_dir_all(dir.path().join("scale")).unwrap();
+    std::fs::write(dir.path().join("scale/results.csv"), scale).unwrap();
+    let found = findings(dir.path(), &["lod", "scale"]).unwrap();
+    let names: Vec<(&str, &str)> = found
+        .iter()
+        .map(|f| (f.condition.as_str(), f.method.as_str()))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("d, ≤ 10 % of the points", "fine"),
+            ("d, ≤ 30 % of the points", "mid"),
+            (
+                "visibility methods at 10^4 points, the largest any finished (1 of 2)",
+                "a"
+            ),
+            (
+                "hulls at 10^3 points, the largest any finished (1 of 1)",
+                "hull-x"
+            ),
+            (
+                "LOD builds at 10^5 points, the largest any finished (2 of 2)",
+                "q-build"
+            ),
+        ]
+    );
+    // Within 1 dB of fine's 15 dB nothing cheaper: the best itself; 2 dB over coarse.
+    assert_eq!(found[0].cheapest, "fine k=1");
+    assert!((found[0].difference.unwrap() - 2.0).abs() < 1e-12);
+    assert_eq!(found[0].cost, 90.0);
+    // The LOD builds: q fastest, r the lightest.
+    let builds = &found[4];
+    assert_eq!((builds.value, builds.runner_up.as_str()), (3.0, "r-build"));
+    assert_eq!(
+        (builds.cheapest.as_str(), builds.cheapest_cost),
+        ("r-build", Some(0.5))
+    );
+    assert_eq!(found[2].verdict, "only method");
+}
