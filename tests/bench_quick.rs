@@ -193,6 +193,63 @@ fn quick_bench_writes_a_complete_report() {
 
     figures_have_twins_with_distinct_and_consistent_styles(&reports, &files);
     readme_keeps_its_structure(&readme);
+    quick_findings_are_indicative(&reports, &readme);
+}
+
+/// Issue 39: a quick run's report opens with its findings, says in both titles that they are
+/// indicative, and prints no interval from fewer than 5 views (its findings.csv leaves them
+/// empty; no table of any summary shows `value [low, high]`).
+fn quick_findings_are_indicative(reports: &Path, readme: &str) {
+    let headings: Vec<&str> = readme.lines().filter(|l| l.starts_with("## ")).collect();
+    assert_eq!(
+        headings.first().copied(),
+        Some("## Findings — indicative (quick run)"),
+        "{headings:?}"
+    );
+    let mut reader = csv::Reader::from_path(reports.join("findings.csv")).expect("findings.csv");
+    let header = reader.headers().expect("a header").clone();
+    let col = |name: &str| header.iter().position(|h| h == name).expect(name);
+    let rows: Vec<csv::StringRecord> = reader.records().map(|r| r.expect("a row")).collect();
+    assert!(!rows.is_empty(), "no findings");
+    for row in &rows {
+        assert_eq!(&row[col("indicative")], "true", "{row:?}");
+        let views: usize = row[col("n_views")].parse().unwrap_or(0);
+        if views < 5 {
+            assert!(
+                row[col("low")].is_empty() && row[col("high")].is_empty(),
+                "{row:?}"
+            );
+        }
+    }
+    let interval = has_interval;
+    for exp in ["visibility", "robustness", "hull", "lod", "scale"] {
+        let Ok(text) = std::fs::read_to_string(reports.join(exp).join("summary.md")) else {
+            continue;
+        };
+        for line in text.lines().filter(|l| l.starts_with('|')) {
+            assert!(
+                !interval(line),
+                "{exp}: an interval from a quick run: {line}"
+            );
+        }
+    }
+}
+
+/// Whether `line` holds `NUMBER [NUMBER, NUMBER]` (a value with its interval).
+fn has_interval(line: &str) -> bool {
+    let number = |s: &str| {
+        let s = s.trim().trim_end_matches('×');
+        !s.is_empty() && s.trim_start_matches(['+', '-']).parse::<f64>().is_ok()
+    };
+    line.match_indices('[').any(|(at, _)| {
+        let rest = &line[at + 1..];
+        let Some(end) = rest.find(']') else {
+            return false;
+        };
+        let inside: Vec<&str> = rest[..end].split(", ").collect();
+        let before = line[..at].trim_end().rsplit(' ').next().unwrap_or("");
+        inside.len() == 2 && inside.iter().all(|x| number(x)) && number(before)
+    })
 }
 
 /// A series' identity: the same method in the same variant must look the same everywhere.
@@ -306,7 +363,11 @@ fn figures_have_twins_with_distinct_and_consistent_styles(reports: &Path, files:
 /// under its `## lod`, and its Builds table had 7 header cells and 8 a row.
 fn readme_keeps_its_structure(readme: &str) {
     let top: Vec<&str> = readme.lines().filter(|l| l.starts_with("# ")).collect();
-    assert_eq!(top, ["# pointsight results"], "top headings");
+    assert_eq!(
+        top,
+        ["# pointsight results — indicative (quick run)"],
+        "top headings"
+    );
     let cells = |line: &str| line.trim().trim_matches('|').split('|').count();
     let mut header: Option<(usize, &str)> = None;
     for line in readme.lines() {
@@ -323,4 +384,12 @@ fn readme_keeps_its_structure(readme: &str) {
             ),
         }
     }
+}
+
+#[test]
+fn the_interval_detector_finds_value_and_interval() {
+    assert!(has_interval("| d | 12.80× [12.11, 13.53] | x |"));
+    assert!(has_interval("| a | +0.143 [+0.143, +0.143] |"));
+    assert!(!has_interval("| a | +0.143 (indicative: 2 views) |"));
+    assert!(!has_interval("| [visibility](#visibility) | see [a, b] |"));
 }

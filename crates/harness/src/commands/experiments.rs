@@ -268,7 +268,8 @@ fn budget(flags: &cli::SweepFlags) -> Option<f64> {
     flags.time_budget.is_finite().then_some(flags.time_budget)
 }
 
-/// Writes the report page of `reports` over the experiment registry.
+/// Writes the findings (`findings.csv`) and the report page of `reports` over the experiment
+/// registry; the page is marked indicative when any experiment's results are a quick run's.
 fn assemble_report(reports: &Path) -> Result<()> {
     let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
         .iter()
@@ -277,7 +278,19 @@ fn assemble_report(reports: &Path) -> Result<()> {
             summary: e.summary(),
         })
         .collect();
-    output::report::assemble(reports, &sections, &view::report::section(reports)?)
+    let names: Vec<&str> = sections.iter().map(|s| s.name).collect();
+    let quick = names
+        .iter()
+        .any(|n| output::meta::RunMeta::read(&reports.join(n)).is_ok_and(|m| m.quick));
+    let findings = experiments::findings::findings(reports, &names)?;
+    experiments::findings::write(reports, &findings)?;
+    output::report::assemble(
+        reports,
+        &sections,
+        &experiments::findings::markdown(&findings, quick),
+        quick,
+        &view::report::section(reports)?,
+    )
 }
 
 /// `k/n`, or `-` without a shard.

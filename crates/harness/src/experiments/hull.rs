@@ -665,9 +665,7 @@ fn cgal_table(rows: &[Row], datasets: &[String], not_run: &[String], repeats: u6
         }
         let (c, o): (Vec<f64>, Vec<f64>) = pairs.iter().map(|(c, o)| (c.0, o.0)).unzip();
         let ratio = crate::stats::paired_ratio(&c, &o, SEED)
-            .map_or("-".to_owned(), |(r, lo, hi)| {
-                format!("{r:.2}× [{lo:.2}, {hi:.2}]")
-            });
+            .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
         table.push(vec![
             d.clone(),
             pairs.len().to_string(),
@@ -761,10 +759,8 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
             };
             let speed = paired(("qhull", 0.0), ("qhull", 1e-2));
             let versus_own = paired(("qhull", 0.0), ("own", 0.0));
-            let ci = |r: Option<(f64, f64, f64)>| {
-                r.map_or("—".into(), |(m, lo, hi)| {
-                    format!("{m:.1}× [{lo:.1}, {hi:.1}]")
-                })
+            let ci = |r: Option<crate::stats::Estimate>| {
+                r.map_or("—".into(), |e| e.text(|x| format!("{x:.1}"), "×"))
             };
             out.push_str(&format!(
                 "| {label} | {p0} | {p1} | {:.1}× | {g} | {} | {} | {} | {} | {} | {} | {} |\n",

@@ -6,6 +6,7 @@
 //! Adding an experiment is one module and one line in [`EXPERIMENTS`].
 
 mod background;
+pub mod findings;
 pub mod hull;
 pub(crate) mod lod;
 pub mod merge;

@@ -72,9 +72,7 @@ pub fn winners(rows: &[Row]) -> String {
             .filter_map(|(k, a)| Some(a.0 - rv.get(k)?.0))
             .collect();
         let interval = crate::stats::bootstrap_mean(&diffs, SEED)
-            .map_or("-".into(), |(m, lo, hi)| {
-                format!("{m:+.3} ({lo:+.3} to {hi:+.3})")
-            });
+            .map_or("-".into(), |e| e.text(|x| format!("{x:+.3}"), ""));
         let secs = |v: &Views| median(v.values().map(|x| x.1).collect());
         table.push(vec![
             ds,
@@ -333,7 +331,7 @@ mod tests {
         assert!(line.contains("| a best | 1.000 |"), "{line}");
         assert!(line.contains("| b best | 0.857 |"), "{line}");
         // Every view differs by the same amount: the interval is that value.
-        assert!(line.contains("+0.143 (+0.143 to +0.143)"), "{line}");
+        assert!(line.contains("+0.143 [+0.143, +0.143]"), "{line}");
         // A failed method does not take part.
         for r in rows.iter_mut().filter(|r| r.method == "a") {
             r.status = "error: x".into();
@@ -343,6 +341,19 @@ mod tests {
             t.contains("| b best | 0.857 |") && t.contains("| c best |"),
             "{t}"
         );
+    }
+
+    #[test]
+    fn two_views_print_no_interval() {
+        let mut rows = Vec::new();
+        for v in 0..2 {
+            rows.push(row("noise", 0.5, "a", v, 40, 0));
+            rows.push(row("noise", 0.5, "b", v, 30, 0));
+        }
+        let t = winners(&rows);
+        let line = t.lines().find(|l| l.starts_with("| d | noise")).expect(&t);
+        assert!(line.contains("+0.143 (indicative: 2 views)"), "{line}");
+        assert!(!line.contains('['), "{line}");
     }
 
     #[test]

@@ -48,6 +48,19 @@ fn rates_against_the_peer(rows: &[Row]) -> String {
     out
 }
 
+/// The group of a scale cell's method, by the cell names' convention: 0 a visibility method,
+/// 1 a hull (`hull-NAME`), 2 an LOD build or selection (`NAME-build`, `NAME-select`,
+/// `NAME-build-ooc`).
+pub fn group(m: &str) -> usize {
+    if m.starts_with("hull-") {
+        1
+    } else if m.ends_with("-build") || m.ends_with("-select") || m.ends_with(OOC_SUFFIX) {
+        2
+    } else {
+        0
+    }
+}
+
 /// Draws the plots and writes `summary.md` of the results in `dir`.
 pub fn render(dir: &Path) -> Result<()> {
     let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
@@ -58,15 +71,6 @@ pub fn render(dir: &Path) -> Result<()> {
     // selections. A series is its method's family (an LOD cell `NAME-build`, `NAME-select`,
     // `NAME-build-ooc`: family NAME, the operation its variant; a visibility method at its
     // default setting: variant `default`).
-    let group = |m: &str| {
-        if m.starts_with("hull-") {
-            1
-        } else if m.ends_with("-build") || m.ends_with("-select") || m.ends_with(OOC_SUFFIX) {
-            2
-        } else {
-            0
-        }
-    };
     let identity = |m: &str| -> (String, String) {
         for op in ["-build-ooc", "-build", "-select"] {
             if let Some(base) = m.strip_suffix(op) {

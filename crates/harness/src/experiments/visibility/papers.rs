@@ -79,12 +79,10 @@ fn paired(
     let (ts, bs): (Vec<f64>, Vec<f64>) = pairs.iter().map(|(t, b)| (t.0, b.0)).unzip();
     let df: Vec<f64> = pairs.iter().map(|(t, b)| t.1 - b.1).collect();
     let n = pairs.len() as f64;
-    let ratio = crate::stats::paired_ratio(&ts, &bs, 2012).map_or("-".to_owned(), |(r, lo, hi)| {
-        format!("{r:.3}× [{lo:.3}, {hi:.3}]")
-    });
-    let diff = crate::stats::bootstrap_mean(&df, 2012).map_or("-".to_owned(), |(m, lo, hi)| {
-        format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
-    });
+    let ratio = crate::stats::paired_ratio(&ts, &bs, 2012)
+        .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.3}"), "×"));
+    let diff = crate::stats::bootstrap_mean(&df, 2012)
+        .map_or("-".to_owned(), |e| e.text(|x| format!("{x:+.4}"), ""));
     Some(vec![
         dataset.to_owned(),
         label,
@@ -209,7 +207,7 @@ mod tests {
     #[test]
     fn approximate_hpr_is_paired_with_exact_hpr_at_the_same_gamma_rule() {
         let mut rows = Vec::new();
-        for v in 0..4 {
+        for v in 0..5 {
             rows.push(row("hpr-linear", "gamma=3;kernel=linear", v, 1.0, 0.99));
             rows.push(row("hpr-linear", "gamma=auto;kernel=linear", v, 2.0, 0.95));
             rows.push(row(
@@ -235,7 +233,7 @@ mod tests {
     #[test]
     fn the_family_members_meet_the_linear_kernel_at_its_best() {
         let mut rows = Vec::new();
-        for v in 0..3 {
+        for v in 0..5 {
             rows.push(row("hpr-linear", "gamma=2;kernel=linear", v, 1.0, 0.90));
             rows.push(row("hpr-linear", "gamma=3;kernel=linear", v, 1.0, 0.98));
             rows.push(row("hpr-exp", "gamma=-0.001;kernel=exp", v, 1.5, 0.97));

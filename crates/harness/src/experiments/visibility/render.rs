@@ -133,13 +133,9 @@ fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> Strin
             let (ts, os): (Vec<f64>, Vec<f64>) = paired.iter().map(|(t, o)| (t.0, o.0)).unzip();
             let df: Vec<f64> = paired.iter().map(|(t, o)| t.1 - o.1).collect();
             let ratio = crate::stats::paired_ratio(&ts, &os, 2007)
-                .map_or("-".to_owned(), |(r, lo, hi)| {
-                    format!("{r:.2}× [{lo:.2}, {hi:.2}]")
-                });
+                .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
             let diff = crate::stats::bootstrap_mean(&df, 2007)
-                .map_or("-".to_owned(), |(m, lo, hi)| {
-                    format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
-                });
+                .map_or("-".to_owned(), |e| e.text(|x| format!("{x:+.4}"), ""));
             table.push(vec![
                 d.clone(),
                 fam.clone(),
@@ -369,9 +365,7 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                 let peer_s: Vec<f64> = ps.iter().map(|p| p.peer_seconds).collect();
                 let ours_s: Vec<f64> = ps.iter().map(|p| p.partner_seconds).collect();
                 let ratio = crate::stats::paired_ratio(&peer_s, &ours_s, 2007)
-                    .map_or("-".to_owned(), |(r, lo, hi)| {
-                        format!("{r:.2}× [{lo:.2}, {hi:.2}]")
-                    });
+                    .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
                 let per_view: Vec<f64> = ps
                     .iter()
                     .map(|p| p.peer_seconds / p.partner_seconds)
@@ -413,9 +407,7 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
                         .map_or("-".to_owned(), |x| format!("{x:.4}"))
                 };
                 let df1 = crate::stats::bootstrap_mean(&df1, 2007)
-                    .map_or("-".to_owned(), |(m, lo, hi)| {
-                        format!("{m:+.4} [{lo:+.4}, {hi:+.4}]")
-                    });
+                    .map_or("-".to_owned(), |e| e.text(|x| format!("{x:+.4}"), ""));
                 vec![
                     (*d).to_owned(),
                     (*peer).to_owned(),
@@ -715,8 +707,8 @@ pub(super) fn render(
             let mean = gaps
                 .get(&(d.clone(), *fam))
                 .and_then(|v| crate::stats::bootstrap_mean(v, 2007))
-                .map_or(String::new(), |(m, lo, hi)| {
-                    format!("; mean gap {m:+.4} [{lo:+.4}, {hi:+.4}]")
+                .map_or(String::new(), |e| {
+                    format!("; mean gap {}", e.text(|x| format!("{x:+.4}"), ""))
                 });
             format!(
                 "- {d}, {fam}: worst gap {g:.4} ({}){mean}",

@@ -1,0 +1,834 @@
+//! The findings: the answer of each experiment present, computed from its results CSVs, for the
+//! top of `reports/README.md` and for `reports/findings.csv` (issue 39, "verdicts first").
+//!
+//! One row per condition: visibility per dataset (F1), robustness per degradation (F1 over
+//! its datasets, levels and views), LOD per dataset (PSNR over views and distances), scale per
+//! group (seconds at the largest size a method of the group finished), hull per dataset (the
+//! fastest hull, the runner-up's time over its, paired per cell). A row names the best
+//! method at its best setting on these data, its value with its bootstrap 95 % interval over
+//! the views ([`crate::stats`]: none from fewer than [`crate::stats::MIN_VIEWS`]), the runner-up
+//! and the paired difference (no winner when its interval holds 0), the winner's cost and the
+//! cheapest method and setting within a tolerance of the best. "Best setting" is the setting
+//! with the best mean on the very data reported (an oracle figure: the tuning/evaluation split
+//! of issue 39 is not made here). A quick run's findings, and any from fewer than
+//! [`crate::stats::MIN_VIEWS`] views, are flagged indicative.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::Result;
+use serde::{Deserialize, Serialize};
+
+use crate::output::meta::RunMeta;
+use crate::output::{distinct, read_csv, write_csv};
+use crate::stats::{Estimate, MIN_VIEWS, bootstrap_mean};
+
+/// Seed of the findings' bootstrap.
+const SEED: u64 = 39;
+
+/// The file the findings are written to, in the reports folder.
+pub const CSV: &str = "findings.csv";
+
+/// One measured cell: a method at a setting on one key (a view, or a view at a level or
+/// distance), its score (higher is better) and its cost (lower is better).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cell {
+    /// Method (or family).
+    pub method: String,
+    /// Setting.
+    pub setting: String,
+    /// What pairs cells of different methods (the view, with its level or distance).
+    pub key: String,
+    /// Score (F1, PSNR), higher is better.
+    pub value: f64,
+    /// Cost (seconds, points rendered), lower is better.
+    pub cost: f64,
+}
+
+/// The best method's answer over a set of cells ([`verdict`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Verdict {
+    /// The best method.
+    pub method: String,
+    /// At its best setting.
+    pub setting: String,
+    /// Its mean score over its keys, with its interval (from at least [`MIN_VIEWS`] keys).
+    pub value: Estimate,
+    /// Its median cost.
+    pub cost: f64,
+    /// The best other method at its best setting, its mean score and the winner's paired
+    /// difference to it (over the keys both have).
+    pub runner_up: Option<(String, String, f64, Option<Estimate>)>,
+    /// The cheapest method and setting (lowest median cost) whose mean score is within the
+    /// tolerance of the best: method, setting, mean score, median cost.
+    pub cheapest: Option<(String, String, f64, f64)>,
+}
+
+impl Verdict {
+    /// `wins`, `no clear winner` (the difference's interval holds 0), `tie` (equal means),
+    /// `indicative` (no interval: fewer than [`MIN_VIEWS`] paired views), `only method`.
+    pub fn word(&self) -> &'static str {
+        match &self.runner_up {
+            None => "only method",
+            Some((_, _, v, _)) if (self.value.value - v).abs() < 1e-12 => "tie",
+            Some((_, _, _, None)) => "indicative",
+            Some((_, _, _, Some(d))) => match d.holds(0.0) {
+                None => "indicative",
+                Some(true) => "no clear winner",
+                Some(false) => "wins",
+            },
+        }
+    }
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.retain(|x| !x.is_nan());
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// The best method over `cells`: each method at the setting with its highest mean score (ties:
+/// the first setting by name), methods ranked by that mean (ties: by name); the cheapest
+/// (method, setting) within `tolerance` of the best mean. Cells with a non-finite score are
+/// left out; `None` when none is left.
+pub fn verdict(cells: &[Cell], tolerance: f64) -> Option<Verdict> {
+    // (method, setting) -> key -> (score, cost); a repeated key keeps its mean.
+    type Sums<'a> = BTreeMap<&'a str, (f64, f64, usize)>;
+    let mut groups: BTreeMap<(&str, &str), Sums<'_>> = BTreeMap::new();
+    for c in cells.iter().filter(|c| c.value.is_finite()) {
+        let e = groups
+            .entry((&c.method, &c.setting))
+            .or_default()
+            .entry(&c.key)
+            .or_insert((0.0, 0.0, 0));
+        e.0 += c.value;
+        e.1 += c.cost;
+        e.2 += 1;
+    }
+    type Views<'a> = BTreeMap<&'a str, (f64, f64)>;
+    let groups: BTreeMap<(&str, &str), Views<'_>> = groups
+        .into_iter()
+        .map(|(k, v)| {
+            let v = v
+                .into_iter()
+                .map(|(key, (s, c, n))| (key, (s / n as f64, c / n as f64)))
+                .collect();
+            (k, v)
+        })
+        .collect();
+    let mean = |v: &Views<'_>| v.values().map(|x| x.0).sum::<f64>() / v.len() as f64;
+    let cost = |v: &Views<'_>| median(v.values().map(|x| x.1).collect());
+    let mut best: BTreeMap<&str, (&str, f64)> = BTreeMap::new();
+    for ((method, setting), views) in &groups {
+        let m = mean(views);
+        if best.get(method).is_none_or(|b| m > b.1) {
+            best.insert(method, (setting, m));
+        }
+    }
+    let mut ranked: Vec<(&str, &str, f64)> =
+        best.into_iter().map(|(m, (s, v))| (m, s, v)).collect();
+    ranked.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.0.cmp(b.0)));
+    let &(wm, ws, wv) = ranked.first()?;
+    let winner = &groups[&(wm, ws)];
+    let values: Vec<f64> = winner.values().map(|x| x.0).collect();
+    let value = bootstrap_mean(&values, SEED)?;
+    debug_assert!((value.value - wv).abs() < 1e-9);
+    let runner_up = ranked.get(1).map(|&(rm, rs, rv)| {
+        let other = &groups[&(rm, rs)];
+        let diffs: Vec<f64> = winner
+            .iter()
+            .filter_map(|(k, a)| Some(a.0 - other.get(k)?.0))
+            .collect();
+        (
+            rm.to_owned(),
+            rs.to_owned(),
+            rv,
+            bootstrap_mean(&diffs, SEED),
+        )
+    });
+    let cheapest = groups
+        .iter()
+        .map(|((m, s), v)| (*m, *s, mean(v), cost(v)))
+        .filter(|c| c.2 >= wv - tolerance && !c.3.is_nan())
+        .min_by(|a, b| a.3.total_cmp(&b.3).then(b.2.total_cmp(&a.2)))
+        .map(|(m, s, v, c)| (m.to_owned(), s.to_owned(), v, c));
+    Some(Verdict {
+        method: wm.to_owned(),
+        setting: ws.to_owned(),
+        value,
+        cost: cost(winner),
+        runner_up,
+        cheapest,
+    })
+}
+
+/// One finding: a row of `findings.csv` and of the README's findings table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Finding {
+    /// Experiment (its section in the README).
+    pub experiment: String,
+    /// The condition (a dataset, a degradation, a group).
+    pub condition: String,
+    /// The question answered.
+    pub question: String,
+    /// The answer: the best method.
+    pub method: String,
+    /// Its setting.
+    pub setting: String,
+    /// What `value` measures.
+    pub metric: String,
+    /// The best method's value.
+    pub value: f64,
+    /// Its 95 % interval (empty: none, from fewer than 5 views or no views).
+    pub low: Option<f64>,
+    /// See `low`.
+    pub high: Option<f64>,
+    /// Views (keys) the value comes from (empty: no views, as in scale).
+    pub n_views: Option<usize>,
+    /// A quick run's, or from fewer than 5 views: not a result to quote.
+    pub indicative: bool,
+    /// `wins`, `no clear winner`, `tie`, `indicative`, `only method` ([`Verdict::word`]).
+    pub verdict: String,
+    /// The runner-up, with its setting.
+    pub runner_up: String,
+    /// The runner-up's value.
+    pub runner_up_value: Option<f64>,
+    /// The best's paired difference to the runner-up (empty for scale).
+    pub difference: Option<f64>,
+    /// Its 95 % interval.
+    pub difference_low: Option<f64>,
+    /// See `difference_low`.
+    pub difference_high: Option<f64>,
+    /// What `cost` measures.
+    pub cost_metric: String,
+    /// The best method's cost.
+    pub cost: f64,
+    /// The cheapest method (with its setting) within the tolerance of the best.
+    pub cheapest: String,
+    /// Its value.
+    pub cheapest_value: Option<f64>,
+    /// Its cost.
+    pub cheapest_cost: Option<f64>,
+    /// The tolerance `cheapest` is chosen within, in `metric`'s unit.
+    pub tolerance: f64,
+}
+
+/// What a question asks, for [`finding`].
+struct Ask<'a> {
+    experiment: &'a str,
+    condition: String,
+    question: &'a str,
+    metric: &'a str,
+    cost_metric: &'a str,
+    tolerance: f64,
+    quick: bool,
+}
+
+/// `method setting` for the table, the setting's pairs space-separated and its `seed=` left
+/// out (a seed is not a tuned setting; the `setting` column of `findings.csv` keeps it whole).
+fn with_setting(method: &str, setting: &str) -> String {
+    let pairs: Vec<&str> = setting
+        .split(';')
+        .filter(|p| !p.is_empty() && !p.starts_with("seed="))
+        .collect();
+    if pairs.is_empty() {
+        method.to_owned()
+    } else {
+        format!("{method} {}", pairs.join(" "))
+    }
+}
+
+fn finding(ask: Ask<'_>, v: Verdict) -> Finding {
+    let (lo, hi) = v.value.interval.unzip();
+    let diff = v.runner_up.as_ref().and_then(|r| r.3);
+    let (dlo, dhi) = diff.and_then(|d| d.interval).unzip();
+    Finding {
+        experiment: ask.experiment.to_owned(),
+        condition: ask.condition,
+        question: ask.question.to_owned(),
+        metric: ask.metric.to_owned(),
+        indicative: ask.quick || v.value.n < MIN_VIEWS,
+        verdict: v.word().to_owned(),
+        method: v.method,
+        setting: v.setting,
+        value: v.value.value,
+        low: lo,
+        high: hi,
+        n_views: Some(v.value.n),
+        runner_up: v
+            .runner_up
+            .as_ref()
+            .map_or(String::new(), |r| with_setting(&r.0, &r.1)),
+        runner_up_value: v.runner_up.as_ref().map(|r| r.2),
+        difference: diff.map(|d| d.value),
+        difference_low: dlo,
+        difference_high: dhi,
+        cost_metric: ask.cost_metric.to_owned(),
+        cost: v.cost,
+        cheapest: v
+            .cheapest
+            .as_ref()
+            .map_or(String::new(), |c| with_setting(&c.0, &c.1)),
+        cheapest_value: v.cheapest.as_ref().map(|c| c.2),
+        cheapest_cost: v.cheapest.as_ref().map(|c| c.3),
+        tolerance: ask.tolerance,
+    }
+}
+
+/// The columns of the visibility results the findings read.
+#[derive(Deserialize)]
+struct VisibilityRow {
+    dataset: String,
+    view: usize,
+    family: String,
+    params: String,
+    seconds: f64,
+    f1: f64,
+    status: String,
+}
+
+/// The columns of the robustness results the findings read.
+#[derive(Deserialize)]
+struct RobustnessRow {
+    dataset: String,
+    degradation: String,
+    level: f64,
+    method: String,
+    setting: String,
+    view: usize,
+    f1: f64,
+    seconds: f64,
+    status: String,
+}
+
+/// The columns of the LOD results the findings read.
+#[derive(Deserialize)]
+struct LodRow {
+    dataset: String,
+    view: usize,
+    distance: f64,
+    method: String,
+    params: String,
+    points_rendered: f64,
+    psnr: f64,
+    status: String,
+}
+
+/// The columns of the hull results the findings read.
+#[derive(Deserialize)]
+struct HullRow {
+    dataset: String,
+    view: usize,
+    gamma: f64,
+    hull: String,
+    perturb: f64,
+    seconds: f64,
+    status: String,
+}
+
+/// The columns of the scale results the findings read.
+#[derive(Deserialize)]
+struct ScaleRow {
+    method: String,
+    n_points: u64,
+    seconds: f64,
+    peak_rss_bytes: u64,
+    status: String,
+}
+
+/// The conditions of `rows` in the order they first appear, each with its cells.
+fn by_condition<R>(
+    rows: &[R],
+    condition: impl Fn(&R) -> Option<String>,
+    cell: impl Fn(&R) -> Cell,
+) -> Vec<(String, Vec<Cell>)> {
+    let mut out: Vec<(String, Vec<Cell>)> = Vec::new();
+    for r in rows {
+        let Some(c) = condition(r) else { continue };
+        match out.iter_mut().find(|(k, _)| *k == c) {
+            Some((_, cells)) => cells.push(cell(r)),
+            None => out.push((c, vec![cell(r)])),
+        }
+    }
+    out
+}
+
+fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
+    let conditions = by_condition(
+        &rows,
+        |r| (r.status == "ok").then(|| r.dataset.clone()),
+        |r| Cell {
+            method: r.family.clone(),
+            setting: r.params.clone(),
+            key: r.view.to_string(),
+            value: r.f1,
+            cost: r.seconds,
+        },
+    );
+    Ok(conditions
+        .into_iter()
+        .filter_map(|(dataset, cells)| {
+            let v = verdict(&cells, 0.01)?;
+            Some(finding(
+                Ask {
+                    experiment: "visibility",
+                    condition: dataset,
+                    question: "Which method finds the visible points best (F1)?",
+                    metric: "F1",
+                    cost_metric: "seconds per view",
+                    tolerance: 0.01,
+                    quick,
+                },
+                v,
+            ))
+        })
+        .collect())
+}
+
+fn robustness(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<RobustnessRow> = read_csv(&dir.join("results.csv"))?;
+    let levels = |d: &str| {
+        let mut l: Vec<u64> = rows
+            .iter()
+            .filter(|r| r.degradation == d)
+            .map(|r| r.level.to_bits())
+            .collect();
+        l.sort_unstable();
+        l.dedup();
+        l.len()
+    };
+    let conditions = by_condition(
+        &rows,
+        |r| (r.status == "ok").then(|| r.degradation.clone()),
+        |r| Cell {
+            method: r.method.clone(),
+            setting: r.setting.clone(),
+            key: format!("{} {} {}", r.dataset, r.level, r.view),
+            value: r.f1,
+            cost: r.seconds,
+        },
+    );
+    Ok(conditions
+        .into_iter()
+        .filter_map(|(degradation, cells)| {
+            let v = verdict(&cells, 0.01)?;
+            Some(finding(
+                Ask {
+                    experiment: "robustness",
+                    condition: if levels(&degradation) > 1 {
+                        format!("{degradation}, all {} levels", levels(&degradation))
+                    } else {
+                        degradation
+                    },
+                    question: "Which method keeps the best F1 on degraded input?",
+                    metric: "F1",
+                    cost_metric: "seconds per view",
+                    tolerance: 0.01,
+                    quick,
+                },
+                v,
+            ))
+        })
+        .collect())
+}
+
+/// The point budgets of the LOD findings: fractions of the most points any setting renders on
+/// the dataset (about the whole cloud). Without a budget the finest setting, which renders
+/// the whole cloud, wins trivially.
+pub const LOD_BUDGETS: [f64; 2] = [0.1, 0.3];
+
+fn lod(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<LodRow> = read_csv(&dir.join("results.csv"))?;
+    let conditions = by_condition(
+        &rows,
+        |r| (r.status == "ok").then(|| r.dataset.clone()),
+        |r| Cell {
+            method: r.method.clone(),
+            setting: r.params.clone(),
+            key: format!("{} {}", r.view, r.distance),
+            value: r.psnr,
+            cost: r.points_rendered,
+        },
+    );
+    let mut out = Vec::new();
+    for (dataset, cells) in conditions {
+        // Each setting's mean points rendered.
+        let mut points: BTreeMap<(&str, &str), (f64, usize)> = BTreeMap::new();
+        for c in &cells {
+            let e = points.entry((&c.method, &c.setting)).or_insert((0.0, 0));
+            e.0 += c.cost;
+            e.1 += 1;
+        }
+        let mean_points = |c: &Cell| {
+            let (sum, n) = points[&(c.method.as_str(), c.setting.as_str())];
+            sum / n as f64
+        };
+        let most = cells.iter().map(mean_points).fold(0.0, f64::max);
+        for budget in LOD_BUDGETS {
+            let within: Vec<Cell> = cells
+                .iter()
+                .filter(|c| mean_points(c) <= budget * most)
+                .cloned()
+                .collect();
+            let Some(v) = verdict(&within, 1.0) else {
+                continue;
+            };
+            out.push(finding(
+                Ask {
+                    experiment: "lod",
+                    condition: format!("{dataset}, ≤ {:.0} % of the points", budget * 100.0),
+                    question: "Which LOD method renders closest to the full cloud (PSNR) within \
+                               a point budget?",
+                    metric: "PSNR (dB)",
+                    cost_metric: "points rendered",
+                    tolerance: 1.0,
+                    quick,
+                },
+                v,
+            ));
+        }
+    }
+    Ok(out)
+}
+
+/// A hull's seconds per (view, γ bits) cell.
+type Times = BTreeMap<(usize, u64), f64>;
+
+/// The fastest hull per dataset on unperturbed input: among the hulls that ran every (view,
+/// γ) the most complete hull ran (others, run on a few cells only, are counted out), the
+/// lowest geometric mean of seconds; the runner-up's time over the winner's, paired per cell,
+/// with its interval.
+fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<HullRow> = read_csv(&dir.join("results.csv"))?;
+    let mut out = Vec::new();
+    let ok: Vec<&HullRow> = rows
+        .iter()
+        .filter(|r| r.status == "ok" && r.perturb == 0.0 && r.seconds > 0.0)
+        .collect();
+    for dataset in distinct(ok.iter().map(|r| r.dataset.as_str())) {
+        let mut cells: BTreeMap<&str, Times> = BTreeMap::new();
+        for r in ok.iter().filter(|r| r.dataset == dataset) {
+            cells
+                .entry(&r.hull)
+                .or_default()
+                .insert((r.view, r.gamma.to_bits()), r.seconds);
+        }
+        let Some(most) = cells.values().max_by_key(|c| c.len()).cloned() else {
+            continue;
+        };
+        let complete: Vec<(&str, &Times)> = cells
+            .iter()
+            .filter(|(_, c)| most.keys().all(|k| c.contains_key(k)))
+            .map(|(h, c)| (*h, c))
+            .collect();
+        let geomean =
+            |c: &Times| (most.keys().map(|k| c[k].ln()).sum::<f64>() / most.len() as f64).exp();
+        let mut ranked: Vec<(&str, f64)> = complete.iter().map(|(h, c)| (*h, geomean(c))).collect();
+        ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
+        let Some(&(best, seconds)) = ranked.first() else {
+            continue;
+        };
+        let ratio = ranked.get(1).and_then(|&(runner, _)| {
+            let (r, w): (Vec<f64>, Vec<f64>) = most
+                .keys()
+                .map(|k| (cells[runner][k], cells[best][k]))
+                .unzip();
+            crate::stats::paired_ratio(&r, &w, SEED)
+        });
+        let verdict = match (ranked.len(), ratio.and_then(|e| e.holds(1.0))) {
+            (1, _) => "only method",
+            (_, None) => "indicative",
+            (_, Some(true)) => "no clear winner",
+            (_, Some(false)) => "fastest",
+        };
+        let (dlo, dhi) = ratio.and_then(|e| e.interval).unzip();
+        out.push(Finding {
+            experiment: "hull".into(),
+            condition: format!(
+                "{dataset}, {} of {} hulls on all {} (view, γ) cells",
+                complete.len(),
+                cells.len(),
+                most.len()
+            ),
+            question: "Which convex hull makes HPR fastest?".into(),
+            method: best.to_owned(),
+            setting: String::new(),
+            metric: "seconds (geometric mean)".into(),
+            value: seconds,
+            low: None,
+            high: None,
+            n_views: Some(most.len()),
+            indicative: quick || most.len() < MIN_VIEWS,
+            verdict: verdict.into(),
+            runner_up: ranked.get(1).map_or(String::new(), |r| r.0.to_owned()),
+            runner_up_value: ranked.get(1).map(|r| r.1),
+            difference: ratio.map(|e| e.value),
+            difference_low: dlo,
+            difference_high: dhi,
+            cost_metric: "seconds (geometric mean)".into(),
+            cost: seconds,
+            cheapest: String::new(),
+            cheapest_value: None,
+            cheapest_cost: None,
+            tolerance: 0.0,
+        });
+    }
+    Ok(out)
+}
+
+fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    let rows: Vec<ScaleRow> = read_csv(&dir.join("results.csv"))?;
+    let groups = [(0, "visibility methods"), (1, "hulls"), (2, "LOD builds")];
+    let mut out = Vec::new();
+    for (g, name) in groups {
+        // LOD selections answer another question than builds: the builds only.
+        let ok: Vec<&ScaleRow> = rows
+            .iter()
+            .filter(|r| {
+                r.status == "ok"
+                    && r.seconds.is_finite()
+                    && super::scale::render::group(&r.method) == g
+                    && (g != 2 || !r.method.ends_with("-select"))
+            })
+            .collect();
+        let Some(largest) = ok.iter().map(|r| r.n_points).max() else {
+            continue;
+        };
+        let mut at: Vec<&ScaleRow> = ok.into_iter().filter(|r| r.n_points == largest).collect();
+        at.sort_by(|a, b| {
+            a.seconds
+                .total_cmp(&b.seconds)
+                .then(a.method.cmp(&b.method))
+        });
+        let best = at[0];
+        let lightest = at
+            .iter()
+            .min_by(|a, b| {
+                a.peak_rss_bytes
+                    .cmp(&b.peak_rss_bytes)
+                    .then(a.method.cmp(&b.method))
+            })
+            .copied()
+            .unwrap_or(best);
+        let runner = at.get(1);
+        let only = at.len() == 1;
+        let tried = distinct(
+            rows.iter()
+                .filter(|r| {
+                    super::scale::render::group(&r.method) == g
+                        && (g != 2 || !r.method.ends_with("-select"))
+                })
+                .map(|r| r.method.as_str()),
+        )
+        .len();
+        out.push(Finding {
+            experiment: "scale".into(),
+            condition: format!(
+                "{name} at {} points, the largest any finished ({} of {tried})",
+                points_text(largest),
+                at.len()
+            ),
+            question: "Which method finishes the largest cloud, how fast and in how much memory?"
+                .into(),
+            method: best.method.clone(),
+            setting: String::new(),
+            metric: "seconds".into(),
+            value: best.seconds,
+            low: None,
+            high: None,
+            n_views: None,
+            indicative: quick,
+            verdict: if only { "only method" } else { "fastest" }.into(),
+            runner_up: runner.map_or(String::new(), |r| r.method.clone()),
+            runner_up_value: runner.map(|r| r.seconds),
+            difference: None,
+            difference_low: None,
+            difference_high: None,
+            cost_metric: "peak memory (MiB)".into(),
+            cost: best.peak_rss_bytes as f64 / 1048576.0,
+            cheapest: lightest.method.clone(),
+            cheapest_value: Some(lightest.seconds),
+            cheapest_cost: Some(lightest.peak_rss_bytes as f64 / 1048576.0),
+            tolerance: f64::INFINITY,
+        });
+    }
+    Ok(out)
+}
+
+/// `10^k` for a power of ten, else the number.
+fn points_text(n: u64) -> String {
+    let k = (n as f64).log10().round() as u32;
+    if k > 0 && 10u64.checked_pow(k) == Some(n) {
+        format!("10^{k}")
+    } else {
+        n.to_string()
+    }
+}
+
+/// The findings of the experiments under `reports_dir` whose results are there, in the order
+/// of `experiments` (names); an experiment without results, or without findings of its own
+/// kind, gives none.
+pub fn findings(reports_dir: &Path, experiments: &[&str]) -> Result<Vec<Finding>> {
+    let mut out = Vec::new();
+    for &name in experiments {
+        let dir = reports_dir.join(name);
+        if !dir.join("results.csv").is_file() {
+            continue;
+        }
+        let quick = RunMeta::read(&dir).is_ok_and(|m| m.quick);
+        let found = match name {
+            "visibility" => visibility(&dir, quick)?,
+            "robustness" => robustness(&dir, quick)?,
+            "lod" => lod(&dir, quick)?,
+            "scale" => scale(&dir, quick)?,
+            "hull" => hull(&dir, quick)?,
+            _ => Vec::new(),
+        };
+        out.extend(found);
+    }
+    Ok(out)
+}
+
+/// A number with `digits` decimals, or `-`.
+fn num(x: f64, digits: usize) -> String {
+    if x.is_finite() {
+        format!("{x:.digits$}")
+    } else {
+        "-".into()
+    }
+}
+
+/// Decimals for a metric's values.
+fn digits(metric: &str) -> usize {
+    match metric {
+        "F1" | "seconds (geometric mean)" => 3,
+        "seconds" => 2,
+        _ => 1,
+    }
+}
+
+/// A cost in its unit.
+fn cost_text(metric: &str, x: f64) -> String {
+    match metric {
+        "seconds per view" | "seconds (geometric mean)" => format!("{} s", num(x, 3)),
+        "points rendered" => format!("{} pts", num(x, 0)),
+        "peak memory (MiB)" => format!("{} MiB", num(x, 0)),
+        _ => num(x, 3),
+    }
+}
+
+/// The findings table (markdown), for the top of the README: a section `## Findings` with a
+/// line saying how to read it, a table, and a link to `findings.csv`; empty without findings.
+/// `quick`: the title says the findings are indicative.
+pub fn markdown(findings: &[Finding], quick: bool) -> String {
+    if findings.is_empty() {
+        return String::new();
+    }
+    let mut s = format!(
+        "## Findings{}\n\n",
+        if quick {
+            " — indicative (quick run)"
+        } else {
+            ""
+        }
+    );
+    s.push_str(
+        "The best method per condition at its best setting on these data (an oracle figure: \
+         settings are not yet tuned on separate data), its mean with a 95 % bootstrap interval \
+         over the views (none from fewer than 5 views: indicative), the runner-up and the \
+         paired difference (no clear winner when its interval holds 0), its cost, and the \
+         cheapest choice within 0.01 F1 / 1 dB of the best. Machine-readable: \
+         [findings.csv](findings.csv).\n\n\
+         | experiment | condition | best | value | runner-up: difference | cost | cheapest near the best |\n\
+         |---|---|---|---|---|---|---|\n",
+    );
+    for f in findings {
+        let d = digits(&f.metric);
+        let value = match (f.low, f.high) {
+            (Some(lo), Some(hi)) => {
+                format!(
+                    "{} {} [{}, {}]",
+                    f.metric,
+                    num(f.value, d),
+                    num(lo, d),
+                    num(hi, d)
+                )
+            }
+            _ => format!("{} {}", f.metric, num(f.value, d)),
+        };
+        let value = match f.n_views {
+            Some(n) if n < MIN_VIEWS => format!("{value} ({})", crate::stats::indicative(n)),
+            _ if f.indicative => format!("{value} (indicative)"),
+            _ => value,
+        };
+        let runner = if f.runner_up.is_empty() {
+            "-".to_owned()
+        } else {
+            // The hulls' difference is the runner-up's time over the best's.
+            let ratio = f.metric.starts_with("seconds (");
+            let diff = match (f.difference, f.difference_low, f.difference_high) {
+                (Some(x), Some(lo), Some(hi)) if ratio => {
+                    format!("{x:.2}× the time [{lo:.2}, {hi:.2}]")
+                }
+                (Some(x), _, _) if ratio => format!("{x:.2}× the time"),
+                (Some(x), Some(lo), Some(hi)) => {
+                    format!("{:+.d$} [{:+.d$}, {:+.d$}]", x, lo, hi, d = d)
+                }
+                (Some(x), _, _) => format!("{x:+.d$}"),
+                _ => f
+                    .runner_up_value
+                    .map_or("-".into(), |v| format!("{} {}", f.metric, num(v, d))),
+            };
+            format!("{}: {diff} ({})", f.runner_up, f.verdict)
+        };
+        let cheapest = if f.cheapest.is_empty() {
+            "-".to_owned()
+        } else if f.cheapest == with_setting(&f.method, &f.setting) {
+            "the best itself".to_owned()
+        } else {
+            format!(
+                "{} ({}, {})",
+                f.cheapest,
+                f.cheapest_value.map_or("-".into(), |v| num(v, d)),
+                f.cheapest_cost
+                    .map_or("-".into(), |c| cost_text(&f.cost_metric, c))
+            )
+        };
+        s.push_str(&format!(
+            "| [{}](#{}) | {} | {} | {} | {} | {} | {} |\n",
+            f.experiment,
+            f.experiment,
+            f.condition,
+            with_setting(&f.method, &f.setting),
+            value,
+            runner,
+            cost_text(&f.cost_metric, f.cost),
+            cheapest
+        ));
+    }
+    s.push('\n');
+    s
+}
+
+/// Writes `findings.csv` into `reports_dir` (a header alone without findings).
+pub fn write(reports_dir: &Path, findings: &[Finding]) -> Result<()> {
+    if findings.is_empty() {
+        return crate::output::write_atomic(
+            &reports_dir.join(CSV),
+            b"experiment,condition,question,method,setting,metric,value,low,high,n_views,indicative,verdict,runner_up,runner_up_value,difference,difference_low,difference_high,cost_metric,cost,cheapest,cheapest_value,cheapest_cost,tolerance\n",
+        );
+    }
+    write_csv(&reports_dir.join(CSV), findings)
+}
+
+#[cfg(test)]
+mod tests;

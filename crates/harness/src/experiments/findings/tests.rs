@@ -1,0 +1,303 @@
+//! Tests of the findings on small synthetic result rows.
+
+use super::*;
+
+fn cell(method: &str, setting: &str, view: usize, value: f64, cost: f64) -> Cell {
+    Cell {
+        method: method.into(),
+        setting: setting.into(),
+        key: view.to_string(),
+        value,
+        cost,
+    }
+}
+
+/// Method `a` at two settings (the second better), `b` a little worse and faster, `c` much
+/// worse and fastest, over `views` views.
+fn three_methods(views: usize) -> Vec<Cell> {
+    let mut cells = Vec::new();
+    for v in 0..views {
+        let wobble = 0.001 * (v % 3) as f64;
+        cells.push(cell("a", "k=1", v, 0.80 + wobble, 1.0));
+        cells.push(cell("a", "k=2", v, 0.95 + wobble, 2.0));
+        cells.push(cell("b", "", v, 0.945 + wobble, 0.5));
+        cells.push(cell("c", "", v, 0.50 + wobble, 0.1));
+    }
+    cells
+}
+
+#[test]
+fn the_winner_is_the_best_method_at_its_best_setting() {
+    let v = verdict(&three_methods(8), 0.01).unwrap();
+    assert_eq!((v.method.as_str(), v.setting.as_str()), ("a", "k=2"));
+    let mean = (0..8).map(|k| 0.95 + 0.001 * (k % 3) as f64).sum::<f64>() / 8.0;
+    assert!((v.value.value - mean).abs() < 1e-12);
+    assert_eq!(v.value.n, 8);
+    let (lo, hi) = v.value.interval.expect("8 views give an interval");
+    assert!(lo <= mean && mean <= hi);
+    assert_eq!(v.cost, 2.0);
+    let (rm, rs, rv, diff) = v.runner_up.clone().unwrap();
+    assert_eq!((rm.as_str(), rs.as_str()), ("b", ""));
+    assert!((v.value.value - rv - 0.005).abs() < 1e-12);
+    let diff = diff.unwrap();
+    assert!((diff.value - 0.005).abs() < 1e-12);
+    assert_eq!(v.word(), "wins");
+    // b is within 0.01 F1 of the best and cheaper; c is cheaper still but not within 0.01.
+    let (cm, _, _, cc) = v.cheapest.clone().unwrap();
+    assert_eq!((cm.as_str(), cc), ("b", 0.5));
+    // With a tolerance wide enough, c is the cheapest.
+    let wide = verdict(&three_methods(8), 0.5).unwrap();
+    assert_eq!(wide.cheapest.unwrap().0, "c");
+}
+
+#[test]
+fn equal_means_are_a_tie_broken_by_name_and_a_noisy_difference_no_winner() {
+    let mut cells = Vec::new();
+    for v in 0..6 {
+        cells.push(cell("zeta", "", v, 0.9, 1.0));
+        cells.push(cell("alpha", "", v, 0.9, 2.0));
+    }
+    let v = verdict(&cells, 0.01).unwrap();
+    assert_eq!(v.method, "alpha");
+    assert_eq!(v.word(), "tie");
+    assert_eq!(v.cheapest.unwrap().0, "zeta");
+
+    let mut cells = Vec::new();
+    for v in 0..8 {
+        let sign = if v % 2 == 0 { 1.0 } else { -1.0 };
+        cells.push(cell("p", "", v, 0.9 + 0.05 * sign + 0.001, 1.0));
+        cells.push(cell("q", "", v, 0.9, 1.0));
+    }
+    let v = verdict(&cells, 0.01).unwrap();
+    assert_eq!(v.method, "p");
+    assert_eq!(v.word(), "no clear winner");
+}
+
+#[test]
+fn fewer_than_five_views_give_no_interval_and_are_indicative() {
+    let v = verdict(&three_methods(3), 0.01).unwrap();
+    assert_eq!(v.value.interval, None);
+    assert_eq!(v.value.n, 3);
+    assert_eq!(v.runner_up.as_ref().unwrap().3.unwrap().interval, None);
+    assert_eq!(v.word(), "indicative");
+    let f = finding(
+        Ask {
+            experiment: "visibility",
+            condition: "toy".into(),
+            question: "q",
+            metric: "F1",
+            cost_metric: "seconds per view",
+            tolerance: 0.01,
+            quick: false,
+        },
+        v,
+    );
+    assert!(f.indicative);
+    assert_eq!((f.low, f.high, f.difference_low), (None, None, None));
+    let md = markdown(&[f], false);
+    let row = md.lines().find(|l| l.contains("toy")).unwrap();
+    assert!(row.contains("indicative: 3 views"), "{row}");
+    // The only brackets of the row are the section link's.
+    assert_eq!(row.matches('[').count(), 1, "{row}");
+    assert!(md.starts_with("## Findings\n"));
+    assert!(markdown(&[], true).is_empty());
+}
+
+#[test]
+fn single_and_missing_methods() {
+    assert!(verdict(&[], 0.01).is_none());
+    let nan = [cell("a", "", 0, f64::NAN, 1.0)];
+    assert!(verdict(&nan, 0.01).is_none());
+    let one: Vec<Cell> = (0..5).map(|v| cell("a", "", v, 0.5, 1.0)).collect();
+    let v = verdict(&one, 0.01).unwrap();
+    assert_eq!(v.word(), "only method");
+    assert_eq!(v.cheapest.unwrap().0, "a");
+}
+
+const VIS_HEADER: &str = "dataset,view,method,family,params,seconds,f1,status,extra\n";
+
+/// A visibility results file: on `ds`, `hi` beats `lo` by 0.02 F1 on each of `views` views.
+fn visibility_csv(ds: &str, views: usize) -> String {
+    let mut s = String::new();
+    for v in 0..views {
+        let f = 0.9 + 0.01 * (v % 2) as f64;
+        s.push_str(&format!("{ds},{v},hi,hi,g=1,0.2,{f},ok,x\n"));
+        s.push_str(&format!("{ds},{v},hi,hi,g=2,0.1,{},ok,x\n", f - 0.5));
+        s.push_str(&format!("{ds},{v},lo,lo,,0.01,{},ok,x\n", f - 0.02));
+        s.push_str(&format!("{ds},{v},lo,lo,,0.01,0.99,error: it failed,x\n"));
+    }
+    s
+}
+
+#[test]
+fn findings_come_from_the_csvs_of_the_experiments_present() {
+    let dir = tempfile::tempdir().unwrap();
+    // No experiment: no findings, no table.
+    assert!(
+        findings(dir.path(), &["visibility", "lod"])
+            .unwrap()
+            .is_empty()
+    );
+    std::fs::create_dir_all(dir.path().join("visibility")).unwrap();
+    std::fs::write(
+        dir.path().join("visibility/results.csv"),
+        format!(
+            "{VIS_HEADER}{}{}",
+            visibility_csv("d1", 6),
+            visibility_csv("d2", 2)
+        ),
+    )
+    .unwrap();
+    let found = findings(dir.path(), &["visibility", "robustness", "lod", "scale"]).unwrap();
+    assert_eq!(found.len(), 2, "{found:?}");
+    let (d1, d2) = (&found[0], &found[1]);
+    assert_eq!((d1.condition.as_str(), d2.condition.as_str()), ("d1", "d2"));
+    assert_eq!((d1.method.as_str(), d1.setting.as_str()), ("hi", "g=1"));
+    assert!((d1.value - 0.905).abs() < 1e-12, "{}", d1.value);
+    assert!((d1.difference.unwrap() - 0.02).abs() < 1e-12);
+    assert_eq!(d1.verdict, "wins");
+    assert_eq!(d1.n_views, Some(6));
+    assert!(!d1.indicative && d1.low.is_some());
+    // The failed rows (F1 0.99) are not counted.
+    assert!((d1.runner_up_value.unwrap() - 0.885).abs() < 1e-12);
+    // lo is not within 0.01 of the best: the cheapest near the best is the best itself.
+    assert_eq!(d1.cheapest, "hi g=1");
+    assert!(d2.indicative && d2.low.is_none() && d2.n_views == Some(2));
+
+    write(dir.path(), &found).unwrap();
+    let back: Vec<Finding> = read_csv(&dir.path().join(CSV)).unwrap();
+    assert_eq!(back.len(), 2);
+    assert_eq!(back[0].method, "hi");
+    assert_eq!(back[1].low, None);
+    let text = std::fs::read_to_string(dir.path().join(CSV)).unwrap();
+    assert!(text.starts_with(
+        "experiment,condition,question,method,setting,metric,value,low,high,n_views,indicative,"
+    ));
+}
+
+#[test]
+fn the_report_page_opens_with_the_findings() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("visibility")).unwrap();
+    std::fs::write(
+        dir.path().join("visibility/results.csv"),
+        format!("{VIS_HEADER}{}", visibility_csv("d1", 6)),
+    )
+    .unwrap();
+    let long: String = (0..60).map(|k| format!("line {k}\n")).collect();
+    std::fs::write(dir.path().join("visibility/summary.md"), &long).unwrap();
+    let found = findings(dir.path(), &["visibility"]).unwrap();
+    let sections = [crate::output::report::Section {
+        name: "visibility",
+        summary: "which points are visible",
+    }];
+    crate::output::report::assemble(dir.path(), &sections, &markdown(&found, true), true, "")
+        .unwrap();
+    let page = std::fs::read_to_string(dir.path().join("README.md")).unwrap();
+    assert!(page.starts_with("# pointsight results — indicative (quick run)\n"));
+    let first = page.lines().find(|l| l.starts_with("## ")).unwrap();
+    assert_eq!(first, "## Findings — indicative (quick run)");
+    assert!(page.contains("| [visibility](#visibility) | d1 | hi g=1 | F1 0.905 ["));
+    // A long summary is linked, not inlined.
+    assert!(page.contains("[visibility/summary.md](visibility/summary.md)"));
+    assert!(!page.contains("line 59"));
+}
+
+#[test]
+fn the_fastest_hull_is_paired_per_cell_and_partial_hulls_are_counted_out() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("dataset,view,gamma,hull,perturb,seconds,status\n");
+    for view in 0..3 {
+        for gamma in [2.0, 3.0] {
+            let base = 0.01 * (1 + view) as f64;
+            csv.push_str(&format!("d,{view},{gamma},own,0,{base},ok\n"));
+            csv.push_str(&format!("d,{view},{gamma},qhull,0,{},ok\n", 2.0 * base));
+            // Perturbed and failed rows do not count.
+            csv.push_str(&format!("d,{view},{gamma},qhull,0.01,0.000001,ok\n"));
+            csv.push_str(&format!("d,{view},{gamma},own,0,0.000001,error: x\n"));
+        }
+    }
+    csv.push_str("d,0,3,chull,0,0.000001,ok\n");
+    std::fs::create_dir_all(dir.path().join("hull")).unwrap();
+    std::fs::write(dir.path().join("hull/results.csv"), csv).unwrap();
+    let found = findings(dir.path(), &["hull"]).unwrap();
+    assert_eq!(found.len(), 1, "{found:?}");
+    let f = &found[0];
+    assert_eq!(f.method, "own");
+    assert_eq!(f.condition, "d, 2 of 3 hulls on all 6 (view, γ) cells");
+    assert_eq!(f.runner_up, "qhull");
+    assert!((f.difference.unwrap() - 2.0).abs() < 1e-9);
+    let (lo, hi) = (f.difference_low.unwrap(), f.difference_high.unwrap());
+    assert!((lo - 2.0).abs() < 1e-9 && (hi - 2.0).abs() < 1e-9);
+    assert_eq!(f.verdict, "fastest");
+    let geomean = (0.01f64 * 0.02 * 0.03).powf(1.0 / 3.0);
+    assert!((f.value - geomean).abs() < 1e-12, "{}", f.value);
+    assert!(markdown(&found, false).contains("qhull: 2.00× the time [2.00, 2.00] (fastest)"));
+}
+
+#[test]
+fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
+    let dir = tempfile::tempdir().unwrap();
+    // `full` renders every point (PSNR 100); within 10 % of the points `fine` (9 %) beats
+    // `coarse` (5 %) by 2 dB; within 30 %, `mid` (25 %) wins.
+    let mut lod = String::from("dataset,view,distance,method,params,points_rendered,psnr,status\n");
+    for view in 0..5 {
+        for (m, p, pts, psnr) in [
+            ("full", "", 1000.0, 100.0),
+            ("mid", "", 250.0, 20.0),
+            ("fine", "k=1", 90.0, 15.0),
+            ("coarse", "k=2", 50.0, 13.0),
+        ] {
+            lod.push_str(&format!("d,{view},1,{m},{p},{pts},{psnr},ok\n"));
+        }
+    }
+    std::fs::create_dir_all(dir.path().join("lod")).unwrap();
+    std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
+    let scale = "method,n_points,seconds,peak_rss_bytes,status\n\
+                 a,1000,0.5,1048576,ok\n\
+                 a,10000,5,2097152,ok\n\
+                 b,1000,0.1,4194304,ok\n\
+                 b,10000,NaN,0,timeout after 40 s\n\
+                 hull-x,1000,0.2,1048576,ok\n\
+                 q-build,100000,3,1048576,ok\n\
+                 q-select,100000,0.01,1048576,ok\n\
+                 r-build,100000,9,524288,ok\n";
+    std::fs::create_dir_all(dir.path().join("scale")).unwrap();
+    std::fs::write(dir.path().join("scale/results.csv"), scale).unwrap();
+    let found = findings(dir.path(), &["lod", "scale"]).unwrap();
+    let names: Vec<(&str, &str)> = found
+        .iter()
+        .map(|f| (f.condition.as_str(), f.method.as_str()))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("d, ≤ 10 % of the points", "fine"),
+            ("d, ≤ 30 % of the points", "mid"),
+            (
+                "visibility methods at 10^4 points, the largest any finished (1 of 2)",
+                "a"
+            ),
+            (
+                "hulls at 10^3 points, the largest any finished (1 of 1)",
+                "hull-x"
+            ),
+            (
+                "LOD builds at 10^5 points, the largest any finished (2 of 2)",
+                "q-build"
+            ),
+        ]
+    );
+    // Within 1 dB of fine's 15 dB nothing cheaper: the best itself; 2 dB over coarse.
+    assert_eq!(found[0].cheapest, "fine k=1");
+    assert!((found[0].difference.unwrap() - 2.0).abs() < 1e-12);
+    assert_eq!(found[0].cost, 90.0);
+    // The LOD builds: q fastest, r the lightest.
+    let builds = &found[4];
+    assert_eq!((builds.value, builds.runner_up.as_str()), (3.0, "r-build"));
+    assert_eq!(
+        (builds.cheapest.as_str(), builds.cheapest_cost),
+        ("r-build", Some(0.5))
+    );
+    assert_eq!(found[2].verdict, "only method");
+}
