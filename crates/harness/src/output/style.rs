@@ -262,6 +262,7 @@ const TABLE: &[Entry] = &[
     ("random", 9, Dash::Solid, false),
     ("full", 4, Dash::Dotted, false),
     ("py3dtiles-lod", 1, Dash::Dashed, true),
+    ("copc-lod", 2, Dash::DashDot, true),
 ];
 
 /// The marker of a named variant; `None` for a variant the table does not name.
@@ -418,7 +419,7 @@ mod tests {
                 "zbuffer",
                 "exact",
             ],
-            &["qsplat", "spt", "srn", "random", "full", "py3dtiles-lod"],
+            &["qsplat", "spt", "srn", "random", "full", "py3dtiles-lod", "copc-lod"],
             &[
                 "hull-own",
                 "hull-qhull",
