@@ -419,7 +419,15 @@ mod tests {
                 "zbuffer",
                 "exact",
             ],
-            &["qsplat", "spt", "srn", "random", "full", "py3dtiles-lod", "copc-lod"],
+            &[
+                "qsplat",
+                "spt",
+                "srn",
+                "random",
+                "full",
+                "py3dtiles-lod",
+                "copc-lod",
+            ],
             &[
                 "hull-own",
                 "hull-qhull",

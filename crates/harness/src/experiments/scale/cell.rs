@@ -156,13 +156,7 @@ fn ooc_cell(
         })?;
         let prepare_seconds = ready();
         if method == super::copc::COPC_CONVERTER {
-            return super::copc::build_cell(
-                &input,
-                &dir,
-                n,
-                prepare_seconds,
-                OOC_LIMIT,
-            );
+            return super::copc::build_cell(&input, &dir, n, prepare_seconds, OOC_LIMIT);
         }
         let out = dir.join(format!("{method}.lod"));
         let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
