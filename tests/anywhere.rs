@@ -535,6 +535,20 @@ fn run_visibility_on_your_files_gives_the_manifest_routes_rows() {
     // Scored against the mesh: F1 is a number.
     let f1: f64 = from_files[0][10].parse().unwrap();
     assert!(f1 > 0.5, "{:?}", from_files[0]);
+    // A run into its own folder gets its own findings: one view, so indicative, no interval.
+    let mut findings = csv::Reader::from_path(s.work.join("files/findings.csv")).unwrap();
+    let header = findings.headers().unwrap().clone();
+    let col = |name: &str| header.iter().position(|h| h == name).unwrap();
+    let row = findings
+        .records()
+        .next()
+        .expect("a finding for the scene")
+        .unwrap();
+    assert_eq!(&row[col("experiment")], "visibility", "{row:?}");
+    assert_eq!(&row[col("indicative")], "true", "{row:?}");
+    assert_eq!(&row[col("low")], "", "{row:?}");
+    let md = std::fs::read_to_string(s.work.join("files/findings.md")).unwrap();
+    assert!(md.starts_with("## Findings"), "{md}");
     // Without a camera, the same error as `visible`'s.
     let no_camera = s.run(&["run", "visibility", "--quick", "--cloud", "scene.ply"]);
     assert!(!no_camera.status.success());

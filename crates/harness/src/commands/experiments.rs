@@ -73,10 +73,20 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
         return Ok(());
     }
-    println!("{}: results in {}", exp.name(), out_dir.display());
     if default_out && sweep.shard.is_none() {
         assemble_report(&req.reports)?;
+    } else if sweep.shard.is_none() {
+        // A run into its own folder (a user's data) gets its own findings: findings.csv and
+        // findings.md beside its summary.
+        let quick = req.quick;
+        let found = experiments::findings::findings_in(&out_dir, exp.name())?;
+        experiments::findings::write(&out_dir, &found)?;
+        crate::output::write_atomic(
+            &out_dir.join("findings.md"),
+            experiments::findings::markdown(&found, quick).as_bytes(),
+        )?;
     }
+    println!("{}: results in {}", exp.name(), out_dir.display());
     Ok(())
 }
 

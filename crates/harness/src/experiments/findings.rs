@@ -680,22 +680,26 @@ fn points_text(n: u64) -> String {
 pub fn findings(reports_dir: &Path, experiments: &[&str]) -> Result<Vec<Finding>> {
     let mut out = Vec::new();
     for &name in experiments {
-        let dir = reports_dir.join(name);
-        if !dir.join("results.csv").is_file() {
-            continue;
-        }
-        let quick = RunMeta::read(&dir).is_ok_and(|m| m.quick);
-        let found = match name {
-            "visibility" => visibility(&dir, quick)?,
-            "robustness" => robustness(&dir, quick)?,
-            "lod" => lod(&dir, quick)?,
-            "scale" => scale(&dir, quick)?,
-            "hull" => hull(&dir, quick)?,
-            _ => Vec::new(),
-        };
-        out.extend(found);
+        out.extend(findings_in(&reports_dir.join(name), name)?);
     }
     Ok(out)
+}
+
+/// The findings of one experiment `name` whose results are in `dir` (any folder: `run --out
+/// DIR` on a user's own data included); none without results or findings of its kind.
+pub fn findings_in(dir: &Path, name: &str) -> Result<Vec<Finding>> {
+    if !dir.join("results.csv").is_file() {
+        return Ok(Vec::new());
+    }
+    let quick = RunMeta::read(dir).is_ok_and(|m| m.quick);
+    Ok(match name {
+        "visibility" => visibility(dir, quick)?,
+        "robustness" => robustness(dir, quick)?,
+        "lod" => lod(dir, quick)?,
+        "scale" => scale(dir, quick)?,
+        "hull" => hull(dir, quick)?,
+        _ => Vec::new(),
+    })
 }
 
 /// A number with `digits` decimals, or `-`.
