@@ -1,17 +1,26 @@
 //! The compact file: a small header, then QSplat's node stream.
 //!
-//! Layout (little-endian): magic `PSQSPLAT`; version (u32, 1); flags (u32, bit 0: colours);
+//! Layout (little-endian): magic `PSQSPLAT`; version (u32, 2); flags (u32, bit 0: colours);
 //! point count (u64); word count (u64); root centre (3 × f64) and radius (f64); root word
 //! (u32); then the words (u32 each: offset words and node words, breadth first); then, with
-//! colours, one u16 per word and one for the root (RGB565; 0 for offset words). The original's
-//! node stream is the same 4 bytes a node (6 with colour) plus 4 per sibling group with
-//! grandchildren.
+//! colours, one u16 for the root and one per word (RGB565; 0 for offset words); then the
+//! checksums ([`cloud::io::checksum`], CRC-32, u32 each): one per word page ([`PAGE_WORDS`]
+//! words, 64 KiB; the last may be shorter), then with colours one per colour page (the
+//! colours of a word page, 32 KiB, the root's not included); last, one CRC-32 over the bytes
+//! outside every page: the header, the root's colour and the table of page checksums. The
+//! original's node stream is the same 4 bytes a node (6 with colour) plus 4 per sibling group
+//! with grandchildren; the checksums add 4 bytes per page (8 with colours) and 4 for the file.
+//!
+//! Version 1 (no checksums) is refused with [`Error::OldVersion`] ("rebuild it with
+//! `pointsight lod-build`"); a page or header whose checksum fails is [`Error::Checksum`]
+//! with its byte range. [`read`] and [`from_bytes`] check every checksum; [`crate::PagedTree`]
+//! checks the header's when it opens the file and each page's as it reads it.
 //!
 //! Reading checks everything before trusting it: the magic and version, that the counts fit
-//! the file's length (nothing is allocated from a count the file cannot back), every word's
-//! sphere and normal codes and tree bits, and the structure itself: walking the tree from the
-//! root must visit every word exactly once and every offset must point at the group that
-//! follows. Any failure is [`Error::Corrupt`] with the byte offset.
+//! the file's length (nothing is allocated from a count the file cannot back), the checksums,
+//! every word's sphere and normal codes and tree bits, and the structure itself: walking the
+//! tree from the root must visit every word exactly once and every offset must point at the
+//! group that follows. Any other failure is [`Error::Corrupt`] with the byte offset.
 
 use std::fs;
 use std::path::Path;
@@ -23,8 +32,64 @@ use crate::quant;
 use crate::tree::{QTree, Word};
 
 const MAGIC: &[u8; 8] = b"PSQSPLAT";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 const HEADER: usize = 8 + 4 + 4 + 8 + 8 + 32 + 4;
+
+/// Words per page: the unit [`crate::PagedTree`] reads and a checksum covers (64 KiB of words;
+/// a colour page holds as many colours, 32 KiB).
+pub const PAGE_WORDS: usize = 16_384;
+
+/// Pages of `n_words` words.
+pub(crate) fn pages(n_words: u64) -> u64 {
+    n_words.div_ceil(PAGE_WORDS as u64)
+}
+
+/// Bytes of the checksums at the end of a file of `n_words` words.
+fn trailer_bytes(n_words: u64, colored: bool) -> Option<u64> {
+    pages(n_words)
+        .checked_mul(4 * (1 + u64::from(colored)))?
+        .checked_add(4)
+}
+
+/// Byte offset of the checksums (the page sums, then the header's).
+pub(crate) fn trailer_offset(n_words: u64, colored: bool) -> u64 {
+    colors_offset(n_words) + if colored { 2 * (n_words + 1) } else { 0 }
+}
+
+/// Byte range of word page `p` (`colors`: of its colours).
+pub(crate) fn page_range(n_words: u64, colors: bool, p: u64) -> (u64, u64) {
+    let first = p * PAGE_WORDS as u64;
+    let last = (first + PAGE_WORDS as u64).min(n_words);
+    if colors {
+        let base = colors_offset(n_words) + 2;
+        (base + 2 * first, base + 2 * last)
+    } else {
+        (word_offset(first), word_offset(last))
+    }
+}
+
+/// Index of page `p`'s checksum in the table.
+pub(crate) fn sum_index(n_words: u64, colors: bool, p: u64) -> usize {
+    (p + if colors { pages(n_words) } else { 0 }) as usize
+}
+
+/// The name of page `p` in errors.
+pub(crate) fn page_name(colors: bool, p: u64) -> String {
+    format!("{} page {p}", if colors { "colour" } else { "word" })
+}
+
+/// The bytes that end a file: the page checksums (`word_sums`, then `color_sums`) and the
+/// checksum over them, the header's bytes `header` and the root's colour `root_color` (empty
+/// without colours).
+pub(crate) fn trailer(
+    header: &[u8],
+    root_color: &[u8],
+    word_sums: &[u32],
+    color_sums: &[u32],
+) -> Vec<u8> {
+    let sums: Vec<u32> = word_sums.iter().chain(color_sums).copied().collect();
+    cloud::io::checksum::trailer(&[header, root_color], &sums)
+}
 
 /// The header (everything before the words).
 pub fn header_bytes(
@@ -51,11 +116,13 @@ pub fn header_bytes(
 
 /// Serialises `tree`.
 pub fn to_bytes(tree: &QTree) -> Vec<u8> {
+    let n = tree.words.len() as u64;
+    let colored = tree.colors.is_some();
     let mut b = Vec::with_capacity(HEADER + tree.payload_bytes() + 8);
     b.extend_from_slice(&header_bytes(
-        tree.colors.is_some(),
+        colored,
         tree.n_points,
-        tree.words.len() as u64,
+        n,
         tree.root_center,
         tree.root_radius,
         tree.root_word,
@@ -69,7 +136,34 @@ pub fn to_bytes(tree: &QTree) -> Vec<u8> {
             b.extend_from_slice(&c.to_le_bytes());
         }
     }
+    seal(&mut b, n);
     b
+}
+
+/// Appends the checksums to `b`, a file's bytes up to them, of `n` words.
+pub(crate) fn seal(b: &mut Vec<u8>, n: u64) {
+    use cloud::io::checksum::block_sums;
+    let co = colors_offset(n) as usize;
+    let words = &b[HEADER..co];
+    let colors = &b[co..];
+    let word_sums = block_sums(words, 4 * PAGE_WORDS);
+    let color_sums = block_sums(colors.get(2..).unwrap_or(&[]), 2 * PAGE_WORDS);
+    let t = trailer(
+        &b[..HEADER],
+        colors.get(..2).unwrap_or(&[]),
+        &word_sums,
+        &color_sums,
+    );
+    b.extend_from_slice(&t);
+}
+
+/// Recomputes the checksums of a file's bytes `b` after a test changed them on purpose (to
+/// reach the checks behind the checksums).
+#[cfg(test)]
+pub(crate) fn reseal(b: &mut Vec<u8>) {
+    let n = u64::from_le_bytes([b[24], b[25], b[26], b[27], b[28], b[29], b[30], b[31]]);
+    b.truncate(trailer_offset(n, b[12] == 1) as usize);
+    seal(b, n);
 }
 
 /// Writes `tree` to `path`.
@@ -142,6 +236,13 @@ pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header
         ));
     }
     let version = u32_at(8)?;
+    if version == 1 {
+        return Err(Error::OldVersion {
+            path: name.to_owned(),
+            version,
+            current: VERSION,
+        });
+    }
     if version != VERSION {
         return Err(corrupt(8, format!("unsupported version {version}")));
     }
@@ -160,6 +261,7 @@ pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header
                 .ok_or_else(|| corrupt(24, "word count overflows".into()))?,
         )
         .and_then(|v| v.checked_add(if colored { 2 } else { 0 }))
+        .and_then(|v| v.checked_add(trailer_bytes(n_words, colored)?))
         .ok_or_else(|| corrupt(24, "word count overflows".into()))?;
     if expected != file_len {
         return Err(corrupt(
@@ -189,9 +291,65 @@ pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header
     })
 }
 
-/// Parses a tree; `name` labels errors.
+/// The page checksums of a file whose header parsed as `h`, after checking the header's
+/// checksum against the header bytes `head`, the root's colour `root_color` (empty without
+/// colours) and the checksums' bytes `table` (the file's tail from [`trailer_offset`]).
+pub(crate) fn check_header_sum(
+    h: &Header,
+    head: &[u8],
+    root_color: &[u8],
+    table: &[u8],
+    name: &str,
+) -> Result<Vec<u32>> {
+    cloud::io::checksum::check_trailer(&[head, root_color], table).ok_or_else(|| Error::Checksum {
+        path: name.to_owned(),
+        block: "the header (the header, the root's colour and the page checksums)".into(),
+        offset: 0,
+        end: trailer_offset(h.n_words, h.colored) + table.len() as u64,
+    })
+}
+
+/// Checks page `p`'s bytes `data` against the table `sums`.
+pub(crate) fn check_page(
+    h: &Header,
+    sums: &[u32],
+    colors: bool,
+    p: u64,
+    data: &[u8],
+    name: &str,
+) -> Result<()> {
+    let want = sums.get(sum_index(h.n_words, colors, p)).copied();
+    if want == Some(cloud::io::checksum::crc32(data)) {
+        return Ok(());
+    }
+    let (offset, end) = page_range(h.n_words, colors, p);
+    Err(Error::Checksum {
+        path: name.to_owned(),
+        block: page_name(colors, p),
+        offset,
+        end,
+    })
+}
+
+/// Parses a tree, checking every checksum; `name` labels errors.
 pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
     let h = parse_header(b, b.len() as u64, name)?;
+    let tail = trailer_offset(h.n_words, h.colored) as usize;
+    let root_color = if h.colored {
+        &b[colors_offset(h.n_words) as usize..][..2]
+    } else {
+        &[]
+    };
+    let sums = check_header_sum(&h, &b[..HEADER], root_color, &b[tail..], name)?;
+    for colors in [false, true] {
+        if colors && !h.colored {
+            continue;
+        }
+        for p in 0..pages(h.n_words) {
+            let (from, to) = page_range(h.n_words, colors, p);
+            check_page(&h, &sums, colors, p, &b[from as usize..to as usize], name)?;
+        }
+    }
     let n = h.n_words as usize;
     let word = |k: usize| -> u32 {
         let o = HEADER + 4 * k;

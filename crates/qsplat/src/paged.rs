@@ -1,8 +1,10 @@
 //! A built file read on demand: selection from a tree that is not loaded (issue 27's
 //! `lod_file`), so that memory follows what a view draws, not the file's size.
 //!
-//! [`PagedTree::open`] reads and checks the header alone ([`crate::file`]'s layout: the magic,
-//! the version, the counts against the file's length). Words and colours are then read in
+//! [`PagedTree::open`] reads and checks the header ([`crate::file`]'s layout: the magic, the
+//! version, the counts against the file's length), the root's colour and the table of page
+//! checksums, and checks the header's checksum over them; each page read later is checked
+//! against its checksum ([`Error::Checksum`] naming the page and its bytes). Words and colours are then read in
 //! pages of [`PAGE_WORDS`] words through a cache of at most the given bytes, evicted first in,
 //! first out; the file is breadth first, so the children of neighbouring nodes share pages and
 //! a view's cut touches few of them. The traversal ([`crate::traverse::traverse_nodes`],
@@ -14,7 +16,8 @@
 //! system's page cache still keeps hot pages, and the process's own memory stays bounded by
 //! the cache.
 //!
-//! Trust: the structure is not validated up front (that would read the whole file). Every
+//! Trust: the structure is not validated up front (that would read the whole file). The
+//! checksums catch damage done after the file was written; beyond them, every
 //! word is checked as the traversal decodes it (tree bits, sphere index, offsets inside the
 //! file and after their group, at most one visit per word), and a failure is
 //! [`Error::Corrupt`] with the byte offset.
@@ -28,8 +31,9 @@ use crate::error::{Error, Result};
 use crate::file::{self, Header};
 use crate::traverse::{Nodes, Root};
 
-/// Words per page (64 KiB of words; a colour page holds as many colours, 32 KiB).
-pub const PAGE_WORDS: usize = 16_384;
+/// Words per page (64 KiB of words; a colour page holds as many colours, 32 KiB): the unit a
+/// checksum covers.
+pub const PAGE_WORDS: usize = file::PAGE_WORDS;
 /// The smallest cache (two word pages and two colour pages).
 pub const MIN_CACHE: u64 = 2 * (4 + 2) * PAGE_WORDS as u64;
 
@@ -40,6 +44,8 @@ pub struct PagedTree {
     name: String,
     header: Header,
     root_color: u16,
+    /// The page checksums (word pages, then colour pages).
+    sums: Vec<u32>,
     cache: Cache,
     /// Pages read from the file so far.
     pub pages_read: u64,
@@ -79,6 +85,7 @@ impl PagedTree {
             name,
             header,
             root_color: 0,
+            sums: Vec::new(),
             cache: Cache {
                 words: vec![None; pages],
                 colors: if header.colored {
@@ -93,11 +100,19 @@ impl PagedTree {
             pages_read: 0,
             bytes_read: head.len() as u64,
         };
-        if header.colored {
-            let mut c = [0u8; 2];
+        let mut c = [0u8; 2];
+        let root_color: &[u8] = if header.colored {
             tree.read_at(&mut c, file::colors_offset(header.n_words))?;
             tree.root_color = u16::from_le_bytes(c);
-        }
+            &c
+        } else {
+            &[]
+        };
+        // The counts fit the file's length, so the table is 8 bytes per 64 KiB page at most.
+        let tail = file::trailer_offset(header.n_words, header.colored);
+        let mut table = vec![0u8; (len - tail) as usize];
+        tree.read_at(&mut table, tail)?;
+        tree.sums = file::check_header_sum(&header, &head, root_color, &table, &tree.name)?;
         Ok(tree)
     }
 
@@ -177,6 +192,14 @@ impl PagedTree {
             file::word_offset(first as u64)
         };
         self.read_at(&mut raw, offset)?;
+        file::check_page(
+            &self.header,
+            &self.sums,
+            colors,
+            page as u64,
+            &raw,
+            &self.name,
+        )?;
         self.pages_read += 1;
         if colors {
             let v = raw
@@ -412,6 +435,99 @@ mod tests {
     }
 
     #[test]
+    fn a_flipped_byte_anywhere_fails_a_checksum_in_both_readers() {
+        let tree = build_tree(&cloud(60_000), 0.01).unwrap();
+        let bytes = file::to_bytes(&tree);
+        let n = tree.words.len() as u64;
+        let pages = file::pages(n);
+        assert!(pages >= 4, "{pages} pages");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.qs");
+        let mid = file::page_range(n, false, pages / 2);
+        let last = file::page_range(n, true, pages - 1);
+        let tail = file::trailer_offset(n, true);
+        // (byte, the block named, read at open by the paged reader)
+        let cases = [
+            (40, "the header", true),
+            (file::colors_offset(n) + 1, "the header", true),
+            (tail + 5, "the header", true),
+            (bytes.len() as u64 - 1, "the header", true),
+            ((mid.0 + mid.1) / 2, "word page", false),
+            (last.1 - 1, "colour page", false),
+        ];
+        for (at, block, at_open) in cases {
+            let mut b = bytes.clone();
+            b[at as usize] ^= 0x04;
+            std::fs::write(&path, &b).unwrap();
+            let whole = file::read(&path).unwrap_err();
+            let paged = PagedTree::open(&path, 0)
+                .and_then(|mut t| leaves(&mut t, |_| {}).map(|_| t))
+                .unwrap_err();
+            for e in [&whole, &paged] {
+                let Error::Checksum {
+                    path: p,
+                    block: b,
+                    offset,
+                    end,
+                } = e
+                else {
+                    panic!("byte {at}: {e}");
+                };
+                assert!(
+                    p.ends_with("t.qs") && b.starts_with(block),
+                    "byte {at}: {e}"
+                );
+                if !at_open {
+                    assert!((*offset..*end).contains(&at), "byte {at}: {e}");
+                }
+                assert!(e.to_string().contains("rebuild it"), "{e}");
+            }
+            assert_eq!(PagedTree::open(&path, 0).is_err(), at_open, "byte {at}");
+        }
+        // The middle page is named by number.
+        let mut b = bytes.clone();
+        b[mid.0 as usize] ^= 1;
+        let e = file::from_bytes(&b, "t").unwrap_err();
+        assert!(
+            e.to_string().contains(&format!("word page {}", pages / 2)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_version_1_file_is_refused_with_rebuild_it() {
+        let tree = build_tree(&cloud(2_000), 0.01).unwrap();
+        let mut b = file::to_bytes(&tree);
+        b[8..12].copy_from_slice(&1u32.to_le_bytes());
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.qs");
+        std::fs::write(&path, &b).unwrap();
+        for e in [
+            file::read(&path).unwrap_err(),
+            PagedTree::open(&path, 0).unwrap_err(),
+        ] {
+            assert!(
+                matches!(
+                    e,
+                    Error::OldVersion {
+                        version: 1,
+                        current: 2,
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+            let m = e.to_string();
+            assert!(
+                m.contains("old.qs")
+                    && m.contains("older pointsight")
+                    && m.contains("rebuild it with `pointsight lod-build`"),
+                "{m}"
+            );
+        }
+    }
+
+    #[test]
     fn damaged_words_are_errors_never_panics_or_loops() {
         let tree = build_tree(&cloud(3_000), 0.01).unwrap();
         let bytes = file::to_bytes(&tree);
@@ -434,6 +550,8 @@ mod tests {
                 let v: u32 = rng.random();
                 b[o..o + 4].copy_from_slice(&v.to_le_bytes());
             }
+            // Past the checksums, to reach the structural checks.
+            file::reseal(&mut b);
             std::fs::write(&path, &b).unwrap();
             let mut paged = PagedTree::open(&path, 0).unwrap();
             let a = traverse_nodes(&mut paged, cam, &params);
@@ -448,6 +566,7 @@ mod tests {
         let mut b = bytes.clone();
         assert!(Word::unpack(tree.root_word).unwrap().grandchildren);
         b[file::word_offset(0) as usize..][..4].copy_from_slice(&0u32.to_le_bytes());
+        file::reseal(&mut b);
         std::fs::write(&path, &b).unwrap();
         let mut paged = PagedTree::open(&path, 0).unwrap();
         let e = leaves(&mut paged, |_| {}).unwrap_err();

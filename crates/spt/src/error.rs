@@ -28,6 +28,35 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
+    /// A file of an older format version (before the block checksums).
+    #[error(
+        "{path}: written by an older pointsight (sequential point tree file format version \
+         {version}, this reads version {current}, which adds checksums); rebuild it with \
+         `pointsight lod-build`"
+    )]
+    OldVersion {
+        /// The file.
+        path: String,
+        /// Its version.
+        version: u32,
+        /// The version this reads.
+        current: u32,
+    },
+    /// A block whose checksum does not match: the file was damaged after it was written.
+    #[error(
+        "{path}: checksum mismatch in {block} (bytes {offset}..{end}): the file is damaged; \
+         rebuild it with `pointsight lod-build`"
+    )]
+    Checksum {
+        /// The file.
+        path: String,
+        /// Which block ("the header", "entry block 3").
+        block: String,
+        /// The block's first byte.
+        offset: u64,
+        /// One past its last byte.
+        end: u64,
+    },
     /// The file is not a sequential point tree or is damaged.
     #[error("{path}: corrupt sequential point tree file at byte {offset}: {reason}")]
     Corrupt {

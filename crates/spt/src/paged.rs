@@ -5,7 +5,12 @@
 //! [`crate::list::scan_block`]) and keeps nothing of it, then reads the splats of the entries
 //! it selected. Memory: one block and the selection, whatever the file's size.
 //!
-//! The header is checked when the file is opened ([`crate::file::parse_header`]); every group
+//! Every read covers whole checksummed blocks ([`crate::file::BLOCK_ITEMS`] items) and checks
+//! each against its checksum before using it ([`Error::Checksum`] names the block and its
+//! bytes): a flipped byte that leaves values finite and in range is caught so.
+//!
+//! The header is checked when the file is opened ([`crate::file::parse_header`], its checksum
+//! included); every group
 //! and entry is checked as it is read (the groups tile the entries in order, one to eight
 //! each, errors sorted and finite, boxes ordered) and every splat read is checked finite; a
 //! damaged file is [`Error::Corrupt`] with its byte offset.
@@ -21,10 +26,9 @@ use crate::file::{self, Header};
 use crate::list::{Entry, Group, QBox, dist2, scan_block};
 use crate::{CutStats, Splat, check};
 
-/// Groups read at a time.
+/// Groups read at a time (a multiple of [`file::BLOCK_ITEMS`]).
 pub const BLOCK_GROUPS: usize = 1 << 14;
-/// Entries' splats read in one request when the selected entries are this close.
-const SPLAT_GAP: usize = 64;
+const _: () = assert!(BLOCK_GROUPS.is_multiple_of(file::BLOCK_ITEMS));
 
 /// An open tree file.
 #[derive(Debug)]
@@ -90,10 +94,38 @@ impl PagedTree {
         Ok(())
     }
 
+    /// Reads items `from..to` of section `section` (0 groups, 1 entries, 2 splats, 3 colours)
+    /// into `self.raw`: the whole blocks that hold them are read and checked against their
+    /// checksums.
+    fn read_items(&mut self, section: usize, from: usize, to: usize) -> Result<()> {
+        let size = [file::GROUP, file::ENTRY, file::SPLAT, file::COLOR][section];
+        self.raw.clear();
+        if from >= to {
+            return Ok(());
+        }
+        let (b0, b1) = (from / file::BLOCK_ITEMS, (to - 1) / file::BLOCK_ITEMS + 1);
+        if b1 as u64 > self.header.blocks()[section] {
+            return Err(self.corrupt(
+                self.sections[section] + (from * size) as u64,
+                format!("items {from}..{to} past the end of their section"),
+            ));
+        }
+        let (start, _) = self.header.block_range(section, b0 as u64);
+        let (_, end) = self.header.block_range(section, b1 as u64 - 1);
+        self.read_at(self.header.sum_offset(section, b0 as u64), 4 * (b1 - b0))?;
+        let sums = std::mem::take(&mut self.raw);
+        self.read_at(start, (end - start) as usize)?;
+        self.header
+            .check_blocks(section, b0 as u64, &self.raw, &sums, &self.path)?;
+        self.raw.drain(..(from - b0 * file::BLOCK_ITEMS) * size);
+        self.raw.truncate((to - from) * size);
+        Ok(())
+    }
+
     /// Reads groups `from..from + k` into `self.groups`, checked.
     fn read_groups(&mut self, from: usize, k: usize, prev: Option<(f32, u32)>) -> Result<()> {
         let at = self.sections[0] + (from * file::GROUP) as u64;
-        self.read_at(at, k * file::GROUP)?;
+        self.read_items(0, from, from + k)?;
         self.groups.clear();
         let (mut last_e2, mut next) = prev.unwrap_or((f32::INFINITY, 0));
         for j in 0..k {
@@ -143,7 +175,7 @@ impl PagedTree {
     /// Reads entries `from..to` into `self.entries`, checked.
     fn read_entries(&mut self, from: usize, to: usize) -> Result<()> {
         let at = self.sections[1] + (from * file::ENTRY) as u64;
-        self.read_at(at, (to - from) * file::ENTRY)?;
+        self.read_items(1, from, to)?;
         self.entries.clear();
         for j in 0..to - from {
             let r = &self.raw[j * file::ENTRY..(j + 1) * file::ENTRY];
@@ -204,33 +236,37 @@ impl PagedTree {
         Ok(stats)
     }
 
-    /// The splats of a cut's entries (ascending, as a cut gives them), read from the file.
+    /// The splats of a cut's entries (ascending, as a cut gives them), read from the file a
+    /// checksummed block at a time.
     pub fn splats(&mut self, entries: &[u32]) -> Result<Vec<Splat>> {
         let mut out = Vec::with_capacity(entries.len());
         let colors = self.header.colors;
+        let not_ascending = || Error::InvalidParameter {
+            name: "entries",
+            reason: "not ascending entries of this tree".into(),
+        };
+        if entries.windows(2).any(|w| w[0] >= w[1]) {
+            return Err(not_ascending());
+        }
         let mut i = 0;
         while i < entries.len() {
             let a = entries[i] as usize;
             let mut j = i + 1;
-            while j < entries.len() && (entries[j] as usize) < entries[j - 1] as usize + SPLAT_GAP {
+            while j < entries.len()
+                && entries[j] as usize / file::BLOCK_ITEMS == a / file::BLOCK_ITEMS
+            {
                 j += 1;
             }
             let b = entries[j - 1] as usize + 1;
-            if b as u64 > self.header.entries || (j > i + 1 && entries[j - 1] <= entries[j - 2]) {
-                return Err(Error::InvalidParameter {
-                    name: "entries",
-                    reason: "not ascending entries of this tree".into(),
-                });
+            if b as u64 > self.header.entries {
+                return Err(not_ascending());
             }
             let s0 = self.sections[2] + (a * file::SPLAT) as u64;
-            self.read_at(s0, (b - a) * file::SPLAT)?;
+            self.read_items(2, a, b)?;
             let raw = std::mem::take(&mut self.raw);
             let mut cols = Vec::new();
             if colors {
-                self.read_at(
-                    self.sections[3] + (a * file::COLOR) as u64,
-                    (b - a) * file::COLOR,
-                )?;
+                self.read_items(3, a, b)?;
                 cols = std::mem::take(&mut self.raw);
             }
             for &e in &entries[i..j] {
@@ -384,6 +420,91 @@ mod tests {
     }
 
     #[test]
+    fn a_flipped_byte_anywhere_fails_a_checksum_in_both_readers() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, path) = tree_file(40_000, true, dir.path());
+        let bytes = std::fs::read(&path).unwrap();
+        let h = file::verify(&path).unwrap();
+        let blocks = h.blocks();
+        assert!(blocks.iter().all(|&b| b >= 3), "{blocks:?}");
+        let mid = |section: usize| {
+            let (a, b) = h.block_range(section, blocks[section] / 2);
+            ((a + b) / 2, format!("block {}", blocks[section] / 2))
+        };
+        let bad = dir.path().join("bad.spt");
+        // (byte, the block named)
+        let mut cases = vec![(40, "the header".to_string())];
+        for (section, name) in ["group", "entry", "splat", "colour"].iter().enumerate() {
+            let (at, block) = mid(section);
+            cases.push((at, format!("{name} {block}")));
+        }
+        cases.push((
+            h.sums_offset() - 1,
+            format!("colour block {}", blocks[3] - 1),
+        ));
+        // A damaged checksum fails its block's check (here the first entry block's).
+        cases.push((h.sum_offset(1, 0) + 2, "entry block 0".into()));
+        for (at, block) in cases {
+            let mut d = bytes.clone();
+            d[at as usize] ^= 0x20;
+            std::fs::write(&bad, &d).unwrap();
+            let whole = file::verify(&bad).unwrap_err();
+            let paged = PagedTree::open(&bad)
+                .and_then(|mut f| f.leaves(1 << 20, |_| {}))
+                .unwrap_err();
+            for e in [&whole, &paged] {
+                let Error::Checksum {
+                    path: p,
+                    block: b,
+                    offset,
+                    end,
+                } = e
+                else {
+                    panic!("byte {at}: {e}");
+                };
+                assert!(p.ends_with("bad.spt") && *b == block, "byte {at}: {e}");
+                if at < h.sums_offset() {
+                    assert!((*offset..*end).contains(&at), "byte {at}: {e}");
+                }
+                assert!(e.to_string().contains("rebuild it"), "{e}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_version_1_file_is_refused_with_rebuild_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, path) = tree_file(2_000, false, dir.path());
+        let mut b = std::fs::read(&path).unwrap();
+        b[8..12].copy_from_slice(&1u32.to_le_bytes());
+        let old = dir.path().join("old.spt");
+        std::fs::write(&old, &b).unwrap();
+        for e in [
+            file::verify(&old).unwrap_err(),
+            PagedTree::open(&old).unwrap_err(),
+        ] {
+            assert!(
+                matches!(
+                    e,
+                    Error::OldVersion {
+                        version: 1,
+                        current: 2,
+                        ..
+                    }
+                ),
+                "{e}"
+            );
+            let m = e.to_string();
+            assert!(
+                m.contains("old.spt")
+                    && m.contains("older pointsight")
+                    && m.contains("rebuild it with `pointsight lod-build`"),
+                "{m}"
+            );
+        }
+    }
+
+    #[test]
     fn damaged_files_are_errors_not_panics() {
         let dir = tempfile::tempdir().unwrap();
         let (_, path) = tree_file(8_000, true, dir.path());
@@ -393,11 +514,16 @@ mod tests {
         assert!(matches!(PagedTree::open(&bad), Err(Error::Corrupt { .. })));
         let mut rng = seeded(4, "damage");
         let mut caught = 0;
-        for _ in 0..200 {
+        let sums = file::check(&bytes, "t").unwrap().sums_offset() as usize;
+        for trial in 0..200 {
             let mut d = bytes.clone();
             for _ in 0..6 {
-                let at = rng.random_range(file::HEADER..d.len());
+                let at = rng.random_range(file::HEADER..sums);
                 d[at] = rng.random();
+            }
+            // Half the trials past the checksums, to reach the checks of values.
+            if trial % 2 == 0 {
+                file::reseal(&mut d, true);
             }
             std::fs::write(&bad, &d).unwrap();
             let mut f = PagedTree::open(&bad).unwrap();

@@ -9,6 +9,7 @@
 //!   ascii, binary and binary_compressed);
 //! - a binary little-endian PLY writer ([`ply_write`]); every writer goes through [`atomic`]
 //!   (whole file or none);
+//! - block checksums (CRC-32) for the built LOD files ([`checksum`]);
 //! - views files: JSON lines of cameras ([`views`]) and COLMAP text models ([`colmap`]).
 //!
 //! Every reader returns a [`ReadError`](crate::ReadError) that names the file and the line
@@ -17,6 +18,7 @@
 //! missing vertices.
 
 pub mod atomic;
+pub mod checksum;
 pub mod colmap;
 #[cfg(feature = "formats")]
 pub mod e57;

@@ -10,7 +10,9 @@ use cloud::ooc::PartKind;
 use super::Stage;
 use super::encode::{Builder, Encoded, WREC};
 use crate::error::{Error, Result};
+use crate::file::PAGE_WORDS;
 use crate::tree;
+use cloud::io::checksum::Summed;
 
 impl Builder<'_> {
     /// Writes the file: breadth first, each level the top groups and chunk segments in order.
@@ -111,20 +113,25 @@ impl Builder<'_> {
         let mut written_levels = 0u64;
         let result = cloud::io::atomic::write_with(out, |o| {
             use std::io::Write;
-            o.write_all(&crate::file::header_bytes(
+            let head = crate::file::header_bytes(
                 colors,
                 u64::from(root_node.leaves),
                 total as u64,
                 root_node.center,
                 root_node.radius,
                 root_word,
-            ))?;
+            );
+            o.write_all(&head)?;
+            let root_color = tree::node_color(&root_node).to_le_bytes();
+            // Each sweep's page checksums (crate::file's layout).
+            let mut sums: [Vec<u32>; 2] = [Vec::new(), Vec::new()];
             // Words first, then (after the root's) the colours: two sweeps.
             for sweep in 0..1 + usize::from(colors) {
                 let want_color = sweep == 1;
                 if want_color {
-                    o.write_all(&tree::node_color(&root_node).to_le_bytes())?;
+                    o.write_all(&root_color)?;
                 }
+                let mut o = Summed::new(&mut *o, PAGE_WORDS * if want_color { 2 } else { 4 });
                 for (l, level) in levels.iter().enumerate() {
                     for (g, &e) in level.iter().enumerate() {
                         match e {
@@ -184,7 +191,14 @@ impl Builder<'_> {
                     }
                     written_levels += 1;
                 }
+                sums[sweep] = o.finish().1;
             }
+            o.write_all(&crate::file::trailer(
+                &head,
+                if colors { &root_color } else { &[] },
+                &sums[0],
+                &sums[1],
+            ))?;
             Ok(written_levels)
         });
         match result {

@@ -9,6 +9,7 @@ use std::io::{self, BufWriter, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use cloud::glam::DVec3;
+use cloud::io::checksum::Summed;
 use cloud::spill::SpillReader;
 
 use super::runs::{ENTRY_REC, GREC, Runs, key_order};
@@ -51,21 +52,26 @@ impl Builder {
                 f.seek(SeekFrom::Start(at))?;
                 Ok(BufWriter::with_capacity(1 << 20, f))
             };
+            // Each section summed in blocks of file::BLOCK_ITEMS items (file's layout).
+            let summed = |at: u64, item: usize| -> io::Result<Summed<BufWriter<File>>> {
+                Ok(Summed::new(open(at)?, file::BLOCK_ITEMS * item))
+            };
             File::create(partial).map_err(io)?;
-            let mut gw = open(0).map_err(io)?;
-            let mut ew = open(sections[1]).map_err(io)?;
-            let mut sw = open(sections[2]).map_err(io)?;
+            let mut head = open(0).map_err(io)?;
+            head.write_all(&header.to_bytes()).map_err(io)?;
+            let mut gw = Summed::new(head, file::BLOCK_ITEMS * file::GROUP);
+            let mut ew = summed(sections[1], file::ENTRY).map_err(io)?;
+            let mut sw = summed(sections[2], file::SPLAT).map_err(io)?;
             let mut cw = if colors {
-                Some(open(sections[3]).map_err(io)?)
+                Some(summed(sections[3], file::COLOR).map_err(io)?)
             } else {
                 None
             };
-            gw.write_all(&header.to_bytes()).map_err(io)?;
             let mut bytes = Vec::with_capacity(file::GROUP);
             let put_entry = |rec: &[u8],
-                             ew: &mut BufWriter<File>,
-                             sw: &mut BufWriter<File>,
-                             cw: &mut Option<BufWriter<File>>|
+                             ew: &mut Summed<BufWriter<File>>,
+                             sw: &mut Summed<BufWriter<File>>,
+                             cw: &mut Option<Summed<BufWriter<File>>>|
              -> io::Result<()> {
                 ew.write_all(&rec[..file::ENTRY])?;
                 sw.write_all(&rec[file::ENTRY..file::ENTRY + file::SPLAT])?;
@@ -130,12 +136,21 @@ impl Builder {
             if u64::from(next_entry) != header.entries {
                 return Err(internal("the runs' entries do not add up"));
             }
+            let mut tail = open(header.sums_offset()).map_err(io)?;
             for w in [Some(gw), Some(ew), Some(sw), cw].into_iter().flatten() {
+                let (w, sums) = w.finish();
+                for s in sums {
+                    tail.write_all(&s.to_le_bytes()).map_err(io)?;
+                }
                 w.into_inner()
                     .map_err(|e| io(e.into_error()))?
                     .sync_all()
                     .map_err(io)?;
             }
+            tail.into_inner()
+                .map_err(|e| io(e.into_error()))?
+                .sync_all()
+                .map_err(io)?;
             progress(Stage::Merge, written);
             Ok(())
         };

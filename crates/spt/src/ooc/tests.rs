@@ -156,6 +156,12 @@ fn truncated_and_lying_files_are_refused_when_opened() {
     }
     let mut lying = bytes.clone();
     lying[24..32].copy_from_slice(&u64::MAX.to_le_bytes());
+    assert!(matches!(
+        open(&lying),
+        Err(Error::Checksum { offset: 0, .. })
+    ));
+    // Past the header's checksum, the counts are checked against the length.
+    file::reseal(&mut lying, false);
     assert!(matches!(open(&lying), Err(Error::Corrupt { .. })));
     let mut magic = bytes.clone();
     magic[0] = b'X';
