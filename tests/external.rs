@@ -371,10 +371,10 @@ fn floods_are_refused_with_bounded_memory() {
     );
     let out = d.join("v.txt");
     for (name, needle) in [
-        ("flood-line", "longer than 1528576 bytes"),
+        ("flood-line", "longer than 2008576 bytes"),
         (
             "flood-file",
-            "is 4294967296 bytes, more than the 1528576 bytes",
+            "is 4294967296 bytes, more than the 2008576 bytes",
         ),
         (
             "too-many",

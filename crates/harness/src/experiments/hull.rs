@@ -664,7 +664,21 @@ fn cgal_table(rows: &[Row], datasets: &[String], not_run: &[String], repeats: u6
             continue;
         }
         let (c, o): (Vec<f64>, Vec<f64>) = pairs.iter().map(|(c, o)| (c.0, o.0)).unzip();
+        // The cells are (view, γ) pairs: the interval needs as many distinct views as any.
+        let (cgal, own) = (at(d, CGAL), at(d, "own"));
+        let views: std::collections::BTreeSet<usize> = cgal
+            .keys()
+            .filter(|k| own.contains_key(k))
+            .map(|k| k.0)
+            .collect();
         let ratio = crate::stats::paired_ratio(&c, &o, SEED)
+            .map(|e| crate::stats::Estimate {
+                interval: e
+                    .interval
+                    .filter(|_| views.len() >= crate::stats::MIN_VIEWS),
+                n: views.len(),
+                ..e
+            })
             .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
         table.push(vec![
             d.clone(),
