@@ -70,6 +70,36 @@ impl Drop for Cluster {
     }
 }
 
+/// `findings.csv`'s columns that no timing decides.
+fn verdicts(path: &Path) -> Vec<Vec<String>> {
+    const KEEP: [&str; 10] = [
+        "experiment",
+        "condition",
+        "method",
+        "setting",
+        "metric",
+        "value",
+        "low",
+        "high",
+        "n_views",
+        "verdict",
+    ];
+    let mut r = csv::Reader::from_path(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let header = r.headers().expect("csv header").clone();
+    let keep: Vec<usize> = header
+        .iter()
+        .enumerate()
+        .filter(|(_, h)| KEEP.contains(h))
+        .map(|(i, _)| i)
+        .collect();
+    r.records()
+        .map(|rec| {
+            let rec = rec.expect("a csv record");
+            keep.iter().map(|&i| rec[i].to_owned()).collect()
+        })
+        .collect()
+}
+
 /// The CSV without its timing columns.
 fn untimed(path: &Path) -> Vec<Vec<String>> {
     let mut r = csv::Reader::from_path(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
@@ -240,6 +270,13 @@ fn a_sharded_run_on_slurm_merges_into_the_unsharded_csvs() {
                 views_per_build(&merged.join(&name)),
                 views_per_build(&whole.join(&name)),
                 "{name}: the views each preparation answered"
+            );
+        } else if name == "findings.csv" {
+            // The verdicts, without what timings decide (costs, the cheapest choice).
+            assert_eq!(
+                verdicts(&merged.join(&name)),
+                verdicts(&whole.join(&name)),
+                "{name}"
             );
         } else if std::fs::metadata(whole.join(&name)).expect("csv").len() == 0 {
             // A table without rows is an empty file in both.

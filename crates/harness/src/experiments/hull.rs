@@ -857,11 +857,29 @@ mod tests {
         }
         let t = cgal_table(&rows, &["d".into()], &[], 3);
         let line = t.lines().find(|l| l.starts_with("| d |")).expect(&t);
+        // 6 cells but 3 views: no interval.
         assert!(
-            line.contains("| 6 |") && line.contains("5.00× [5.00, 5.00]"),
+            line.contains("| 6 |") && line.contains("5.00× (indicative: 3 views)"),
             "{line}"
         );
         assert!(line.contains("4 of 6"), "{line}");
+        // From 5 views, its interval.
+        let five: Vec<Row> = (0..5)
+            .flat_map(|view| {
+                [2.0, 3.0].into_iter().flat_map(move |gamma| {
+                    [
+                        row("own", view, gamma, 0.1, 1.0),
+                        row(CGAL, view, gamma, 0.5, 1.0),
+                    ]
+                })
+            })
+            .collect();
+        let t5 = cgal_table(&five, &["d".into()], &[], 3);
+        let line5 = t5.lines().find(|l| l.starts_with("| d |")).expect(&t5);
+        assert!(
+            line5.contains("| 10 |") && line5.contains("5.00× [5.00, 5.00]"),
+            "{line5}"
+        );
         let missing = cgal_table(
             &rows[..0],
             &["d".into()],
