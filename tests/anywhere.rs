@@ -682,6 +682,12 @@ fn bench_shows_the_runs_progress_on_a_terminal_only_and_leaves_full_reports_alon
     std::fs::create_dir_all(s.root.join("empty-methods")).unwrap();
     let clone = s.root.join("clone");
     fake_clone(&clone);
+    // The clone's built results script (`just web`, which `just test` runs first), so that the
+    // report has its pages and says nothing of a missing script.
+    let built = clone_root().join("web/dist/results.js");
+    assert!(built.is_file(), "web/dist/results.js: run `just web`");
+    std::fs::create_dir_all(clone.join("web/dist")).unwrap();
+    std::fs::copy(&built, clone.join("web/dist/results.js")).unwrap();
     let full = clone.join("reports/reference");
     std::fs::create_dir_all(&full).unwrap();
     std::fs::write(full.join("results.csv"), "the full run's results\n").unwrap();

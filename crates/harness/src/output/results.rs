@@ -23,19 +23,10 @@ pub const BUNDLE_VAR: &str = "POINTSIGHT_RESULTS_JS";
 /// The page's file name in an experiment's folder.
 pub const PAGE: &str = "results.html";
 
-/// Where a built page script `file` (under `web/dist/`) is looked for: `$var`, else
-/// `web/dist/FILE` under the working directory, else under the workspace this binary was built
-/// from.
+/// Where a built page script `file` is looked for: `crate::paths::script_candidates` (`$var`,
+/// the clone's `web/dist/`, or installed beside the binary; never the build's source path).
 pub fn script_candidates(file: &str, var: &str) -> Vec<PathBuf> {
-    if let Some(p) = std::env::var_os(var) {
-        return vec![PathBuf::from(p)];
-    }
-    vec![
-        Path::new("web/dist").join(file),
-        Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../web/dist")
-            .join(file),
-    ]
+    crate::paths::script_candidates(file, var)
 }
 
 /// The results script, or `None` when it is not built.

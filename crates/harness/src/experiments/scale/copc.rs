@@ -7,9 +7,8 @@
 //! measured every [`SCRATCH_POLL`] for the most it held at once.
 //!
 //! The converter is found as `just peers` installs it: `COPC_CONVERTER` when set, else
-//! `.tools/bin/copc_converter` under the current folder (the project's, where `pointsight`
-//! runs and finds `methods/`), else in the source tree this program was built from, else on
-//! `PATH`; a cell without it is a row saying so.
+//! `.tools/bin/copc_converter` in the clone around the working directory
+//! (`paths::working_clone`), else on `PATH`; a cell without it is a row saying so.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
@@ -31,11 +30,11 @@ pub const SCRATCH_POLL: Duration = Duration::from_millis(200);
 pub fn converter() -> std::result::Result<PathBuf, String> {
     let candidates: Vec<PathBuf> = match std::env::var_os("COPC_CONVERTER") {
         Some(p) => vec![PathBuf::from(p)],
-        None => vec![
-            PathBuf::from(".tools/bin/copc_converter"),
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../.tools/bin/copc_converter"),
-            PathBuf::from("copc_converter"),
-        ],
+        None => crate::paths::working_clone()
+            .map(|clone| clone.join(".tools/bin/copc_converter"))
+            .into_iter()
+            .chain([PathBuf::from("copc_converter")])
+            .collect(),
     };
     for p in &candidates {
         let ok = Command::new(p)
