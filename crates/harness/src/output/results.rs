@@ -10,7 +10,7 @@
 //! `tables`, `bench` and `merge` (through [`super::report::assemble`]) and by a run into its
 //! own folder; without the built script, no page is written and the caller says so.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{Context, Result};
 
@@ -23,22 +23,16 @@ pub const BUNDLE_VAR: &str = "POINTSIGHT_RESULTS_JS";
 /// The page's file name in an experiment's folder.
 pub const PAGE: &str = "results.html";
 
-/// Where a built page script `file` is looked for: `crate::paths::script_candidates` (`$var`,
-/// the clone's `web/dist/`, or installed beside the binary; never the build's source path).
-pub fn script_candidates(file: &str, var: &str) -> Vec<PathBuf> {
-    crate::paths::script_candidates(file, var)
-}
-
-/// The results script, or `None` when it is not built.
+/// The results script (looked for by `paths::script_candidates`: `$POINTSIGHT_RESULTS_JS`,
+/// the clone's `web/dist/`, or installed beside the binary), or `None` when it is not built.
 pub fn bundle() -> Result<Option<String>> {
-    for p in script_candidates("results.js", BUNDLE_VAR) {
-        if p.is_file() {
-            return std::fs::read_to_string(&p)
-                .map(Some)
-                .with_context(|| format!("cannot read the results script {}", p.display()));
-        }
-    }
-    Ok(None)
+    let candidates = crate::paths::script_candidates("results.js", BUNDLE_VAR);
+    crate::paths::find_script(&candidates)
+        .map(|p| {
+            std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read the results script {}", p.display()))
+        })
+        .transpose()
 }
 
 /// The figure twins of `dir`, in the order its `summary.md` shows them.
