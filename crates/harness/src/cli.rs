@@ -430,6 +430,30 @@ pub struct SweepFlags {
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<crate::shard::Shard>,
+    /// `scale` only: the largest cloud size, a whole number or a power of ten such as `1e9`.
+    /// The out-of-core builds run at every power of ten from 10^6 up to it (default 10^8; quick
+    /// 10^6), the in-core cells up to it or 10^8, whichever is smaller.
+    #[arg(long, value_name = "N", value_parser = point_count)]
+    pub max_points: Option<u64>,
+}
+
+/// A cloud size (`--max-points`): a whole number of at least 10^4, or `1eK` (K from 4 to 12).
+fn point_count(s: &str) -> Result<u64, String> {
+    let err =
+        || format!("expected a point count from 10000 to 1e12 (a whole number or 1eK), got {s:?}");
+    let n = match s.split_once(['e', 'E']) {
+        Some(("1", k)) => {
+            let k: u32 = k.parse().map_err(|_| err())?;
+            10u64.checked_pow(k).ok_or_else(err)?
+        }
+        Some(_) => return Err(err()),
+        None => s.parse::<u64>().map_err(|_| err())?,
+    };
+    if (10_000..=1_000_000_000_000).contains(&n) {
+        Ok(n)
+    } else {
+        Err(err())
+    }
 }
 
 /// A time budget in seconds (`--time-budget`): zero or more, `inf` for none.
@@ -448,5 +472,20 @@ fn repeat_count(s: &str) -> Result<usize, String> {
             "expected a whole number from 1 to {}, got {s:?}",
             registry::sweep::MAX_REPEATS
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::point_count;
+
+    #[test]
+    fn a_point_count_is_a_whole_number_or_a_power_of_ten() {
+        assert_eq!(point_count("1e9"), Ok(1_000_000_000));
+        assert_eq!(point_count("250000"), Ok(250_000));
+        for bad in ["2e9", "1e13", "1e3", "999", "-5", "1.5e8", "lots", "1e"] {
+            let e = point_count(bad).unwrap_err();
+            assert!(e.contains(bad), "{bad}: {e}");
+        }
     }
 }

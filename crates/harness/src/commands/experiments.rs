@@ -67,6 +67,7 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         repeats_given: repeats.is_some(),
         time_budget: budget(sweep),
         shard: sweep.shard,
+        max_points: sweep.max_points,
         ..experiments::Context::new(data_dir, out_dir.clone(), req.quick, datasets)
     };
     if !experiments::run(exp, &ctx)? {
@@ -149,6 +150,7 @@ pub fn bench(
             repeats_given: repeats.is_some(),
             time_budget: budget(sweep),
             shard: sweep.shard,
+            max_points: sweep.max_points,
             seed_tables: true,
             ..experiments::Context::new(
                 data_dir.to_path_buf(),

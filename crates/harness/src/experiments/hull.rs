@@ -8,7 +8,8 @@
 //! answer (`own`, k = 0, same dataset, view and γ) and `f1_vs_reference` scores it against the
 //! mesh reference. A failure is a row with status `error: …` or `panic: …`.
 //!
-//! The grid ([`plan`]) is the full one (4 views × 3 γ × k ∈ {0, 1e-4, 1e-3, 1e-2}) for `own`
+//! The grid ([`plan`]) is the full one (5 views, [`crate::stats::MIN_VIEWS`], so CGAL's ratio has
+//! its interval; × 3 γ × k ∈ {0, 1e-4, 1e-3, 1e-2}) for `own`
 //! and `qhull` on every dataset; the other implementations run the full grid on the bunnies and
 //! view 0 with γ = 3 on the dragon (one Qhull-class run there takes 1 to 12 s, and the whole
 //! benchmark has 30 minutes); `chull` (exact big-integer QuickHull, about 100 times slower
@@ -165,7 +166,7 @@ impl Experiment for HullExperiment {
     }
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
-        let views = if ctx.quick { 2 } else { 4 };
+        let views = if ctx.quick { 2 } else { crate::stats::MIN_VIEWS };
         let perturbs: &[f64] = if ctx.quick {
             &[0.0, 1e-6, 1e-2]
         } else {

@@ -57,7 +57,8 @@ pub struct Context {
     pub time_budget: Option<f64>,
     /// The part of the cells this process runs (`--shard K/N`); `None`: all.
     pub shard: Option<Shard>,
-    /// `scale`: the largest cloud size (default 10^6 quick, 10^8 full).
+    /// `scale`: the largest cloud size (`--max-points`; [`scale`]'s `plan::sizes` and
+    /// `plan::ooc_sizes` say what it does to each kind of cell).
     pub max_points: Option<u64>,
 }
 

@@ -40,6 +40,10 @@ pub const PALETTE: [[u8; 3]; 10] = [
     [0x00, 0x00, 0x00], // black
 ];
 
+/// The colour of a Pareto front (Tol's vibrant orange): outside [`PALETTE`], so a front is
+/// never taken for a method.
+pub const FRONT_COLOR: [u8; 3] = [0xee, 0x77, 0x33];
+
 /// The colour of context series (Tol's muted pale grey, darkened to show on white).
 pub const CONTEXT_COLOR: [u8; 3] = [0xbb, 0xbb, 0xbb];
 
@@ -245,7 +249,7 @@ const TABLE: &[Entry] = &[
     ("reference", 9, Dash::Dotted, false),
     ("zbuffer", 1, Dash::Dotted, false),
     ("exact", 7, Dash::Dotted, false),
-    // The Pareto front of a figure.
+    // The Pareto front of a figure (its colour is [`FRONT_COLOR`], its marker a ring).
     ("pareto-front", 9, Dash::Solid, false),
     // Hull implementations (HPR's hull; the `hull` and `scale` experiments).
     ("hull-own", 0, Dash::Solid, false),
@@ -333,8 +337,9 @@ fn family_slot(family: &str) -> ([u8; 3], Dash, bool) {
 /// for a peer. A variant the table does not name takes a marker by a hash of its name: use
 /// [`ordinal`] for variants that are the values of a parameter.
 pub fn style(family: &str, variant: &str) -> Style {
-    let (color, dash, hollow) = family_slot(family);
+    let (mut color, dash, hollow) = family_slot(family);
     let marker = if family == "pareto-front" {
+        color = FRONT_COLOR;
         Marker::Ring
     } else {
         named_marker(variant).unwrap_or(MARKERS[(hash(variant) % MARKERS.len() as u64) as usize])
@@ -451,6 +456,18 @@ mod tests {
         // Every table row is unique by name.
         let names: BTreeSet<_> = TABLE.iter().map(|e| e.0).collect();
         assert_eq!(names.len(), TABLE.len());
+    }
+
+    #[test]
+    fn a_pareto_front_has_a_colour_no_method_has() {
+        let front = style("pareto-front", "");
+        assert_eq!(front.color, FRONT_COLOR);
+        assert!(!PALETTE.contains(&front.color));
+        assert!(!PALETTE.contains(&CONTEXT_COLOR));
+        for card in registry::cards() {
+            let family = card.family(&card.default_setting());
+            assert_ne!(style(&family, "best").color, front.color, "{family}");
+        }
     }
 
     #[test]

@@ -10,7 +10,8 @@
 //! (`NAME-select`) at its default setting, through the kernel's LOD form, on the cloud prepared
 //! as the `lod` experiment prepares it; each out-of-core LOD build (`NAME-build-ooc`,
 //! [`plan::OOC_SUFFIX`]): the same samples written streamed as LAZ, then `pointsight lod-build` within
-//! [`plan::OOC_LIMIT`], at 10^6 to 10^9 points (quick: 10^6) under caps of its own ([`plan::OOC_CAP`]) and
+//! [`plan::OOC_LIMIT`], at 10^6 to 10^8 points (quick: 10^6; `--max-points N` up to N, such as
+//! 10^9) under caps of its own ([`plan::OOC_CAP`]) and
 //! a disk check. `seconds` is the operation alone (median of 3 runs up
 //! to 10^6 points, one run above; sampling and per-cloud preparation excluded for per-view
 //! operations, included for builds, which are the operation).

@@ -67,9 +67,13 @@ pub fn ooc_disk_per_point(name: &str) -> u64 {
     }
 }
 
-/// Sizes of the out-of-core cells: from 10^6 (quick: only 10^6) to 10^9 points.
+/// Sizes of the out-of-core cells: every power of ten from 10^6 to `max_points` when it is given
+/// (`--max-points 1e9` adds the 10^9 cells), else to 10^8 (quick: only 10^6).
 pub fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
-    decades(6, if quick { 6 } else { 9 }, max_points)
+    match max_points {
+        Some(m) => decades(6, m.max(1).ilog10(), None),
+        None => decades(6, if quick { 6 } else { 8 }, None),
+    }
 }
 
 /// 10^from to 10^to, those above `max_points` left out.
@@ -151,7 +155,8 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
     out
 }
 
-/// Sizes of the in-core cells: from 10^4 (quick: to 10^6) to 10^8 points.
+/// Sizes of the in-core cells: from 10^4 to 10^8 points (quick: to 10^6), none above
+/// `max_points`.
 pub fn sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
     decades(4, if quick { 6 } else { 8 }, max_points)
 }
@@ -217,7 +222,19 @@ mod tests {
     #[test]
     fn the_out_of_core_sizes_and_the_free_disk() {
         assert_eq!(ooc_sizes(true, None), vec![1_000_000]);
-        assert_eq!(ooc_sizes(false, Some(10u64.pow(8))).len(), 3);
+        assert_eq!(
+            ooc_sizes(false, None),
+            vec![1_000_000, 10_000_000, 100_000_000]
+        );
+        // --max-points extends the out-of-core sizes (10^9) and caps the in-core ones at 10^8.
+        assert_eq!(
+            ooc_sizes(false, Some(10u64.pow(9))).last(),
+            Some(&10u64.pow(9))
+        );
+        assert_eq!(ooc_sizes(true, Some(10u64.pow(7))).len(), 2);
+        assert_eq!(ooc_sizes(false, Some(5 * 10u64.pow(5))), Vec::<u64>::new());
+        assert_eq!(sizes(false, Some(10u64.pow(9))).last(), Some(&10u64.pow(8)));
+        assert_eq!(sizes(false, Some(3 * 10u64.pow(5))).last(), Some(&100_000));
         let dir = tempfile::tempdir().unwrap();
         assert!(disk_free(&dir.path().join("not/yet")).unwrap() > 0);
     }

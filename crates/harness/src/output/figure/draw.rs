@@ -71,6 +71,10 @@ pub fn format_number(v: f64) -> String {
     }
 }
 
+/// The share of the y range added on top of a figure with a numbered front, so the numbers above
+/// its highest points stay inside the plot, clear of the panel's title.
+const FRONT_HEADROOM: f64 = 0.14;
+
 /// The range of `values` padded by 5 % (half a decade, or 5 % of the value, when flat).
 pub(super) fn padded(values: impl Iterator<Item = f64>, log: bool) -> Option<(f64, f64)> {
     let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
@@ -290,8 +294,12 @@ impl Figure {
             padded(xs.filter_map(|v| transform(v, xl)), xl)
                 .ok_or_else(|| anyhow!("figure {:?} has no plottable point", self.id))?
         };
-        let (y0, y1) = padded(ys.filter_map(|v| transform(v, yl)), yl)
+        let (y0, mut y1) = padded(ys.filter_map(|v| transform(v, yl)), yl)
             .ok_or_else(|| anyhow!("figure {:?} has no plottable point", self.id))?;
+        // A numbered front labels its points above them: room under the panel's title.
+        if self.legend().iter().any(|s| s.draw == Draw::Front) {
+            y1 += FRONT_HEADROOM * (y1 - y0);
+        }
 
         let mut buf = vec![255u8; w as usize * h as usize * 3];
         {
