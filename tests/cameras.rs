@@ -75,7 +75,8 @@ fn a_spherical_scanner_above_the_ball_and_square() {
         "spherical: reference {reference:.4} hpr {hpr:.4} raycast {raycast:.4} splat {splat:.4}"
     );
     assert!(reference >= 0.98, "reference F1 {reference}");
-    // Stated figures for the methods (see the README): these bounds catch a broken model.
+    // Stated figures for the methods (docs/commands.md, "Cameras"): these bounds catch a broken
+    // model.
     // Measured: hpr 0.977 (γ = 2.5; 0.921 at γ = 3), raycast 0.980 (1.5 density spacings),
     // splat 0.932 (5 px, tolerance 0.03).
     assert!(hpr >= 0.95, "hpr F1 {hpr}");

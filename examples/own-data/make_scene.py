@@ -1,4 +1,4 @@
-"""Writes the example scene of the README's "Your own data": a floor with two boxes, as a mesh
+"""Writes the example scene of docs/own-data.md ("Your own data"): a floor with two boxes, as a mesh
 (scene.off) and as a noisy scan of it (scan.ply, ASCII, written by this script, not by
 pointsight): 6,000 points uniform on the surface, 2 mm Gaussian noise along the normals and
 60 outliers up to 0.3 m off the surface. Python's standard library only; seeded.
