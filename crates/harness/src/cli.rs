@@ -430,9 +430,9 @@ pub struct SweepFlags {
     /// Run only the K-th of N parts of the cells (1-based), for `pointsight merge`.
     #[arg(long, value_name = "K/N")]
     pub shard: Option<crate::shard::Shard>,
-    /// `scale` only: the largest cloud size, a whole number or a power of ten such as `1e9`.
-    /// The out-of-core builds run at every power of ten from 10^6 up to it (default 10^8; quick
-    /// 10^6), the in-core cells up to it or 10^8, whichever is smaller.
+    /// `scale` only: the largest cloud size, a whole number or a power of ten such as `1e9`
+    /// (default 10^7; quick 10^6). The out-of-core builds run at every power of ten from 10^6
+    /// up to it, the in-core cells from 10^4 up to it or 10^8, whichever is smaller.
     #[arg(long, value_name = "N", value_parser = point_count)]
     pub max_points: Option<u64>,
 }

@@ -166,7 +166,11 @@ impl Experiment for HullExperiment {
     }
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
-        let views = if ctx.quick { 2 } else { crate::stats::MIN_VIEWS };
+        let views = if ctx.quick {
+            2
+        } else {
+            crate::stats::MIN_VIEWS
+        };
         let perturbs: &[f64] = if ctx.quick {
             &[0.0, 1e-6, 1e-2]
         } else {

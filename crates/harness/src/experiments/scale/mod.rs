@@ -1,6 +1,7 @@
 //! Experiment `scale`: how each method's time and peak memory grow with the cloud size.
 //!
-//! Clouds of 10^4 … 10^8 points (quick: up to 10^6) are sampled from the dragon mesh (seeded,
+//! Clouds of 10^4 … 10^7 points (quick: up to 10^6; `--max-points` up to 10^8 in core and
+//! further out of core) are sampled from the dragon mesh (seeded,
 //! area-weighted; `ChineseDragon-10kv.off`; `--datasets NAME` takes another dataset's mesh, the
 //! first one given) and seen from its first Fibonacci view (pinhole, 1280 × 720). The cells
 //! ([`plan::cells`]): every registered visibility method (built-in, registered at run time, external)
@@ -10,7 +11,7 @@
 //! (`NAME-select`) at its default setting, through the kernel's LOD form, on the cloud prepared
 //! as the `lod` experiment prepares it; each out-of-core LOD build (`NAME-build-ooc`,
 //! [`plan::OOC_SUFFIX`]): the same samples written streamed as LAZ, then `pointsight lod-build` within
-//! [`plan::OOC_LIMIT`], at 10^6 to 10^8 points (quick: 10^6; `--max-points N` up to N, such as
+//! [`plan::OOC_LIMIT`], at 10^6 to 10^7 points (quick: 10^6; `--max-points N` up to N, such as
 //! 10^9) under caps of its own ([`plan::OOC_CAP`]) and
 //! a disk check. `seconds` is the operation alone (median of 3 runs up
 //! to 10^6 points, one run above; sampling and per-cloud preparation excluded for per-view
@@ -73,7 +74,7 @@ impl Experiment for ScaleExperiment {
     }
 
     fn summary(&self) -> &'static str {
-        "time and peak memory of every method from 10^4 to 10^8 points, one process per cell, with fitted log-log slopes"
+        "time and peak memory of every method from 10^4 points up to --max-points (default 10^7), one process per cell, with fitted log-log slopes"
     }
 
     fn default_datasets(&self, _quick: bool) -> &'static [&'static str] {
