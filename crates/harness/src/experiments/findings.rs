@@ -1,8 +1,9 @@
 //! The findings: the answer of each experiment present, computed from its results CSVs, for the
 //! top of `reports/README.md` and for `reports/findings.csv` (issue 39, "verdicts first").
 //!
-//! One row per condition: visibility per dataset (F1), robustness per degradation (F1 over
-//! its datasets, levels and views), LOD per dataset (PSNR over views and distances), scale per
+//! One row per condition: visibility per dataset (F1), robustness per degradation and level
+//! group (its milder and its harsher half of the levels; F1 over its datasets, those levels and
+//! views), LOD per dataset (PSNR over views and distances), scale per
 //! group (seconds at the largest size a method of the group finished), hull per dataset (the
 //! fastest hull, the runner-up's time over its, paired per cell). A row names the best
 //! method at its best setting on these data, its value with its bootstrap 95 % interval over
@@ -396,19 +397,17 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
 
 fn robustness(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<RobustnessRow> = read_csv(&dir.join("results.csv"))?;
-    let levels = |d: &str| {
-        let mut l: Vec<u64> = rows
-            .iter()
-            .filter(|r| r.degradation == d)
-            .map(|r| r.level.to_bits())
-            .collect();
-        l.sort_unstable();
-        l.dedup();
-        l.len()
-    };
+    let groups = level_groups(rows.iter().map(|r| (r.degradation.as_str(), r.level)));
     let conditions = by_condition(
         &rows,
-        |r| (r.status == "ok").then(|| r.degradation.clone()),
+        |r| {
+            (r.status == "ok").then(|| {
+                groups
+                    .get(&(r.degradation.clone(), r.level.to_bits()))
+                    .cloned()
+                    .unwrap_or_else(|| r.degradation.clone())
+            })
+        },
         |r| Cell {
             method: r.method.clone(),
             setting: r.setting.clone(),
@@ -419,16 +418,12 @@ fn robustness(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     );
     Ok(conditions
         .into_iter()
-        .filter_map(|(degradation, cells)| {
+        .filter_map(|(condition, cells)| {
             let v = verdict(&cells, 0.01)?;
             Some(finding(
                 Ask {
                     experiment: "robustness",
-                    condition: if levels(&degradation) > 1 {
-                        format!("{degradation}, all {} levels", levels(&degradation))
-                    } else {
-                        degradation
-                    },
+                    condition,
                     question: "Which method keeps the best F1 on degraded input?",
                     metric: "F1",
                     cost_metric: "seconds per view",
@@ -439,6 +434,38 @@ fn robustness(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             ))
         })
         .collect())
+}
+
+/// The condition of each (degradation, level): a degradation measured at one level is one
+/// condition; one at several is two, its milder half of the levels and its harsher half (the
+/// middle level of an odd count goes with the milder), named by their level ranges, so a
+/// winner that changes as the degradation grows shows as two rows.
+fn level_groups<'a>(rows: impl Iterator<Item = (&'a str, f64)>) -> BTreeMap<(String, u64), String> {
+    let mut levels: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
+    for (d, l) in rows {
+        levels.entry(d).or_default().push(l);
+    }
+    let mut out = BTreeMap::new();
+    for (d, mut l) in levels {
+        l.sort_by(f64::total_cmp);
+        l.dedup();
+        if l.len() < 2 {
+            continue;
+        }
+        let split = l.len().div_ceil(2);
+        for (part, word) in [(&l[..split], "milder"), (&l[split..], "harsher")] {
+            let range = match part {
+                [one] => format!("level {one}"),
+                [first, .., last] => format!("levels {first} to {last}"),
+                [] => continue,
+            };
+            let name = format!("{d}, {word} {} of {}: {range}", part.len(), l.len());
+            for x in part {
+                out.insert((d.to_owned(), x.to_bits()), name.clone());
+            }
+        }
+    }
+    out
 }
 
 /// The point budgets of the LOD findings: fractions of the most points any setting renders on

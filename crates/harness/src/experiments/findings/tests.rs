@@ -301,3 +301,61 @@ fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
     );
     assert_eq!(found[2].verdict, "only method");
 }
+
+#[test]
+fn robustness_has_a_row_per_half_of_the_levels_and_the_winner_may_change() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut csv = String::from("dataset,degradation,level,method,setting,view,f1,seconds,status\n");
+    // "calm" wins at the three mild noise levels, "tough" at the three harsh ones; one level of
+    // outliers is one row; a failed row is not counted.
+    for (level, calm, tough) in [
+        (0.1, 0.95, 0.90),
+        (0.2, 0.94, 0.90),
+        (0.5, 0.93, 0.90),
+        (1.0, 0.70, 0.88),
+        (2.0, 0.60, 0.86),
+        (4.0, 0.50, 0.84),
+    ] {
+        for view in 0..6 {
+            let wobble = view as f64 * 1e-4;
+            csv += &format!(
+                "b,noise,{level},calm,auto,{view},{},0.01,ok\n",
+                calm + wobble
+            );
+            csv += &format!(
+                "b,noise,{level},tough,auto,{view},{},0.02,ok\n",
+                tough - wobble
+            );
+        }
+    }
+    for view in 0..6 {
+        csv += &format!("b,outliers,0.05,calm,auto,{view},0.9,0.01,ok\n");
+        csv += &format!("b,outliers,0.05,tough,auto,{view},0.99,0.01,error: lost\n");
+    }
+    std::fs::create_dir_all(dir.path().join("robustness")).unwrap();
+    std::fs::write(dir.path().join("robustness/results.csv"), csv).unwrap();
+    let found = findings(dir.path(), &["robustness"]).unwrap();
+    let rows: Vec<(&str, &str)> = found
+        .iter()
+        .map(|f| (f.condition.as_str(), f.method.as_str()))
+        .collect();
+    assert_eq!(
+        rows,
+        [
+            ("noise, milder 3 of 6: levels 0.1 to 0.5", "calm"),
+            ("noise, harsher 3 of 6: levels 1 to 4", "tough"),
+            ("outliers", "calm"),
+        ]
+    );
+    // The milder half's mean over its 3 levels and 6 views: (0.95 + 0.94 + 0.93) / 3 + the
+    // mean wobble 2.5e-4.
+    assert!(
+        (found[0].value - (0.94 + 2.5e-4)).abs() < 1e-12,
+        "{}",
+        found[0].value
+    );
+    assert_eq!(
+        found[2].runner_up_value, None,
+        "the failed rows are not a runner-up"
+    );
+}
