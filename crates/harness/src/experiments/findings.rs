@@ -4,7 +4,8 @@
 //! One row per condition: visibility per dataset (F1), robustness per degradation and level
 //! group (its milder and its harsher half of the levels; F1 over its datasets, those levels and
 //! views), LOD per dataset (PSNR over views and distances), scale per
-//! group (seconds at the largest size a method of the group finished), hull per dataset (the
+//! group (visibility, hulls, LOD builds in core, out of core: seconds and peak memory at 10^7
+//! points and at the largest size a method of the group finished), hull per dataset (the
 //! fastest hull, the runner-up's time over its, paired per cell). A row names the best
 //! method at its best setting on these data, its value with its bootstrap 95 % interval over
 //! the views ([`crate::stats`]: none from fewer than [`crate::stats::MIN_VIEWS`]), the runner-up
@@ -614,23 +615,65 @@ fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
 
 fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<ScaleRow> = read_csv(&dir.join("results.csv"))?;
-    let groups = [(0, "visibility methods"), (1, "hulls"), (2, "LOD builds")];
+    // LOD selections answer another question than builds: the builds only, in core and out of
+    // core apart (an out-of-core build is judged against the others within its memory limit).
+    let ooc = |m: &str| m.ends_with(super::scale::plan::OOC_SUFFIX);
+    let in_group = |r: &ScaleRow, g: usize| match g {
+        0 | 1 => super::scale::render::group(&r.method) == g,
+        2 => {
+            super::scale::render::group(&r.method) == 2
+                && !r.method.ends_with("-select")
+                && !ooc(&r.method)
+        }
+        _ => ooc(&r.method),
+    };
+    let groups = [
+        (0, "visibility methods"),
+        (1, "hulls"),
+        (2, "LOD builds in core"),
+        (3, "LOD builds out of core"),
+    ];
     let mut out = Vec::new();
     for (g, name) in groups {
-        // LOD selections answer another question than builds: the builds only.
         let ok: Vec<&ScaleRow> = rows
             .iter()
-            .filter(|r| {
-                r.status == "ok"
-                    && r.seconds.is_finite()
-                    && super::scale::render::group(&r.method) == g
-                    && (g != 2 || !r.method.ends_with("-select"))
-            })
+            .filter(|r| r.status == "ok" && r.seconds.is_finite() && in_group(r, g))
             .collect();
         let Some(largest) = ok.iter().map(|r| r.n_points).max() else {
             continue;
         };
-        let mut at: Vec<&ScaleRow> = ok.into_iter().filter(|r| r.n_points == largest).collect();
+        let tried = distinct(
+            rows.iter()
+                .filter(|r| in_group(r, g))
+                .map(|r| r.method.as_str()),
+        )
+        .len();
+        // At 10^7 points (the default run's largest), then at the largest size any finished.
+        let mut sizes = vec![largest];
+        if largest > SCALE_SIZE && ok.iter().any(|r| r.n_points == SCALE_SIZE) {
+            sizes.insert(0, SCALE_SIZE);
+        }
+        for n in sizes {
+            out.push(scale_finding(&ok, n, n == largest, name, tried, quick));
+        }
+    }
+    Ok(out)
+}
+
+/// The size every scale group is judged at, beside the largest it reached.
+const SCALE_SIZE: u64 = 10_000_000;
+
+/// The scale finding of one group at `n` points: the fastest, the runner-up, the lightest.
+fn scale_finding(
+    ok: &[&ScaleRow],
+    n: u64,
+    largest: bool,
+    name: &str,
+    tried: usize,
+    quick: bool,
+) -> Finding {
+    {
+        let mut at: Vec<&ScaleRow> = ok.iter().copied().filter(|r| r.n_points == n).collect();
         at.sort_by(|a, b| {
             a.seconds
                 .total_cmp(&b.seconds)
@@ -648,20 +691,16 @@ fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             .unwrap_or(best);
         let runner = at.get(1);
         let only = at.len() == 1;
-        let tried = distinct(
-            rows.iter()
-                .filter(|r| {
-                    super::scale::render::group(&r.method) == g
-                        && (g != 2 || !r.method.ends_with("-select"))
-                })
-                .map(|r| r.method.as_str()),
-        )
-        .len();
-        out.push(Finding {
+        Finding {
             experiment: "scale".into(),
             condition: format!(
-                "{name} at {} points, the largest any finished ({} of {tried})",
-                points_text(largest),
+                "{name} at {} points{} ({} of {tried} finished)",
+                points_text(n),
+                if largest {
+                    ", the largest any finished"
+                } else {
+                    ""
+                },
                 at.len()
             ),
             question: "Which method finishes the largest cloud, how fast and in how much memory?"
@@ -686,9 +725,8 @@ fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             cheapest_value: Some(lightest.seconds),
             cheapest_cost: Some(lightest.peak_rss_bytes as f64 / 1048576.0),
             tolerance: f64::INFINITY,
-        });
+        }
     }
-    Ok(out)
 }
 
 /// `10^k` for a power of ten, else the number.

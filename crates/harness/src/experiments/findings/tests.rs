@@ -255,13 +255,17 @@ fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
     std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
     let scale = "method,n_points,seconds,peak_rss_bytes,status\n\
                  a,1000,0.5,1048576,ok\n\
-                 a,10000,5,2097152,ok\n\
+                 a,10000000,5,2097152,ok\n\
+                 a,100000000,60,4194304,ok\n\
                  b,1000,0.1,4194304,ok\n\
-                 b,10000,NaN,0,timeout after 40 s\n\
+                 b,10000000,4,8388608,ok\n\
+                 b,100000000,NaN,0,timeout after 40 s\n\
                  hull-x,1000,0.2,1048576,ok\n\
                  q-build,100000,3,1048576,ok\n\
                  q-select,100000,0.01,1048576,ok\n\
-                 r-build,100000,9,524288,ok\n";
+                 r-build,100000,9,524288,ok\n\
+                 q-build-ooc,1000000,4,1048576,ok\n\
+                 peer-build-ooc,1000000,2,2097152,ok\n";
     std::fs::create_dir_all(dir.path().join("scale")).unwrap();
     std::fs::write(dir.path().join("scale/results.csv"), scale).unwrap();
     let found = findings(dir.path(), &["lod", "scale"]).unwrap();
@@ -274,17 +278,22 @@ fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
         [
             ("d, ≤ 10 % of the points", "fine"),
             ("d, ≤ 30 % of the points", "mid"),
+            ("visibility methods at 10^7 points (2 of 2 finished)", "b"),
             (
-                "visibility methods at 10^4 points, the largest any finished (1 of 2)",
+                "visibility methods at 10^8 points, the largest any finished (1 of 2 finished)",
                 "a"
             ),
             (
-                "hulls at 10^3 points, the largest any finished (1 of 1)",
+                "hulls at 10^3 points, the largest any finished (1 of 1 finished)",
                 "hull-x"
             ),
             (
-                "LOD builds at 10^5 points, the largest any finished (2 of 2)",
+                "LOD builds in core at 10^5 points, the largest any finished (2 of 2 finished)",
                 "q-build"
+            ),
+            (
+                "LOD builds out of core at 10^6 points, the largest any finished (2 of 2 finished)",
+                "peer-build-ooc"
             ),
         ]
     );
@@ -293,13 +302,15 @@ fn lod_is_judged_within_point_budgets_and_scale_at_the_largest_size_finished() {
     assert!((found[0].difference.unwrap() - 2.0).abs() < 1e-12);
     assert_eq!(found[0].cost, 90.0);
     // The LOD builds: q fastest, r the lightest.
-    let builds = &found[4];
+    let builds = &found[5];
     assert_eq!((builds.value, builds.runner_up.as_str()), (3.0, "r-build"));
     assert_eq!(
         (builds.cheapest.as_str(), builds.cheapest_cost),
         ("r-build", Some(0.5))
     );
-    assert_eq!(found[2].verdict, "only method");
+    assert_eq!(found[3].verdict, "only method");
+    assert_eq!((found[2].value, found[2].runner_up.as_str()), (4.0, "a"));
+    assert_eq!(found[6].runner_up_value, Some(4.0));
 }
 
 #[test]
