@@ -156,7 +156,7 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
     (
         "experiments/visibility/mod.rs",
         "raycast",
-        "raycast::NONE pixels; raycast::auto's rule",
+        "records raycast::auto's rule in the metadata",
     ),
     (
         "experiments/visibility/render.rs",

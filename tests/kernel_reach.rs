@@ -87,6 +87,7 @@ fn card(
         bare_node_bytes: None,
         sweep: self::sweep(sweep),
         program: None,
+        made_for: registry::Metric::Points,
         kind,
     }))
 }

@@ -34,6 +34,7 @@ fn card(
         bare_node_bytes: None,
         sweep,
         program: None,
+        made_for: registry::Metric::Points,
         kind,
     }))
 }

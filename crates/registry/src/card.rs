@@ -46,6 +46,10 @@ pub struct Card {
     pub sweep: Option<MethodSweep>,
     /// The program behind an external method (its availability and version); `None` for ours.
     pub program: Option<&'static dyn Program>,
+    /// The score it was made for, by which the findings and summaries judge it: the visible
+    /// set (per point) or the image it shows (per pixel). Every visibility method is scored
+    /// both ways; LOD methods, judged by their rendered image, say [`Metric::Pixels`].
+    pub made_for: Metric,
     /// What runs it.
     pub kind: Kind,
 }
@@ -57,6 +61,28 @@ pub enum Kind {
     Visibility(&'static dyn Method),
     /// A level-of-detail method: built per cloud, splats per view and setting.
     Lod(&'static dyn LodMethod),
+}
+
+/// The score a method was made for ([`Card::made_for`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Metric {
+    /// The visible set, point by point: precision, recall and F1 against the reference (HPR,
+    /// the robust operator: a verdict per point).
+    Points,
+    /// The image: each pixel's point truly visible (pixel precision) and the mesh's pixels
+    /// covered (coverage), ranked by their harmonic mean (ray casting, z-buffers, screen-space
+    /// operators, one point per direction sector: a choice per pixel).
+    Pixels,
+}
+
+impl Metric {
+    /// `points` or `pixels`, as CSVs and `method.toml`'s `made_for` write it.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Metric::Points => "points",
+            Metric::Pixels => "pixels",
+        }
+    }
 }
 
 /// The family a setting's results group under.

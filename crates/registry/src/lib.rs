@@ -35,7 +35,7 @@ pub mod sweep;
 pub mod timing;
 pub mod visibility;
 
-pub use card::{Card, Comparison, Family, Kind, Memory, PeerKey, Program};
+pub use card::{Card, Comparison, Family, Kind, Memory, Metric, PeerKey, Program};
 pub use error::{Error, Result};
 pub use lod::LodMethod;
 pub use methods::{

@@ -1,11 +1,13 @@
 //! The findings: the answer of each experiment present, computed from its results CSVs, for the
 //! top of `reports/README.md` and for `reports/findings.csv` (issue 39, "verdicts first").
 //!
-//! One row per condition: visibility per dataset (F1), robustness per degradation and level
-//! group (its milder and its harsher half of the levels; F1 over its datasets, those levels and
-//! views), LOD per dataset (PSNR over views and distances), scale per
-//! group (visibility, hulls, LOD builds in core, out of core: seconds and peak memory at 10^7
-//! points and at the largest size a method of the group finished), hull per dataset (the
+//! One row per condition: visibility per dataset, twice: F1 among the methods made for the
+//! visible set and per-pixel F1 among those made for the image ([`pixels`];
+//! `registry::Card::made_for`), robustness per degradation and level group (its milder and its
+//! harsher half of the levels; F1 over its datasets, those levels and views), LOD per dataset
+//! (PSNR over views and distances), scale per group (visibility, hulls, LOD builds in core, out
+//! of core: seconds and peak memory at 10^7 points and at the largest size a method of the
+//! group finished), hull per dataset (the
 //! fastest hull, the runner-up's time over its, paired per cell). A row names the best
 //! method at its best setting on these data, its value with its bootstrap 95 % interval over
 //! the views ([`crate::stats`]: none from fewer than [`crate::stats::MIN_VIEWS`]), the runner-up
@@ -295,6 +297,14 @@ struct VisibilityRow {
     seconds: f64,
     f1: f64,
     status: String,
+    /// `points` or `pixels` (absent from older results: points); the per-point row judges
+    /// the methods made for points, [`pixels`] the others.
+    #[serde(default = "points")]
+    made_for: String,
+}
+
+fn points() -> String {
+    "points".into()
 }
 
 /// The columns of the robustness results the findings read.
@@ -367,7 +377,7 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
     let conditions = by_condition(
         &rows,
-        |r| (r.status == "ok").then(|| r.dataset.clone()),
+        |r| (r.status == "ok" && r.made_for == "points").then(|| r.dataset.clone()),
         |r| Cell {
             method: r.family.clone(),
             setting: r.params.clone(),
@@ -384,7 +394,8 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
                 Ask {
                     experiment: "visibility",
                     condition: dataset,
-                    question: "Which method finds the visible points best (F1)?",
+                    question: "Which method made for the visible set finds the visible \
+                               points best (F1)?",
                     metric: "F1",
                     cost_metric: "seconds per view",
                     tolerance: 0.01,
@@ -758,7 +769,7 @@ pub fn findings_in(dir: &Path, name: &str) -> Result<Vec<Finding>> {
     }
     let quick = RunMeta::read(dir).is_ok_and(|m| m.quick);
     Ok(match name {
-        "visibility" => visibility(dir, quick)?,
+        "visibility" => pixels::beside(visibility(dir, quick)?, pixels::visibility(dir, quick)?),
         "robustness" => robustness(dir, quick)?,
         "lod" => lod(dir, quick)?,
         "scale" => scale(dir, quick)?,
@@ -779,7 +790,7 @@ fn num(x: f64, digits: usize) -> String {
 /// Decimals for a metric's values.
 fn digits(metric: &str) -> usize {
     match metric {
-        "F1" | "seconds (geometric mean)" => 3,
+        "F1" | "pixel F1" | "seconds (geometric mean)" => 3,
         "seconds" => 2,
         _ => 1,
     }
@@ -899,5 +910,6 @@ pub fn write(reports_dir: &Path, findings: &[Finding]) -> Result<()> {
     write_csv(&reports_dir.join(CSV), findings)
 }
 
+mod pixels;
 #[cfg(test)]
 mod tests;

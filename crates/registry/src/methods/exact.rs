@@ -4,7 +4,7 @@ use cloud::Camera;
 use rayon::prelude::*;
 use truth::ExactVisibility;
 
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::Reader;
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};
@@ -24,6 +24,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Points,
     kind: Kind::Visibility(&Exact),
 };
 

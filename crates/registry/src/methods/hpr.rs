@@ -8,7 +8,7 @@ use cloud::glam::DVec3;
 use hpr::{HprParams, Kernel, Radius};
 use hull::ConvexHull;
 
-use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::setting::Setting;
@@ -29,6 +29,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Points,
     kind: Kind::Visibility(&Hpr),
 };
 

@@ -16,7 +16,7 @@ use super::hpr::{
     GAMMA, HULL, KERNEL, KernelChoice, KernelRule, RADIUS, read_hull, read_kernel,
     refuse_orthographic,
 };
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -37,6 +37,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Visibility(&HprApprox),
 };
 

@@ -14,7 +14,7 @@ use hpr::properties::Family as KernelFamily;
 use hull::ConvexHull;
 
 use super::hpr::{HULL, KERNEL, auto_gamma_for, read_hull, refuse_orthographic};
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -35,6 +35,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Points,
     kind: Kind::Visibility(&HprConfidence),
 };
 

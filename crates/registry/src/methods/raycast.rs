@@ -11,7 +11,7 @@ use cloud::Camera;
 use raycast::{CastParams, Primitive, RayCaster, RayList, Traversal};
 
 use super::external::points::cloud_normals;
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{
@@ -33,6 +33,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Visibility(&Raycast),
 };
 

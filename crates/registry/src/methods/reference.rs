@@ -6,7 +6,7 @@
 use cloud::Camera;
 use truth::{Reference, ReferenceParams};
 
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};
@@ -26,6 +26,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Points,
     kind: Kind::Visibility(&ReferenceMethod),
 };
 

@@ -7,7 +7,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use robustvis::bounds::{AutoRule, CloudScale};
 
-use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -28,6 +28,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Points,
     kind: Kind::Visibility(&Robust),
 };
 

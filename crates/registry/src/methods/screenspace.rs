@@ -9,7 +9,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use screenspace::PintusParams;
 
-use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{
@@ -40,6 +40,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Visibility(&Screenspace),
 };
 

@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use cloud::Camera;
 use splat::{SplatParams, SplatScratch, Splatter};
 
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{
@@ -28,6 +28,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Visibility(&Splat),
 };
 

@@ -5,7 +5,7 @@
 use cloud::Camera;
 use splat::render::Splat;
 
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
 use crate::params::{Param, Reader};
@@ -26,6 +26,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Lod(&Spt),
 };
 

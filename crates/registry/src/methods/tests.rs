@@ -7,7 +7,7 @@ use cloud::{Camera, PointCloud};
 use srn::texture::Texture;
 
 use super::{BUILT_IN, card, card_named, cards, register, register_external};
-use crate::card::{Card, Family, Kind, Memory};
+use crate::card::{Card, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::kernel::{self, LodCell, View};
 use crate::lod::{LodArgs, LodBuilt, LodData, LodInput, LodMethod};
@@ -49,6 +49,7 @@ fn named(name: &'static str, lod: bool) -> &'static Card {
         bare_node_bytes: None,
         sweep: None,
         program: None,
+        made_for: Metric::Points,
         kind: if lod {
             Kind::Lod(&Nothing)
         } else {
@@ -295,4 +296,23 @@ fn the_split_kernel_selects_as_run_lod_does() {
     assert!(errors[0].contains("threshold_px=x"), "{errors:?}");
     assert!(errors[1].contains("unknown parameter pixels"), "{errors:?}");
     assert_eq!(cards().iter().filter(|c| c.name == "qsplat").count(), 1);
+}
+
+#[test]
+fn the_image_space_methods_are_made_for_pixels_and_the_point_set_methods_for_points() {
+    let made = |name: &str| card(name).expect(name).made_for;
+    for name in [
+        "hpr-approx",
+        "raycast",
+        "splat",
+        "screenspace",
+        "vardensity",
+    ] {
+        assert_eq!(made(name), Metric::Pixels, "{name}");
+    }
+    for name in ["hpr", "hpr-confidence", "robust", "reference", "exact"] {
+        assert_eq!(made(name), Metric::Points, "{name}");
+    }
+    assert_eq!(Metric::Pixels.as_str(), "pixels");
+    assert_eq!(Metric::Points.as_str(), "points");
 }

@@ -9,7 +9,7 @@
 use screenspace::BiasuttiParams;
 
 use super::screenspace::{HEIGHT, ScreenArgs, WIDTH};
-use crate::card::{Card, Comparison, Family, Kind, Memory};
+use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Method, Setup};
@@ -30,6 +30,7 @@ pub static CARD: Card = Card {
     bare_node_bytes: None,
     sweep: None,
     program: None,
+    made_for: Metric::Pixels,
     kind: Kind::Visibility(&Vardensity),
 };
 

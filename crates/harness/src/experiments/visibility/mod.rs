@@ -14,9 +14,18 @@
 //! the median of `--repeats` runs, fewer for a call slower than `--time-budget`
 //! (`registry::timing`; an external method's own reported seconds), `seconds_min`/`seconds_max`
 //! their spread, `samples` how many; `status` is `ok` or `error: ...` (a
-//! failing view is a row and the run goes on). `pixels.csv`: for the per-pixel methods (ray
-//! cast, splat), the share of covered pixels whose point is truly visible and the share of the
-//! mesh's pixels (the mesh rasterised at the method's resolution) that got a point.
+//! failing view is a row and the run goes on); `made_for` is the score the method was made
+//! for (`registry::Card::made_for`: `points` or `pixels`), the one the findings judge it by.
+//! `pixels.csv`: for every method on a dataset with a mesh, one row per (view, setting): the
+//! share of covered pixels whose point is truly visible (`pixel_precision`), the share of the
+//! mesh's pixels (the mesh rasterised at the same camera) that got a point (`mesh_coverage`)
+//! and their harmonic mean (`pixel_f1`, the per-pixel score methods are ranked by), from the
+//! method's own per-pixel choice (`source = method`: ray cast, splat, the screen-space
+//! operators, at their setting's resolution) or, for a method that returns a visible set only,
+//! from that set drawn at the view's resolution by `registry::scoring::pixels::projected`
+//! (`source = projected`: each visible point a sphere of the ray cast's automatic radius, 1.5
+//! density spacings, each pixel the first sphere its ray enters; that module's doc says how
+//! far the two are comparable).
 //! `agreement.csv`: on clouds without a mesh, the Jaccard index of each pair of methods at
 //! their default settings. `peers.csv`: each peer (a method whose `peer_of` names one of ours)
 //! at each of its settings against the method it names at the matching setting ([`peers`]:
@@ -40,10 +49,11 @@ use super::{Context, Experiment};
 
 mod papers;
 mod peers;
+mod pixel_table;
 mod render;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
-use registry::scoring::Score;
+use registry::scoring::{PixelScore, Score, pixels};
 use render::{peers_summary, render, render_bunny};
 
 /// The experiment.
@@ -94,10 +104,18 @@ pub struct Row {
     /// `ok`, or `error: …` for a view an external method failed (scores NaN).
     #[serde(default = "ok_status")]
     pub status: String,
+    /// The score the method was made for (`registry::Card::made_for`): `points` (F1 here)
+    /// or `pixels` (pixels.csv's per-pixel F1); the findings judge it by that one.
+    #[serde(default = "points")]
+    pub made_for: String,
 }
 
 fn ok_status() -> String {
     "ok".into()
+}
+
+fn points() -> String {
+    "points".into()
 }
 
 /// One row of `agreement.csv`: for datasets without a mesh, how far two methods' visible sets
@@ -145,6 +163,25 @@ pub struct PixelRow {
     pub pixel_precision: f64,
     /// mesh_pixels_covered / mesh_pixels.
     pub mesh_coverage: f64,
+    /// The harmonic mean of pixel_precision and mesh_coverage: the per-pixel score methods
+    /// are ranked by (`registry::scoring::pixels::f1`).
+    #[serde(default = "nan")]
+    pub pixel_f1: f64,
+    /// Where the pixels come from: `method` (its own per-pixel choice) or `projected` (its
+    /// visible set through `registry::scoring::pixels::projected`).
+    #[serde(default = "method_source")]
+    pub source: String,
+    /// The score the method was made for, as in results.csv.
+    #[serde(default = "pixels")]
+    pub made_for: String,
+}
+
+fn method_source() -> String {
+    "method".into()
+}
+
+fn pixels() -> String {
+    "pixels".into()
 }
 
 /// One row of `peers.csv`: a peer at one setting against the method of ours its `peer_of`
@@ -336,6 +373,7 @@ impl Experiment for VisibilityExperiment {
             let mut ds_rows: Vec<Row> = Vec::new();
             let mut ds_pixels: Vec<PixelRow> = Vec::new();
             let mut ds_builds: Vec<BuildRow> = Vec::new();
+            let mut footprint: Option<f64> = None;
             let cells: usize = methods
                 .iter()
                 .map(|(_, s)| s.settings(ctx.quick).len())
@@ -386,10 +424,11 @@ impl Experiment for VisibilityExperiment {
                             seconds_max: f64::NAN,
                             samples: 0,
                             status: ok_status(),
+                            made_for: m.made_for.as_str().to_owned(),
                         };
                         match outcome {
                             Ok(kernel::Answer {
-                                output: out,
+                                output: mut out,
                                 timing: t,
                             }) => {
                                 if let Some(t) = truth {
@@ -410,27 +449,39 @@ impl Experiment for VisibilityExperiment {
                                     .map(|(k, v)| format!("{k}={v}"))
                                     .collect::<Vec<_>>()
                                     .join(";");
-                                if let (Some(px), Some(truth), Some(mesh)) =
-                                    (&out.pixels, truth, &ds.mesh)
+                                if let (Some(truth), Some(mesh)) = (truth, &ds.mesh)
+                                    && cam.has_frustum()
                                 {
+                                    // The method's own pixels, else its visible set's at the
+                                    // view's resolution (one footprint radius per dataset).
+                                    let (px, source) = match out.pixels.take() {
+                                        Some(px) => (px, "method"),
+                                        None => {
+                                            let r = match footprint {
+                                                Some(r) => r,
+                                                None => *footprint
+                                                    .insert(pixels::footprint_radius(points)?),
+                                            };
+                                            (
+                                                pixels::projected(points, &out.visible, &cam, r)?,
+                                                "projected",
+                                            )
+                                        }
+                                    };
                                     let c = cam.with_resolution(px.width, px.height)?;
-                                    if c.has_frustum() {
-                                        let mask = match mesh_masks.entry((view, c.width, c.height))
-                                        {
-                                            std::collections::btree_map::Entry::Occupied(e) => {
-                                                e.into_mut()
-                                            }
-                                            std::collections::btree_map::Entry::Vacant(e) => e
-                                                .insert(
-                                                    truth::rasterize(mesh, &c)?
-                                                        .triangle
-                                                        .iter()
-                                                        .map(|&t| t != NO_TRIANGLE)
-                                                        .collect(),
-                                                ),
-                                        };
-                                        ds_pixels.push(pixel_row(&row, px, truth, mask));
-                                    }
+                                    let mask = match mesh_masks.entry((view, c.width, c.height)) {
+                                        std::collections::btree_map::Entry::Occupied(e) => {
+                                            e.into_mut()
+                                        }
+                                        std::collections::btree_map::Entry::Vacant(e) => e.insert(
+                                            truth::rasterize(mesh, &c)?
+                                                .triangle
+                                                .iter()
+                                                .map(|&t| t != NO_TRIANGLE)
+                                                .collect(),
+                                        ),
+                                    };
+                                    ds_pixels.push(pixel_row(&row, &px, source, truth, mask)?);
                                 }
                                 let keep = (truth.is_none()
                                     && defaults.get(m.name) == Some(&label))
@@ -561,22 +612,17 @@ impl Experiment for VisibilityExperiment {
     }
 }
 
-/// The image-space figures of one per-pixel run: which covered pixels show a truly visible
-/// point, and how much of the mesh's footprint got a point.
-fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool]) -> PixelRow {
-    let covered = px.point.iter().filter(|&&p| p != raycast::NONE).count();
-    let true_pixels = px
-        .point
-        .iter()
-        .filter(|&&p| p != raycast::NONE && truth[p as usize])
-        .count();
-    let mesh_total = mesh.iter().filter(|&&m| m).count();
-    let mesh_covered = mesh
-        .iter()
-        .zip(&px.point)
-        .filter(|&(&m, &p)| m && p != raycast::NONE)
-        .count();
-    PixelRow {
+/// The image-space figures of one run: which covered pixels show a truly visible point, and
+/// how much of the mesh's footprint got a point (`source`: whose pixels, see [`PixelRow`]).
+fn pixel_row(
+    row: &Row,
+    px: &registry::PixelChoice,
+    source: &str,
+    truth: &[bool],
+    mesh: &[bool],
+) -> Result<PixelRow> {
+    let s = PixelScore::of(px, truth, mesh)?;
+    Ok(PixelRow {
         dataset: row.dataset.clone(),
         view: row.view,
         method: row.method.clone(),
@@ -584,13 +630,16 @@ fn pixel_row(row: &Row, px: &registry::PixelChoice, truth: &[bool], mesh: &[bool
         params: row.params.clone(),
         width: px.width,
         height: px.height,
-        covered_pixels: covered,
-        true_pixels,
-        mesh_pixels: mesh_total,
-        mesh_pixels_covered: mesh_covered,
-        pixel_precision: true_pixels as f64 / covered.max(1) as f64,
-        mesh_coverage: mesh_covered as f64 / mesh_total.max(1) as f64,
-    }
+        covered_pixels: s.covered,
+        true_pixels: s.true_pixels,
+        mesh_pixels: s.mesh_pixels,
+        mesh_pixels_covered: s.mesh_covered,
+        pixel_precision: s.precision(),
+        mesh_coverage: s.coverage(),
+        pixel_f1: s.f1(),
+        source: source.to_owned(),
+        made_for: row.made_for.clone(),
+    })
 }
 
 /// Each peer's settings (by label) with the partner and setting they are paired with (`None`:

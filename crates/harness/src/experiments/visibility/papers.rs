@@ -201,6 +201,7 @@ mod tests {
             seconds_max: seconds,
             samples: 1,
             status: "ok".into(),
+            made_for: "points".into(),
         }
     }
 

@@ -108,6 +108,7 @@ mod tests {
             bare_node_bytes: None,
             sweep: None,
             program: None,
+            made_for: registry::Metric::Points,
             kind: Kind::Visibility(&Nothing),
         }))
     }

@@ -721,31 +721,8 @@ pub(super) fn render(
         })
         .collect();
 
-    // Image-space figures of the per-pixel families at their best setting.
-    let mut pixel_table = Vec::new();
-    let pixel_families = distinct(pixels.iter().map(|p| p.family.as_str()));
-    for d in &datasets {
-        for fam in &pixel_families {
-            let Some((params, _)) = best_setting(rows, d, fam) else {
-                continue;
-            };
-            let ps: Vec<&PixelRow> = pixels
-                .iter()
-                .filter(|p| p.dataset == *d && p.family == *fam && p.params == params)
-                .collect();
-            if !ps.is_empty() {
-                pixel_table.push(vec![
-                    d.clone(),
-                    fam.clone(),
-                    params.replace(';', " "),
-                    format!("{:.4}", mean(ps.iter().map(|p| p.pixel_precision))),
-                    format!("{:.4}", mean(ps.iter().map(|p| p.mesh_coverage))),
-                    format!("{:.0}", mean(ps.iter().map(|p| p.covered_pixels as f64))),
-                    format!("{:.0}", mean(ps.iter().map(|p| p.mesh_pixels as f64))),
-                ]);
-            }
-        }
-    }
+    // Image-space figures of every method at its best setting by the per-pixel F1.
+    let pixel_table = super::pixel_table::table(pixels, &datasets);
 
     let renders = match (dir.join("renders.png").exists(), render_ds) {
         (true, Some(d)) => {
@@ -772,9 +749,16 @@ pub(super) fn render(
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the best fixed setting's F1 \
          (same view; same resolution for the ray cast) minus the rule's; the goal is at most \
          0.02.\n\n{}\n\n<details><summary>View by view</summary>\n\n{}\n</details>\n\n\
-         ### Image space (per-pixel methods)\n\nA ray cast shows at most one point per pixel: \
-         `pixel precision` is the share of covered pixels whose point is truly visible, `mesh \
-         coverage` the share of the mesh's pixels that got a point.\n\n{}\n\
+         ### Image space (every method)\n\nEach pixel shows at most one point: `pixel \
+         precision` is the share of covered pixels whose point is truly visible, `mesh coverage` \
+         the share of the mesh's pixels (the mesh rasterised at the same camera) that got a \
+         point, `pixel F1` their harmonic mean, by which each method's setting is chosen here. \
+         `pixels`: `method`, the method's own choice (ray cast, splat, screen-space operators, \
+         at their setting's resolution); `projected`, its visible set drawn at the view's \
+         resolution as spheres of the ray cast's automatic radius (`registry::scoring::pixels`; \
+         one pixel per point would bound coverage by the cloud's density, as it does for \
+         `screenspace` and `vardensity`). `made for`: the score the method was made for \
+         (`registry::Card::made_for`), the one the findings judge it by.\n\n{}\n\
          ### Figures\n\nF1 against time per dataset, past ten families one panel per family (the \
          others' settings in grey; the Pareto front's points numbered and named under the \
          legend), then each family's F1 against its main parameter, one panel per dataset. A \
@@ -809,18 +793,7 @@ pub(super) fn render(
             ],
             &auto_table
         ),
-        markdown_table(
-            &[
-                "dataset",
-                "method",
-                "setting",
-                "pixel precision",
-                "mesh coverage",
-                "covered pixels",
-                "mesh pixels"
-            ],
-            &pixel_table
-        ),
+        pixel_table,
         if agreement.is_empty() {
             ""
         } else {

@@ -13,7 +13,7 @@ use std::time::Duration;
 
 use serde::Deserialize;
 
-use crate::card::{PeerKey, Program};
+use crate::card::{Metric, PeerKey, Program};
 use crate::error::{Error, Result};
 use crate::params::Param;
 use crate::sweep::MethodSweep;
@@ -48,6 +48,7 @@ struct Manifest {
     version: Option<Vec<String>>,
     peer_of: Option<String>,
     kind: Option<String>,
+    made_for: Option<String>,
     timeout_seconds: Option<f64>,
     cameras: Option<Vec<String>>,
     #[serde(default)]
@@ -92,6 +93,7 @@ pub struct ExternalMethod {
     pub(super) folder: PathBuf,
     pub(super) protocol: u32,
     pub(super) kind: Kind,
+    pub(super) made_for: Metric,
     pub(super) command: Vec<String>,
     pub(super) check: Option<Vec<String>>,
     pub(super) install: Option<String>,
@@ -152,6 +154,17 @@ impl ExternalMethod {
             Some(other) => {
                 return Err(bad(format!(
                     "kind = {other:?}: expected \"visibility\" or \"lod\""
+                )));
+            }
+        };
+        // The score it was made for: `points` unless it says `pixels` (an LOD method's
+        // rendered image is judged per pixel).
+        let made_for = match (m.made_for.as_deref(), kind) {
+            (None, Kind::Lod) | (Some("pixels"), _) => Metric::Pixels,
+            (None, Kind::Visibility) | (Some("points"), _) => Metric::Points,
+            (Some(other), _) => {
+                return Err(bad(format!(
+                    "made_for = {other:?}: expected \"points\" or \"pixels\""
                 )));
             }
         };
@@ -233,6 +246,7 @@ impl ExternalMethod {
             folder: folder.to_owned(),
             protocol: m.protocol,
             kind,
+            made_for,
             command: m.command,
             check: m.check,
             install: m.install,

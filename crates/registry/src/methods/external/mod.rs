@@ -64,6 +64,8 @@
 //! version = [".venv/bin/python", "-c", "import open3d; print(open3d.__version__)"]
 //! peer_of = "hpr"                            # the family of ours it pairs with
 //! kind = "visibility"                        # or "lod"
+//! made_for = "points"                        # or "pixels": the score it is judged by
+//!                                            # (default: points; an LOD method: pixels)
 //! timeout_seconds = 120
 //! memory_bytes_per_point = 200               # for the scale experiment's memory guard
 //!                                            # (undeclared: not run above 10^6 points)
@@ -124,6 +126,7 @@ pub fn card(m: &'static ExternalMethod) -> &'static Card {
         bare_node_bytes: None,
         sweep: m.sweep.clone(),
         program: Some(m),
+        made_for: m.made_for,
         kind,
     }))
 }

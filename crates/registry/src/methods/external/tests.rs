@@ -91,6 +91,21 @@ fn the_version_is_run_once_and_peer_of_read() {
     );
 }
 
+#[test]
+fn made_for_is_read_with_its_defaults_and_a_bad_value_refused() {
+    use crate::card::Metric;
+    let made = |extra: &str| {
+        let dir = folder(&format!("protocol = 2\ncommand = [\"true\"]\n{extra}"), "");
+        ExternalMethod::load(dir.path()).map(|m| card(Box::leak(Box::new(m))).made_for)
+    };
+    assert_eq!(made("").unwrap(), Metric::Points);
+    assert_eq!(made("kind = \"lod\"\n").unwrap(), Metric::Pixels);
+    assert_eq!(made("made_for = \"pixels\"\n").unwrap(), Metric::Pixels);
+    assert_eq!(made("made_for = \"points\"\n").unwrap(), Metric::Points);
+    let err = made("made_for = \"voxels\"\n").unwrap_err().to_string();
+    assert!(err.contains("made_for = \"voxels\""), "{err}");
+}
+
 /// End of input means exit: a program the caller is done with has its input closed and
 /// time to clean up (its temporary files), and one that does not exit is killed after
 /// [`EXIT_GRACE`].

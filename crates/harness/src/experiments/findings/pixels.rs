@@ -1,0 +1,209 @@
+//! The visibility experiment's per-pixel findings: per dataset, which method made for the image
+//! (`made_for = pixels` in `pixels.csv`: `registry::Card::made_for`) shows the visible surface
+//! best, by the per-pixel F1 (the harmonic mean of pixel precision and mesh coverage,
+//! `registry::scoring::pixels::f1`), each method at its setting with the best mean over the
+//! views. The rules are the per-point row's ([`super::verdict`]: bootstrap interval over the
+//! views, none from fewer than [`crate::stats::MIN_VIEWS`], a quick run indicative; the
+//! cheapest within 0.01 by seconds per view from `results.csv`). Each dataset's row stands
+//! right after its per-point row ([`beside`]), which judges the methods made for points.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use anyhow::Result;
+use registry::scoring::pixels::f1;
+use serde::Deserialize;
+
+use super::{Ask, Cell, Finding, VisibilityRow, by_condition, finding, verdict};
+use crate::output::read_csv;
+
+/// The columns of `pixels.csv` the findings read.
+#[derive(Deserialize)]
+struct PixelCsvRow {
+    dataset: String,
+    view: usize,
+    family: String,
+    params: String,
+    pixel_precision: f64,
+    mesh_coverage: f64,
+    /// Absent from an older pixels.csv, which held the per-pixel methods only.
+    #[serde(default = "pixels")]
+    made_for: String,
+}
+
+fn pixels() -> String {
+    "pixels".into()
+}
+
+/// The per-pixel findings of the visibility results in `dir` (none without `pixels.csv`).
+pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
+    if !dir.join("pixels.csv").is_file() {
+        return Ok(Vec::new());
+    }
+    let rows: Vec<PixelCsvRow> = read_csv(&dir.join("pixels.csv"))?;
+    let results: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
+    let seconds: BTreeMap<(&str, usize, &str, &str), f64> = results
+        .iter()
+        .filter(|r| r.status == "ok")
+        .map(|r| {
+            (
+                (
+                    r.dataset.as_str(),
+                    r.view,
+                    r.family.as_str(),
+                    r.params.as_str(),
+                ),
+                r.seconds,
+            )
+        })
+        .collect();
+    let conditions = by_condition(
+        &rows,
+        |r| (r.made_for == "pixels").then(|| r.dataset.clone()),
+        |r| Cell {
+            method: r.family.clone(),
+            setting: r.params.clone(),
+            key: r.view.to_string(),
+            value: f1(r.pixel_precision, r.mesh_coverage),
+            cost: seconds
+                .get(&(
+                    r.dataset.as_str(),
+                    r.view,
+                    r.family.as_str(),
+                    r.params.as_str(),
+                ))
+                .copied()
+                .unwrap_or(f64::NAN),
+        },
+    );
+    Ok(conditions
+        .into_iter()
+        .filter_map(|(dataset, cells)| {
+            let v = verdict(&cells, 0.01)?;
+            Some(finding(
+                Ask {
+                    experiment: "visibility",
+                    condition: dataset,
+                    question: "Which method made for the image shows the visible surface best \
+                               (pixel F1)?",
+                    metric: "pixel F1",
+                    cost_metric: "seconds per view",
+                    tolerance: 0.01,
+                    quick,
+                },
+                v,
+            ))
+        })
+        .collect())
+}
+
+/// The per-point findings with each dataset's per-pixel finding right after its per-point one;
+/// a per-pixel finding without a per-point one comes after them all.
+pub(super) fn beside(points: Vec<Finding>, pixels: Vec<Finding>) -> Vec<Finding> {
+    let mut pixels: Vec<Option<Finding>> = pixels.into_iter().map(Some).collect();
+    let mut out = Vec::new();
+    for p in points {
+        let paired = pixels
+            .iter_mut()
+            .find(|x| x.as_ref().is_some_and(|x| x.condition == p.condition))
+            .and_then(Option::take);
+        out.push(p);
+        out.extend(paired);
+    }
+    out.extend(pixels.into_iter().flatten());
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::findings;
+    use super::*;
+
+    const RESULTS: &str = "dataset,view,method,family,params,seconds,f1,status,made_for\n";
+    const PIXELS: &str = "dataset,view,method,family,params,width,height,covered_pixels,\
+                          true_pixels,mesh_pixels,mesh_pixels_covered,pixel_precision,\
+                          mesh_coverage,pixel_f1,source,made_for\n";
+
+    /// On `ds` over `views` views: `pts` (made for points) has the best F1 and `img` (made for
+    /// pixels, two settings) the best per-pixel F1 among the methods made for pixels; `pts`'s
+    /// per-pixel F1 is higher still but it is judged by points. Returns (results, pixels).
+    fn csvs(ds: &str, views: usize) -> (String, String) {
+        let (mut r, mut p) = (String::new(), String::new());
+        for v in 0..views {
+            let e = 0.01 * (v % 2) as f64;
+            r.push_str(&format!("{ds},{v},pts,pts,,0.5,{},ok,points\n", 0.95 + e));
+            r.push_str(&format!("{ds},{v},img,img,k=1,0.1,{},ok,pixels\n", 0.6 + e));
+            r.push_str(&format!("{ds},{v},img,img,k=2,0.3,{},ok,pixels\n", 0.7 + e));
+            r.push_str(&format!("{ds},{v},ray,ray,,0.2,{},ok,pixels\n", 0.99));
+            // Per-pixel F1: pts 1.0; img k=1: 0.9 + e (precision = coverage); k=2: 0.8 + e;
+            // ray 0.85 + e.
+            let row = |m: &str, s: &str, x: f64, made: &str, src: &str| {
+                format!("{ds},{v},{m},{m},{s},4,4,1,1,1,1,{x},{x},{x},{src},{made}\n")
+            };
+            p.push_str(&row("pts", "", 1.0, "points", "projected"));
+            p.push_str(&row("img", "k=1", 0.9 + e, "pixels", "projected"));
+            p.push_str(&row("img", "k=2", 0.8 + e, "pixels", "projected"));
+            p.push_str(&row("ray", "", 0.85 + e, "pixels", "method"));
+        }
+        (r, p)
+    }
+
+    #[test]
+    fn each_dataset_has_a_per_point_row_and_a_per_pixel_row_each_judging_its_own_methods() {
+        let dir = tempfile::tempdir().unwrap();
+        let vis = dir.path().join("visibility");
+        std::fs::create_dir_all(&vis).unwrap();
+        let (r1, p1) = csvs("d1", 6);
+        let (r2, p2) = csvs("d2", 3);
+        std::fs::write(vis.join("results.csv"), format!("{RESULTS}{r1}{r2}")).unwrap();
+        std::fs::write(vis.join("pixels.csv"), format!("{PIXELS}{p1}{p2}")).unwrap();
+        let found = findings(dir.path(), &["visibility"]).unwrap();
+        let summary: Vec<(&str, &str, &str)> = found
+            .iter()
+            .map(|f| (f.condition.as_str(), f.metric.as_str(), f.method.as_str()))
+            .collect();
+        // The per-point row judges pts alone (ray and img are made for pixels, whatever their
+        // F1); the per-pixel row judges img and ray, not pts.
+        assert_eq!(
+            summary,
+            [
+                ("d1", "F1", "pts"),
+                ("d1", "pixel F1", "img"),
+                ("d2", "F1", "pts"),
+                ("d2", "pixel F1", "img")
+            ]
+        );
+        let px = &found[1];
+        // img at k=1: mean of 0.90 and 0.91 over 6 views; interval from 6 views.
+        assert_eq!(px.setting, "k=1");
+        assert!((px.value - 0.905).abs() < 1e-12, "{}", px.value);
+        assert!(px.low.is_some() && !px.indicative && px.n_views == Some(6));
+        assert_eq!(px.runner_up, "ray");
+        assert!((px.difference.unwrap() - 0.05).abs() < 1e-12);
+        assert_eq!(px.verdict, "wins");
+        // Its cost is results.csv's seconds for that setting; nothing within 0.01 is cheaper.
+        assert_eq!(px.cost, 0.1);
+        assert_eq!(px.cheapest, "img k=1");
+        // Three views: no interval, indicative.
+        let px2 = &found[3];
+        assert!(px2.low.is_none() && px2.indicative && px2.n_views == Some(3));
+        // The table prints the metric with three decimals.
+        let md = super::super::markdown(&found, false);
+        assert!(md.contains("| d1 | img k=1 | pixel F1 0.905 ["), "{md}");
+    }
+
+    #[test]
+    fn a_quick_run_marks_the_per_pixel_row_indicative_and_an_older_folder_has_none() {
+        let dir = tempfile::tempdir().unwrap();
+        let vis = dir.path().join("visibility");
+        std::fs::create_dir_all(&vis).unwrap();
+        let (r, p) = csvs("d1", 6);
+        std::fs::write(vis.join("results.csv"), format!("{RESULTS}{r}")).unwrap();
+        // Without pixels.csv: the per-point row alone.
+        assert_eq!(findings(dir.path(), &["visibility"]).unwrap().len(), 1);
+        std::fs::write(vis.join("pixels.csv"), format!("{PIXELS}{p}")).unwrap();
+        let quick = visibility(&vis, true).unwrap();
+        assert_eq!(quick.len(), 1);
+        assert!(quick[0].indicative && quick[0].low.is_some());
+    }
+}
