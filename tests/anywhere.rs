@@ -281,7 +281,7 @@ fn the_installed_binary_works_from_any_folder() {
         // download), `datasets` says ready, `visible` reads them.
         let meshes = data.join("meshes");
         std::fs::create_dir_all(&meshes).unwrap();
-        for f in ["bunny00.off", "ChineseDragon-10kv.off", "armadillo.off"] {
+        for f in harness::fetch::MESH_FILES.iter().map(|m| m.file) {
             std::fs::copy(
                 clone_root().join("bench-data/meshes").join(f),
                 meshes.join(f),

@@ -49,7 +49,8 @@ pub enum Command {
     /// directory, and which step of the rule chose each (`harness::paths`): one `NAME=PATH
     /// (why)` line each.
     Paths,
-    /// One line per dataset: name, number of points, availability, description.
+    /// One line per dataset: name, number of points, availability, role (tuning: settings are
+    /// chosen on it; evaluation: never; own: a manifest's), description.
     Datasets,
     /// The visibility methods and their --set parameters.
     Methods,

@@ -56,8 +56,49 @@ pub const ARMADILLO_MESH: MeshFile = MeshFile {
     sha256: "6f7f3ca1abc506569466b72f2f59d49493a284e7376d7a7e23c08115ec8cec4e",
 };
 
+/// An elephant (2,775 vertices, 5,558 triangles, closed): trunk, tusks and legs that hide one
+/// another. An evaluation mesh (issue 39's protocol: never used for tuning).
+pub const ELEPHANT_MESH: MeshFile = MeshFile {
+    file: "elephant.off",
+    archive_path: "data/meshes/elephant.off",
+    sha256: "be4e1ea68f5f840a3d2ada69d828222e76a57d9e25b21e19a9deacd3f2328e02",
+};
+
+/// A camel (9,770 vertices, 19,536 triangles, closed): four thin legs, neck and humps. An
+/// evaluation mesh.
+pub const CAMEL_MESH: MeshFile = MeshFile {
+    file: "camel.off",
+    archive_path: "data/meshes/camel.off",
+    sha256: "9ac960a9fee27e6fcc6baaa2340260834625084ee20f4a97194212404e650a22",
+};
+
+/// A triceratops (2,832 vertices, 5,660 triangles, closed): legs, horns and frill. An
+/// evaluation mesh.
+pub const TRICERATOPS_MESH: MeshFile = MeshFile {
+    file: "triceratops.off",
+    archive_path: "data/meshes/triceratops.off",
+    sha256: "0fb444933884486a09eb4329a832f15ab792590f2a5bb75385d157e654ddbf5c",
+};
+
+/// A head and shoulders bust ("mannequin devil": 12,977 vertices, 25,888 triangles, open at the
+/// neck: 64 boundary edges): smooth concavities (eye sockets, ears, neck) rather than limbs. An
+/// evaluation mesh.
+pub const MANNEQUIN_MESH: MeshFile = MeshFile {
+    file: "mannequin-devil.off",
+    archive_path: "data/meshes/mannequin-devil.off",
+    sha256: "9424b7132b58766984051fb7757543e88972f91fe7e9565d4e5b715b204f74a5",
+};
+
 /// Every mesh `pointsight fetch` provides.
-pub const MESH_FILES: &[MeshFile] = &[BUNNY_MESH, DRAGON_MESH, ARMADILLO_MESH];
+pub const MESH_FILES: &[MeshFile] = &[
+    BUNNY_MESH,
+    DRAGON_MESH,
+    ARMADILLO_MESH,
+    ELEPHANT_MESH,
+    CAMEL_MESH,
+    TRICERATOPS_MESH,
+    MANNEQUIN_MESH,
+];
 
 /// Path of a fetched mesh under `data_dir`.
 pub fn mesh_path(data_dir: &Path, mesh: &MeshFile) -> PathBuf {
@@ -269,6 +310,39 @@ fn data_archive_from_deb(deb: &Path) -> Result<Vec<u8>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn every_catalogue_entry_is_checksummed_and_the_fetched_files_match() {
+        for (i, m) in MESH_FILES.iter().enumerate() {
+            assert!(
+                MESH_FILES[i + 1..].iter().all(|o| o.file != m.file),
+                "{} twice",
+                m.file
+            );
+            assert_eq!(m.archive_path, format!("data/meshes/{}", m.file));
+            assert!(
+                m.sha256.len() == 64
+                    && m.sha256
+                        .bytes()
+                        .all(|b| b.is_ascii_digit() || (b'a'..=b'f').contains(&b)),
+                "{}: {}",
+                m.file,
+                m.sha256
+            );
+        }
+        // With the fetched meshes (`just test` fetches first): each file in the clone's data
+        // folder has its catalogue checksum, the one `fetch` checks the package's copy against.
+        if std::env::var_os("POINTSIGHT_REAL_DATA").is_some() {
+            let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench-data");
+            for m in MESH_FILES {
+                let path = mesh_path(&data, m);
+                let sum =
+                    sha256_file(&path).unwrap_or_else(|e| panic!("{e:#} (run `pointsight fetch`)"));
+                assert_eq!(sum, m.sha256, "{}", path.display());
+                assert!(is_valid(&path, m).unwrap());
+            }
+        }
+    }
 
     #[test]
     fn sha256_of_known_input() {

@@ -76,8 +76,12 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
             Some(_) => "needs-fetch",
         };
         println!(
-            "{:<20} {:>8}  {:<11}  {}",
-            d.name, d.n_points, ready, d.description
+            "{:<20} {:>8}  {:<11}  {:<10}  {}",
+            d.name,
+            d.n_points,
+            ready,
+            d.role.word(),
+            d.description
         );
     }
     if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
@@ -87,9 +91,10 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
                 .flatten()
                 .all(|p| m.resolve(p).exists());
             println!(
-                "{name:<20} {:>8}  {:<11}  {}",
+                "{name:<20} {:>8}  {:<11}  {:<10}  {}",
                 e.sample.map_or("-".to_owned(), |s| s.n.to_string()),
                 if ready { "ready" } else { "missing-file" },
+                datasets::Role::Own.word(),
                 if e.description.is_empty() {
                     format!("from {}", m.path.display())
                 } else {

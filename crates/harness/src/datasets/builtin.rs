@@ -6,6 +6,12 @@
 //! see, the mesh the ground truth renders, and its viewpoint set (`cloud::views`, 16 views,
 //! 1280 × 720, eyes at 1.5 box diagonals from the centre of the mesh's bounding box). Real
 //! datasets keep the source mesh's coordinates: no recentring, no scaling.
+//!
+//! Each entry has a [`Role`] (issue 39's protocol): the **tuning** datasets are the ones a
+//! method's "best" setting is chosen on; the **evaluation** datasets (four further meshes of the
+//! same Debian package, area-weighted samples) are never used to choose a setting, so a score
+//! there at the tuned setting is an out-of-sample figure. How the tuned setting is computed is
+//! `experiments::visibility::tuning`'s.
 
 use std::path::Path;
 
@@ -15,11 +21,15 @@ use cloud::glam::{DVec3, Vec3};
 use cloud::synth::{Scene, sphere_plane_scene, sphere_scene, torus_scene};
 use cloud::views::{ViewSpec, fibonacci_views};
 use cloud::{PointCloud, TriMesh};
+use serde::{Deserialize, Serialize};
 
 use super::Dataset;
 use super::degraded::degrade;
 use super::files::read_mesh;
-use crate::fetch::{ARMADILLO_MESH, BUNNY_MESH, DRAGON_MESH, MeshFile, mesh_path};
+use crate::fetch::{
+    ARMADILLO_MESH, BUNNY_MESH, CAMEL_MESH, DRAGON_MESH, ELEPHANT_MESH, MANNEQUIN_MESH, MeshFile,
+    TRICERATOPS_MESH, mesh_path,
+};
 
 /// Where a dataset's points come from.
 #[derive(Debug, Clone, Copy)]
@@ -80,6 +90,37 @@ pub enum Rig {
     Line(usize),
 }
 
+/// What a dataset is for in the tuning/evaluation protocol.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// Settings are chosen on it ("best" means best over these); scores on it are in-sample.
+    Tuning,
+    /// Never used to choose a setting: scores at the tuned setting are out-of-sample.
+    Evaluation,
+    /// Not a built-in dataset (a user's files or manifest): neither, unless a run says so.
+    Own,
+}
+
+impl Role {
+    /// The word used in tables and listings.
+    pub fn word(self) -> &'static str {
+        match self {
+            Role::Tuning => "tuning",
+            Role::Evaluation => "evaluation",
+            Role::Own => "own",
+        }
+    }
+}
+
+/// The role of the dataset named `name`: its registry entry's, else [`Role::Own`].
+pub fn role(name: &str) -> Role {
+    REGISTRY
+        .iter()
+        .find(|d| d.name == name)
+        .map_or(Role::Own, |d| d.role)
+}
+
 /// A registry entry.
 #[derive(Debug, Clone, Copy)]
 pub struct DatasetInfo {
@@ -91,6 +132,8 @@ pub struct DatasetInfo {
     pub description: &'static str,
     /// Where the points come from.
     pub source: Source,
+    /// Tuning or evaluation ([`Role`]).
+    pub role: Role,
 }
 
 impl DatasetInfo {
@@ -150,6 +193,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
         n_points: 37_706,
         description: "Stanford Bunny, the vertices of CGAL's bunny00.off",
         source: Source::MeshVertices(BUNNY_MESH),
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "bunny-69451",
@@ -160,6 +204,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             n: 69_451,
             seed: 69_451,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "dragon-871414",
@@ -170,30 +215,35 @@ pub const REGISTRY: &[DatasetInfo] = &[
             n: 871_414,
             seed: 871_414,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "sphere-20000",
         n_points: 20_000,
         description: "synthetic: Fibonacci lattice on the unit sphere (analytic visibility), icosphere mesh",
         source: Source::Synthetic(sphere),
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "sphere-plane-24000",
         n_points: 24_000,
         description: "synthetic: a ball (8,000 points) in front of a square (16,000), analytic occlusion",
         source: Source::Synthetic(sphere_plane),
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "torus-22321",
         n_points: 22_321,
         description: "synthetic: area-weighted samples of a torus with texture coordinates",
         source: Source::Synthetic(torus),
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "vase-7171",
         n_points: 7_171,
         description: "synthetic: area-weighted samples of a vase-like surface of revolution with texture coordinates, seed 003's vase size",
         source: Source::Synthetic(vase),
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "armadillo-200004",
@@ -204,6 +254,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             n: 200_004,
             seed: 200_004,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "bunny-noise-0.5",
@@ -215,6 +266,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             seed: 69_451,
             steps: noise_half_spacing,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "bunny-outliers-0.05",
@@ -226,6 +278,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             seed: 69_451,
             steps: outliers_five_percent,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "bunny-scan-4",
@@ -239,6 +292,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             sigma: 1e-4,
             seed: 4,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "dragon-scan-4",
@@ -252,6 +306,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             sigma: 1e-4,
             seed: 4,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "bunny-mobile",
@@ -265,6 +320,7 @@ pub const REGISTRY: &[DatasetInfo] = &[
             sigma: 1e-4,
             seed: 5,
         },
+        role: Role::Tuning,
     },
     DatasetInfo {
         name: "dragon-mobile",
@@ -278,6 +334,51 @@ pub const REGISTRY: &[DatasetInfo] = &[
             sigma: 1e-4,
             seed: 5,
         },
+        role: Role::Tuning,
+    },
+    DatasetInfo {
+        name: "elephant-50000",
+        n_points: 50_000,
+        description: "area-weighted samples of CGAL's elephant.off (seed 50001)",
+        source: Source::MeshSamples {
+            mesh: ELEPHANT_MESH,
+            n: 50_000,
+            seed: 50_001,
+        },
+        role: Role::Evaluation,
+    },
+    DatasetInfo {
+        name: "camel-50000",
+        n_points: 50_000,
+        description: "area-weighted samples of CGAL's camel.off (seed 50002)",
+        source: Source::MeshSamples {
+            mesh: CAMEL_MESH,
+            n: 50_000,
+            seed: 50_002,
+        },
+        role: Role::Evaluation,
+    },
+    DatasetInfo {
+        name: "triceratops-50000",
+        n_points: 50_000,
+        description: "area-weighted samples of CGAL's triceratops.off (seed 50003)",
+        source: Source::MeshSamples {
+            mesh: TRICERATOPS_MESH,
+            n: 50_000,
+            seed: 50_003,
+        },
+        role: Role::Evaluation,
+    },
+    DatasetInfo {
+        name: "mannequin-50000",
+        n_points: 50_000,
+        description: "area-weighted samples of CGAL's mannequin-devil.off, a bust open at the neck (seed 50004)",
+        source: Source::MeshSamples {
+            mesh: MANNEQUIN_MESH,
+            n: 50_000,
+            seed: 50_004,
+        },
+        role: Role::Evaluation,
     },
 ];
 
@@ -479,6 +580,41 @@ mod tests {
         cloud::Aabb {
             min: DVec3::new(-0.5, -0.5, -0.5),
             max: DVec3::new(1.5, 0.5, 0.5),
+        }
+    }
+
+    #[test]
+    fn evaluation_datasets_share_no_mesh_with_the_tuning_datasets() {
+        let meshes = |role: Role| -> Vec<&str> {
+            REGISTRY
+                .iter()
+                .filter(|d| d.role == role)
+                .filter_map(|d| d.mesh_file().map(|m| m.file))
+                .collect()
+        };
+        let (tuning, evaluation) = (meshes(Role::Tuning), meshes(Role::Evaluation));
+        assert!(evaluation.len() >= 4, "{evaluation:?}");
+        for m in &evaluation {
+            assert!(!tuning.contains(m), "{m} is tuning data too");
+        }
+        assert_eq!(role("elephant-50000"), Role::Evaluation);
+        assert_eq!(role("bunny-69451"), Role::Tuning);
+        assert_eq!(role("my-scan"), Role::Own);
+    }
+
+    #[test]
+    fn evaluation_datasets_load_with_their_points_and_sixteen_views() {
+        // Needs the fetched meshes (`just test` fetches first).
+        if std::env::var_os("POINTSIGHT_REAL_DATA").is_none() {
+            return;
+        }
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench-data");
+        for info in REGISTRY.iter().filter(|d| d.role == Role::Evaluation) {
+            let ds = load(info, &data).unwrap_or_else(|e| panic!("{}: {e:#}", info.name));
+            assert_eq!(ds.cloud.len(), info.n_points, "{}", info.name);
+            assert_eq!(ds.views.len(), 16, "{}", info.name);
+            let mesh = ds.mesh.as_ref().unwrap();
+            assert!(mesh.triangles.len() > 5_000, "{}", info.name);
         }
     }
 

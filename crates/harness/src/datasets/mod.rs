@@ -26,7 +26,7 @@ use anyhow::{Context, Result, bail};
 use cloud::glam::DVec3;
 use cloud::{Camera, PointCloud, TriMesh};
 
-pub use builtin::{DatasetInfo, REGISTRY, Source};
+pub use builtin::{DatasetInfo, REGISTRY, Role, Source, role};
 pub use degraded::{Degraded, degrade};
 pub use files::{FileDataset, ViewsFrom, load_files, read_mesh};
 pub use lod_file::LodFileDataset;

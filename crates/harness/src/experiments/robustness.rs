@@ -442,9 +442,31 @@ impl Experiment for RobustnessExperiment {
             d.dedup();
             d
         };
-        let mut text = String::from(
+        // Where `best` was tuned: the clean cloud of each dataset, over the views scored. On a
+        // tuning dataset that is clean tuning data; an evaluation dataset given here becomes
+        // tuning data for this experiment, and the text says so.
+        let not_tuning: Vec<String> = datasets
+            .iter()
+            .filter(|d| datasets::role(d) != datasets::Role::Tuning)
+            .map(|d| format!("`{d}` ({})", datasets::role(d).word()))
+            .collect();
+        let tuned_on = if not_tuning.is_empty() {
+            "Every dataset here is a tuning dataset (`pointsight datasets`): `best` is tuned on \
+             clean tuning data, on the same object and views it is then scored on, so the \
+             degraded rows are out-of-sample in the degradation only; no evaluation dataset is \
+             used. "
+                .to_owned()
+        } else {
+            format!(
+                "Not tuning datasets: {}; their `best` is tuned on their own clean cloud, so \
+                 they serve as tuning data here. ",
+                not_tuning.join(", ")
+            )
+        };
+        let mut text = format!(
             "Each visibility method at its best clean setting (`best`: the grid value with the \
-             highest median F1 on the clean cloud, then held fixed) and with its automatic rule \
+             highest median F1 on the clean cloud of the same dataset, over the same views, \
+             then held fixed). {tuned_on}And with its automatic rule \
              (`auto`, recomputed on each degraded cloud), as the data degrades. Truth: the \
              reference visibility of each point's clean source (the sample it was made from, or \
              the noise-free hit of a scanner ray); outliers are scored apart. Lines: median \
@@ -586,7 +608,8 @@ impl Experiment for RobustnessExperiment {
             let md = fig.write(dir)?;
             text.push_str(
                 "On the simulated scans `best` is the grid value best on the scan itself (an \
-                 oracle: there is no clean version to tune on).\n\n",
+                 oracle, labelled `best` for want of a clean version to tune on: read it as an \
+                 upper bound, not a tuned figure).\n\n",
             );
             text.push_str(&md);
         }

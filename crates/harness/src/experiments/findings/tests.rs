@@ -151,7 +151,10 @@ fn findings_come_from_the_csvs_of_the_experiments_present() {
     let found = findings(dir.path(), &["visibility", "robustness", "lod", "scale"]).unwrap();
     assert_eq!(found.len(), 2, "{found:?}");
     let (d1, d2) = (&found[0], &found[1]);
-    assert_eq!((d1.condition.as_str(), d2.condition.as_str()), ("d1", "d2"));
+    // Neither is a built-in dataset: no tuning data, so the settings are the oracle's.
+    let oracle = "(oracle: best setting on these data, no tuning data in the run)";
+    assert_eq!(d1.condition, format!("d1 {oracle}"));
+    assert_eq!(d2.condition, format!("d2 {oracle}"));
     assert_eq!((d1.method.as_str(), d1.setting.as_str()), ("hi", "g=1"));
     assert!((d1.value - 0.905).abs() < 1e-12, "{}", d1.value);
     assert!((d1.difference.unwrap() - 0.02).abs() < 1e-12);
@@ -197,7 +200,10 @@ fn the_report_page_opens_with_the_findings() {
     assert!(page.starts_with("# pointsight results — indicative (quick run)\n"));
     let first = page.lines().find(|l| l.starts_with("## ")).unwrap();
     assert_eq!(first, "## Findings — indicative (quick run)");
-    assert!(page.contains("| [visibility](#visibility) | d1 | hi g=1 | F1 0.905 ["));
+    assert!(page.contains(
+        "| [visibility](#visibility) | d1 (oracle: best setting on these data, no tuning data \
+         in the run) | hi g=1 | F1 0.905 ["
+    ));
     // A long summary is linked, not inlined.
     assert!(page.contains("[visibility/summary.md](visibility/summary.md)"));
     assert!(!page.contains("line 59"));
@@ -368,5 +374,78 @@ fn robustness_has_a_row_per_half_of_the_levels_and_the_winner_may_change() {
     assert_eq!(
         found[2].runner_up_value, None,
         "the failed rows are not a runner-up"
+    );
+}
+
+/// A visibility results file over a tuning dataset (`bunny`) and an evaluation dataset
+/// (`elephant-50000`): on bunny `hi` is best at g=1; on the elephant g=2 is better (the oracle),
+/// `lo` in between. `eval_shift` moves every elephant F1 of `hi` g=2.
+fn tuning_and_evaluation_csv(eval_shift: f64) -> String {
+    let mut s = String::from(VIS_HEADER);
+    for v in 0..6 {
+        let w = 0.002 * (v % 3) as f64;
+        s.push_str(&format!("bunny,{v},hi,hi,g=1,0.2,{},ok,x\n", 0.95 + w));
+        s.push_str(&format!("bunny,{v},hi,hi,g=2,0.4,{},ok,x\n", 0.90 + w));
+        s.push_str(&format!("bunny,{v},lo,lo,,0.01,{},ok,x\n", 0.80 + w));
+        s.push_str(&format!(
+            "elephant-50000,{v},hi,hi,g=1,0.2,{},ok,x\n",
+            0.70 + w
+        ));
+        s.push_str(&format!(
+            "elephant-50000,{v},hi,hi,g=2,0.4,{},ok,x\n",
+            0.93 + w + eval_shift
+        ));
+        s.push_str(&format!(
+            "elephant-50000,{v},lo,lo,,0.01,{},ok,x\n",
+            0.75 + w
+        ));
+    }
+    s
+}
+
+#[test]
+fn an_evaluation_dataset_is_judged_at_the_settings_tuned_on_the_tuning_data() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("visibility")).unwrap();
+    let run = |shift: f64| {
+        std::fs::write(
+            dir.path().join("visibility/results.csv"),
+            tuning_and_evaluation_csv(shift),
+        )
+        .unwrap();
+        findings(dir.path(), &["visibility"]).unwrap()
+    };
+    let found = run(0.0);
+    assert_eq!(found.len(), 2, "{found:?}");
+    let (bunny, elephant) = (&found[0], &found[1]);
+    assert_eq!(bunny.condition, "bunny (tuning data: in-sample)");
+    assert_eq!(
+        elephant.condition,
+        "elephant-50000 (evaluation: settings tuned on the tuning data)"
+    );
+    // On the elephant, hi stands at g=1 (tuned on bunny), not at its oracle g=2 (0.93 + w).
+    assert_eq!(
+        (elephant.method.as_str(), elephant.setting.as_str()),
+        ("lo", "")
+    );
+    let mean_w = (0..6).map(|v| 0.002 * (v % 3) as f64).sum::<f64>() / 6.0;
+    assert!((elephant.value - (0.75 + mean_w)).abs() < 1e-12);
+    assert_eq!(elephant.runner_up, "hi g=1");
+    assert!((elephant.runner_up_value.unwrap() - (0.70 + mean_w)).abs() < 1e-12);
+    assert!((elephant.difference.unwrap() - 0.05).abs() < 1e-12);
+    assert_eq!(elephant.verdict, "wins");
+    assert!(elephant.low.is_some() && elephant.n_views == Some(6));
+    // The evaluation rows cannot move the tuned setting: however good g=2 gets there, hi
+    // still stands at g=1 on both datasets.
+    for shift in [-0.5, 0.06] {
+        let again = run(shift);
+        assert_eq!(again[0].setting, "g=1");
+        assert_eq!(again[1].runner_up, "hi g=1", "shift {shift}");
+    }
+    // The markdown row says which protocol gave it.
+    let md = markdown(&found, false);
+    assert!(
+        md.contains("| elephant-50000 (evaluation: settings tuned on the tuning data) | lo |"),
+        "{md}"
     );
 }

@@ -32,7 +32,11 @@
 //! ours is run at that setting too when its sweep lacks it), per view: both seconds, both F1,
 //! the Jaccard index of the two sets; a peer whose `peer_of` names no visibility method of ours
 //! (PCL's voxel occlusion) has rows without a partner. `renders.png`: bunny-69451 (else the
-//! first dataset), view 0, every family at its best setting beside the reference.
+//! first dataset), view 0, every family at its tuned setting beside the reference.
+//!
+//! The full sweep runs on every dataset, tuning and evaluation alike (`datasets::Role`, written
+//! into the metadata as `dataset_roles`); the tables report each family at its setting tuned
+//! on the tuning datasets' rows alone, the oracle beside it ([`tuning`]).
 //!
 //! Sharded runs (`--shard K/N`) split the (dataset, view) cells round-robin; every method and
 //! setting of one view stays in one shard, because agreement and peers pair methods per view.
@@ -51,6 +55,8 @@ mod papers;
 mod peers;
 mod pixel_table;
 mod render;
+mod tuned;
+pub(crate) mod tuning;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
 use registry::scoring::{PixelScore, Score, pixels};
@@ -292,12 +298,18 @@ impl Experiment for VisibilityExperiment {
         if quick {
             &["bunny", "bunny-69451"]
         } else {
+            // The tuning datasets, then the evaluation ones (`datasets::Role`: settings are
+            // tuned on the first five alone, [`tuning`]).
             &[
                 "bunny",
                 "bunny-69451",
                 "dragon-871414",
                 "torus-22321",
                 "sphere-plane-24000",
+                "elephant-50000",
+                "camel-50000",
+                "triceratops-50000",
+                "mannequin-50000",
             ]
         }
     }
@@ -319,6 +331,17 @@ impl Experiment for VisibilityExperiment {
             .filter_map(|(m, s)| Some((m.name.to_owned(), s.default_setting()?.label())))
             .collect();
         let render_ds = render_dataset(&ctx.datasets);
+        // Tuning or evaluation ([`tuning`]): a user's own files are neither.
+        let roles: BTreeMap<String, crate::datasets::Role> = ctx
+            .datasets
+            .iter()
+            .map(|d| match ctx.on_user_files() {
+                true => (d.clone(), crate::datasets::Role::Own),
+                false => (d.clone(), crate::datasets::role(d)),
+            })
+            .collect();
+        // renders.png is drawn once every dataset's rows are in (the tuned settings need them).
+        let mut to_render = None;
         let mut rows = Vec::new();
         let mut pixel_rows = Vec::new();
         let mut agreement = Vec::new();
@@ -518,16 +541,18 @@ impl Experiment for VisibilityExperiment {
                 peers.extend(peer_rows(name, view, runs, &ds_rows, &ds_builds, &pairing));
             }
             if let (Some(reference), Some(runs)) = (
-                reference
-                    .as_ref()
-                    .filter(|_| Some(name.as_str()) == render_ds),
+                reference.filter(|_| Some(name.as_str()) == render_ds),
                 kept.remove(&0).filter(|_| Some(name.as_str()) == render_ds),
             ) {
-                render_bunny(&ctx.out_dir, &ds, reference, &ds_rows, runs)?;
+                to_render = Some((ds, reference, runs));
             }
             rows.extend(ds_rows);
             pixel_rows.extend(ds_pixels);
             builds.extend(ds_builds);
+        }
+        if let Some((ds, reference, runs)) = to_render {
+            let protocol = tuning::Protocol::new(tuning::observations(&rows), roles.clone());
+            render_bunny(&ctx.out_dir, &ds, &reference, &rows, runs, &protocol)?;
         }
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         write_csv(&ctx.out_dir.join("pixels.csv"), &pixel_rows)?;
@@ -563,6 +588,7 @@ impl Experiment for VisibilityExperiment {
             "off_surface": off_surface_meta,
             "external_methods_not_run": not_run,
             "render_dataset": render_ds,
+            "dataset_roles": roles,
         }))
     }
 

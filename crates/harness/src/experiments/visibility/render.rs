@@ -1,7 +1,8 @@
 //! The visibility experiment's tables and plots, drawn from its CSVs: Pareto plots and F1
-//! charts per family (bars: the spread over views and runs), the best setting per family, each
-//! family against exact HPR paired per view with bootstrap intervals, the automatic rules'
-//! gaps, image-space figures, the peers, and the renders of one view.
+//! charts per family (bars: the spread over views and runs), each family at its tuned setting
+//! (best over the tuning datasets, [`super::tuning`]) beside the oracle, each family against
+//! exact HPR paired per view with bootstrap intervals, the automatic rules' gaps, image-space
+//! figures, the peers, and the renders of one view.
 
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -10,7 +11,9 @@ use anyhow::Result;
 use registry::Setting;
 use truth::{Reference, ReferenceParams};
 
-use super::papers::best_setting;
+use super::papers::chosen;
+use super::tuned::{protocol_text, tuned_table};
+use super::tuning::{Protocol, observations, roles_of};
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
 use crate::experiments::markdown_table;
@@ -30,6 +33,7 @@ pub(super) fn render_bunny(
     reference: &Reference,
     rows: &[Row],
     runs: Vec<Run>,
+    protocol: &Protocol,
 ) -> Result<()> {
     let cam = ds.views[0];
     let points = &ds.cloud.positions;
@@ -51,7 +55,7 @@ pub(super) fn render_bunny(
         None,
     )];
     for fam in families_of(rows) {
-        let Some((best, _)) = best_setting(rows, ds.name(), &fam) else {
+        let Some((best, _)) = chosen(rows, protocol, ds.name(), &fam) else {
             continue;
         };
         let Some(run) = runs.iter().find(|r| r.family == fam && r.params == best) else {
@@ -75,8 +79,13 @@ pub(super) fn render_bunny(
         &panels,
         3,
         &format!(
-            "{}, view 0. green: visible and found; blue: visible, missed; red: hidden, reported visible; grey: hidden",
-            ds.name()
+            "{}, view 0, every method at its {} setting. green: visible and found; blue: visible, missed; red: hidden, reported visible; grey: hidden",
+            ds.name(),
+            match protocol.role(ds.name()) {
+                datasets::Role::Tuning => "tuned (in-sample)",
+                _ if protocol.tuned.is_empty() => "oracle",
+                _ => "tuned",
+            }
         ),
         &dir.join("renders.png"),
     )
@@ -109,20 +118,25 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
     if n == 0 { f64::NAN } else { s / n as f64 }
 }
 
-/// Each family at its best setting against exact HPR (linear kernel) at its best, paired per
-/// view: the speed ratio (geometric mean of per-view ratios) and the F1 difference (mean of
-/// per-view differences), each with its bootstrap 95 % interval.
-fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> String {
+/// Each family at its tuned setting against exact HPR (linear kernel) at its tuned setting,
+/// paired per view: the speed ratio (geometric mean of per-view ratios) and the F1 difference
+/// (mean of per-view differences), each with its bootstrap 95 % interval.
+fn versus_table(
+    rows: &[Row],
+    datasets: &[String],
+    families: &[String],
+    protocol: &Protocol,
+) -> String {
     const BASE: &str = "hpr-linear";
     let mut table = Vec::new();
     for d in datasets {
-        let Some((base, _)) = best_setting(rows, d, BASE) else {
+        let Some((base, _)) = chosen(rows, protocol, d, BASE) else {
             continue;
         };
         let by_view = |fam: &str, params: &str| super::papers::by_view(rows, d, fam, params);
         let ours = by_view(BASE, &base);
         for fam in families.iter().filter(|f| *f != BASE) {
-            let Some((best, _)) = best_setting(rows, d, fam) else {
+            let Some((best, _)) = chosen(rows, protocol, d, fam) else {
                 continue;
             };
             let theirs = by_view(fam, &best);
@@ -152,8 +166,8 @@ fn versus_table(rows: &[Row], datasets: &[String], families: &[String]) -> Strin
     format!(
         "### Against exact HPR, paired per view
 
-Each method at its best setting against \
-         `hpr-linear` at its best (same dataset, same views). `time ratio`: the method's \
+Each method at its tuned setting against \
+         `hpr-linear` at its tuned setting (same dataset, same views; see the table above). `time ratio`: the method's \
          seconds over HPR's, geometric mean of the per-view ratios (below 1: faster than HPR); \
          `F1 − HPR`: mean of the per-view differences; both with a bootstrap 95 % interval \
          (views resampled, 10,000 times).\n\n{}\n",
@@ -161,7 +175,7 @@ Each method at its best setting against \
             &[
                 "dataset",
                 "method",
-                "its best setting",
+                "its tuned setting",
                 "views",
                 "time ratio [95 % CI]",
                 "F1 − HPR [95 % CI]",
@@ -540,6 +554,10 @@ pub(super) fn render(
         }
     }
     let families = families_of(rows);
+    let meta = crate::output::meta::RunMeta::read(dir)
+        .map(|m| m.parameters)
+        .unwrap_or_default();
+    let protocol = Protocol::new(observations(rows), roles_of(&datasets, &meta));
     let mut pictures = String::new();
 
     // F1 against seconds, every setting (mean over views; bars: the views' fastest and slowest
@@ -622,34 +640,15 @@ pub(super) fn render(
         }
     }
 
-    // Best setting per family and dataset.
-    let mut best_table = Vec::new();
-    for d in &datasets {
-        for fam in families.iter().map(String::as_str) {
-            let Some((p, f1)) = best_setting(rows, d, fam) else {
-                continue;
-            };
-            let rs: Vec<&Row> = rows
-                .iter()
-                .filter(|r| r.dataset == *d && r.params == p && r.family == fam)
-                .collect();
-            best_table.push(vec![
-                d.clone(),
-                fam.to_owned(),
-                p.replace(';', " "),
-                format!("{f1:.4}"),
-                format!("{:.4}", mean(rs.iter().map(|r| r.precision))),
-                format!("{:.4}", mean(rs.iter().map(|r| r.recall))),
-                format!("{:.4}", mean(rs.iter().map(|r| r.seconds))),
-            ]);
-        }
-    }
+    // Each family at its tuned setting per dataset, the oracle beside it.
+    let best_table = tuned_table(rows, &datasets, &families, &protocol);
+    let protocol_md = protocol_text(&protocol);
 
     let versus = format!(
         "{}{}{}",
-        versus_table(rows, &datasets, &families),
+        versus_table(rows, &datasets, &families, &protocol),
         super::papers::machado(rows, &datasets),
-        super::papers::katz_tal(rows, &datasets)
+        super::papers::katz_tal(rows, &datasets, &protocol)
     );
 
     // The automatic rules against the best fixed setting of the same family, view by view:
@@ -726,7 +725,7 @@ pub(super) fn render(
 
     let renders = match (dir.join("renders.png").exists(), render_ds) {
         (true, Some(d)) => {
-            format!("![{d}, view 0: every method at its best setting](renders.png)\n\n")
+            format!("![{d}, view 0: every method at its tuned setting](renders.png)\n\n")
         }
         _ => String::new(),
     };
@@ -743,12 +742,12 @@ pub(super) fn render(
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
-         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{renders}### Best setting per method\n\n{}\n\
+         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{renders}### Tuned setting per method\n\n{protocol_md}{}\n\
          {versus}### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
-         cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the best fixed setting's F1 \
-         (same view; same resolution for the ray cast) minus the rule's; the goal is at most \
-         0.02.\n\n{}\n\n<details><summary>View by view</summary>\n\n{}\n</details>\n\n\
+         cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the oracle's F1, the best fixed \
+         setting on that very view (same resolution for the ray cast), minus the rule's; the \
+         goal is at most 0.02.\n\n{}\n\n<details><summary>View by view</summary>\n\n{}\n</details>\n\n\
          ### Image space (every method)\n\nEach pixel shows at most one point: `pixel \
          precision` is the share of covered pixels whose point is truly visible, `mesh coverage` \
          the share of the mesh's pixels (the mesh rasterised at the same camera) that got a \
@@ -769,12 +768,15 @@ pub(super) fn render(
         markdown_table(
             &[
                 "dataset",
+                "role",
                 "method",
-                "best setting",
-                "F1",
+                "setting",
+                "F1 [95 % CI]",
                 "precision",
                 "recall",
-                "seconds"
+                "seconds",
+                "oracle setting (best on this dataset)",
+                "oracle F1",
             ],
             &best_table
         ),
@@ -788,7 +790,7 @@ pub(super) fn render(
                 "method",
                 "rule",
                 "F1",
-                "best fixed F1",
+                "oracle fixed F1 (this view)",
                 "gap"
             ],
             &auto_table
