@@ -27,6 +27,7 @@ pub mod double_buffer;
 pub mod error;
 pub mod io;
 pub mod knn;
+pub mod knn_grid;
 pub mod memory;
 pub mod mesh;
 pub mod normals;

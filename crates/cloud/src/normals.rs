@@ -3,8 +3,9 @@
 //! Seed 002 §2.1.1 (Carvalho 2009, after Hoppe et al. 1992): for a point x with neighbours
 //! N = {x_1..x_k}, C = Σ_j (x_j − x̄)(x_j − x̄)ᵀ (eq. 2.1) with x̄ the neighbours' mean; the
 //! eigenvector of the smallest eigenvalue of C estimates the normal direction. Neighbours come
-//! from [`crate::knn`] (a `kiddo` k-d tree; the point itself is one of its k neighbours; ties by
-//! index, coincident points in bounded work); the 3×3
+//! from [`crate::knn_grid`] (a uniform grid, all points at once; the point itself is one of its k
+//! neighbours; the canonical order of [`crate::knn`], ties by index, coincident points in
+//! bounded work); the 3×3
 //! symmetric eigenproblem is solved by cyclic Jacobi rotations, which are exact enough at this
 //! size and never fail to converge.
 //!
@@ -20,7 +21,7 @@ use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::knn::Knn;
+use crate::knn_grid::GridKnn;
 use crate::points::check_finite;
 
 /// How estimated normals get their sign.
@@ -65,23 +66,26 @@ pub fn estimate_normals(
             found: r.len(),
         });
     }
-    let knn = Knn::new(positions, |i| i)?;
+    let grid = GridKnn::new(positions, |i| i, k)?;
     let k_nz = NonZero::new(k).ok_or(Error::InvalidParameter {
         name: "k",
         reason: "k must be positive".into(),
     })?;
     let centroid = centroid(positions);
-    Ok(per_point_in_spatial_order(positions, |i| {
-        let p = positions[i];
-        let neighbours = knn.canonical_knn(p, k_nz);
-        let n = covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize]));
-        let reference = match orientation {
-            Orientation::AwayFromCentroid => p - centroid,
-            Orientation::TowardsViewpoint(v) => v - p,
-            Orientation::Reference(r) => r[i].as_dvec3(),
-        };
-        orient(n, reference)
-    }))
+    grid.for_each_point(
+        k_nz,
+        |_| true,
+        |i, neighbours| {
+            let p = positions[i];
+            let n = covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize]));
+            let reference = match orientation {
+                Orientation::AwayFromCentroid => p - centroid,
+                Orientation::TowardsViewpoint(v) => v - p,
+                Orientation::Reference(r) => r[i].as_dvec3(),
+            };
+            orient(n, reference)
+        },
+    )
 }
 
 /// Fails unless `positions` can have a surface: at least 3 points, not all at one position

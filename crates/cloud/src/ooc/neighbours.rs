@@ -8,7 +8,8 @@
 //! hold no other chunk's point, the regions being separated by the split planes); one pass over
 //! all chunks sends every point within a chunk's halo radius of its box to that chunk's halo
 //! file. The k nearest neighbours over chunk + halo are then the true ones, taken in
-//! `crate::knn`'s canonical order (which no tree changes), so the normals and the
+//! `crate::knn`'s canonical order (which no index changes; `crate::knn_grid` finds them for
+//! all the points of a chunk at once, as the in-memory normals do), so the normals and the
 //! spacing sample's distances are the in-memory ones; when the normals' k is the halo's, the
 //! first pass's query already gives the normal of every point whose ball lies inside its chunk
 //! (the same neighbours in the same order), kept in a scratch file, and the halo pass searches
@@ -59,42 +60,52 @@ impl Preparer<'_> {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
             let own = (l.positions.len() >= kk.get())
-                .then(|| crate::knn::Knn::new(&l.positions, |item| l.index[item as usize]))
+                .then(|| {
+                    crate::knn_grid::GridKnn::new(
+                        &l.positions,
+                        |item| l.index[item as usize],
+                        kk.get(),
+                    )
+                })
                 .transpose()?;
             let bbox = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
             let overlap = set.overlap;
             let inside = |p: DVec3, d: f64| {
                 !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d)
             };
-            let per_point = crate::normals::per_point_in_spatial_order(&l.positions, |i| {
-                let p = l.positions[i];
-                match own.as_ref().filter(|_| single) {
-                    Some(knn) => {
-                        let nb = knn.canonical_knn(p, kk);
+            let per_point: Vec<(f64, Option<Vec3>)> = match own.as_ref() {
+                Some(grid) => grid.for_each_point(
+                    kk,
+                    |_| true,
+                    |i, nb| {
+                        let p = l.positions[i];
                         let d2 = nb.last().map_or(f64::INFINITY, |x| x.0);
-                        if inside(p, d2.sqrt()) {
+                        if !inside(p, d2.sqrt()) {
+                            (d2, None)
+                        } else if single {
                             let n = crate::normals::covariance_normal(
                                 nb.iter().map(|x| l.positions[x.1 as usize]),
                             );
                             (0.0, Some(crate::normals::orient(n, p - centroid)))
                         } else {
-                            (d2, None)
+                            (0.0, None)
                         }
-                    }
-                    None => {
-                        let d2 = match own.as_ref() {
-                            Some(knn) => knn.kth_distance2(p, kk),
-                            None => sample_tree
-                                .query(&p.to_array())
-                                .nearest_n::<SquaredEuclidean<f64>>(kk)
-                                .execute()
-                                .last()
-                                .map_or(f64::INFINITY, |x| x.distance),
-                        };
-                        (if inside(p, d2.sqrt()) { 0.0 } else { d2 }, None)
-                    }
-                }
-            });
+                    },
+                )?,
+                None => l
+                    .positions
+                    .iter()
+                    .map(|p| {
+                        let d2 = sample_tree
+                            .query(&p.to_array())
+                            .nearest_n::<SquaredEuclidean<f64>>(kk)
+                            .execute()
+                            .last()
+                            .map_or(f64::INFINITY, |x| x.distance);
+                        (if inside(*p, d2.sqrt()) { 0.0 } else { d2 }, None)
+                    })
+                    .collect(),
+            };
             *r2 = per_point.iter().map(|x| x.0).fold(0.0, f64::max);
             if single && own.is_some() {
                 let mut w = self
@@ -201,10 +212,10 @@ impl Preparer<'_> {
                 })?;
             }
             drop(halo);
-            let knn = crate::knn::Knn::new(&positions, |item| index[item as usize])?;
+            let grid =
+                crate::knn_grid::GridKnn::new(&positions, |item| index[item as usize], kk.get())?;
             if let Some(k) = estimate {
                 let k = NonZero::new(k).unwrap_or(kk);
-                let chunk = &l.positions[..m];
                 // The normals (a) found (NaN where it left them to this pass).
                 let known: Vec<Vec3> = match early[c].take() {
                     Some(f) => {
@@ -226,31 +237,37 @@ impl Preparer<'_> {
                     }
                     None => vec![Vec3::NAN; m],
                 };
-                l.normals = crate::normals::per_point_in_spatial_order(chunk, |i| {
-                    if let Some(&n) = known.get(i).filter(|n| !n.x.is_nan()) {
-                        return n;
-                    }
-                    let p = chunk[i];
-                    let nb = knn.canonical_knn(p, k);
+                let missing = |i: usize| i < m && known.get(i).is_none_or(|n| n.x.is_nan());
+                let found = grid.for_each_point(k, missing, |i, nb| {
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
                     );
-                    crate::normals::orient(n, p - centroid)
-                });
+                    crate::normals::orient(n, positions[i] - centroid)
+                })?;
+                l.normals = (0..m)
+                    .map(|i| if missing(i) { found[i] } else { known[i] })
+                    .collect();
             }
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
-                for i in 0..m {
+                let count = |i: usize| {
                     let g = l.index[i];
-                    let lo = picks.partition_point(|&x| x < g);
-                    let hi = picks.partition_point(|&x| x <= g);
-                    if hi > lo {
-                        let d = knn.kth_distance2(l.positions[i], k1).sqrt();
-                        spacing_d.extend(std::iter::repeat_n(d, hi - lo));
+                    picks.partition_point(|&x| x <= g) - picks.partition_point(|&x| x < g)
+                };
+                let d2 = grid.for_each_point(
+                    k1,
+                    |i| i < m && count(i) > 0,
+                    |_, nb| nb.last().map_or(0.0, |x| x.0),
+                )?;
+                for (i, d2) in d2.iter().enumerate().take(m) {
+                    let times = count(i);
+                    if times > 0 {
+                        spacing_d.extend(std::iter::repeat_n(d2.sqrt(), times));
                     }
                 }
             }
-            drop((knn, positions, index));
+            drop(grid);
+            drop((positions, index));
             if estimate.is_some() {
                 // The chunk again, with its normals.
                 let mut w = self.store.create()?;

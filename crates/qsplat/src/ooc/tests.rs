@@ -133,7 +133,7 @@ fn the_same_bytes_with_estimated_normals_and_density_spacing() {
         Normals::Estimate { k: 16 },
         DENSITY,
         true,
-        &[MIN_CHUNK, 7_000],
+        &[MIN_CHUNK, 7_000, 9_500],
     );
     same_bytes(&pts, Normals::Given, DENSITY, false, &[MIN_CHUNK]);
 }

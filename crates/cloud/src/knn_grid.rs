@@ -1,0 +1,658 @@
+//! The k nearest neighbours of every point of a set at once, from a uniform grid: the same
+//! answers as [`crate::knn::Knn::canonical_knn`] (by squared distance, ties by global index,
+//! the point itself first), much faster for the normals of a whole cloud or of a chunk with
+//! its halo.
+//!
+//! Method: the cell-list (linked-cell) neighbour search of molecular dynamics (Allen &
+//! Tildesley, *Computer Simulation of Liquids*, 1987, §5.3.2), as PotreeConverter 2 and
+//! point-cloud libraries bin points for neighbour queries: the points are binned in cubic
+//! cells (sorted by cell, so a row of cells is one slice), and a query scans the 3 × 3 × 3
+//! cells around its own, gathered once for all the queries of a cell into flat columns, and
+//! selects the k best (a fixed k, no tree). The answer is exact when the k-th distance is below
+//! the distance from the query to the scanned block's faces (less a margin for the rounding of
+//! the binning); otherwise the 5 × 5 × 5 block is scanned, and if that does not suffice
+//! either (an isolated point) the query goes to [`crate::knn::Knn`] (built once, on the first
+//! such query). Squared distances are summed as `kiddo` sums them (`((dx² + dy²) + dz²)`), so
+//! both give the very same numbers.
+//!
+//! The cell size is chosen so that an occupied cell holds about `0.6 k` distinct positions,
+//! measured (the median occupied cell; a surface's cells fill as the square of their size) rather than assumed; it
+//! changes only the speed, never an answer.
+//!
+//! Coincident points keep [`crate::knn`]'s bound: each cell lists distinct positions, each with
+//! its copies by global index; a block takes at most k copies of a position (the later ones, at
+//! the same distance and of larger index, can never be among the k best), and the points at
+//! one position share one query.
+//! [`GridKnn::examined`] counts the candidates tried, for the tests' bound.
+
+use std::cell::{Cell, RefCell};
+use std::num::NonZero;
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::knn::Knn;
+
+/// Cells per axis at most (21 bits of a key each).
+const MAX_CELLS: u64 = (1 << 21) - 1;
+/// Rings of cells scanned around a query before the k-d tree answers it.
+const MAX_RING: i64 = 2;
+
+/// A grid over a set of points (a whole cloud, or a chunk with its halo) answering canonical
+/// k-nearest-neighbour queries for its own points.
+#[derive(Debug)]
+pub struct GridKnn<'a> {
+    positions: &'a [DVec3],
+    /// Global index of each point (by local index).
+    global: Vec<u64>,
+    origin: DVec3,
+    cell: f64,
+    inv: f64,
+    dims: [i64; 3],
+    /// Distances below this far from the faces of a block are not trusted.
+    margin: f64,
+    /// The occupied cells' keys, ascending; cell `c` holds distinct positions
+    /// `cstart[c]..cstart[c + 1]`.
+    cells: Vec<u64>,
+    cstart: Vec<u32>,
+    /// Distinct positions; position `d` has copies `members[dstart[d]..dstart[d + 1]]`.
+    dpos: Vec<[f64; 3]>,
+    dstart: Vec<u32>,
+    /// (global index, local index), by global index within a position.
+    members: Vec<(u64, u32)>,
+    fallback: OnceLock<Option<Knn>>,
+    examined: AtomicU64,
+    fell_back: AtomicU64,
+}
+
+fn cell_key(c: [i64; 3]) -> u64 {
+    ((c[2] as u64) << 42) | ((c[1] as u64) << 21) | c[0] as u64
+}
+
+/// The bits positions are grouped by (`-0.0` and `0.0` are one position).
+fn pos_key(p: DVec3) -> [u64; 3] {
+    [
+        (p.x + 0.0).to_bits(),
+        (p.y + 0.0).to_bits(),
+        (p.z + 0.0).to_bits(),
+    ]
+}
+
+/// The median, over the occupied cells, of the points a cell holds (a few cells of many
+/// copies do not sway it).
+fn median_run(keys: &[u64]) -> f64 {
+    let mut sorted = keys.to_vec();
+    sorted.par_sort_unstable();
+    let mut runs = Vec::new();
+    let mut start = 0;
+    for j in 1..=sorted.len() {
+        if j == sorted.len() || sorted[j] != sorted[start] {
+            runs.push(j - start);
+            start = j;
+        }
+    }
+    let mid = runs.len() / 2;
+    runs.select_nth_unstable(mid);
+    runs[mid] as f64
+}
+
+/// The squared distance as `kiddo`'s `SquaredEuclidean` sums it.
+#[inline(always)]
+fn dist2(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    let dx = a[0] - b[0];
+    let dy = a[1] - b[1];
+    let dz = a[2] - b[2];
+    dx * dx + dy * dy + dz * dz
+}
+
+impl<'a> GridKnn<'a> {
+    /// The grid of `positions` (finite; the caller checks), point `i` having global index
+    /// `global(i)`; cells sized for queries of about `k_hint` neighbours. Fails when there
+    /// are no points or more than 2^32.
+    pub fn new(
+        positions: &'a [DVec3],
+        global: impl Fn(u64) -> u64 + Sync,
+        k_hint: usize,
+    ) -> Result<Self> {
+        let n = positions.len();
+        if n == 0 {
+            return Err(Error::EmptyCloud);
+        }
+        if n as u64 > u64::from(u32::MAX) {
+            return Err(Error::InvalidParameter {
+                name: "positions",
+                reason: format!("{n} points; a neighbour index holds at most 2^32"),
+            });
+        }
+        let global: Vec<u64> = (0..n as u64).into_par_iter().map(&global).collect();
+        let (lo, hi) = positions
+            .par_iter()
+            .fold(
+                || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+            )
+            .reduce(
+                || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
+        let extent = (hi - lo).max_element();
+        let smallest = extent / MAX_CELLS as f64;
+        let target = (0.6 * k_hint.max(1) as f64).max(2.0);
+        let keys_at = |cell: f64| -> Vec<u64> {
+            let inv = 1.0 / cell;
+            positions
+                .par_iter()
+                .map(|p| cell_key(Self::cell_of_raw(*p, lo, inv, hi, cell)))
+                .collect()
+        };
+        let mut cell = if extent > 0.0 {
+            // As if the points filled the box's largest face.
+            let e = hi - lo;
+            let mut a = [e.x * e.y, e.y * e.z, e.x * e.z];
+            a.sort_by(f64::total_cmp);
+            (a[2] * target / n as f64).sqrt().max(smallest)
+        } else {
+            1.0
+        };
+        // A few corrections by the measured occupancy (a surface's cells fill as the square
+        // of their size).
+        let mut keys = keys_at(cell);
+        if extent > 0.0 {
+            for _ in 0..3 {
+                let occupancy = median_run(&keys);
+                if (0.6 * target..=1.6 * target).contains(&occupancy) {
+                    break;
+                }
+                let next = (cell * (target / occupancy).sqrt()).clamp(smallest, extent);
+                if next == cell {
+                    break;
+                }
+                cell = next;
+                keys = keys_at(cell);
+            }
+        }
+        let inv = 1.0 / cell;
+        let dims = if extent > 0.0 {
+            let d = Self::cell_of_raw(hi, lo, inv, hi, cell);
+            [d[0] + 1, d[1] + 1, d[2] + 1]
+        } else {
+            [1, 1, 1]
+        };
+        // Points by cell, then global index; then, within each cell, by position (a stable
+        // sort: a position's copies stay by global index).
+        let mut order: Vec<(u64, u64, u32)> = (0..n)
+            .into_par_iter()
+            .map(|i| (keys[i], global[i], i as u32))
+            .collect();
+        drop(keys);
+        order.par_sort_unstable();
+        order
+            .par_chunk_by_mut(|a, b| a.0 == b.0)
+            .for_each(|cell| cell.sort_by_key(|e| pos_key(positions[e.2 as usize])));
+        let mut cells = Vec::new();
+        let mut cstart = Vec::new();
+        let mut dpos = Vec::new();
+        let mut dstart = Vec::new();
+        let mut members = Vec::with_capacity(n);
+        for (j, e) in order.iter().enumerate() {
+            let new_cell = j == 0 || order[j - 1].0 != e.0;
+            if new_cell {
+                cells.push(e.0);
+                cstart.push(dpos.len() as u32);
+            }
+            let p = positions[e.2 as usize];
+            if new_cell || pos_key(positions[order[j - 1].2 as usize]) != pos_key(p) {
+                dpos.push(p.to_array());
+                dstart.push(members.len() as u32);
+            }
+            members.push((e.1, e.2));
+        }
+        cstart.push(dpos.len() as u32);
+        dstart.push(members.len() as u32);
+        let scale = lo.abs().max(hi.abs()).max_element() + extent;
+        Ok(Self {
+            positions,
+            global,
+            origin: lo,
+            cell,
+            inv,
+            dims,
+            margin: 1e-6 * cell + 1e-12 * scale,
+            cells,
+            cstart,
+            dpos,
+            dstart,
+            members,
+            fallback: OnceLock::new(),
+            examined: AtomicU64::new(0),
+            fell_back: AtomicU64::new(0),
+        })
+    }
+
+    fn cell_of_raw(p: DVec3, lo: DVec3, inv: f64, hi: DVec3, cell: f64) -> [i64; 3] {
+        let max = |a: usize| (((hi[a] - lo[a]) / cell).floor() as i64).clamp(0, MAX_CELLS as i64);
+        let c = |a: usize| (((p[a] - lo[a]) * inv).floor() as i64).clamp(0, max(a));
+        [c(0), c(1), c(2)]
+    }
+
+    fn cell_of(&self, p: &[f64; 3]) -> [i64; 3] {
+        let c = |a: usize| {
+            (((p[a] - self.origin[a]) * self.inv).floor() as i64).clamp(0, self.dims[a] - 1)
+        };
+        [c(0), c(1), c(2)]
+    }
+
+    /// Points in the grid.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether the grid is empty (never: [`GridKnn::new`] refuses that).
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// Candidates tried so far (positions scanned plus copies taken).
+    pub fn examined(&self) -> u64 {
+        self.examined.load(Ordering::Relaxed)
+    }
+
+    /// Queries the k-d tree answered so far.
+    pub fn fell_back(&self) -> u64 {
+        self.fell_back.load(Ordering::Relaxed)
+    }
+
+    /// The cell size chosen.
+    pub fn cell_size(&self) -> f64 {
+        self.cell
+    }
+
+    /// Fills `block` with the candidates of the block of `2r + 1` cells a side around `c`: each
+    /// distinct position's first `k` copies (later copies, at the same distance and of larger
+    /// global index, are never among the k best).
+    fn fill(&self, c: [i64; 3], r: i64, k: usize, block: &mut Block) {
+        block.clear();
+        block.cell = c;
+        block.ring = r;
+        let x0 = (c[0] - r).max(0);
+        let x1 = (c[0] + r).min(self.dims[0] - 1);
+        for z in (c[2] - r).max(0)..=(c[2] + r).min(self.dims[2] - 1) {
+            for y in (c[1] - r).max(0)..=(c[1] + r).min(self.dims[1] - 1) {
+                let a = self
+                    .cells
+                    .partition_point(|&key| key < cell_key([x0, y, z]));
+                let b = a + self.cells[a..].partition_point(|&key| key <= cell_key([x1, y, z]));
+                for d in self.cstart[a] as usize..self.cstart[b] as usize {
+                    let (s, e) = (self.dstart[d] as usize, self.dstart[d + 1] as usize);
+                    let p = self.dpos[d];
+                    for &(g, l) in &self.members[s..e.min(s + k)] {
+                        block.x.push(p[0]);
+                        block.y.push(p[1]);
+                        block.z.push(p[2]);
+                        block.g.push(g);
+                        block.l.push(l);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The `k` best of `q` among `block`'s candidates into `out` ((squared distance, global,
+    /// local), in canonical order); returns whether they are the k nearest of all points.
+    fn select(
+        &self,
+        q: &[f64; 3],
+        k: usize,
+        block: &Block,
+        out: &mut Vec<(f64, u64, u32)>,
+        examined: &mut u64,
+    ) -> bool {
+        out.clear();
+        let n = block.x.len();
+        *examined += n as u64;
+        let d2: &mut Vec<f64> = &mut block.d2.borrow_mut();
+        d2.clear();
+        d2.extend((0..n).map(|i| dist2(q, &[block.x[i], block.y[i], block.z[i]])));
+        // The previous query of this block bounds this one's k-th distance: its k nearest
+        // lie within its k-th distance plus the step between the two queries.
+        let bound = match block.last.get() {
+            Some((p, kth2)) if kth2.is_finite() => {
+                let step =
+                    ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)).sqrt();
+                let r = kth2.sqrt() + step;
+                r * r * (1.0 + 1e-9) + f64::MIN_POSITIVE
+            }
+            _ => f64::INFINITY,
+        };
+        let order =
+            |a: &(f64, u64, u32), b: &(f64, u64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        for threshold in [bound, f64::INFINITY] {
+            out.clear();
+            out.extend(
+                d2.iter()
+                    .enumerate()
+                    .filter(|e| *e.1 <= threshold)
+                    .map(|(i, &d)| (d, block.g[i], block.l[i])),
+            );
+            if out.len() >= k.min(n) {
+                break;
+            }
+        }
+        if out.len() > k {
+            out.select_nth_unstable_by(k - 1, order);
+            out.truncate(k);
+        }
+        out.sort_unstable_by(order);
+        block.last.set(Some((
+            *q,
+            if out.len() == k {
+                out[k - 1].0
+            } else {
+                f64::INFINITY
+            },
+        )));
+        let (c, r) = (block.cell, block.ring);
+        let covers_all = (0..3).all(|a| c[a] - r <= 0 && c[a] + r >= self.dims[a] - 1);
+        if covers_all {
+            return true;
+        }
+        if out.len() < k {
+            return false;
+        }
+        let mut b = f64::INFINITY;
+        for a in 0..3 {
+            let lo = self.origin[a] + (c[a] - r) as f64 * self.cell;
+            let hi = self.origin[a] + (c[a] + r + 1) as f64 * self.cell;
+            // Faces at the grid's border have nothing beyond them.
+            if c[a] - r > 0 {
+                b = b.min(q[a] - lo);
+            }
+            if c[a] + r < self.dims[a] - 1 {
+                b = b.min(hi - q[a]);
+            }
+        }
+        let b = b - self.margin;
+        b > 0.0 && out[k - 1].0 < b * b
+    }
+
+    /// The `k` nearest of `q` in canonical order as (squared distance, local index), into
+    /// `res`; `block` holds the 3 × 3 × 3 block around `q`'s cell when it is filled for it.
+    fn query(&self, q: &[f64; 3], k: usize, s: &mut Scratch, examined: &mut u64) -> Result<()> {
+        s.res.clear();
+        let c = self.cell_of(q);
+        for r in 1..=MAX_RING {
+            if s.block.cell != c || s.block.ring != r || s.block.k != k {
+                self.fill(c, r, k, &mut s.block);
+                s.block.k = k;
+            }
+            if self.select(q, k, &s.block, &mut s.sel, examined) {
+                s.res.extend(s.sel.iter().map(|e| (e.0, u64::from(e.2))));
+                return Ok(());
+            }
+        }
+        self.fell_back.fetch_add(1, Ordering::Relaxed);
+        let knn = self
+            .fallback
+            .get_or_init(|| Knn::new(self.positions, |i| self.global[i as usize]).ok())
+            .as_ref()
+            .ok_or(Error::EmptyCloud)?;
+        let kk = NonZero::new(k).ok_or(Error::InvalidParameter {
+            name: "k",
+            reason: "zero".into(),
+        })?;
+        let mut e = 0;
+        s.res
+            .extend(knn.canonical_knn_counted(DVec3::from_array(*q), kk, &mut e));
+        *examined += e;
+        Ok(())
+    }
+
+    /// The `k` nearest neighbours of `p` as (squared distance, local index) in canonical
+    /// order (as [`Knn::canonical_knn`]).
+    pub fn canonical_knn(&self, p: DVec3, k: NonZero<usize>) -> Result<Vec<(f64, u64)>> {
+        let (mut s, mut e) = (Scratch::default(), 0);
+        self.query(&p.to_array(), k.get(), &mut s, &mut e)?;
+        self.examined.fetch_add(e, Ordering::Relaxed);
+        Ok(s.res)
+    }
+
+    /// `f(i, neighbours)` for every point `i` of the grid with `want(i)`, its `k` nearest
+    /// neighbours (the point itself first) as [`GridKnn::canonical_knn`] gives them, in
+    /// parallel cell by cell (a cell's queries share its block of candidates); the points at
+    /// one position share one query. Returns the values by local index (`T::default()` where
+    /// not wanted).
+    pub fn for_each_point<T: Send + Clone + Default>(
+        &self,
+        k: NonZero<usize>,
+        want: impl Fn(usize) -> bool + Sync,
+        f: impl Fn(usize, &[(f64, u64)]) -> T + Sync,
+    ) -> Result<Vec<T>> {
+        let k = k.get();
+        let parts: Vec<Result<Vec<(u32, T)>>> = (0..self.cells.len())
+            .into_par_iter()
+            .with_min_len(16)
+            .fold(
+                || (Ok(Vec::new()), Scratch::default()),
+                |(acc, mut s): (Result<Vec<(u32, T)>>, Scratch), c| {
+                    let Ok(mut acc) = acc else {
+                        return (acc, s);
+                    };
+                    let mut examined = 0;
+                    for d in self.cstart[c] as usize..self.cstart[c + 1] as usize {
+                        let copies =
+                            &self.members[self.dstart[d] as usize..self.dstart[d + 1] as usize];
+                        if !copies.iter().any(|&(_, l)| want(l as usize)) {
+                            continue;
+                        }
+                        if let Err(e) = self.query(&self.dpos[d], k, &mut s, &mut examined) {
+                            return (Err(e), s);
+                        }
+                        for &(_, l) in copies {
+                            if want(l as usize) {
+                                acc.push((l, f(l as usize, &s.res)));
+                            }
+                        }
+                    }
+                    self.examined.fetch_add(examined, Ordering::Relaxed);
+                    (Ok(acc), s)
+                },
+            )
+            .map(|(acc, _)| acc)
+            .collect();
+        let mut out = vec![T::default(); self.positions.len()];
+        for part in parts {
+            for (l, v) in part? {
+                out[l as usize] = v;
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// The candidates of a block of cells, as columns.
+#[derive(Debug, Default)]
+struct Block {
+    cell: [i64; 3],
+    ring: i64,
+    k: usize,
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    g: Vec<u64>,
+    l: Vec<u32>,
+    /// The candidates' squared distances to the current query.
+    d2: RefCell<Vec<f64>>,
+    /// The last query of this block and its k-th squared distance.
+    last: Cell<Option<([f64; 3], f64)>>,
+}
+
+impl Block {
+    fn clear(&mut self) {
+        self.x.clear();
+        self.y.clear();
+        self.z.clear();
+        self.g.clear();
+        self.l.clear();
+        self.last.set(None);
+    }
+}
+
+/// A thread's buffers: the block, the selection, the answer.
+#[derive(Debug)]
+struct Scratch {
+    block: Block,
+    sel: Vec<(f64, u64, u32)>,
+    res: Vec<(f64, u64)>,
+}
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Scratch {
+            // No cell is at -1: the first query fills the block.
+            block: Block {
+                cell: [-1; 3],
+                ..Block::default()
+            },
+            sel: Vec::new(),
+            res: Vec::new(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{RngExt, seeded};
+    use proptest::prelude::*;
+
+    /// The canonical k nearest by brute force: every point sorted by (distance, global).
+    fn brute(positions: &[DVec3], global: &[u64], p: DVec3, k: usize) -> Vec<(f64, u64)> {
+        let mut all: Vec<(f64, u64, u64)> = positions
+            .iter()
+            .enumerate()
+            .map(|(i, q)| (dist2(&p.to_array(), &q.to_array()), global[i], i as u64))
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.truncate(k);
+        all.into_iter().map(|(d, _, i)| (d, i)).collect()
+    }
+
+    /// Checks every point's answer; returns the queries the k-d tree answered.
+    fn check_all(pts: &[DVec3], global: &[u64], k: usize) -> u64 {
+        let grid = GridKnn::new(pts, |i| global[i as usize], k).unwrap();
+        let kk = NonZero::new(k).unwrap();
+        let got = grid
+            .for_each_point(kk, |_| true, |_, nb| nb.to_vec())
+            .unwrap();
+        let knn = Knn::new(pts, |i| global[i as usize]).unwrap();
+        for (i, p) in pts.iter().enumerate() {
+            let want = brute(pts, global, *p, k);
+            assert_eq!(got[i], want, "point {i} at {p}, k {k}");
+            assert_eq!(knn.canonical_knn(*p, kk), want, "kiddo, point {i}");
+            assert_eq!(
+                grid.canonical_knn(*p, kk).unwrap(),
+                want,
+                "one query, point {i}"
+            );
+        }
+        grid.fell_back()
+    }
+
+    #[test]
+    fn every_point_as_brute_force_with_copies_and_sparse_outliers() {
+        let mut rng = seeded(5, "knn-grid-test");
+        let mut pts: Vec<DVec3> = (0..600)
+            .map(|_| DVec3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.05))
+            .collect();
+        // Copies of a point, a cluster at one new position, ±0.0, far outliers (the k-d
+        // tree's queries) and a dense clump.
+        let a = pts[17];
+        pts.extend(std::iter::repeat_n(a, 40));
+        pts.extend(std::iter::repeat_n(DVec3::new(0.3, 0.3, 0.01), 25));
+        pts.extend(std::iter::repeat_n(DVec3::new(-0.0, 0.5, 0.0), 3));
+        pts.extend(std::iter::repeat_n(DVec3::new(0.0, 0.5, -0.0), 3));
+        pts.extend([DVec3::new(40.0, 0.0, 0.0), DVec3::new(-30.0, 5.0, 1.0)]);
+        pts.extend((0..100).map(|i| {
+            DVec3::new(
+                0.7 + 1e-4 * f64::from(i % 10),
+                0.2,
+                1e-4 * f64::from(i / 10),
+            )
+        }));
+        let global: Vec<u64> = (0..pts.len() as u64)
+            .map(|i| (i * 7919) % 100_003)
+            .collect();
+        let mut fell_back = 0;
+        for k in [1, 3, 8, 16, 50] {
+            fell_back += check_all(&pts, &global, k);
+        }
+        // The outliers' queries went to the k-d tree.
+        assert!(fell_back >= 2, "{fell_back}");
+    }
+
+    #[test]
+    fn ties_on_a_lattice_are_by_global_index() {
+        // An integer lattice: every query has many neighbours at equal distances.
+        let pts: Vec<DVec3> = (0..512)
+            .map(|i| DVec3::new(f64::from(i % 8), f64::from((i / 8) % 8), f64::from(i / 64)))
+            .collect();
+        let global: Vec<u64> = (0..512).rev().collect();
+        for k in [7, 16, 27] {
+            check_all(&pts, &global, k);
+        }
+    }
+
+    #[test]
+    fn copies_cost_a_small_constant_times_a_clean_cloud() {
+        // As crate::knn's test: 10^5 identical points beside a clean cloud, and a clean cloud
+        // with 20,000 copies of one of its points.
+        let mut rng = seeded(3, "knn-test");
+        let clean: Vec<DVec3> = (0..20_000)
+            .map(|_| DVec3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.1))
+            .collect();
+        let per_point = |pts: &[DVec3]| {
+            let g = GridKnn::new(pts, |i| i, 16).unwrap();
+            g.for_each_point(NonZero::new(16).unwrap(), |_| true, |_, nb| nb.len())
+                .unwrap();
+            g.examined() as f64 / pts.len() as f64
+        };
+        let base = per_point(&clean);
+        let mut many = clean.clone();
+        many.extend(std::iter::repeat_n(DVec3::new(2.0, 2.0, 2.0), 100_000));
+        let mut beside = clean.clone();
+        beside.extend(std::iter::repeat_n(clean[1234], 20_000));
+        for (name, pts) in [("10^5 identical", many), ("20,000 copies", beside)] {
+            let e = per_point(&pts);
+            eprintln!("{name}: {e:.1} candidates a point (clean cloud: {base:.1})");
+            assert!(
+                e <= 3.0 * base,
+                "{name}: {e} candidates a point, clean {base}"
+            );
+        }
+        assert!(base <= 400.0, "clean: {base}");
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(48))]
+        #[test]
+        fn equals_brute_force(
+            pts in prop::collection::vec((0u8..12, 0u8..12, 0u8..3), 1..160),
+            dup in prop::collection::vec(0usize..160, 0..40),
+            k in 1usize..24,
+            scale in prop::sample::select(vec![1e-3, 0.37, 1.0, 1e4]),
+        ) {
+            // Coordinates on a coarse lattice (many ties and copies), scaled.
+            let mut p: Vec<DVec3> = pts
+                .iter()
+                .map(|&(x, y, z)| DVec3::new(f64::from(x), f64::from(y), f64::from(z)) * scale)
+                .collect();
+            let extra: Vec<DVec3> = dup.iter().map(|&d| p[d % p.len()]).collect();
+            p.extend(extra);
+            let global: Vec<u64> = (0..p.len() as u64).map(|i| (i * 31) % 1009).collect();
+            check_all(&p, &global, k.min(p.len()));
+        }
+    }
+}
