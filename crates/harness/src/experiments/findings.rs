@@ -869,8 +869,8 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
     s.push_str(
         "The best method per condition (visibility: each method at its setting tuned on the \
          tuning datasets, the condition saying whether it is evaluation data, tuning data \
-         in-sample, or an oracle where the run had no tuning data; the other experiments: at \
-         its best setting on the condition), its mean with a 95 % bootstrap interval \
+         in-sample, or an oracle where the run had no tuning data; visibility per pixel and \
+         the other experiments: at its best setting on the condition), its mean with a 95 % bootstrap interval \
          over the views (none from fewer than 5 views: indicative), the runner-up and the \
          paired difference (no clear winner when its interval holds 0), its cost, and the \
          cheapest choice within 0.01 F1 / 1 dB of the best. Machine-readable: \

@@ -250,9 +250,14 @@ fn run_child(
                 if !status.success() {
                     let last = err
                         .lines()
-                        .last()
-                        .unwrap_or("")
-                        .trim_start_matches("error: ");
+                        .rev()
+                        .map(|l| l.trim().trim_start_matches("error: "))
+                        .find(|l| !l.is_empty())
+                        .map(str::to_owned)
+                        // Killed (a signal, the kernel's OOM killer) or silent: say how it ended.
+                        .unwrap_or_else(|| {
+                            format!("the cell's process {status} and wrote no error")
+                        });
                     let refused = last.contains("refused before allocating");
                     return row(
                         f64::NAN,
