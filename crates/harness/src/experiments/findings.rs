@@ -356,16 +356,6 @@ struct HullRow {
     status: String,
 }
 
-/// The columns of the scale results the findings read.
-#[derive(Deserialize)]
-struct ScaleRow {
-    method: String,
-    n_points: u64,
-    seconds: f64,
-    peak_rss_bytes: u64,
-    status: String,
-}
-
 /// The conditions of `rows` in the order they first appear, each with its cells.
 fn by_condition<R>(
     rows: &[R],
@@ -669,122 +659,6 @@ fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     Ok(out)
 }
 
-fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
-    let rows: Vec<ScaleRow> = read_csv(&dir.join("results.csv"))?;
-    // LOD selections answer another question than builds: the builds only, in core and out of
-    // core apart (an out-of-core build is judged against the others within its memory limit).
-    let ooc = |m: &str| m.ends_with(super::scale::plan::OOC_SUFFIX);
-    let in_group = |r: &ScaleRow, g: usize| match g {
-        0 | 1 => super::scale::render::group(&r.method) == g,
-        2 => {
-            super::scale::render::group(&r.method) == 2
-                && !r.method.ends_with("-select")
-                && !ooc(&r.method)
-        }
-        _ => ooc(&r.method),
-    };
-    let groups = [
-        (0, "visibility methods"),
-        (1, "hulls"),
-        (2, "LOD builds in core"),
-        (3, "LOD builds out of core"),
-    ];
-    let mut out = Vec::new();
-    for (g, name) in groups {
-        let ok: Vec<&ScaleRow> = rows
-            .iter()
-            .filter(|r| r.status == "ok" && r.seconds.is_finite() && in_group(r, g))
-            .collect();
-        let Some(largest) = ok.iter().map(|r| r.n_points).max() else {
-            continue;
-        };
-        let tried = distinct(
-            rows.iter()
-                .filter(|r| in_group(r, g))
-                .map(|r| r.method.as_str()),
-        )
-        .len();
-        // At 10^7 points (the default run's largest), then at the largest size any finished.
-        let mut sizes = vec![largest];
-        if largest > SCALE_SIZE && ok.iter().any(|r| r.n_points == SCALE_SIZE) {
-            sizes.insert(0, SCALE_SIZE);
-        }
-        for n in sizes {
-            out.push(scale_finding(&ok, n, n == largest, name, tried, quick));
-        }
-    }
-    Ok(out)
-}
-
-/// The size every scale group is judged at, beside the largest it reached.
-const SCALE_SIZE: u64 = 10_000_000;
-
-/// The scale finding of one group at `n` points: the fastest, the runner-up, the lightest.
-fn scale_finding(
-    ok: &[&ScaleRow],
-    n: u64,
-    largest: bool,
-    name: &str,
-    tried: usize,
-    quick: bool,
-) -> Finding {
-    {
-        let mut at: Vec<&ScaleRow> = ok.iter().copied().filter(|r| r.n_points == n).collect();
-        at.sort_by(|a, b| {
-            a.seconds
-                .total_cmp(&b.seconds)
-                .then(a.method.cmp(&b.method))
-        });
-        let best = at[0];
-        let lightest = at
-            .iter()
-            .min_by(|a, b| {
-                a.peak_rss_bytes
-                    .cmp(&b.peak_rss_bytes)
-                    .then(a.method.cmp(&b.method))
-            })
-            .copied()
-            .unwrap_or(best);
-        let runner = at.get(1);
-        let only = at.len() == 1;
-        Finding {
-            experiment: "scale".into(),
-            condition: format!(
-                "{name} at {} points{} ({} of {tried} finished)",
-                points_text(n),
-                if largest {
-                    ", the largest any finished"
-                } else {
-                    ""
-                },
-                at.len()
-            ),
-            question: "Which method finishes the largest cloud, how fast and in how much memory?"
-                .into(),
-            method: best.method.clone(),
-            setting: String::new(),
-            metric: "seconds".into(),
-            value: best.seconds,
-            low: None,
-            high: None,
-            n_views: None,
-            indicative: quick,
-            verdict: if only { "only method" } else { "fastest" }.into(),
-            runner_up: runner.map_or(String::new(), |r| r.method.clone()),
-            runner_up_value: runner.map(|r| r.seconds),
-            difference: None,
-            difference_low: None,
-            difference_high: None,
-            cost_metric: "peak memory (MiB)".into(),
-            cost: best.peak_rss_bytes as f64 / 1048576.0,
-            cheapest: lightest.method.clone(),
-            cheapest_value: Some(lightest.seconds),
-            cheapest_cost: Some(lightest.peak_rss_bytes as f64 / 1048576.0),
-            tolerance: f64::INFINITY,
-        }
-    }
-}
-
 /// `10^k` for a power of ten, else the number.
 fn points_text(n: u64) -> String {
     let k = (n as f64).log10().round() as u32;
@@ -817,7 +691,7 @@ pub fn findings_in(dir: &Path, name: &str) -> Result<Vec<Finding>> {
         "visibility" => pixels::beside(visibility(dir, quick)?, pixels::visibility(dir, quick)?),
         "robustness" => robustness(dir, quick)?,
         "lod" => lod(dir, quick)?,
-        "scale" => scale(dir, quick)?,
+        "scale" => scale::scale(dir, quick)?,
         "hull" => hull(dir, quick)?,
         _ => Vec::new(),
     })
@@ -958,5 +832,6 @@ pub fn write(reports_dir: &Path, findings: &[Finding]) -> Result<()> {
 }
 
 mod pixels;
+mod scale;
 #[cfg(test)]
 mod tests;
