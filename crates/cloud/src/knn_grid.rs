@@ -1,7 +1,10 @@
 //! The k nearest neighbours of every point of a set at once, from a uniform grid: the same
 //! answers as [`crate::knn::Knn::canonical_knn`] (by squared distance, ties by global index,
-//! the point itself first), much faster for the normals of a whole cloud or of a chunk with
-//! its halo.
+//! the point itself first), for the normals of a whole cloud or of a chunk with its halo. On a
+//! shared 2-core machine its queries took about half the k-d tree's time on a 10^6-point
+//! sphere, and the 10^7-point out-of-core QSplat build of dragon samples about 0.8× the user
+//! time; the per-query selection (distances to ~100 candidates, a partial sort) is what to
+//! speed up next.
 //!
 //! Method: the cell-list (linked-cell) neighbour search of molecular dynamics (Allen &
 //! Tildesley, *Computer Simulation of Liquids*, 1987, §5.3.2), as PotreeConverter 2 and
