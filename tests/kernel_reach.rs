@@ -267,7 +267,12 @@ fn every_experiment(root: &Path) {
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
         assert_eq!(rows.len(), 2, "visibility: {m} on 2 views: {rows:?}");
-        assert!(rows.iter().all(|r| r.ends_with(",ok")), "{rows:?}");
+        // The last column says what the method was made for (points or pixels).
+        assert!(
+            rows.iter()
+                .all(|r| r.ends_with(",ok,points") || r.ends_with(",ok,pixels")),
+            "{rows:?}"
+        );
     }
     let rob = run("robustness");
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
