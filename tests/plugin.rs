@@ -154,7 +154,7 @@ fn a_registered_method_reaches_the_csv_plots_and_tables() {
     // 3 settings × 2 views (quick), each scored.
     assert_eq!(mine.len(), 6, "{csv}");
     for line in &mine {
-        assert!(line.ends_with(",2,ok"), "{line}");
+        assert!(line.ends_with(",2,ok,points"), "{line}");
         assert!(line.contains("fraction="), "{line}");
     }
     // Plots: its own F1 chart (its swept parameter) and the Pareto plot.

@@ -164,6 +164,22 @@ pub fn render(dir: &Path) -> Result<()> {
         if times.is_empty() {
             continue;
         }
+        // A log axis draws only positive finite values: a group none of whose cells finished
+        // (every one refused or timed out, as on a loaded machine) is said, not drawn.
+        let drawable = |series: &[Series]| {
+            series
+                .iter()
+                .flat_map(|s| &s.points)
+                .any(|p| p.x.is_finite() && p.y.is_finite() && p.x > 0.0 && p.y > 0.0)
+        };
+        if !drawable(&times) || !drawable(&mems) {
+            images.push_str(&format!(
+                "No cell of the {} finished at any size: no figure (their reasons are in the \
+                 table).\n\n",
+                captions[k]
+            ));
+            continue;
+        }
         images.push_str(
             &Figure::new(
                 format!("seconds_{}", names[k]),
@@ -333,6 +349,27 @@ mod tests {
         );
         assert!(text.ends_with("1000000000: skipped: the previous size did not finish"));
         assert_eq!(not_finished(std::iter::empty()), "-");
+    }
+
+    #[test]
+    fn a_group_where_nothing_finished_is_said_not_drawn() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("results.csv"),
+            "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds,detail\n\
+             splat,10000,NaN,0,timeout after 40 s,NaN,\n\
+             raycast,10000,NaN,0,timeout after 40 s,NaN,\n\
+             hull-own,10000,0.5,1048576,ok,0.1,\n",
+        )
+        .unwrap();
+        render(dir.path()).unwrap();
+        let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+        assert!(
+            summary.contains("No cell of the visibility methods finished at any size"),
+            "{summary}"
+        );
+        assert!(!dir.path().join("seconds_visibility.png").exists());
+        assert!(dir.path().join("seconds_hulls.png").exists());
     }
 
     #[test]
