@@ -18,7 +18,6 @@
 use std::num::NonZero;
 
 use glam::{DMat3, DVec3, Vec3};
-use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::knn_grid::GridKnn;
@@ -111,51 +110,6 @@ pub fn no_surface(n: u64, at: DVec3) -> Error {
             format!("all {n} points coincide at ({}, {}, {})", at.x, at.y, at.z)
         },
     }
-}
-
-/// `f(i)` for every point `i` of `positions`, in parallel, returned by index. The calls are
-/// made in a spatial (Morton) order, so that neighbour queries made one after the other walk
-/// the same tree nodes while they are in cache (on the 871k-point dragon, estimating normals
-/// took 0.56× the CPU time of the input order); each answer is independent of the order.
-pub fn per_point_in_spatial_order<T: Send + Clone + Default>(
-    positions: &[DVec3],
-    f: impl Fn(usize) -> T + Sync,
-) -> Vec<T> {
-    let order = spatial_order(positions);
-    let in_order: Vec<T> = order.par_iter().map(|&i| f(i)).collect();
-    let mut out = vec![T::default(); positions.len()];
-    for (&i, v) in order.iter().zip(in_order) {
-        out[i] = v;
-    }
-    out
-}
-
-/// The point indices sorted by the Morton code (21 bits per axis) of their cell in the
-/// bounding box, ties by index.
-fn spatial_order(positions: &[DVec3]) -> Vec<usize> {
-    let (lo, hi) = positions.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    let scale = ((1u64 << 21) - 1) as f64 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
-    let spread = |v: f64| {
-        let mut x = (v * scale).clamp(0.0, ((1u64 << 21) - 1) as f64) as u64;
-        x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
-        x = (x | (x << 16)) & 0x001f_0000_ff00_00ff;
-        x = (x | (x << 8)) & 0x100f_00f0_0f00_f00f;
-        x = (x | (x << 4)) & 0x10c3_0c30_c30c_30c3;
-        (x | (x << 2)) & 0x1249_2492_4924_9249
-    };
-    let mut keyed: Vec<(u64, usize)> = positions
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let d = *p - lo;
-            (spread(d.x) | (spread(d.y) << 1) | (spread(d.z) << 2), i)
-        })
-        .collect();
-    keyed.par_sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
 }
 
 /// The cloud's centroid as [`Orientation::AwayFromCentroid`] uses it: the positions summed in
