@@ -277,6 +277,21 @@ struct Run {
 
 /// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
 /// first dataset (a fixed choice, so every shard agrees on it).
+/// Views measured on a dataset: 8 in a full run, [`crate::stats::MIN_VIEWS`] (the fewest an
+/// interval is stated from) on a built-in dataset of at least [`LARGE`] points, whose sweep
+/// would otherwise hold more than half of the run's hour, and 2 in a quick run.
+fn views_of(dataset: &str, quick: bool) -> usize {
+    let large = crate::datasets::info(dataset).is_ok_and(|i| i.n_points >= LARGE);
+    match (quick, large) {
+        (true, _) => 2,
+        (false, true) => crate::stats::MIN_VIEWS,
+        (false, false) => 8,
+    }
+}
+
+/// The size from which a built-in dataset is measured at [`crate::stats::MIN_VIEWS`] views.
+const LARGE: usize = 500_000;
+
 fn render_dataset(datasets: &[String]) -> Option<&str> {
     datasets
         .iter()
@@ -319,7 +334,6 @@ impl Experiment for VisibilityExperiment {
     }
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
-        let n_views = if ctx.quick { 2 } else { 8 };
         let (mut methods, mut not_run) = ctx.methods_to_run();
         // Each peer's settings with its partner's; ours run at those the sweep lacks.
         let pairing = pair_peers(&mut methods, &ctx.sweeps, ctx.quick);
@@ -348,7 +362,10 @@ impl Experiment for VisibilityExperiment {
         let mut peers = Vec::new();
         let mut builds = Vec::new();
         let mut off_surface_meta = serde_json::Map::new();
+        let mut views_meta = serde_json::Map::new();
         for (d_idx, name) in ctx.datasets.iter().enumerate() {
+            let n_views = views_of(name, ctx.quick);
+            views_meta.insert(name.clone(), n_views.into());
             let owned: Vec<usize> = (0..n_views)
                 .filter(|&v| ctx.owns(d_idx, v, n_views))
                 .collect();
@@ -576,7 +593,7 @@ impl Experiment for VisibilityExperiment {
             })
             .collect();
         Ok(serde_json::json!({
-            "views": n_views,
+            "views": views_meta,
             "sweeps": sweeps,
             "default_settings": defaults,
             "hpr_hull": "own",
