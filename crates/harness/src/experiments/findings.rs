@@ -373,6 +373,43 @@ fn by_condition<R>(
     out
 }
 
+/// How the condition pooling a run's evaluation datasets starts ([`pool_evaluation`]).
+const POOLED: &str = "evaluation datasets pooled";
+
+/// Puts first in `conditions` (dataset → cells) a condition pooling the cells of the run's
+/// evaluation datasets, when it has at least two and tuned settings: the out-of-sample answer
+/// in one row. Each cell is keyed by its dataset and view, so the mean is over every (dataset,
+/// view) and the bootstrap resamples those (views of one mesh are not independent draws of
+/// meshes: the interval is the views', not the meshes', as in every row).
+fn pool_evaluation(conditions: &mut Vec<(String, Vec<Cell>)>, protocol: &Protocol) {
+    let eval: Vec<&(String, Vec<Cell>)> = conditions
+        .iter()
+        .filter(|(d, _)| protocol.role(d) == Role::Evaluation)
+        .collect();
+    if eval.len() < 2 || protocol.tuned.is_empty() {
+        return;
+    }
+    let names: Vec<&str> = eval.iter().map(|(d, _)| d.as_str()).collect();
+    let cells: Vec<Cell> = eval
+        .iter()
+        .flat_map(|(d, cells)| {
+            cells.iter().map(move |c| Cell {
+                key: format!("{d} {}", c.key),
+                ..c.clone()
+            })
+        })
+        .collect();
+    conditions.insert(0, (format!("{POOLED}: {}", names.join(", ")), cells));
+}
+
+/// The role of a visibility condition's dataset (the pooled condition's is evaluation).
+fn role_of(protocol: &Protocol, condition: &str) -> Role {
+    match condition.starts_with(POOLED) {
+        true => Role::Evaluation,
+        false => protocol.role(condition),
+    }
+}
+
 fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
     // Each family at its tuned setting (tuned on the run's tuning datasets alone), else every
@@ -395,7 +432,7 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             .get(&r.family)
             .is_none_or(|(p, _)| *p == r.params)
     };
-    let conditions = by_condition(
+    let mut conditions = by_condition(
         &rows,
         |r| (r.status == "ok" && r.made_for == "points" && stands(r)).then(|| r.dataset.clone()),
         |r| Cell {
@@ -406,6 +443,7 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             cost: r.seconds,
         },
     );
+    pool_evaluation(&mut conditions, &protocol);
     Ok(conditions
         .into_iter()
         .filter_map(|(dataset, cells)| {
@@ -414,7 +452,7 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
                 .into_iter()
                 .filter(|f| !protocol.tuned.contains_key(f))
                 .collect();
-            let how = match (protocol.role(&dataset), protocol.tuned.is_empty()) {
+            let how = match (role_of(&protocol, &dataset), protocol.tuned.is_empty()) {
                 (_, true) => "oracle: best setting on these data, no tuning data in the run",
                 (Role::Tuning, false) => "tuning data: in-sample",
                 (Role::Evaluation, false) => "evaluation: settings tuned on the tuning data",
@@ -741,11 +779,13 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
         }
     );
     s.push_str(
-        "The best method per condition (visibility: each method at its setting tuned on the \
-         tuning datasets, the condition saying whether it is evaluation data, tuning data \
-         in-sample, or an oracle where the run had no tuning data; visibility per pixel and \
-         the other experiments: at its best setting on the condition), its mean with a 95 % bootstrap interval \
-         over the views (none from fewer than 5 views: indicative), the runner-up and the \
+        "The best method per condition (visibility, per point by F1 and per pixel by pixel \
+         F1: each method at its setting tuned on the tuning datasets, the condition saying \
+         whether it is evaluation data (the first rows pool the evaluation datasets: the \
+         out-of-sample answer), tuning data in-sample, or an oracle where the run had no \
+         tuning data; the other experiments: at its best setting on the condition), its mean \
+         with a 95 % bootstrap interval over the views (none from fewer than 5 views: \
+         indicative), the runner-up and the \
          paired difference (no clear winner when its interval holds 0), its cost, and the \
          cheapest choice within 0.01 F1 / 1 dB of the best. Machine-readable: \
          [findings.csv](findings.csv).\n\n\

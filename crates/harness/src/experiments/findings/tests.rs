@@ -449,3 +449,44 @@ fn an_evaluation_dataset_is_judged_at_the_settings_tuned_on_the_tuning_data() {
         "{md}"
     );
 }
+
+#[test]
+fn the_evaluation_datasets_pooled_come_first_over_every_dataset_and_view() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("visibility")).unwrap();
+    // A second evaluation dataset where hi at its tuned g=1 beats lo by 0.1 on every view.
+    let mut csv = tuning_and_evaluation_csv(0.0);
+    for v in 0..6 {
+        csv.push_str(&format!("camel-50000,{v},hi,hi,g=1,0.2,0.9,ok,x\n"));
+        csv.push_str(&format!("camel-50000,{v},hi,hi,g=2,0.4,0.5,ok,x\n"));
+        csv.push_str(&format!("camel-50000,{v},lo,lo,,0.01,0.8,ok,x\n"));
+    }
+    std::fs::write(dir.path().join("visibility/results.csv"), csv).unwrap();
+    let found = findings(dir.path(), &["visibility"]).unwrap();
+    assert_eq!(found.len(), 4, "{found:?}");
+    let pooled = &found[0];
+    assert_eq!(
+        pooled.condition,
+        "evaluation datasets pooled: elephant-50000, camel-50000 \
+         (evaluation: settings tuned on the tuning data)"
+    );
+    // hi g=1: elephant 0.70 + w, camel 0.9, over 12 (dataset, view) cells; lo: 0.75 + w and
+    // 0.8. hi's mean is higher by (−0.05 + 0.1) / 2 = 0.025.
+    let mean_w = (0..6).map(|v| 0.002 * (v % 3) as f64).sum::<f64>() / 6.0;
+    assert_eq!((pooled.method.as_str(), pooled.setting.as_str()), ("hi", "g=1"));
+    assert!((pooled.value - (0.80 + mean_w / 2.0)).abs() < 1e-12, "{}", pooled.value);
+    assert_eq!(pooled.n_views, Some(12));
+    assert!((pooled.difference.unwrap() - 0.025).abs() < 1e-12);
+    // The per-dataset rows follow, unchanged.
+    assert_eq!(found[1].condition, "bunny (tuning data: in-sample)");
+    assert_eq!(found[2].method, "lo");
+    assert_eq!(found[3].method, "hi");
+    // One evaluation dataset alone is not pooled.
+    std::fs::write(
+        dir.path().join("visibility/results.csv"),
+        tuning_and_evaluation_csv(0.0),
+    )
+    .unwrap();
+    let one = findings(dir.path(), &["visibility"]).unwrap();
+    assert!(one.iter().all(|f| !f.condition.starts_with(POOLED)));
+}

@@ -720,8 +720,8 @@ pub(super) fn render(
         })
         .collect();
 
-    // Image-space figures of every method at its best setting by the per-pixel F1.
-    let pixel_table = super::pixel_table::table(pixels, &datasets);
+    // Image-space figures of every method at its setting tuned by the per-pixel F1.
+    let pixel_table = super::pixel_table::table(pixels, &datasets, protocol.roles.clone());
 
     let renders = match (dir.join("renders.png").exists(), render_ds) {
         (true, Some(d)) => {
@@ -751,7 +751,9 @@ pub(super) fn render(
          ### Image space (every method)\n\nEach pixel shows at most one point: `pixel \
          precision` is the share of covered pixels whose point is truly visible, `mesh coverage` \
          the share of the mesh's pixels (the mesh rasterised at the same camera) that got a \
-         point, `pixel F1` their harmonic mean, by which each method's setting is chosen here. \
+         point, `pixel F1` their harmonic mean, by which each method's setting is tuned here: the \
+         setting with the best mean pixel F1 over the tuning datasets (the protocol above, with \
+         this score; in-sample on a tuning dataset), the oracle beside it. \
          `pixels`: `method`, the method's own choice (ray cast, splat, screen-space operators, \
          at their setting's resolution); `projected`, its visible set drawn at the view's \
          resolution as spheres of the ray cast's automatic radius (`registry::scoring::pixels`; \
