@@ -129,16 +129,22 @@ fn git_state() -> (String, bool) {
             .output()
             .ok()
             .filter(|o| o.status.success())
-            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+            // Not `trim`: a status line starts with a space (" M path").
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim_end().to_owned())
     };
     let revision = run(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    // Changes under reports/ are results (a bench writes them as it goes), not code.
-    let dirty = run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| {
-        s.lines()
-            .filter_map(|l| l.get(3..))
-            .any(|path| !path.starts_with("reports/"))
-    });
+    let dirty = run(&["status", "--porcelain", "--untracked-files=no"])
+        .is_some_and(|s| code_changed(&s));
     (revision, dirty)
+}
+
+/// Whether `git status --porcelain` output names a changed file outside `reports/`: changes
+/// there are results (a bench writes them as it goes), not code.
+fn code_changed(porcelain: &str) -> bool {
+    porcelain
+        .lines()
+        .filter_map(|l| l.get(3..))
+        .any(|path| !path.starts_with("reports/"))
 }
 
 /// The CPU model from `/proc/cpuinfo`, or the architecture where that is not available.
@@ -152,4 +158,24 @@ pub fn cpu_model() -> String {
                 .map(|(_, v)| v.trim().to_owned())
         })
         .unwrap_or_else(|| std::env::consts::ARCH.to_owned())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::code_changed;
+
+    #[test]
+    fn results_under_reports_are_not_code_changes_even_on_the_first_status_line() {
+        // The first line keeps its leading space (a trimmed output once read it as
+        // "eports/…" and called every bench after its first experiment dirty).
+        assert!(!code_changed(
+            " M reports/hull/metadata.json\n M reports/lod/results.csv"
+        ));
+        assert!(!code_changed(" D reports/background/results.html"));
+        assert!(!code_changed(""));
+        assert!(code_changed(
+            " M reports/hull/metadata.json\n M crates/cloud/src/lib.rs"
+        ));
+        assert!(code_changed("M  justfile"));
+    }
 }
