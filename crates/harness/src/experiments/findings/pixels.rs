@@ -285,7 +285,7 @@ mod tests {
         // img stands at k=1, its tuned setting, not at k=2, the best on these data: at 0.5 it
         // loses to ray (0.85, no setting to tune).
         assert_eq!(eval.method, "ray", "{eval:?}");
-        assert_eq!(eval.runner_up, "img");
+        assert_eq!(eval.runner_up, "img k=1");
         assert!(
             eval.condition
                 .contains("per pixel; evaluation: settings tuned on the tuning data"),
