@@ -250,17 +250,23 @@ impl Preparer<'_> {
             }
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
-                let count = |i: usize| {
-                    let g = l.index[i];
-                    picks.partition_point(|&x| x <= g) - picks.partition_point(|&x| x < g)
-                };
+                // How often each point of the chunk is picked (counted once: the search asks
+                // for every copy of every position).
+                let times: Vec<u32> = l
+                    .index
+                    .iter()
+                    .map(|&g| {
+                        let from = picks.partition_point(|&x| x < g);
+                        picks[from..].iter().take_while(|&&x| x == g).count() as u32
+                    })
+                    .collect();
                 let d2 = grid.for_each_point(
                     k1,
-                    |i| i < m && count(i) > 0,
+                    |i| times.get(i).is_some_and(|&t| t > 0),
                     |_, nb| nb.last().map_or(0.0, |x| x.0),
                 )?;
                 for (i, d2) in d2.iter().enumerate().take(m) {
-                    let times = count(i);
+                    let times = times[i] as usize;
                     if times > 0 {
                         spacing_d.extend(std::iter::repeat_n(d2.sqrt(), times));
                     }
