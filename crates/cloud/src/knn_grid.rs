@@ -185,7 +185,8 @@ impl<'a> GridKnn<'a> {
             [1, 1, 1]
         };
         // Points by cell, then global index; then, within each cell, by position (a stable
-        // sort: a position's copies stay by global index).
+        // sort: a position's copies stay by global index; each key read once, as the points'
+        // positions lie scattered in memory).
         let mut order: Vec<(u64, u64, u32)> = (0..n)
             .into_par_iter()
             .map(|i| (keys[i], global[i], i as u32))
@@ -194,7 +195,7 @@ impl<'a> GridKnn<'a> {
         order.par_sort_unstable();
         order
             .par_chunk_by_mut(|a, b| a.0 == b.0)
-            .for_each(|cell| cell.sort_by_key(|e| pos_key(positions[e.2 as usize])));
+            .for_each(|cell| cell.sort_by_cached_key(|e| pos_key(positions[e.2 as usize])));
         let mut cells = Vec::new();
         let mut cstart = Vec::new();
         let mut dpos = Vec::new();
