@@ -284,7 +284,8 @@ impl Preparer<'_> {
                         normal: l.normals[i],
                         color: l.colors[i],
                     };
-                    pack(&p, l.index[i], &mut rec);
+                    // (Indices below 2^32: the first pass wrote them in 32 bits.)
+                    pack(&p, l.index[i] as u32, &mut rec);
                     w.push(&rec).map_err(|e| self.store.io(e))?;
                 }
                 let file = w.finish().map_err(|e| self.store.io(e))?;

@@ -1,21 +1,24 @@
 //! A prepared point on disk: the fixed-size record of a point (position, normal, colour) and
-//! its index in the input, as the scratch files hold it.
+//! its index in the input, as the scratch files hold it. The index takes 32 bits: the
+//! preparation refuses a cloud of more than `u32::MAX` points as it reads it (the trees count
+//! leaves in 32 bits), and every record is written several times (the split writes it once a
+//! level), so each byte saved here is saved many times over.
 
 use glam::{DVec3, Vec3};
 
 use super::Point;
 
-/// Bytes of a point on disk: position, normal, colour, index in the input.
-pub(super) const REC: usize = 24 + 12 + 3 + 8;
+/// Bytes of a point on disk: position, normal, colour, index in the input (32 bits).
+pub(super) const REC: usize = 24 + 12 + 3 + 4;
 
-/// `p` and its input index as a record.
-pub(super) fn pack(p: &Point, index: u64, b: &mut [u8; REC]) {
+/// `p` and its input index (below 2^32: the caller checks) as a record.
+pub(super) fn pack(p: &Point, index: u32, b: &mut [u8; REC]) {
     for k in 0..3 {
         b[8 * k..8 * k + 8].copy_from_slice(&p.position[k].to_le_bytes());
         b[24 + 4 * k..28 + 4 * k].copy_from_slice(&p.normal[k].to_le_bytes());
     }
     b[36..39].copy_from_slice(&p.color);
-    b[39..47].copy_from_slice(&index.to_le_bytes());
+    b[39..43].copy_from_slice(&index.to_le_bytes());
 }
 
 /// A record's point and input index.
@@ -28,7 +31,7 @@ pub(super) fn unpack(b: &[u8; REC]) -> (Point, u64) {
             normal: Vec3::new(g(24), g(28), g(32)),
             color: [b[36], b[37], b[38]],
         },
-        u64::from_le_bytes(b[39..47].try_into().unwrap_or([0; 8])),
+        u64::from(u32::from_le_bytes(b[39..43].try_into().unwrap_or([0; 4]))),
     )
 }
 
