@@ -272,6 +272,11 @@ pub fn prepare<E: From<Error>>(
             parts: Vec::new(),
             root: 0,
             chunks: Vec::new(),
+            // Until the normals are estimated, the records need not carry them.
+            rec: match opts.normals {
+                Normals::Given => REC,
+                Normals::Estimate { .. } => record::SHORT,
+            },
         },
         cap,
         opts,
@@ -315,7 +320,7 @@ pub fn prepare<E: From<Error>>(
                 return Err(too_many(n + 1).into());
             };
             pack(p, index, &mut rec);
-            w.push(&rec).map_err(|e| b.store.io(e))?;
+            b.store.push(&mut w, &rec)?;
             n += 1;
         }
         (b.progress)(Stage::Read, n);

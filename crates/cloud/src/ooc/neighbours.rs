@@ -156,7 +156,7 @@ impl Preparer<'_> {
                         PartKind::Inner(kids) => stack.extend(kids.iter().copied()),
                         PartKind::Chunk(c) if *c != d => {
                             buffered.entry(*c).or_default().push(*r);
-                            buffered_bytes += REC;
+                            buffered_bytes += self.store.rec;
                         }
                         PartKind::Chunk(_) => {}
                     }
@@ -275,8 +275,12 @@ impl Preparer<'_> {
             drop(grid);
             drop((positions, index));
             if estimate.is_some() {
-                // The chunk again, with its normals.
-                let mut w = self.store.create()?;
+                // The chunk again, with its normals (full records).
+                let mut w = self
+                    .store
+                    .scratch
+                    .create(REC)
+                    .map_err(|e| self.store.io(e))?;
                 let mut rec = [0u8; REC];
                 for i in 0..m {
                     let p = Point {
@@ -314,12 +318,12 @@ impl Preparer<'_> {
                 None => halos[c].insert(
                     self.store
                         .scratch
-                        .create(REC)
+                        .create(self.store.rec)
                         .map_err(|e| self.store.io(e))?,
                 ),
             };
             for r in &recs {
-                w.push(r).map_err(|e| self.store.io(e))?;
+                w.push(&r[..self.store.rec]).map_err(|e| self.store.io(e))?;
             }
             // Release the writer's buffer until more arrives.
             w.flush().map_err(|e| self.store.io(e))?;
