@@ -1,10 +1,10 @@
 //! A prepared point on disk: the fixed-size record of a point (position, colour, its index in
-//! the input, normal) as the scratch files hold it. Where the normals are estimated, the
-//! files written before the estimate hold the record without its normal ([`SHORT`] bytes, the
-//! normal read as zero), and each point's bytes on disk are the fewer. The index takes 32 bits: the
-//! preparation refuses a cloud of more than `u32::MAX` points as it reads it (the trees count
-//! leaves in 32 bits), and every record is written several times (the split writes it once a
-//! level), so each byte saved here is saved many times over.
+//! the input, normal) as the scratch files hold it. Where the normals are estimated, the files
+//! written before the estimate hold the record without its normal ([`SHORT`] bytes, the normal
+//! read as zero). The index takes 32 bits: the preparation refuses a cloud of more than
+//! `u32::MAX` points as it reads it (the trees count leaves in 32 bits). Every record is
+//! written several times (the split writes it once a level), so each byte saved here is saved
+//! many times over.
 
 use glam::{DVec3, Vec3};
 
