@@ -185,7 +185,8 @@ impl<'a> GridKnn<'a> {
             [1, 1, 1]
         };
         // Points by cell, then global index; then, within each cell, by position (a stable
-        // sort: a position's copies stay by global index).
+        // sort: a position's copies stay by global index; each key read once, as the points'
+        // positions lie scattered in memory).
         let mut order: Vec<(u64, u64, u32)> = (0..n)
             .into_par_iter()
             .map(|i| (keys[i], global[i], i as u32))
@@ -194,7 +195,7 @@ impl<'a> GridKnn<'a> {
         order.par_sort_unstable();
         order
             .par_chunk_by_mut(|a, b| a.0 == b.0)
-            .for_each(|cell| cell.sort_by_key(|e| pos_key(positions[e.2 as usize])));
+            .for_each(|cell| cell.sort_by_cached_key(|e| pos_key(positions[e.2 as usize])));
         let mut cells = Vec::new();
         let mut cstart = Vec::new();
         let mut dpos = Vec::new();
@@ -304,7 +305,8 @@ impl<'a> GridKnn<'a> {
     }
 
     /// The `k` best of `q` among `block`'s candidates into `out` ((squared distance, global,
-    /// local), in canonical order); returns whether they are the k nearest of all points.
+    /// index in the block), in canonical order); returns whether they are the k nearest of all
+    /// points. `out` comes in holding the previous selection from this block.
     fn select(
         &self,
         q: &[f64; 3],
@@ -313,22 +315,27 @@ impl<'a> GridKnn<'a> {
         out: &mut Vec<(f64, u64, u32)>,
         examined: &mut u64,
     ) -> bool {
-        out.clear();
         let n = block.x.len();
         *examined += n as u64;
         let d2: &mut Vec<f64> = &mut block.d2.borrow_mut();
         d2.clear();
-        d2.extend((0..n).map(|i| dist2(q, &[block.x[i], block.y[i], block.z[i]])));
+        // (Zipped columns: no bounds checks, so the loop vectorises.)
+        d2.extend(
+            block
+                .x
+                .iter()
+                .zip(&block.y)
+                .zip(&block.z)
+                .map(|((&x, &y), &z)| dist2(q, &[x, y, z])),
+        );
         // The previous query of this block bounds this one's k-th distance: its k nearest
-        // lie within its k-th distance plus the step between the two queries.
-        let bound = match block.last.get() {
-            Some((p, kth2)) if kth2.is_finite() => {
-                let step =
-                    ((q[0] - p[0]).powi(2) + (q[1] - p[1]).powi(2) + (q[2] - p[2]).powi(2)).sqrt();
-                let r = kth2.sqrt() + step;
-                r * r * (1.0 + 1e-9) + f64::MIN_POSITIVE
-            }
-            _ => f64::INFINITY,
+        // (still in `out`, as block indices) are k candidates, so this query's k-th nearest
+        // is no farther than the farthest of them (distances summed alike: the bound is exact,
+        // and at least k candidates lie within it).
+        let bound = if block.last_full.get() && out.len() == k {
+            out.iter().map(|e| d2[e.2 as usize]).fold(0.0, f64::max)
+        } else {
+            f64::INFINITY
         };
         let order =
             |a: &(f64, u64, u32), b: &(f64, u64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
@@ -338,7 +345,7 @@ impl<'a> GridKnn<'a> {
                 d2.iter()
                     .enumerate()
                     .filter(|e| *e.1 <= threshold)
-                    .map(|(i, &d)| (d, block.g[i], block.l[i])),
+                    .map(|(i, &d)| (d, block.g[i], i as u32)),
             );
             if out.len() >= k.min(n) {
                 break;
@@ -349,14 +356,7 @@ impl<'a> GridKnn<'a> {
             out.truncate(k);
         }
         out.sort_unstable_by(order);
-        block.last.set(Some((
-            *q,
-            if out.len() == k {
-                out[k - 1].0
-            } else {
-                f64::INFINITY
-            },
-        )));
+        block.last_full.set(out.len() == k);
         let (c, r) = (block.cell, block.ring);
         let covers_all = (0..3).all(|a| c[a] - r <= 0 && c[a] + r >= self.dims[a] - 1);
         if covers_all {
@@ -392,7 +392,9 @@ impl<'a> GridKnn<'a> {
                 s.block.k = k;
             }
             if self.select(q, k, &s.block, &mut s.sel, examined) {
-                s.res.extend(s.sel.iter().map(|e| (e.0, u64::from(e.2))));
+                let l = &s.block.l;
+                s.res
+                    .extend(s.sel.iter().map(|e| (e.0, u64::from(l[e.2 as usize]))));
                 return Ok(());
             }
         }
@@ -488,8 +490,9 @@ struct Block {
     l: Vec<u32>,
     /// The candidates' squared distances to the current query.
     d2: RefCell<Vec<f64>>,
-    /// The last query of this block and its k-th squared distance.
-    last: Cell<Option<([f64; 3], f64)>>,
+    /// Whether the last selection from this block found k candidates (then kept in
+    /// [`Scratch::sel`]).
+    last_full: Cell<bool>,
 }
 
 impl Block {
@@ -499,7 +502,7 @@ impl Block {
         self.z.clear();
         self.g.clear();
         self.l.clear();
-        self.last.set(None);
+        self.last_full.set(false);
     }
 }
 

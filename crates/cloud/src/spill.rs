@@ -251,6 +251,11 @@ pub struct SpillFile {
 }
 
 impl SpillFile {
+    /// Bytes of a record.
+    pub fn record(&self) -> usize {
+        self.record
+    }
+
     /// Number of records.
     pub fn len(&self) -> u64 {
         self.count

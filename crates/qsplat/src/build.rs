@@ -83,7 +83,14 @@ const PARALLEL: usize = 16_384;
 
 /// Builds the hierarchy over all points.
 pub fn build(input: &Input<'_>) -> Hierarchy {
-    let mut items: Vec<Item> = input
+    let mut items = items_of(input);
+    let nodes = build_sub(input, &mut items);
+    Hierarchy { nodes }
+}
+
+/// The input points as the build sorts them.
+fn items_of(input: &Input<'_>) -> Vec<Item> {
+    input
         .positions
         .iter()
         .zip(input.normals)
@@ -93,9 +100,65 @@ pub fn build(input: &Input<'_>) -> Hierarchy {
             n: *n,
             i: i as u32,
         })
-        .collect();
-    let nodes = build_sub(input, &mut items);
-    Hierarchy { nodes }
+        .collect()
+}
+
+/// The root of the hierarchy [`build`] makes, the very node (bit for bit, its children's arena
+/// indices included), without the other nodes: the same splits and the same [`parent_from`] of
+/// the same children, each subtree's nodes counted instead of stored (no arena, no copy into
+/// it). The out-of-core build needs a chunk's root before it can encode the chunk.
+pub fn build_root(input: &Input<'_>) -> Node {
+    let mut items = items_of(input);
+    root_of(input, &mut items).0
+}
+
+/// A node to overwrite.
+const BLANK: Node = Node {
+    center: DVec3::ZERO,
+    radius: 0.0,
+    normal: DVec3::Z,
+    cone: 0.0,
+    color: Vec3::ZERO,
+    leaves: 0,
+    kids: [0; 4],
+    n_children: 0,
+    point: None,
+};
+
+/// The root of the subtree of `items` and its number of nodes, its children's indices relative
+/// to the subtree's first node (the arena's post order: child k's subtree follows child k - 1's
+/// and ends with its root); the children of a subtree of [`PARALLEL`] points or more are made
+/// in parallel, as [`build_sub`] makes them.
+fn root_of(input: &Input<'_>, items: &mut [Item]) -> (Node, u32) {
+    if items.len() == 1 {
+        return (leaf(input, &items[0]), 1);
+    }
+    let large = items.len() >= PARALLEL;
+    let groups = groups(items);
+    let n = groups.len();
+    let mut kids = [BLANK, BLANK, BLANK, BLANK];
+    let mut counts = [0u32; 4];
+    if large {
+        use rayon::prelude::*;
+        let made: Vec<(Node, u32)> = groups.into_par_iter().map(|g| root_of(input, g)).collect();
+        for (k, (node, count)) in made.into_iter().enumerate() {
+            kids[k] = node;
+            counts[k] = count;
+        }
+    } else {
+        for (k, g) in groups.into_iter().enumerate() {
+            (kids[k], counts[k]) = root_of(input, g);
+        }
+    }
+    let mut ids = [0u32; 4];
+    let mut total = 0u32;
+    for k in 0..n {
+        total += counts[k];
+        ids[k] = total - 1;
+    }
+    let [a, b, c, d] = &kids;
+    let refs = [a, b, c, d];
+    (parent_from(&refs[..n], &ids[..n]), total + 1)
 }
 
 fn leaf(input: &Input<'_>, item: &Item) -> Node {
@@ -407,6 +470,38 @@ mod tests {
         }
         assert!(seen.iter().all(|&s| s == 1));
         assert_eq!(h.nodes[h.root()].leaves, 1_000);
+    }
+
+    #[test]
+    fn the_root_alone_is_the_full_builds_root() {
+        // Small and parallel (more than 4 × PARALLEL points) builds, with colours, copies of
+        // points (halved by position) and a clump of one position.
+        let mut pts = cloud::synth::torus_scene(90_000, 3)
+            .unwrap()
+            .cloud
+            .positions;
+        let copies: Vec<DVec3> = pts.iter().step_by(7).copied().collect();
+        pts.extend(copies);
+        pts.extend(std::iter::repeat_n(pts[5], 300));
+        let normals: Vec<Vec3> = pts
+            .iter()
+            .map(|p| p.as_vec3().normalize_or_zero())
+            .collect();
+        let colors: Vec<[u8; 3]> = (0..pts.len())
+            .map(|i| [(i % 251) as u8, (i % 13) as u8 * 19, 7])
+            .collect();
+        for n in [1, 2, 5, 1_000, 20_000, pts.len()] {
+            for with_colors in [false, true] {
+                let input = Input {
+                    positions: &pts[..n],
+                    normals: &normals[..n],
+                    colors: with_colors.then_some(&colors[..n]),
+                    leaf_radius: 0.003,
+                };
+                let h = build(&input);
+                assert_eq!(build_root(&input), h.nodes[h.root()], "{n} points");
+            }
+        }
     }
 
     #[test]

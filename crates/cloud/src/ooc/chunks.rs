@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, Vec3};
 
 use super::error::{Error, Result};
-use super::record::{REC, position_of, unpack};
+use super::record::{REC, SHORT, position_of, unpack};
 use crate::spill::{Scratch, SpillFile, SpillWriter};
 
 /// A range of a scratch file: a set of points in the order the split gives them.
@@ -67,6 +67,9 @@ pub struct Chunks {
     /// The root part.
     pub(super) root: usize,
     pub(super) chunks: Vec<Set>,
+    /// Bytes of the records [`Chunks::create`] writes: [`REC`], or [`SHORT`] (no normal) before
+    /// the normals are estimated.
+    pub(super) rec: usize,
 }
 
 impl Chunks {
@@ -125,6 +128,7 @@ impl Chunks {
 
     /// Drops chunk `c`'s points (its scratch file goes when nothing else holds it).
     pub fn release(&mut self, c: usize) -> Result<()> {
+        // (Short or full records: an empty file has none.)
         let empty = self.create()?.finish().map_err(|e| self.io(e))?;
         let set = &mut self.chunks[c];
         set.file = empty;
@@ -133,7 +137,12 @@ impl Chunks {
     }
 
     pub(super) fn create(&self) -> Result<SpillWriter> {
-        self.scratch.create(REC).map_err(|e| self.io(e))
+        self.scratch.create(self.rec).map_err(|e| self.io(e))
+    }
+
+    /// Writes `rec`'s first [`Chunks::rec`] bytes (a writer of [`Chunks::create`]).
+    pub(super) fn push(&self, w: &mut SpillWriter, rec: &[u8; REC]) -> Result<()> {
+        w.push(&rec[..self.rec]).map_err(|e| self.io(e))
     }
 
     pub(super) fn for_each(
@@ -145,8 +154,13 @@ impl Chunks {
             .file
             .reader(set.start, set.count)
             .map_err(|e| self.io(e))?;
+        // Short records leave the normal's bytes zero.
         let mut b = [0u8; REC];
-        while r.next_into(&mut b).map_err(|e| self.io(e))? {
+        let len = set.file.record();
+        if len != REC && len != SHORT {
+            return Err(self.io(io::Error::other("scratch file of unknown records")));
+        }
+        while r.next_into(&mut b[..len]).map_err(|e| self.io(e))? {
             f(&b)?;
         }
         Ok(())

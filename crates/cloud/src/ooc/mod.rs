@@ -220,6 +220,15 @@ pub fn prepare_in_memory(
     Ok((normals, radius))
 }
 
+/// The error of a cloud of `n` points, more than the trees' 32-bit leaf counts (and the scratch
+/// records' 32-bit indices) hold.
+fn too_many(n: u64) -> Error {
+    Error::InvalidParameter {
+        name: "points",
+        reason: format!("{n} points or more; the tree counts leaves in 32 bits"),
+    }
+}
+
 /// The state of a preparation: the chunks made so far and the progress report.
 struct Preparer<'a> {
     store: Chunks,
@@ -263,6 +272,11 @@ pub fn prepare<E: From<Error>>(
             parts: Vec::new(),
             root: 0,
             chunks: Vec::new(),
+            // Until the normals are estimated, the records need not carry them.
+            rec: match opts.normals {
+                Normals::Given => REC,
+                Normals::Estimate { .. } => record::SHORT,
+            },
         },
         cap,
         opts,
@@ -301,8 +315,12 @@ pub fn prepare<E: From<Error>>(
                     sample.retain(|s| s.1.is_multiple_of(stride));
                 }
             }
-            pack(p, n, &mut rec);
-            w.push(&rec).map_err(|e| b.store.io(e))?;
+            // The records hold 32-bit indices (and the trees count leaves in 32 bits).
+            let Ok(index) = u32::try_from(n) else {
+                return Err(too_many(n + 1).into());
+            };
+            pack(p, index, &mut rec);
+            b.store.push(&mut w, &rec)?;
             n += 1;
         }
         (b.progress)(Stage::Read, n);
@@ -319,13 +337,6 @@ pub fn prepare<E: From<Error>>(
         && (n < 3 || bbox.0 == bbox.1)
     {
         return Err(Error::Cloud(crate::normals::no_surface(n, bbox.0)).into());
-    }
-    if n > u64::from(u32::MAX) {
-        return Err(Error::InvalidParameter {
-            name: "points",
-            reason: format!("{n} points; the tree counts leaves in 32 bits"),
-        }
-        .into());
     }
     let all = Set {
         file: w.finish().map_err(|e| b.store.io(e))?,

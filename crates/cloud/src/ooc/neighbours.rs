@@ -156,7 +156,7 @@ impl Preparer<'_> {
                         PartKind::Inner(kids) => stack.extend(kids.iter().copied()),
                         PartKind::Chunk(c) if *c != d => {
                             buffered.entry(*c).or_default().push(*r);
-                            buffered_bytes += REC;
+                            buffered_bytes += self.store.rec;
                         }
                         PartKind::Chunk(_) => {}
                     }
@@ -250,17 +250,23 @@ impl Preparer<'_> {
             }
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
-                let count = |i: usize| {
-                    let g = l.index[i];
-                    picks.partition_point(|&x| x <= g) - picks.partition_point(|&x| x < g)
-                };
+                // How often each point of the chunk is picked (counted once: the search asks
+                // for every copy of every position).
+                let times: Vec<u32> = l
+                    .index
+                    .iter()
+                    .map(|&g| {
+                        let from = picks.partition_point(|&x| x < g);
+                        picks[from..].iter().take_while(|&&x| x == g).count() as u32
+                    })
+                    .collect();
                 let d2 = grid.for_each_point(
                     k1,
-                    |i| i < m && count(i) > 0,
+                    |i| times.get(i).is_some_and(|&t| t > 0),
                     |_, nb| nb.last().map_or(0.0, |x| x.0),
                 )?;
                 for (i, d2) in d2.iter().enumerate().take(m) {
-                    let times = count(i);
+                    let times = times[i] as usize;
                     if times > 0 {
                         spacing_d.extend(std::iter::repeat_n(d2.sqrt(), times));
                     }
@@ -269,8 +275,12 @@ impl Preparer<'_> {
             drop(grid);
             drop((positions, index));
             if estimate.is_some() {
-                // The chunk again, with its normals.
-                let mut w = self.store.create()?;
+                // The chunk again, with its normals (full records).
+                let mut w = self
+                    .store
+                    .scratch
+                    .create(REC)
+                    .map_err(|e| self.store.io(e))?;
                 let mut rec = [0u8; REC];
                 for i in 0..m {
                     let p = Point {
@@ -278,7 +288,8 @@ impl Preparer<'_> {
                         normal: l.normals[i],
                         color: l.colors[i],
                     };
-                    pack(&p, l.index[i], &mut rec);
+                    // (Indices below 2^32: the first pass wrote them in 32 bits.)
+                    pack(&p, l.index[i] as u32, &mut rec);
                     w.push(&rec).map_err(|e| self.store.io(e))?;
                 }
                 let file = w.finish().map_err(|e| self.store.io(e))?;
@@ -307,12 +318,12 @@ impl Preparer<'_> {
                 None => halos[c].insert(
                     self.store
                         .scratch
-                        .create(REC)
+                        .create(self.store.rec)
                         .map_err(|e| self.store.io(e))?,
                 ),
             };
             for r in &recs {
-                w.push(r).map_err(|e| self.store.io(e))?;
+                w.push(&r[..self.store.rec]).map_err(|e| self.store.io(e))?;
             }
             // Release the writer's buffer until more arrives.
             w.flush().map_err(|e| self.store.io(e))?;

@@ -21,6 +21,8 @@ use crate::spill::{SpillFile, SpillReader, SpillWriter};
 /// as the records from the pop position to the end.
 struct Fifo {
     writer: SpillWriter,
+    /// Bytes of a record in the file (the first of each array).
+    rec: usize,
     /// Records pushed but not yet written to the file, from index `flushed`.
     tail: Vec<[u8; REC]>,
     flushed: u64,
@@ -37,7 +39,7 @@ impl Fifo {
         self.pushed += 1;
         if self.tail.len() >= TAIL {
             for r in &self.tail {
-                self.writer.push(r)?;
+                self.writer.push(&r[..self.rec])?;
             }
             self.writer.flush()?;
             self.flushed += self.tail.len() as u64;
@@ -58,7 +60,7 @@ impl Fifo {
         };
         reader.seek_to(i)?;
         let mut b = [0u8; REC];
-        if !reader.next_into(&mut b)? {
+        if !reader.next_into(&mut b[..self.rec])? {
             return Err(io::Error::new(
                 io::ErrorKind::UnexpectedEof,
                 "scratch queue read past its end",
@@ -69,7 +71,7 @@ impl Fifo {
 
     fn finish(mut self) -> io::Result<(SpillFile, u64, u64)> {
         for r in &self.tail {
-            self.writer.push(r)?;
+            self.writer.push(&r[..self.rec])?;
         }
         let file = self.writer.finish()?;
         Ok((file, self.popped, self.pushed - self.popped))
@@ -95,6 +97,7 @@ impl Preparer<'_> {
         let mut left = self.store.create()?;
         let mut fifo = Fifo {
             writer: self.store.create()?,
+            rec: self.store.rec,
             tail: Vec::new(),
             flushed: 0,
             pushed: 0,
@@ -107,7 +110,7 @@ impl Preparer<'_> {
             let p = position_of(r);
             if p[axis] < mid {
                 lb = (lb.0.min(p), lb.1.max(p));
-                left.push(r).map_err(|e| self.store.io(e))?;
+                self.store.push(&mut left, r)?;
                 if fifo.pushed > fifo.popped {
                     let front = fifo.pop().map_err(|e| self.store.io(e))?;
                     fifo.push(front).map_err(|e| self.store.io(e))?;

@@ -1,7 +1,7 @@
-//! Steps 4 and 5 of QSplat's out-of-core build, on the prepared chunks: each chunk built in
-//! memory ([`crate::build::build`] on the chunk in its order: the very subtree of the
-//! in-memory build) for its root, the parents above the chunks made from the roots
-//! ([`crate::build::parent_from`]); then, top-down, each chunk rebuilt once its parent's
+//! Steps 4 and 5 of QSplat's out-of-core build, on the prepared chunks: each chunk's root
+//! computed in memory ([`crate::build::build_root`] on the chunk in its order: the root of the
+//! very subtree of the in-memory build, its other nodes not stored), the parents above the
+//! chunks made from the roots ([`crate::build::parent_from`]); then, top-down, each chunk rebuilt once its parent's
 //! decoded sphere is known, quantised ([`crate::tree`]'s encoder, offsets relative to the
 //! chunk) and its sibling groups written level by level to a scratch file.
 
@@ -81,10 +81,11 @@ impl<'a> Builder<'a> {
             let node = match &self.chunks.parts()[t].kind {
                 PartKind::Chunk(c) => {
                     let chunk = self.chunks.load(*c)?;
-                    let h = build::build(&input(&chunk, self.leaf_radius, self.opts.colors));
+                    let root =
+                        build::build_root(&input(&chunk, self.leaf_radius, self.opts.colors));
                     self.done += self.chunks.points_of(*c);
                     (self.progress)(Stage::Build, self.done);
-                    h.nodes[h.root()].clone()
+                    root
                 }
                 PartKind::Inner(kids) => {
                     let refs: Vec<&Node> = kids.iter().map(|&k| &self.nodes[k]).collect();

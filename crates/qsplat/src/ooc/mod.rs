@@ -13,15 +13,16 @@
 //!    every set keeps the order the in-memory build gives it, two levels of splits a group of
 //!    two to four, as [`crate::build`]'s `groups`) down to chunks; normals and the leaf radius
 //!    with halos, the in-memory ones bit for bit;
-//! 4. each chunk is built in memory for its root, and the parents above the chunks are made
+//! 4. each chunk's root is computed in memory (the same splits and parents as the build, the
+//!    nodes below the root counted, not stored), and the parents above the chunks are made
 //!    from the roots ([`encode`]);
 //! 5. encoding is top-down, so each chunk is rebuilt once its parent's decoded sphere is known,
 //!    quantised and its sibling groups written level by level to a scratch file ([`encode`]);
 //! 6. the file is assembled breadth first through `cloud::io::atomic` (whole or not at all)
 //!    ([`assemble`]).
 //!
-//! Deviations: none in the output. Each chunk is built twice (once for its root, once to
-//! encode it), which costs time but no memory or disk.
+//! Deviations: none in the output. Each chunk is split twice (once for its root, once to
+//! encode it), which costs time but no memory or disk; the first time stores no nodes.
 //!
 //! Memory: a chunk of m points needs about [`BYTES_PER_POINT`] · m bytes at its peak (the
 //! hierarchy's nodes twice during the parallel build, then the encoder's arrays); scratch
