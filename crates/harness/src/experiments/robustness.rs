@@ -224,7 +224,11 @@ impl Experiment for RobustnessExperiment {
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         // The fewest views an interval is stated from, within the benchmark's hour.
-        let n_views = if ctx.quick { 3 } else { crate::stats::MIN_VIEWS };
+        let n_views = if ctx.quick {
+            3
+        } else {
+            crate::stats::MIN_VIEWS
+        };
         let (mut methods, mut not_run) = ctx.methods_to_run();
         // A method whose sweep says why it stays out (`skip_robustness`) is listed, not run.
         methods.retain(|(m, s)| match &s.skip_robustness {

@@ -133,8 +133,8 @@ fn git_state() -> (String, bool) {
             .map(|o| String::from_utf8_lossy(&o.stdout).trim_end().to_owned())
     };
     let revision = run(&["rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-    let dirty = run(&["status", "--porcelain", "--untracked-files=no"])
-        .is_some_and(|s| code_changed(&s));
+    let dirty =
+        run(&["status", "--porcelain", "--untracked-files=no"]).is_some_and(|s| code_changed(&s));
     (revision, dirty)
 }
 

@@ -125,7 +125,10 @@ pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
             let condition = if oracle.is_empty() || protocol.tuned.is_empty() {
                 format!("{dataset} (per pixel; {how})")
             } else {
-                format!("{dataset} (per pixel; {how}; oracle for {})", oracle.join(", "))
+                format!(
+                    "{dataset} (per pixel; {how}; oracle for {})",
+                    oracle.join(", ")
+                )
             };
             Some(finding(
                 Ask {
@@ -296,7 +299,10 @@ mod tests {
             .iter()
             .find(|f| dataset_of(&f.condition) == "bunny")
             .unwrap();
-        assert_eq!((tuning.method.as_str(), tuning.setting.as_str()), ("img", "k=1"));
+        assert_eq!(
+            (tuning.method.as_str(), tuning.setting.as_str()),
+            ("img", "k=1")
+        );
         assert!(tuning.condition.contains("tuning data: in-sample"));
     }
 

@@ -473,8 +473,15 @@ fn the_evaluation_datasets_pooled_come_first_over_every_dataset_and_view() {
     // hi g=1: elephant 0.70 + w, camel 0.9, over 12 (dataset, view) cells; lo: 0.75 + w and
     // 0.8. hi's mean is higher by (−0.05 + 0.1) / 2 = 0.025.
     let mean_w = (0..6).map(|v| 0.002 * (v % 3) as f64).sum::<f64>() / 6.0;
-    assert_eq!((pooled.method.as_str(), pooled.setting.as_str()), ("hi", "g=1"));
-    assert!((pooled.value - (0.80 + mean_w / 2.0)).abs() < 1e-12, "{}", pooled.value);
+    assert_eq!(
+        (pooled.method.as_str(), pooled.setting.as_str()),
+        ("hi", "g=1")
+    );
+    assert!(
+        (pooled.value - (0.80 + mean_w / 2.0)).abs() < 1e-12,
+        "{}",
+        pooled.value
+    );
     assert_eq!(pooled.n_views, Some(12));
     assert!((pooled.difference.unwrap() - 0.025).abs() < 1e-12);
     // The per-dataset rows follow, unchanged.

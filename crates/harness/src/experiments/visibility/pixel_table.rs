@@ -179,9 +179,15 @@ mod tests {
             on("e", "a=1", 0.4),
             on("e", "a=2", 0.9),
         ];
-        let roles = BTreeMap::from([("t".to_owned(), Role::Tuning), ("e".to_owned(), Role::Evaluation)]);
+        let roles = BTreeMap::from([
+            ("t".to_owned(), Role::Tuning),
+            ("e".to_owned(), Role::Evaluation),
+        ]);
         let t = table(&rows, &["t".to_owned(), "e".to_owned()], roles);
-        assert!(t.contains("| t | m | points | projected | a=1 (in-sample) | 0.9000 |"), "{t}");
+        assert!(
+            t.contains("| t | m | points | projected | a=1 (in-sample) | 0.9000 |"),
+            "{t}"
+        );
         assert!(
             t.contains("| e | m | points | projected | a=1 (tuned) | 0.4000 |")
                 && t.contains("| a=2 | 0.9000 |"),
