@@ -275,12 +275,10 @@ struct Run {
     visible: Vec<u32>,
 }
 
-/// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
-/// first dataset (a fixed choice, so every shard agrees on it).
-/// Views measured on a dataset: [`crate::stats::MIN_VIEWS`], the fewest an interval is stated
-/// from, in a full run (nine datasets, the full sweep each, within the benchmark's hour; the
-/// evaluation datasets pooled give 20 views), 2 in a quick run. `--views` on a user's cloud
-/// measures the views it names.
+/// Views measured per dataset, its first ones (a dataset with fewer, a user's `--eye`, gives
+/// those it has): [`crate::stats::MIN_VIEWS`], the fewest an interval is stated from, in a
+/// full run (nine datasets, the full sweep each, within the benchmark's hour; the evaluation
+/// datasets pooled give 20 views), 2 in a quick run.
 fn views_of(quick: bool) -> usize {
     match quick {
         true => 2,
@@ -288,6 +286,8 @@ fn views_of(quick: bool) -> usize {
     }
 }
 
+/// The dataset whose view 0 is drawn in `renders.png`: bunny-69451 when covered, else the
+/// first dataset (a fixed choice, so every shard agrees on it).
 fn render_dataset(datasets: &[String]) -> Option<&str> {
     datasets
         .iter()
