@@ -113,7 +113,7 @@ pub fn build_root(input: &Input<'_>) -> Node {
 }
 
 /// A node to overwrite.
-const BLANK: Node = Node {
+pub(crate) const BLANK: Node = Node {
     center: DVec3::ZERO,
     radius: 0.0,
     normal: DVec3::Z,

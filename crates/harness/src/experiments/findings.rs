@@ -410,6 +410,33 @@ fn role_of(protocol: &Protocol, condition: &str) -> Role {
     }
 }
 
+/// A visibility condition's label: `dataset` with how its settings were chosen (`untuned`
+/// when the run has no tuned setting), after `scope` (e.g. `per pixel; `), and the families of
+/// `cells` without a tuned setting, at their best on these data (oracle).
+fn tuned_condition(
+    protocol: &Protocol,
+    dataset: &str,
+    cells: &[Cell],
+    scope: &str,
+    untuned: &str,
+) -> String {
+    let oracle: Vec<String> = distinct(cells.iter().map(|c| c.method.as_str()))
+        .into_iter()
+        .filter(|f| !protocol.tuned.contains_key(f))
+        .collect();
+    let how = match (role_of(protocol, dataset), protocol.tuned.is_empty()) {
+        (_, true) => untuned,
+        (Role::Tuning, false) => "tuning data: in-sample",
+        (Role::Evaluation, false) => "evaluation: settings tuned on the tuning data",
+        (Role::Own, false) => "own data: settings tuned on the tuning data",
+    };
+    if oracle.is_empty() || protocol.tuned.is_empty() {
+        format!("{dataset} ({scope}{how})")
+    } else {
+        format!("{dataset} ({scope}{how}; oracle for {})", oracle.join(", "))
+    }
+}
+
 fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
     // Each family at its tuned setting (tuned on the run's tuning datasets alone), else every
@@ -448,21 +475,13 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         .into_iter()
         .filter_map(|(dataset, cells)| {
             let v = verdict(&cells, 0.01)?;
-            let oracle: Vec<String> = distinct(cells.iter().map(|c| c.method.as_str()))
-                .into_iter()
-                .filter(|f| !protocol.tuned.contains_key(f))
-                .collect();
-            let how = match (role_of(&protocol, &dataset), protocol.tuned.is_empty()) {
-                (_, true) => "oracle: best setting on these data, no tuning data in the run",
-                (Role::Tuning, false) => "tuning data: in-sample",
-                (Role::Evaluation, false) => "evaluation: settings tuned on the tuning data",
-                (Role::Own, false) => "own data: settings tuned on the tuning data",
-            };
-            let condition = if oracle.is_empty() || protocol.tuned.is_empty() {
-                format!("{dataset} ({how})")
-            } else {
-                format!("{dataset} ({how}; oracle for {})", oracle.join(", "))
-            };
+            let condition = tuned_condition(
+                &protocol,
+                &dataset,
+                &cells,
+                "",
+                "oracle: best setting on these data, no tuning data in the run",
+            );
             Some(finding(
                 Ask {
                     experiment: "visibility",

@@ -5,7 +5,7 @@
 //! decoded sphere is known, quantised ([`crate::tree`]'s encoder, offsets relative to the
 //! chunk) and its sibling groups written level by level to a scratch file.
 
-use cloud::glam::{DVec3, Vec3};
+use cloud::glam::DVec3;
 use cloud::ooc::{Chunks, PartKind, Points};
 use cloud::spill::SpillFile;
 
@@ -67,7 +67,7 @@ impl<'a> Builder<'a> {
             chunks,
             opts,
             leaf_radius,
-            nodes: vec![placeholder(); parts],
+            nodes: vec![build::BLANK; parts],
             spheres: vec![0; parts],
             encoded,
             done: 0,
@@ -176,20 +176,5 @@ impl<'a> Builder<'a> {
             }
             PartKind::Chunk(c) => (self.encoded[c].root_word, self.encoded[c].root_color),
         }
-    }
-}
-
-/// A node to overwrite.
-fn placeholder() -> Node {
-    Node {
-        center: DVec3::ZERO,
-        radius: 0.0,
-        normal: DVec3::Z,
-        cone: 0.0,
-        color: Vec3::ZERO,
-        leaves: 0,
-        kids: [0; 4],
-        n_children: 0,
-        point: None,
     }
 }

@@ -21,9 +21,9 @@ use registry::scoring::pixels::f1;
 use serde::Deserialize;
 
 use super::{
-    Ask, Cell, Finding, VisibilityRow, by_condition, finding, pool_evaluation, role_of, verdict,
+    Ask, Cell, Finding, VisibilityRow, by_condition, finding, pool_evaluation, tuned_condition,
+    verdict,
 };
-use crate::datasets::Role;
 use crate::experiments::visibility::tuning::{Obs, Protocol, roles_of};
 use crate::output::meta::RunMeta;
 use crate::output::{distinct, read_csv};
@@ -112,24 +112,13 @@ pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         .into_iter()
         .filter_map(|(dataset, cells)| {
             let v = verdict(&cells, 0.01)?;
-            let oracle: Vec<String> = distinct(cells.iter().map(|c| c.method.as_str()))
-                .into_iter()
-                .filter(|f| !protocol.tuned.contains_key(f))
-                .collect();
-            let how = match (role_of(&protocol, &dataset), protocol.tuned.is_empty()) {
-                (_, true) => "oracle: best setting on these data",
-                (Role::Tuning, false) => "tuning data: in-sample",
-                (Role::Evaluation, false) => "evaluation: settings tuned on the tuning data",
-                (Role::Own, false) => "own data: settings tuned on the tuning data",
-            };
-            let condition = if oracle.is_empty() || protocol.tuned.is_empty() {
-                format!("{dataset} (per pixel; {how})")
-            } else {
-                format!(
-                    "{dataset} (per pixel; {how}; oracle for {})",
-                    oracle.join(", ")
-                )
-            };
+            let condition = tuned_condition(
+                &protocol,
+                &dataset,
+                &cells,
+                "per pixel; ",
+                "oracle: best setting on these data",
+            );
             Some(finding(
                 Ask {
                     experiment: "visibility",
