@@ -31,6 +31,7 @@
 
 use cloud::Camera;
 use cloud::glam::DVec3;
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::visibility::PixelChoice;
@@ -118,36 +119,70 @@ pub fn projected(
             "pixel footprint radius {radius}: must be finite and positive"
         )));
     }
+    if let Some(&i) = visible.iter().find(|&&i| i as usize >= points.len()) {
+        return Err(Error::Unsupported(format!(
+            "visible index {i} out of range ({} points)",
+            points.len()
+        )));
+    }
+    let share = visible
+        .len()
+        .div_ceil(rayon::current_num_threads().max(1))
+        .max(4096);
+    drawn_in_shares(points, visible, camera, radius, share)
+}
+
+/// [`projected`]'s image drawn from shares of `share` visible points each (in parallel), merged
+/// pixel by pixel. Indices are checked by the caller.
+fn drawn_in_shares(
+    points: &[DVec3],
+    visible: &[u32],
+    camera: &Camera,
+    radius: f64,
+    share: usize,
+) -> Result<PixelChoice> {
     let (w, h) = (camera.width as usize, camera.height as usize);
-    let mut best = vec![(f64::INFINITY, NONE); w * h];
     let spherical = matches!(camera.model(), cloud::Model::Spherical);
-    for &i in visible {
-        let c = *points.get(i as usize).ok_or_else(|| {
-            Error::Unsupported(format!(
-                "visible index {i} out of range ({} points)",
-                points.len()
-            ))
-        })?;
-        let Some((x0, x1, y0, y1)) = footprint_box(camera, c, radius) else {
-            continue;
-        };
-        for y in y0..=y1 {
-            for xs in x0..=x1 {
-                let x = if spherical {
-                    xs.rem_euclid(w as i64)
-                } else {
-                    xs
-                };
-                let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                if let Some(t) = entry(o, d, c, radius) {
-                    let b = &mut best[y as usize * w + x as usize];
-                    if t < b.0 || (t == b.0 && i < b.1) {
-                        *b = (t, i);
+    // One image per share of the points, merged pixel by pixel: the lexicographic minimum of
+    // (entry, index) does not depend on the order, so the result is the sequential one's.
+    let draw = |share: &[u32]| {
+        let mut best = vec![(f64::INFINITY, NONE); w * h];
+        for &i in share {
+            let c = points[i as usize];
+            let Some((x0, x1, y0, y1)) = footprint_box(camera, c, radius) else {
+                continue;
+            };
+            for y in y0..=y1 {
+                for xs in x0..=x1 {
+                    let x = if spherical {
+                        xs.rem_euclid(w as i64)
+                    } else {
+                        xs
+                    };
+                    let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                    if let Some(t) = entry(o, d, c, radius) {
+                        let b = &mut best[y as usize * w + x as usize];
+                        if (t, i) < *b {
+                            *b = (t, i);
+                        }
                     }
                 }
             }
         }
-    }
+        best
+    };
+    let best = visible
+        .par_chunks(share.max(1))
+        .map(draw)
+        .reduce_with(|mut a, b| {
+            for (x, y) in a.iter_mut().zip(b) {
+                if y < *x {
+                    *x = y;
+                }
+            }
+            a
+        })
+        .unwrap_or_else(|| vec![(f64::INFINITY, NONE); w * h]);
     Ok(PixelChoice {
         width: camera.width,
         height: camera.height,

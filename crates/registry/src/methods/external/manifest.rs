@@ -99,6 +99,10 @@ pub struct ExternalMethod {
     pub(super) install: Option<String>,
     pub(super) version_command: Option<Vec<String>>,
     pub(super) version: OnceLock<String>,
+    /// Set once the check has passed in this process: a setting's preparation does not start
+    /// the check's program again (importing VTK took about 2 s a setting, 12 settings a
+    /// dataset). A failed check is not remembered, so an install in between is seen.
+    pub(super) check_passed: std::sync::atomic::AtomicBool,
     pub(super) peer_of: Option<&'static str>,
     pub(super) timeout: Duration,
     pub(super) cameras: Vec<String>,
@@ -252,6 +256,7 @@ impl ExternalMethod {
             install: m.install,
             version_command: m.version,
             version: OnceLock::new(),
+            check_passed: std::sync::atomic::AtomicBool::new(false),
             peer_of: m.peer_of.map(leak),
             timeout: Duration::from_secs_f64(m.timeout_seconds.unwrap_or(300.0).max(0.001)),
             cameras: m.cameras.unwrap_or_else(|| {
@@ -302,8 +307,21 @@ impl ExternalMethod {
         }
     }
 
-    /// `Ok` when the method's check passes (or it has none), else why it is not installed.
+    /// `Ok` when the method's check passes (or it has none), else why it is not installed. A
+    /// check that passed once in this process is not run again.
     pub(super) fn check(&self) -> std::result::Result<(), String> {
+        use std::sync::atomic::Ordering;
+        if self.check_passed.load(Ordering::Relaxed) {
+            return Ok(());
+        }
+        let passed = self.run_check();
+        if passed.is_ok() {
+            self.check_passed.store(true, Ordering::Relaxed);
+        }
+        passed
+    }
+
+    fn run_check(&self) -> std::result::Result<(), String> {
         let Some(check) = &self.check else {
             return Ok(());
         };

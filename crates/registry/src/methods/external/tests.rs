@@ -92,6 +92,26 @@ fn the_version_is_run_once_and_peer_of_read() {
 }
 
 #[test]
+fn a_passed_check_runs_once_and_a_failed_one_again() {
+    // The check appends a mark and passes once the file `ok` exists.
+    let dir = folder(
+        "protocol = 1\ncommand = [\"true\"]\n\
+         check = [\"sh\", \"-c\", \"printf x >> count; test -e ok\"]\n",
+        "",
+    );
+    let m = ExternalMethod::load(dir.path()).unwrap();
+    let marks = || std::fs::read_to_string(dir.path().join("count")).unwrap();
+    assert!(m.check().unwrap_err().contains("not installed"));
+    assert!(m.check().is_err());
+    assert_eq!(marks(), "xx", "a failed check is run again");
+    std::fs::write(dir.path().join("ok"), "").unwrap();
+    assert!(m.check().is_ok());
+    assert!(m.check().is_ok());
+    assert!(m.check().is_ok());
+    assert_eq!(marks(), "xxx", "a passed check is not run again");
+}
+
+#[test]
 fn made_for_is_read_with_its_defaults_and_a_bad_value_refused() {
     use crate::card::Metric;
     let made = |extra: &str| {

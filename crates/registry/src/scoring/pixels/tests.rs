@@ -98,6 +98,32 @@ fn the_derived_choice_is_each_pixels_first_visible_sphere_for_every_camera_model
 }
 
 #[test]
+fn images_drawn_in_shares_merge_to_the_one_drawn_whole_coincident_points_included() {
+    let camera = Camera::new(
+        DVec3::new(0.3, -0.4, 3.0),
+        DVec3::ZERO,
+        DVec3::Y,
+        50.0,
+        48,
+        32,
+    )
+    .unwrap();
+    let (mut points, mut visible) = cloud(4);
+    // Copies of visible points at the end: equal entries, the lower index shows.
+    for k in 0..60 {
+        let i = visible[k] as usize;
+        points.push(points[i]);
+        visible.push((points.len() - 1) as u32);
+    }
+    visible.reverse();
+    let want = brute(&points, &visible, &camera, 0.12);
+    for share in [1, 7, 64, 1000] {
+        let got = drawn_in_shares(&points, &visible, &camera, 0.12, share).unwrap();
+        assert_eq!(got.point, want, "share {share}");
+    }
+}
+
+#[test]
 fn a_full_set_shows_hidden_points_and_the_true_set_does_not() {
     let (scene, geometry) = sphere_plane_scene(3_000, 6_000, 7);
     let points = &scene.cloud.positions;
