@@ -288,8 +288,8 @@ fn budget(flags: &cli::SweepFlags) -> Option<f64> {
     flags.time_budget.is_finite().then_some(flags.time_budget)
 }
 
-/// Writes the findings (`findings.csv`) and the report page of `reports` over the experiment
-/// registry; the page is marked indicative when any experiment's results are a quick run's.
+/// Writes the findings (`findings.csv`, and each experiment's rows as `findings.csv` and
+/// `findings.md` in its folder) and the report page of `reports` over the experiment registry; the page is marked indicative when any experiment's results are a quick run's.
 fn assemble_report(reports: &Path) -> Result<()> {
     let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
         .iter()
@@ -304,10 +304,29 @@ fn assemble_report(reports: &Path) -> Result<()> {
         .any(|n| output::meta::RunMeta::read(&reports.join(n)).is_ok_and(|m| m.quick));
     let findings = experiments::findings::findings(reports, &names)?;
     experiments::findings::write(reports, &findings)?;
+    // Each experiment's own rows beside its results, every row (the README may leave some
+    // out and links here).
+    for name in &names {
+        let dir = reports.join(name);
+        let own: Vec<_> = findings
+            .iter()
+            .filter(|f| f.experiment == *name)
+            .cloned()
+            .collect();
+        if own.is_empty() || !dir.is_dir() {
+            continue;
+        }
+        let own_quick = output::meta::RunMeta::read(&dir).is_ok_and(|m| m.quick);
+        experiments::findings::write(&dir, &own)?;
+        output::write_atomic(
+            &dir.join("findings.md"),
+            experiments::findings::markdown(&own, own_quick).as_bytes(),
+        )?;
+    }
     output::report::assemble(
         reports,
         &sections,
-        &experiments::findings::markdown(&findings, quick),
+        &experiments::findings::readme_markdown(&findings, quick),
         quick,
         &view::report::section(reports)?,
     )

@@ -25,7 +25,7 @@
 //! robustness `best` setting is itself tuned on the clean cloud; the choice between it and
 //! `auto` is made on the condition).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 
 use anyhow::Result;
@@ -110,7 +110,9 @@ fn median(mut v: Vec<f64>) -> f64 {
 }
 
 /// The best method over `cells`: each method at the setting with its highest mean score (ties:
-/// the first setting by name), methods ranked by that mean (ties: by name); the cheapest
+/// the cheaper setting by median cost, then the first by name), methods ranked by that mean
+/// (ties: the cheaper, then by name: of two methods that choose the same points, the one that
+/// costs less is named); the cheapest
 /// (method, setting) within `tolerance` of the best mean. Cells with a non-finite score are
 /// left out; `None` when none is left.
 pub fn verdict(cells: &[Cell], tolerance: f64) -> Option<Verdict> {
@@ -140,22 +142,33 @@ pub fn verdict(cells: &[Cell], tolerance: f64) -> Option<Verdict> {
         .collect();
     let mean = |v: &Views<'_>| v.values().map(|x| x.0).sum::<f64>() / v.len() as f64;
     let cost = |v: &Views<'_>| median(v.values().map(|x| x.1).collect());
-    let mut best: BTreeMap<&str, (&str, f64)> = BTreeMap::new();
+    // Higher mean first, then lower cost (an unknown cost last), then name.
+    let order = |a: (f64, f64), b: (f64, f64)| {
+        b.0.total_cmp(&a.0)
+            .then(a.1.is_nan().cmp(&b.1.is_nan()))
+            .then(a.1.total_cmp(&b.1))
+    };
+    let mut best: BTreeMap<&str, (&str, f64, f64)> = BTreeMap::new();
     for ((method, setting), views) in &groups {
-        let m = mean(views);
-        if best.get(method).is_none_or(|b| m > b.1) {
-            best.insert(method, (setting, m));
+        let (m, c) = (mean(views), cost(views));
+        if best
+            .get(method)
+            .is_none_or(|b| order((m, c), (b.1, b.2)).is_lt())
+        {
+            best.insert(method, (setting, m, c));
         }
     }
-    let mut ranked: Vec<(&str, &str, f64)> =
-        best.into_iter().map(|(m, (s, v))| (m, s, v)).collect();
-    ranked.sort_by(|a, b| b.2.total_cmp(&a.2).then(a.0.cmp(b.0)));
-    let &(wm, ws, wv) = ranked.first()?;
+    let mut ranked: Vec<(&str, &str, f64, f64)> = best
+        .into_iter()
+        .map(|(m, (s, v, c))| (m, s, v, c))
+        .collect();
+    ranked.sort_by(|a, b| order((a.2, a.3), (b.2, b.3)).then(a.0.cmp(b.0)));
+    let &(wm, ws, wv, _) = ranked.first()?;
     let winner = &groups[&(wm, ws)];
     let values: Vec<f64> = winner.values().map(|x| x.0).collect();
     let value = bootstrap_mean(&values, SEED)?;
     debug_assert!((value.value - wv).abs() < 1e-9);
-    let runner_up = ranked.get(1).map(|&(rm, rs, rv)| {
+    let runner_up = ranked.get(1).map(|&(rm, rs, rv, _)| {
         let other = &groups[&(rm, rs)];
         let diffs: Vec<f64> = winner
             .iter()
@@ -426,8 +439,8 @@ fn tuned_condition(
         .collect();
     let how = match (role_of(protocol, dataset), protocol.tuned.is_empty()) {
         (_, true) => untuned,
-        (Role::Tuning, false) => "tuning data: in-sample",
-        (Role::Evaluation, false) => "evaluation: settings tuned on the tuning data",
+        (Role::Tuning, false) => IN_SAMPLE,
+        (Role::Evaluation, false) => OUT_OF_SAMPLE,
         (Role::Own, false) => "own data: settings tuned on the tuning data",
     };
     if oracle.is_empty() || protocol.tuned.is_empty() {
@@ -780,6 +793,40 @@ fn cost_text(metric: &str, x: f64) -> String {
         "peak memory (MiB)" => format!("{} MiB", num(x, 0)),
         _ => num(x, 3),
     }
+}
+
+/// How a condition on a tuning dataset says that its settings were tuned on it.
+const IN_SAMPLE: &str = "tuning data: in-sample";
+
+/// How a condition on evaluation data (one dataset or pooled) says where its settings come from.
+const OUT_OF_SAMPLE: &str = "evaluation: settings tuned on the tuning data";
+
+/// The README's findings table: [`markdown`] of `findings` without an experiment's in-sample
+/// rows (a tuning dataset at the settings tuned on it) when that experiment has rows measured
+/// out of sample, so that the verdict fits one screen and leads with what no setting was
+/// chosen on; a line names the experiment's own findings page, which keeps every row (as does
+/// `findings.csv`).
+pub fn readme_markdown(findings: &[Finding], quick: bool) -> String {
+    let in_sample = |f: &Finding| f.condition.contains(IN_SAMPLE);
+    let tuned_out: BTreeSet<&str> = findings
+        .iter()
+        .filter(|f| f.condition.contains(OUT_OF_SAMPLE))
+        .map(|f| f.experiment.as_str())
+        .collect();
+    let (left, shown): (Vec<&Finding>, Vec<&Finding>) = findings
+        .iter()
+        .partition(|f| in_sample(f) && tuned_out.contains(f.experiment.as_str()));
+    let shown: Vec<Finding> = shown.into_iter().cloned().collect();
+    let mut md = markdown(&shown, quick);
+    let moved: BTreeSet<&str> = left.iter().map(|f| f.experiment.as_str()).collect();
+    for e in moved {
+        let n = left.iter().filter(|f| f.experiment == e).count();
+        md.push_str(&format!(
+            "The {n} in-sample rows of {e} (each tuning dataset at the settings tuned on it) \
+             are in [{e}/findings.md]({e}/findings.md).\n\n"
+        ));
+    }
+    md
 }
 
 /// The findings table (markdown), for the top of the README: a section `## Findings` with a

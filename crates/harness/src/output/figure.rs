@@ -459,14 +459,17 @@ impl Figure {
     fn size(&self) -> (u32, u32) {
         let (cols, rows) = self.grid();
         if self.panels.len() <= 1 {
-            (1000 + LEGEND_W, 560)
+            (1000 + self.legend_width(), 560)
         } else {
             let entries = self.legend_lines().len() as u32;
             let (pw, ph) = self.panel_size();
             let h = (TITLE_H + rows as u32 * ph + 40).max(TITLE_H + entries * 18 + 40);
-            (cols as u32 * pw + 40 + LEGEND_W, h)
+            (cols as u32 * pw + 40 + self.legend_width(), h)
         }
     }
 }
 
+/// The legend column's narrowest and widest: between them it is as wide as its longest entry,
+/// so that no series' label is cut ("copc_converter-build-ooc (slope 0.94, 2 sizes)" was).
 const LEGEND_W: u32 = 300;
+const LEGEND_MAX_W: u32 = 560;

@@ -51,16 +51,27 @@ fn the_winner_is_the_best_method_at_its_best_setting() {
 }
 
 #[test]
-fn equal_means_are_a_tie_broken_by_name_and_a_noisy_difference_no_winner() {
+fn equal_means_are_a_tie_broken_by_cost_then_name_and_a_noisy_difference_no_winner() {
     let mut cells = Vec::new();
     for v in 0..6 {
         cells.push(cell("zeta", "", v, 0.9, 1.0));
         cells.push(cell("alpha", "", v, 0.9, 2.0));
     }
+    // The same points at half the cost: the cheaper is named.
     let v = verdict(&cells, 0.01).unwrap();
-    assert_eq!(v.method, "alpha");
+    assert_eq!(v.method, "zeta");
+    assert_eq!(v.runner_up.as_ref().unwrap().0, "alpha");
     assert_eq!(v.word(), "tie");
     assert_eq!(v.cheapest.unwrap().0, "zeta");
+    // At the same cost, by name; within a method, the cheaper of two equal settings.
+    let mut cells = Vec::new();
+    for v in 0..6 {
+        cells.push(cell("zeta", "", v, 0.9, 1.0));
+        cells.push(cell("alpha", "slow", v, 0.9, 3.0));
+        cells.push(cell("alpha", "fast", v, 0.9, 1.0));
+    }
+    let v = verdict(&cells, 0.01).unwrap();
+    assert_eq!((v.method.as_str(), v.setting.as_str()), ("alpha", "fast"));
 
     let mut cells = Vec::new();
     for v in 0..8 {
@@ -496,4 +507,41 @@ fn the_evaluation_datasets_pooled_come_first_over_every_dataset_and_view() {
     .unwrap();
     let one = findings(dir.path(), &["visibility"]).unwrap();
     assert!(one.iter().all(|f| !f.condition.starts_with(POOLED)));
+}
+
+#[test]
+fn the_readme_leaves_in_sample_rows_to_the_experiments_page_only_beside_out_of_sample_ones() {
+    let row = |experiment: &str, condition: String| {
+        finding(
+            Ask {
+                experiment,
+                condition,
+                question: "q",
+                metric: "F1",
+                cost_metric: "seconds per view",
+                tolerance: 0.01,
+                quick: false,
+            },
+            verdict(&three_methods(8), 0.01).unwrap(),
+        )
+    };
+    let tuning = row("visibility", format!("bunny ({IN_SAMPLE})"));
+    let evaluation = row("visibility", format!("camel ({OUT_OF_SAMPLE})"));
+    let other = row("robustness", "noise".into());
+    let all = [tuning.clone(), evaluation.clone(), other.clone()];
+    let md = readme_markdown(&all, false);
+    assert!(!md.contains("| bunny ("), "{md}");
+    assert!(md.contains("| camel (") && md.contains("| noise |"), "{md}");
+    assert!(
+        md.contains("The 1 in-sample rows of visibility (each tuning dataset at the settings tuned on it) are in [visibility/findings.md](visibility/findings.md)."),
+        "{md}"
+    );
+    // The experiment's own page keeps every row.
+    assert!(markdown(&all, false).contains("| bunny ("));
+    // A run with tuning data only (a quick one) keeps its in-sample rows: they are all it has.
+    let md = readme_markdown(&[tuning, other], false);
+    assert!(
+        md.contains("| bunny (") && !md.contains("in-sample rows of"),
+        "{md}"
+    );
 }

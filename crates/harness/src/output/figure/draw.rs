@@ -309,7 +309,8 @@ impl Figure {
             let title = fit_text(&root, &self.title, &title_font, w - 20);
             root.draw_text(&title, &title_font, (12, 10))
                 .map_err(|x| e(&x))?;
-            let plot_w = w - LEGEND_W;
+            let legend_w = self.legend_width();
+            let plot_w = w - legend_w;
             let (cols, rows) = self.grid();
             let single = self.panels.len() <= 1;
             let (pw, ph) = if single {
@@ -431,7 +432,7 @@ impl Figure {
             // The legend column.
             let legend = root
                 .clone()
-                .shrink((plot_w, TITLE_H), (LEGEND_W, h - TITLE_H));
+                .shrink((plot_w, TITLE_H), (legend_w, h - TITLE_H));
             draw_legend(&legend, &self.legend_lines()).map_err(|x| e(&x))?;
             root.present().map_err(|x| e(&x))?;
         }
@@ -594,9 +595,37 @@ pub(super) fn draw_series(
     Ok(())
 }
 
+/// Left of a series' label in the legend: its swatch.
+pub(super) const LEGEND_TEXT_X: u32 = 48;
+
+impl Figure {
+    /// The legend column's width: its longest series label in the legend font, with the
+    /// swatch and a margin, within [`LEGEND_W`, `LEGEND_MAX_W`] (a longer label is cut with an
+    /// ellipsis).
+    pub(super) fn legend_width(&self) -> u32 {
+        let mut buf = vec![255u8; 3];
+        let area = BitMapBackend::with_buffer(&mut buf, (1, 1)).into_drawing_area();
+        let font: TextStyle = (FONT, LEGEND_FONT).into_font().into();
+        let widest = self
+            .legend_lines()
+            .iter()
+            .filter_map(|l| match l {
+                LegendLine::Series(s) => area.estimate_text_size(&s.label, &font).ok(),
+                _ => None,
+            })
+            .map(|(w, _)| w)
+            .max()
+            .unwrap_or(0);
+        (widest + LEGEND_TEXT_X + 12).clamp(LEGEND_W, LEGEND_MAX_W)
+    }
+}
+
+/// The legend's font size for series labels.
+pub(super) const LEGEND_FONT: u32 = 13;
+
 pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResult {
     let centred = Pos::new(HPos::Left, VPos::Center);
-    let font: TextStyle = (FONT, 13).into_font().color(&BLACK).pos(centred);
+    let font: TextStyle = (FONT, LEGEND_FONT).into_font().color(&BLACK).pos(centred);
     let small: TextStyle = (FONT, 11)
         .into_font()
         .color(&RGBColor(60, 60, 60))
@@ -615,8 +644,8 @@ pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResu
                     s.style.dash.pattern(),
                 )?;
                 draw_marker(area, &s.style, (24.0, y), 4.5)?;
-                let text = fit_text(area, &s.label, &font, w - 56);
-                area.draw_text(&text, &font, (48, y as i32))?;
+                let text = fit_text(area, &s.label, &font, w - LEGEND_TEXT_X - 8);
+                area.draw_text(&text, &font, (LEGEND_TEXT_X as i32, y as i32))?;
                 y += 18.0;
             }
             LegendLine::Context => {

@@ -156,3 +156,24 @@ fn long_text_is_wrapped_within_the_width() {
     }
     assert_eq!(lines.join(" "), text);
 }
+
+#[test]
+fn the_legend_widens_so_that_no_series_label_is_cut() {
+    ensure_font().unwrap();
+    let long = "copc_converter-build-ooc (slope 0.94, 2 sizes)";
+    let mut s = series("copc_converter", "copc_converter", "", Draw::Line);
+    s.label = long.to_owned();
+    let short = Figure::new("f", "t", Axis::log("points"), Axis::log("s"))
+        .series(vec![series("hpr", "hpr-linear", "", Draw::Line)], vec![]);
+    let fig = Figure::new("f", "t", Axis::log("points"), Axis::log("s"))
+        .series(vec![series("hpr", "hpr-linear", "", Draw::Line), s], vec![]);
+    assert_eq!(short.legend_width(), LEGEND_W);
+    let w = fig.legend_width();
+    assert!(w > LEGEND_W, "{w}");
+    assert_eq!(fig.size().0, short.size().0 + w - LEGEND_W);
+    // The label at the legend's text width is not cut.
+    let mut buf = vec![255u8; 3];
+    let area = BitMapBackend::with_buffer(&mut buf, (1, 1)).into_drawing_area();
+    let font: TextStyle = (FONT, LEGEND_FONT).into_font().into();
+    assert_eq!(fit_text(&area, long, &font, w - LEGEND_TEXT_X - 8), long);
+}
