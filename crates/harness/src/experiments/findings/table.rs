@@ -93,7 +93,8 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
          with a 95 % bootstrap interval over the views (none from fewer than 5 views: \
          indicative), the runner-up and the \
          paired difference (no clear winner when its interval holds 0), its cost, and the \
-         cheapest choice within 0.01 F1 / 1 dB of the best. Machine-readable: \
+         cheapest choice within 0.01 F1 / 1 dB of the best (scale: the lightest in peak memory). \
+         Machine-readable: \
          [findings.csv](findings.csv).\n\n\
          | experiment | condition | best | value | runner-up: difference | cost | cheapest near the best |\n\
          |---|---|---|---|---|---|---|\n",
