@@ -5,7 +5,8 @@
 //! the midpoint of its bounding box's longest axis, and each half with more than one point is
 //! split again the same way, giving two to four children (the original's "up to 4 children").
 //! If every point of a set lies on one side of the midpoint (coincident points), the set is
-//! split in halves by position in the list. A parent's sphere encloses its children's spheres
+//! split in halves by position in the list; the split is a stable partition, so every set lists
+//! its points in input order (which the out-of-core build relies on). A parent's sphere encloses its children's spheres
 //! (centre: the middle of their bounding box; radius: the largest distance to a child's far
 //! side); its normal is the normalised sum of its children's normals weighted by their leaf
 //! counts; its normal-cone half-angle the largest, over children, of the angle between the
@@ -189,6 +190,14 @@ struct Item {
     i: u32,
 }
 
+thread_local! {
+    /// The right-hand points of a split, while the left ones move down.
+    static RIGHT: std::cell::RefCell<Vec<Item>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// Items a thread's [`RIGHT`] buffer keeps between splits (a larger one is freed).
+const KEEP: usize = 4 * PARALLEL;
+
 /// Splits `items` at the midpoint of their bounding box's longest axis (in place); returns the
 /// size of the first part (never 0 nor the whole, for two or more items).
 fn split(items: &mut [Item]) -> usize {
@@ -212,19 +221,30 @@ fn split(items: &mut [Item]) -> usize {
         2
     };
     let mid = 0.5 * (lo[axis] + hi[axis]);
-    // Lomuto's partition, branch-free with the very permutation of the branching one (a
-    // swap of j and k when the point goes left, nothing otherwise): the sources are chosen
-    // by index, the loads and stores always happen. (The order decides coincident points'
-    // halving, so it must not change.)
-    let mut k = 0;
-    for j in 0..items.len() {
-        let left = items[j].p[axis] < mid;
-        let (to_k, to_j) = if left { (j, k) } else { (k, j) };
-        let (a, b) = (items[to_k], items[to_j]);
-        items[k] = a;
-        items[j] = b;
-        k += usize::from(left);
-    }
+    // A stable partition (the points below the midpoint first, each side in the order it
+    // had), so that every set stays in input order: the out-of-core build, which streams the
+    // points to their chunks in input order, then has each chunk in the order this build
+    // gives it, whatever way the points reached the chunk. (The order decides how coincident
+    // points are halved.) The right points wait in a buffer of the thread's while the left
+    // ones move down.
+    let k = RIGHT.with_borrow_mut(|right| {
+        right.clear();
+        let mut k = 0;
+        for j in 0..items.len() {
+            let it = items[j];
+            if it.p[axis] < mid {
+                items[k] = it;
+                k += 1;
+            } else {
+                right.push(it);
+            }
+        }
+        items[k..].copy_from_slice(right);
+        if right.capacity() > KEEP {
+            *right = Vec::new();
+        }
+        k
+    });
     if k == 0 || k == items.len() {
         items.len() / 2
     } else {
@@ -501,6 +521,73 @@ mod tests {
                 let h = build(&input);
                 assert_eq!(build_root(&input), h.nodes[h.root()], "{n} points");
             }
+        }
+    }
+
+    /// The leaves in arena order, by a plain recursion over index lists (a stable partition by
+    /// filtering; halves by position when every point is on one side).
+    fn reference_leaves(pts: &[DVec3], set: Vec<u32>, out: &mut Vec<u32>) {
+        if set.len() == 1 {
+            out.push(set[0]);
+            return;
+        }
+        let halves = |set: Vec<u32>| -> (Vec<u32>, Vec<u32>) {
+            let (lo, hi) = set
+                .iter()
+                .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), &i| {
+                    (lo.min(pts[i as usize]), hi.max(pts[i as usize]))
+                });
+            let ext = hi - lo;
+            let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                0
+            } else if ext.y >= ext.z {
+                1
+            } else {
+                2
+            };
+            let mid = 0.5 * (lo[axis] + hi[axis]);
+            let (a, b): (Vec<u32>, Vec<u32>) =
+                set.iter().partition(|&&i| pts[i as usize][axis] < mid);
+            if a.is_empty() || b.is_empty() {
+                let h = set.len() / 2;
+                (set[..h].to_vec(), set[h..].to_vec())
+            } else {
+                (a, b)
+            }
+        };
+        let (a, b) = halves(set);
+        for half in [a, b] {
+            if half.len() >= 2 {
+                let (c, d) = halves(half);
+                reference_leaves(pts, c, out);
+                reference_leaves(pts, d, out);
+            } else {
+                reference_leaves(pts, half, out);
+            }
+        }
+    }
+
+    #[test]
+    fn the_split_is_a_stable_partition() {
+        // Clumps of copies (halved by position) among scattered points, small and parallel.
+        let mut pts = cloud::synth::fibonacci_sphere(70_000);
+        for i in (0..70_000).step_by(97) {
+            let p = pts[i];
+            pts.extend(std::iter::repeat_n(p, 1 + i % 7));
+        }
+        pts.extend(std::iter::repeat_n(pts[3], 500));
+        let normals: Vec<Vec3> = pts.iter().map(|p| p.as_vec3()).collect();
+        for n in [2, 9, 1_000, pts.len()] {
+            let h = build(&Input {
+                positions: &pts[..n],
+                normals: &normals[..n],
+                colors: None,
+                leaf_radius: 0.01,
+            });
+            let got: Vec<u32> = h.nodes.iter().filter_map(|n| n.point).collect();
+            let mut want = Vec::new();
+            reference_leaves(&pts[..n], (0..n as u32).collect(), &mut want);
+            assert_eq!(got, want, "{n} points");
         }
     }
 

@@ -1,6 +1,7 @@
 //! What the preparation hands on when the cloud did not fit: its chunks on disk (each point
-//! with its normal and input index, in the order the split left it) and the tree of splits
-//! above them ([`Part`]), with the scratch folder the method's own build goes on writing in.
+//! with its normal and input index, in input order; estimated normals in files of their own)
+//! and the tree of splits above them ([`Part`]), with the scratch folder the method's own build
+//! goes on writing in.
 
 use std::io;
 use std::path::{Path, PathBuf};
@@ -8,10 +9,10 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, Vec3};
 
 use super::error::{Error, Result};
-use super::record::{REC, SHORT, position_of, unpack};
+use super::record::{REC, SHORT, unpack};
 use crate::spill::{Scratch, SpillFile, SpillWriter};
 
-/// A range of a scratch file: a set of points in the order the split gives them.
+/// A range of a scratch file: a set of points in input order (with its normals' files).
 #[derive(Debug, Clone)]
 pub(super) struct Set {
     pub(super) file: SpillFile,
@@ -21,6 +22,47 @@ pub(super) struct Set {
     /// Made by halving by position (coincident points): its region is not separated from
     /// its sibling's by a plane.
     pub(super) overlap: bool,
+    /// Where the normals are estimated: the normals, one a point in the set's order
+    /// ([`NORMAL`] bytes each; NaN where [`Set::patch`] has it).
+    pub(super) normals: Option<SpillFile>,
+    /// The normals [`Set::normals`] lacks: the point's place in the set (32 bits) and its
+    /// normal ([`PATCH`] bytes each), in that order.
+    pub(super) patch: Option<SpillFile>,
+}
+
+/// Bytes of a normal on disk.
+pub(super) const NORMAL: usize = 12;
+/// Bytes of a patched normal on disk: place, normal.
+pub(super) const PATCH: usize = 4 + NORMAL;
+
+/// A normal's bytes.
+pub(super) fn normal_bytes(n: Vec3) -> [u8; NORMAL] {
+    let mut b = [0u8; NORMAL];
+    for (a, v) in n.to_array().iter().enumerate() {
+        b[4 * a..4 * a + 4].copy_from_slice(&v.to_le_bytes());
+    }
+    b
+}
+
+/// The normal of [`normal_bytes`].
+pub(super) fn normal_of(b: &[u8]) -> Vec3 {
+    let v = |a: usize| f32::from_le_bytes([b[4 * a], b[4 * a + 1], b[4 * a + 2], b[4 * a + 3]]);
+    Vec3::new(v(0), v(1), v(2))
+}
+
+impl Set {
+    /// All of `file`, without a known box.
+    pub(super) fn whole(file: SpillFile) -> Self {
+        Set {
+            start: 0,
+            count: file.len(),
+            file,
+            bbox: None,
+            overlap: false,
+            normals: None,
+            patch: None,
+        }
+    }
 }
 
 /// Points in memory: a chunk, or the whole cloud when it fit.
@@ -120,8 +162,8 @@ impl Chunks {
         &self.out
     }
 
-    /// Chunk `c`'s points in memory, in the order of the split (the order the in-memory build
-    /// of the same points gives them).
+    /// Chunk `c`'s points in memory, in input order (the order QSplat's in-memory build gives
+    /// the same points, its split being a stable partition).
     pub fn load(&self, c: usize) -> Result<Points> {
         self.load_set(&self.chunks[c])
     }
@@ -133,6 +175,8 @@ impl Chunks {
         let set = &mut self.chunks[c];
         set.file = empty;
         set.start = 0;
+        set.normals = None;
+        set.patch = None;
         Ok(())
     }
 
@@ -166,19 +210,6 @@ impl Chunks {
         Ok(())
     }
 
-    pub(super) fn bbox(&self, set: &Set) -> Result<(DVec3, DVec3)> {
-        if let Some(b) = set.bbox {
-            return Ok(b);
-        }
-        let mut bb = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        self.for_each(set, |r| {
-            let p = position_of(r);
-            bb = (bb.0.min(p), bb.1.max(p));
-            Ok(())
-        })?;
-        Ok(bb)
-    }
-
     pub(super) fn load_set(&self, set: &Set) -> Result<Points> {
         let m = set.count as usize;
         let mut l = Points {
@@ -195,6 +226,27 @@ impl Chunks {
             l.index.push(i);
             Ok(())
         })?;
+        if let Some(f) = &set.normals {
+            let mut r = f.reader(0, f.len()).map_err(|e| self.io(e))?;
+            let mut b = [0u8; NORMAL];
+            for n in &mut l.normals {
+                if !r.next_into(&mut b).map_err(|e| self.io(e))? {
+                    return Err(self.io(io::Error::other("scratch normals shorter than the set")));
+                }
+                *n = normal_of(&b);
+            }
+        }
+        if let Some(f) = &set.patch {
+            let mut r = f.reader(0, f.len()).map_err(|e| self.io(e))?;
+            let mut b = [0u8; PATCH];
+            while r.next_into(&mut b).map_err(|e| self.io(e))? {
+                let at = u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize;
+                let n = l.normals.get_mut(at).ok_or_else(|| {
+                    self.io(io::Error::other("scratch normal patch past the set's end"))
+                })?;
+                *n = normal_of(&b[4..]);
+            }
+        }
         Ok(l)
     }
 }

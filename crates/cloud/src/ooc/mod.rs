@@ -13,10 +13,11 @@
 //!    bounding box, the centroid (summed in input order, as [`crate::normals`] sums it) and a
 //!    strided sample;
 //! 2. a set of more points than a chunk holds is split ([`partition`]): the midpoint of its
-//!    box's longest axis, Lomuto's partition streamed, two levels of splits a group of two to
-//!    four sets; a set that fits a chunk is a chunk, a larger one is split again (QSplat's
-//!    split, §3.1 of Rusinkiewicz & Levoy 2000, so QSplat's chunks are subtrees of its
-//!    in-memory tree);
+//!    box's longest axis, a stable partition, two levels of splits a group of two to four
+//!    sets; a set that fits a chunk is a chunk, a larger one is split again (QSplat's split,
+//!    §3.1 of Rusinkiewicz & Levoy 2000, so QSplat's chunks are subtrees of its in-memory
+//!    tree, each in input order); passes over the input find the splits level by level, and
+//!    each point is written once, to its chunk;
 //! 3. where the normals are estimated, or the leaf radius is the density spacing, each chunk's
 //!    neighbourhoods are completed by a halo ([`neighbours`]) and its normals and the spacing
 //!    sample's distances computed.
@@ -283,7 +284,8 @@ pub fn prepare<E: From<Error>>(
         done: 0,
         progress,
     };
-    // 1. The input, in order, to the first scratch file.
+    // 1. The input, in order, to scratch files of `partition::SEGMENT` records each.
+    let mut segments = Vec::new();
     let mut w = b.store.create()?;
     let mut batch = Vec::new();
     let mut bbox = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -320,6 +322,10 @@ pub fn prepare<E: From<Error>>(
                 return Err(too_many(n + 1).into());
             };
             pack(p, index, &mut rec);
+            if w.len() == partition::SEGMENT {
+                let full = std::mem::replace(&mut w, b.store.create()?);
+                segments.push(full.finish().map_err(|e| b.store.io(e))?);
+            }
             b.store.push(&mut w, &rec)?;
             n += 1;
         }
@@ -338,13 +344,7 @@ pub fn prepare<E: From<Error>>(
     {
         return Err(Error::Cloud(crate::normals::no_surface(n, bbox.0)).into());
     }
-    let all = Set {
-        file: w.finish().map_err(|e| b.store.io(e))?,
-        start: 0,
-        count: n,
-        bbox: Some(bbox),
-        overlap: false,
-    };
+    segments.push(w.finish().map_err(|e| b.store.io(e))?);
     let mut summary = Summary {
         points: n,
         chunk_capacity: cap,
@@ -352,8 +352,14 @@ pub fn prepare<E: From<Error>>(
     };
     if n <= cap {
         // It fits: the in-memory preparation.
-        let mut whole = b.store.load_set(&all)?;
-        drop(all);
+        let mut whole = Points::default();
+        for seg in segments {
+            let part = b.store.load_set(&Set::whole(seg))?;
+            whole.positions.extend(part.positions);
+            whole.normals.extend(part.normals);
+            whole.colors.extend(part.colors);
+            whole.index.extend(part.index);
+        }
         let (normals, radius) = prepare_in_memory(
             &whole.positions,
             Some(std::mem::take(&mut whole.normals)),
@@ -368,7 +374,7 @@ pub fn prepare<E: From<Error>>(
         return Ok((Prepared::Whole(whole), summary));
     }
     // 2. Split down to chunks.
-    let (root, levels) = b.partition(all)?;
+    let (root, levels) = b.partition(segments, n, bbox)?;
     b.store.root = root;
     summary.top_levels = levels;
     // 3. Neighbourhoods.

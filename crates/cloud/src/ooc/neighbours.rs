@@ -21,10 +21,10 @@ use std::num::NonZero;
 use glam::{DVec3, Vec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
-use super::chunks::{PartKind, Set};
+use super::chunks::{NORMAL, PATCH, PartKind, Set, normal_bytes, normal_of};
 use super::error::{Error, Result};
-use super::record::{REC, pack, position_of, unpack};
-use super::{HALO_BUFFER, NEIGHBOUR_BYTES_PER_POINT, Point, Preparer, Stage};
+use super::record::{REC, position_of, unpack};
+use super::{HALO_BUFFER, NEIGHBOUR_BYTES_PER_POINT, Preparer, Stage};
 use crate::spill::{SpillFile, SpillWriter};
 
 impl Preparer<'_> {
@@ -111,15 +111,11 @@ impl Preparer<'_> {
                 let mut w = self
                     .store
                     .scratch
-                    .create(12)
+                    .create(NORMAL)
                     .map_err(|e| self.store.io(e))?;
                 for (_, n) in &per_point {
-                    let n = n.unwrap_or(Vec3::NAN);
-                    let mut rec = [0u8; 12];
-                    for (a, v) in n.to_array().iter().enumerate() {
-                        rec[4 * a..4 * a + 4].copy_from_slice(&v.to_le_bytes());
-                    }
-                    w.push(&rec).map_err(|e| self.store.io(e))?;
+                    w.push(&normal_bytes(n.unwrap_or(Vec3::NAN)))
+                        .map_err(|e| self.store.io(e))?;
                 }
                 early[c] = Some(w.finish().map_err(|e| self.store.io(e))?);
             }
@@ -175,7 +171,7 @@ impl Preparer<'_> {
         self.done = 0;
         for (c, halo) in halos.into_iter().enumerate() {
             let set = self.store.chunks[c].clone();
-            let mut l = self.store.load_set(&set)?;
+            let l = self.store.load_set(&set)?;
             let m = l.positions.len();
             let halo = match halo {
                 Some(w) => Some(w.finish().map_err(|e| self.store.io(e))?),
@@ -197,13 +193,7 @@ impl Preparer<'_> {
             let mut positions = l.positions.clone();
             let mut index = l.index.clone();
             if let Some(hf) = &halo {
-                let hs = Set {
-                    file: hf.clone(),
-                    start: 0,
-                    count: h,
-                    bbox: None,
-                    overlap: false,
-                };
+                let hs = Set::whole(hf.clone());
                 self.store.for_each(&hs, |r| {
                     let (p, i) = unpack(r);
                     positions.push(p.position);
@@ -217,36 +207,59 @@ impl Preparer<'_> {
             if let Some(k) = estimate {
                 let k = NonZero::new(k).unwrap_or(kk);
                 // The normals (a) found (NaN where it left them to this pass).
-                let known: Vec<Vec3> = match early[c].take() {
+                let early = early[c].take();
+                let known: Vec<bool> = match &early {
                     Some(f) => {
                         let mut r = f.reader(0, m as u64).map_err(|e| self.store.io(e))?;
-                        let mut rec = [0u8; 12];
+                        let mut rec = [0u8; NORMAL];
                         let mut out = Vec::with_capacity(m);
                         while r.next_into(&mut rec).map_err(|e| self.store.io(e))? {
-                            let v = |a: usize| {
-                                f32::from_le_bytes([
-                                    rec[4 * a],
-                                    rec[4 * a + 1],
-                                    rec[4 * a + 2],
-                                    rec[4 * a + 3],
-                                ])
-                            };
-                            out.push(Vec3::new(v(0), v(1), v(2)));
+                            out.push(!normal_of(&rec).x.is_nan());
                         }
                         out
                     }
-                    None => vec![Vec3::NAN; m],
+                    None => vec![false; m],
                 };
-                let missing = |i: usize| i < m && known.get(i).is_none_or(|n| n.x.is_nan());
+                let missing = |i: usize| i < m && !known.get(i).copied().unwrap_or(false);
                 let found = grid.for_each_point(k, missing, |i, nb| {
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
                     );
                     crate::normals::orient(n, positions[i] - centroid)
                 })?;
-                l.normals = (0..m)
-                    .map(|i| if missing(i) { found[i] } else { known[i] })
-                    .collect();
+                // The chunk's normals: (a)'s file with the ones found here as a patch, or all
+                // found here.
+                let (normals, patch) = match early {
+                    Some(f) => {
+                        let mut w = self
+                            .store
+                            .scratch
+                            .create(PATCH)
+                            .map_err(|e| self.store.io(e))?;
+                        let mut rec = [0u8; PATCH];
+                        for (i, n) in found.iter().enumerate().take(m) {
+                            if missing(i) {
+                                rec[..4].copy_from_slice(&(i as u32).to_le_bytes());
+                                rec[4..].copy_from_slice(&normal_bytes(*n));
+                                w.push(&rec).map_err(|e| self.store.io(e))?;
+                            }
+                        }
+                        (f, Some(w.finish().map_err(|e| self.store.io(e))?))
+                    }
+                    None => {
+                        let mut w = self
+                            .store
+                            .scratch
+                            .create(NORMAL)
+                            .map_err(|e| self.store.io(e))?;
+                        for n in found.iter().take(m) {
+                            w.push(&normal_bytes(*n)).map_err(|e| self.store.io(e))?;
+                        }
+                        (w.finish().map_err(|e| self.store.io(e))?, None)
+                    }
+                };
+                self.store.chunks[c].normals = Some(normals);
+                self.store.chunks[c].patch = patch;
             }
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
@@ -274,33 +287,6 @@ impl Preparer<'_> {
             }
             drop(grid);
             drop((positions, index));
-            if estimate.is_some() {
-                // The chunk again, with its normals (full records).
-                let mut w = self
-                    .store
-                    .scratch
-                    .create(REC)
-                    .map_err(|e| self.store.io(e))?;
-                let mut rec = [0u8; REC];
-                for i in 0..m {
-                    let p = Point {
-                        position: l.positions[i],
-                        normal: l.normals[i],
-                        color: l.colors[i],
-                    };
-                    // (Indices below 2^32: the first pass wrote them in 32 bits.)
-                    pack(&p, l.index[i] as u32, &mut rec);
-                    w.push(&rec).map_err(|e| self.store.io(e))?;
-                }
-                let file = w.finish().map_err(|e| self.store.io(e))?;
-                self.store.chunks[c] = Set {
-                    file,
-                    start: 0,
-                    count: m as u64,
-                    bbox: set.bbox,
-                    overlap: set.overlap,
-                };
-            }
             self.done += m as u64;
             (self.progress)(Stage::Neighbours, self.done);
         }

@@ -1,10 +1,22 @@
-//! Step 2 of the preparation: a set of more points than a chunk holds split as a binary space
-//! partition splits it, streamed: the midpoint of its box's longest axis, Lomuto's partition
-//! replayed on a first-in-first-out file ([`Fifo`]), so that every set keeps the order the
-//! in-memory partition gives it (which decides how coincident points are halved); two levels
-//! of splits make a group of two to four sets, and a set that fits a chunk is a chunk.
-
-use std::io;
+//! Step 2 of the preparation: the input split into chunks as a binary space partition splits
+//! it (the midpoint of a set's box's longest axis, points below it to the left; two levels of
+//! splits make a group of two to four sets; a set that fits a chunk is a chunk), each point
+//! written to scratch once, into its chunk's file.
+//!
+//! The split of a set needs its box, and a set's box is known only once its parent's split is:
+//! so the tree of splits is found level by level, each level by a pass over the input (in
+//! input order, read, not written) that sends every point down the splits known so far and
+//! gathers the count and box of the sets it reaches. A set once known to be a chunk takes its
+//! points, in input order, in the next pass (in the same pass when its parent, a first split of
+//! a group, had no more points than a chunk: then both its halves are chunks). A set whose
+//! points all lie on one side of its midpoint (coincident points) is halved by position: its
+//! first half in input order to the left, counted in the pass. The input is kept in segments,
+//! and the last pass removes each once read, so the input and the chunks are not on the disk
+//! at once.
+//!
+//! This is the partition of the in-memory build's (QSplat's `build`, whose split is a stable
+//! partition): the same sets, each in input order. As in PotreeConverter 2 (Schütz et al.
+//! 2020, count, then distribute), the passes before the last only count.
 
 use glam::DVec3;
 
@@ -12,200 +24,279 @@ use super::chunks::{Part, PartKind, Set};
 use super::error::Result;
 use super::record::{REC, position_of};
 use super::{Preparer, Stage};
-use crate::spill::{SpillFile, SpillReader, SpillWriter};
+use crate::spill::{SpillFile, SpillWriter};
 
-/// The right-hand side of a streamed Lomuto partition: a first-in-first-out file. Lomuto's
-/// loop keeps the right points in `items[k..j]`; a left point at `j` swaps with `items[k]`,
-/// which moves the first right point to the back. Replaying that on a FIFO (push every right
-/// point; on a left point, pop the front and push it again) leaves the right half, in order,
-/// as the records from the pop position to the end.
-struct Fifo {
-    writer: SpillWriter,
-    /// Bytes of a record in the file (the first of each array).
-    rec: usize,
-    /// Records pushed but not yet written to the file, from index `flushed`.
-    tail: Vec<[u8; REC]>,
-    flushed: u64,
-    pushed: u64,
-    popped: u64,
-    reader: Option<SpillReader>,
+/// Records of an input segment.
+pub(super) const SEGMENT: u64 = 1 << 20;
+/// Write-buffer bytes shared by the chunks one pass writes.
+const WRITE_BUFFERS: usize = 32 << 20;
+
+/// What is known of a set of the tree of splits.
+#[derive(Debug)]
+enum State {
+    /// Its count and box are gathered by this pass.
+    Pending,
+    /// Split at `mid` on `axis` (points below it to `kids[0]`).
+    Split {
+        axis: usize,
+        mid: f64,
+        kids: [usize; 2],
+    },
+    /// Halved by position: its first `h` points (in input order) to `kids[0]`.
+    Halve { h: u64, kids: [usize; 2] },
+    /// A chunk: its writer during the pass that writes it, then its file.
+    Chunk {
+        writer: Option<SpillWriter>,
+        file: Option<SpillFile>,
+    },
 }
 
-const TAIL: usize = 1 << 14;
+/// A set of the tree of splits.
+#[derive(Debug)]
+struct Node {
+    /// Splits above it (even: a set [`Preparer::partition`]'s recursion sees; odd: a first
+    /// split's half, split again when it has two points or more).
+    depth: u32,
+    count: u64,
+    bbox: (DVec3, DVec3),
+    overlap: bool,
+    /// Points seen so far this pass (a halved set's rank).
+    seen: u64,
+    state: State,
+}
 
-impl Fifo {
-    fn push(&mut self, rec: [u8; REC]) -> io::Result<()> {
-        self.tail.push(rec);
-        self.pushed += 1;
-        if self.tail.len() >= TAIL {
-            for r in &self.tail {
-                self.writer.push(&r[..self.rec])?;
-            }
-            self.writer.flush()?;
-            self.flushed += self.tail.len() as u64;
-            self.tail.clear();
+const EMPTY: (DVec3, DVec3) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+
+impl Node {
+    fn new(depth: u32, overlap: bool, state: State) -> Self {
+        Node {
+            depth,
+            count: 0,
+            bbox: EMPTY,
+            overlap,
+            seen: 0,
+            state,
         }
-        Ok(())
     }
 
-    fn pop(&mut self) -> io::Result<[u8; REC]> {
-        let i = self.popped;
-        self.popped += 1;
-        if i >= self.flushed {
-            return Ok(self.tail[(i - self.flushed) as usize]);
-        }
-        let reader = match &mut self.reader {
-            Some(r) => r,
-            None => self.reader.insert(self.writer.reader_from(i)?),
-        };
-        reader.seek_to(i)?;
-        let mut b = [0u8; REC];
-        if !reader.next_into(&mut b[..self.rec])? {
-            return Err(io::Error::new(
-                io::ErrorKind::UnexpectedEof,
-                "scratch queue read past its end",
-            ));
-        }
-        Ok(b)
+    /// Whether this pass gathers its count and box.
+    fn gathers(&self) -> bool {
+        matches!(self.state, State::Pending | State::Chunk { file: None, .. })
     }
+}
 
-    fn finish(mut self) -> io::Result<(SpillFile, u64, u64)> {
-        for r in &self.tail {
-            self.writer.push(&r[..self.rec])?;
-        }
-        let file = self.writer.finish()?;
-        Ok((file, self.popped, self.pushed - self.popped))
-    }
+/// The axis and midpoint QSplat's split takes for a box.
+fn split_plane((lo, hi): (DVec3, DVec3)) -> (usize, f64) {
+    let ext = hi - lo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    (axis, 0.5 * (lo[axis] + hi[axis]))
 }
 
 impl Preparer<'_> {
-    /// One split of `set`, streamed: the midpoint of its box's longest axis (points below it
-    /// to the left), Lomuto's partition replayed on a FIFO, so the two halves come in the
-    /// order an in-memory Lomuto partition leaves them; every point on one side: halves by
-    /// position.
-    pub(super) fn split(&self, set: Set) -> Result<(Set, Set)> {
-        let (lo, hi) = self.store.bbox(&set)?;
-        let ext = hi - lo;
-        let axis = if ext.x >= ext.y && ext.x >= ext.z {
-            0
-        } else if ext.y >= ext.z {
-            1
-        } else {
-            2
+    /// Splits the input (`segments`, in input order, `n` points of box `bbox`) down to chunks
+    /// (module doc); returns the top part and the levels above the chunks.
+    pub(super) fn partition(
+        &mut self,
+        mut segments: Vec<SpillFile>,
+        n: u64,
+        bbox: (DVec3, DVec3),
+    ) -> Result<(usize, u32)> {
+        let mut root = Node::new(0, false, State::Pending);
+        root.count = n;
+        root.bbox = bbox;
+        let mut nodes = vec![root];
+        self.decide(&mut nodes, 0);
+        self.done = 0;
+        while nodes.iter().any(Node::gathers) {
+            let last = !nodes.iter().any(|v| matches!(v.state, State::Pending));
+            let writers = nodes
+                .iter()
+                .filter(|v| matches!(v.state, State::Chunk { file: None, .. }))
+                .count();
+            let buffer = (WRITE_BUFFERS / writers.max(1)).clamp(64 << 10, 1 << 20);
+            for v in nodes.iter_mut() {
+                v.seen = 0;
+                if v.gathers() {
+                    v.count = 0;
+                    v.bbox = EMPTY;
+                }
+                if let State::Chunk {
+                    writer: w @ None,
+                    file: None,
+                } = &mut v.state
+                {
+                    *w = Some(
+                        self.store
+                            .scratch
+                            .create_buffered(self.store.rec, buffer)
+                            .map_err(|e| self.store.io(e))?,
+                    );
+                }
+            }
+            let passing = if last {
+                std::mem::take(&mut segments)
+            } else {
+                segments.clone()
+            };
+            for seg in passing {
+                let set = Set::whole(seg);
+                self.store.for_each(&set, |r| self.place(&mut nodes, r))?;
+                // (In the last pass, the segment goes once read.)
+            }
+            for v in nodes.iter_mut() {
+                if let State::Chunk { writer, file } = &mut v.state
+                    && let Some(w) = writer.take()
+                {
+                    *file = Some(w.finish().map_err(|e| self.store.io(e))?);
+                    self.done += v.count;
+                }
+            }
+            (self.progress)(Stage::Split, self.done);
+            for v in 0..nodes.len() {
+                if matches!(nodes[v].state, State::Pending) {
+                    self.decide(&mut nodes, v);
+                }
+            }
+        }
+        drop(segments);
+        self.emit(&mut nodes, 0)
+    }
+
+    /// Sends record `r` down the splits to the set that gathers it (or to the chunk it is in,
+    /// already written: nothing).
+    fn place(&self, nodes: &mut [Node], r: &[u8; REC]) -> Result<()> {
+        let p = position_of(r);
+        let mut v = 0;
+        loop {
+            let node = &mut nodes[v];
+            v = match &mut node.state {
+                State::Split { axis, mid, kids } => {
+                    if p[*axis] < *mid {
+                        kids[0]
+                    } else {
+                        kids[1]
+                    }
+                }
+                State::Halve { h, kids } => {
+                    let rank = node.seen;
+                    node.seen += 1;
+                    if rank < *h { kids[0] } else { kids[1] }
+                }
+                State::Pending => {
+                    node.count += 1;
+                    node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
+                    return Ok(());
+                }
+                State::Chunk { writer, .. } => {
+                    if let Some(w) = writer {
+                        node.count += 1;
+                        node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
+                        self.store.push(w, r)?;
+                    }
+                    return Ok(());
+                }
+            };
+        }
+    }
+
+    /// Decides set `v`, whose count and box are known: a chunk (an even depth's set that fits,
+    /// an odd depth's of one point), or split (halved by position when every point lies on one
+    /// side of the midpoint), its halves new sets to gather, or chunks when they must fit.
+    fn decide(&self, nodes: &mut Vec<Node>, v: usize) {
+        let (depth, n, bbox, overlap) = {
+            let x = &nodes[v];
+            (x.depth, x.count, x.bbox, x.overlap)
         };
-        let mid = 0.5 * (lo[axis] + hi[axis]);
-        let mut left = self.store.create()?;
-        let mut fifo = Fifo {
-            writer: self.store.create()?,
-            rec: self.store.rec,
-            tail: Vec::new(),
-            flushed: 0,
-            pushed: 0,
-            popped: 0,
-            reader: None,
-        };
-        let empty = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-        let (mut lb, mut rb) = (empty, empty);
-        self.store.for_each(&set, |r| {
-            let p = position_of(r);
-            if p[axis] < mid {
-                lb = (lb.0.min(p), lb.1.max(p));
-                self.store.push(&mut left, r)?;
-                if fifo.pushed > fifo.popped {
-                    let front = fifo.pop().map_err(|e| self.store.io(e))?;
-                    fifo.push(front).map_err(|e| self.store.io(e))?;
+        let even = depth.is_multiple_of(2);
+        if (even && n <= self.cap) || (!even && n < 2) {
+            nodes[v].state = State::Chunk {
+                writer: None,
+                file: None,
+            };
+            return;
+        }
+        let (axis, mid) = split_plane(bbox);
+        // Every point to the right (none below the midpoint) or to the left.
+        let degenerate = !(bbox.0[axis] < mid) || bbox.1[axis] < mid;
+        // The halves of a group's first split that fits are chunks.
+        let kid = || {
+            if !even && n <= self.cap {
+                State::Chunk {
+                    writer: None,
+                    file: None,
                 }
             } else {
-                rb = (rb.0.min(p), rb.1.max(p));
-                fifo.push(*r).map_err(|e| self.store.io(e))?;
+                State::Pending
             }
-            Ok(())
-        })?;
-        let k = left.len();
-        if k == 0 || k == set.count {
-            // Every point on one side: the order is unchanged; halves by position.
-            let h = set.count / 2;
-            let a = Set {
-                file: set.file.clone(),
-                start: set.start,
-                count: h,
-                bbox: None,
-                overlap: true,
-            };
-            let b = Set {
-                file: set.file,
-                start: set.start + h,
-                count: set.count - h,
-                bbox: None,
-                overlap: true,
-            };
-            return Ok((a, b));
+        };
+        let kids = [nodes.len(), nodes.len() + 1];
+        for _ in 0..2 {
+            nodes.push(Node::new(depth + 1, overlap || degenerate, kid()));
         }
-        let left = Set {
-            file: left.finish().map_err(|e| self.store.io(e))?,
-            start: 0,
-            count: k,
-            bbox: Some(lb),
-            overlap: set.overlap,
+        nodes[v].state = if degenerate {
+            State::Halve { h: n / 2, kids }
+        } else {
+            State::Split { axis, mid, kids }
         };
-        let (file, start, count) = fifo.finish().map_err(|e| self.store.io(e))?;
-        let right = Set {
-            file,
-            start,
-            count,
-            bbox: Some(rb),
-            overlap: set.overlap,
-        };
-        Ok((left, right))
     }
 
-    /// Two levels of splits: two to four groups (a half of fewer than two points is not split
-    /// again).
-    pub(super) fn groups(&self, set: Set) -> Result<Vec<Set>> {
-        let (a, b) = self.split(set)?;
-        let mut out = Vec::with_capacity(4);
-        for half in [a, b] {
-            if half.count >= 2 {
-                let (c, d) = self.split(half)?;
-                out.push(c);
-                out.push(d);
-            } else {
-                out.push(half);
-            }
-        }
-        Ok(out)
-    }
-
-    /// Splits `set` down to chunks; returns its top node and the levels above the chunks.
-    pub(super) fn partition(&mut self, set: Set) -> Result<(usize, u32)> {
-        if set.count <= self.cap {
-            let bbox = self.store.bbox(&set)?;
-            let set = Set {
-                bbox: Some(bbox),
-                ..set
+    /// The parts and chunks of the set `v` of an even depth, children before parents, chunks
+    /// numbered in the order of a depth-first recursion; returns its part and its levels.
+    fn emit(&mut self, nodes: &mut [Node], v: usize) -> Result<(usize, u32)> {
+        let kids_of = |x: &Node| match x.state {
+            State::Split { kids, .. } | State::Halve { kids, .. } => Some(kids),
+            _ => None,
+        };
+        let Some(halves) = kids_of(&nodes[v]) else {
+            let x = &mut nodes[v];
+            let file = match &mut x.state {
+                State::Chunk { file, .. } => file.take(),
+                _ => None,
             };
-            self.done += set.count;
-            (self.progress)(Stage::Split, self.done);
-            self.store.chunks.push(set);
+            let file = file.ok_or_else(|| {
+                self.store.io(std::io::Error::other(
+                    "a chunk of the split was not written",
+                ))
+            })?;
+            self.store.chunks.push(Set {
+                file,
+                start: 0,
+                count: x.count,
+                bbox: Some(x.bbox),
+                overlap: x.overlap,
+                normals: None,
+                patch: None,
+            });
             self.store.parts.push(Part {
                 kind: PartKind::Chunk(self.store.chunks.len() - 1),
-                bbox,
+                bbox: x.bbox,
                 halo2: 0.0,
             });
             return Ok((self.store.parts.len() - 1, 0));
+        };
+        let mut groups = Vec::with_capacity(4);
+        for h in halves {
+            match kids_of(&nodes[h]) {
+                Some(two) => groups.extend(two),
+                None => groups.push(h),
+            }
         }
-        let bbox = self.store.bbox(&set)?;
-        let groups = self.groups(set)?;
         let mut kids = Vec::with_capacity(groups.len());
         let mut levels = 0;
         for g in groups {
-            let (k, l) = self.partition(g)?;
+            let (k, l) = self.emit(nodes, g)?;
             kids.push(k);
             levels = levels.max(l + 1);
         }
         self.store.parts.push(Part {
             kind: PartKind::Inner(kids),
-            bbox,
+            bbox: nodes[v].bbox,
             halo2: 0.0,
         });
         Ok((self.store.parts.len() - 1, levels))

@@ -1,10 +1,9 @@
 //! A prepared point on disk: the fixed-size record of a point (position, colour, its index in
-//! the input, normal) as the scratch files hold it. Where the normals are estimated, the files
-//! written before the estimate hold the record without its normal ([`SHORT`] bytes, the normal
-//! read as zero). The index takes 32 bits: the preparation refuses a cloud of more than
+//! the input, normal) as the scratch files hold it. Where the normals are estimated, the records
+//! hold no normal ([`SHORT`] bytes, the normal read as zero): the estimates go to files of
+//! normals beside the chunks' (`chunks::Set::normals`). The index takes 32 bits: the preparation refuses a cloud of more than
 //! `u32::MAX` points as it reads it (the trees count leaves in 32 bits). Every record is
-//! written several times (the split writes it once a level), so each byte saved here is saved
-//! many times over.
+//! written twice (the input, then its chunk), so each byte saved here is saved twice.
 
 use glam::{DVec3, Vec3};
 

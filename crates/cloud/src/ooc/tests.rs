@@ -70,6 +70,8 @@ fn chunked_normals_and_radius_are_the_in_memory_ones() {
         let mut seen = vec![false; pts.len()];
         prepared
             .for_each_chunk(|c| -> Result<()> {
+                // Each chunk in input order (the order of QSplat's in-memory sets).
+                assert!(c.index.windows(2).all(|w| w[0] < w[1]));
                 for (i, &g) in c.index.iter().enumerate() {
                     let g = g as usize;
                     assert!(!seen[g], "point {g} twice");
@@ -85,6 +87,14 @@ fn chunked_normals_and_radius_are_the_in_memory_ones() {
         match &prepared {
             Prepared::Chunked(chunks) => {
                 assert!(limit < 1 << 30 && chunks.len() >= 3, "{summary:?}");
+                // Each point written once to the input's files and once to its chunk's (31
+                // bytes each without its normal), its normal once (12 bytes), the halos and
+                // the normal patches near the chunks' borders (small chunks here: many).
+                let per_point = summary.scratch_bytes as f64 / pts.len() as f64;
+                assert!(
+                    per_point < 31.0 + 31.0 + 12.0 + 30.0,
+                    "{per_point} {summary:?}"
+                );
                 assert_eq!(chunks.len() as u64, summary.chunks);
                 let leaves = chunks
                     .parts()

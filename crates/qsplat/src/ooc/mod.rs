@@ -9,10 +9,10 @@
 //! the *points'* bounding box, so the top of the tree is made by the very same splits, streamed:
 //!
 //! 1. to 3. `cloud::ooc::prepare`: the input streamed to scratch; split as [`crate::build`]
-//!    splits (the midpoint of a set's box's longest axis, Lomuto's partition streamed so that
-//!    every set keeps the order the in-memory build gives it, two levels of splits a group of
-//!    two to four, as [`crate::build`]'s `groups`) down to chunks; normals and the leaf radius
-//!    with halos, the in-memory ones bit for bit;
+//!    splits (the midpoint of a set's box's longest axis, two levels of splits a group of two
+//!    to four, as [`crate::build`]'s `groups`) down to chunks, each point written once, to its
+//!    chunk, in input order: the order the in-memory build's stable partition gives every set;
+//!    normals and the leaf radius with halos, the in-memory ones bit for bit;
 //! 4. each chunk's root is computed in memory (the same splits and parents as the build, the
 //!    nodes below the root counted, not stored), and the parents above the chunks are made
 //!    from the roots ([`encode`]);

@@ -143,10 +143,14 @@ fn a_full_disk_is_an_error_and_leaves_nothing() {
     let pts = cloud(30_000, 2);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("t.qsplat");
-    for after in [1_000u64, 500_000, 3_000_000, 9_000_000] {
+    let whole = options(MIN_CHUNK, true, Normals::Estimate { k: 16 }, DENSITY);
+    // Failures from the first bytes to the last stage's (every stage writes scratch).
+    let total = out_of_core(&pts, &whole, &out).unwrap().scratch_bytes;
+    std::fs::remove_file(&out).unwrap();
+    for after in [1_000u64, total / 4, total / 2, total * 9 / 10, total - 1] {
         let opts = Options {
             fail_after_bytes: Some(after),
-            ..options(MIN_CHUNK, true, Normals::Estimate { k: 16 }, DENSITY)
+            ..whole.clone()
         };
         let e = out_of_core(&pts, &opts, &out).unwrap_err();
         match &e {
@@ -208,4 +212,37 @@ fn bad_limits_and_inputs() {
     let e = build_file(&mut source, &opts, &out, &mut |_, _| {}).unwrap_err();
     assert!(e.to_string().contains("truncated"), "{e}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
+fn the_same_bytes_when_copies_of_a_point_fill_several_chunks() {
+    // 14,000 copies of one point and 6,000 one ulp beside it (interleaved, with their own
+    // normals and colours) among a sheet: the split halves them by position over chunks.
+    let mut pts = cloud(20_000, 5);
+    let p = pts[11].position;
+    let mut rng = seeded(6, "ooc-copies");
+    for i in 0..20_000usize {
+        let position = if i % 10 < 3 {
+            DVec3::new(p.x.next_up(), p.y, p.z)
+        } else {
+            p
+        };
+        let normal = Vec3::new(rng.random(), rng.random(), 1.0).normalize();
+        let at = (i * 7_919) % pts.len();
+        pts.insert(
+            at,
+            Point {
+                position,
+                normal,
+                color: [(i % 251) as u8, 0, 9],
+            },
+        );
+    }
+    same_bytes(
+        &pts,
+        Normals::Given,
+        Radius::Fixed(0.002),
+        true,
+        &[MIN_CHUNK, 6_000],
+    );
 }
