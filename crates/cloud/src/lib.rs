@@ -24,6 +24,7 @@ pub mod camera;
 pub mod compact;
 pub mod degrade;
 pub mod double_buffer;
+pub mod eigen3;
 pub mod error;
 pub mod io;
 pub mod knn;

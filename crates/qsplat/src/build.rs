@@ -228,19 +228,26 @@ fn split(items: &mut [Item]) -> usize {
     // points are halved.) The right points wait in a buffer of the thread's while the left
     // ones move down.
     let k = RIGHT.with_borrow_mut(|right| {
-        right.clear();
-        let mut k = 0;
-        for j in 0..items.len() {
-            let it = items[j];
-            if it.p[axis] < mid {
-                items[k] = it;
-                k += 1;
-            } else {
-                right.push(it);
-            }
+        // Branch-free: every item is written to both places and only the side it belongs to
+        // advances (a midpoint split is a coin toss for a branch predictor).
+        let n = items.len();
+        let Some(&first) = items.first() else {
+            return 0;
+        };
+        if right.len() < n {
+            right.resize(n, first);
         }
-        items[k..].copy_from_slice(right);
-        if right.capacity() > KEEP {
+        let (mut k, mut r) = (0, 0);
+        for j in 0..n {
+            let it = items[j];
+            let left = usize::from(it.p[axis] < mid);
+            items[k] = it;
+            right[r] = it;
+            k += left;
+            r += 1 - left;
+        }
+        items[k..].copy_from_slice(&right[..r]);
+        if right.len() > KEEP {
             *right = Vec::new();
         }
         k
