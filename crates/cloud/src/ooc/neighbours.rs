@@ -12,8 +12,10 @@
 //! all the points of a chunk at once, as the in-memory normals do), so the normals and the
 //! spacing sample's distances are the in-memory ones; when the normals' k is the halo's, the
 //! first pass's query already gives the normal of every point whose ball lies inside its chunk
-//! (the same neighbours in the same order), kept in a scratch file, and the halo pass searches
-//! only the points near the borders.
+//! (the same neighbours in the same order), kept in a scratch file, as are the spacing
+//! sample's distances of the points whose ball lies inside; the halo pass then searches only
+//! the points near the borders, from a grid over the halo and the chunk's points within twice
+//! the halo radius of its box's faces (all a border point's neighbours lie there).
 
 use std::collections::HashMap;
 use std::num::NonZero;
@@ -56,6 +58,11 @@ impl Preparer<'_> {
         let mut halo2 = vec![0.0f64; self.store.chunks.len()];
         let mut early: Vec<Option<SpillFile>> =
             (0..self.store.chunks.len()).map(|_| None).collect();
+        // Per chunk: whether (c) may search only the points near its box's faces (every query
+        // left to (c) is then a point whose ball leaves the box), and the spacing picks (a)
+        // answered (local indices).
+        let mut border_only = vec![false; self.store.chunks.len()];
+        let mut resolved: Vec<Vec<u32>> = vec![Vec::new(); self.store.chunks.len()];
         for (c, r2) in halo2.iter_mut().enumerate() {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
@@ -107,6 +114,27 @@ impl Preparer<'_> {
                     .collect(),
             };
             *r2 = per_point.iter().map(|x| x.0).fold(0.0, f64::max);
+            // The spacing picks whose (ks + 1)-ball lies inside the box: their distances from
+            // the chunk alone, exact as the normals above are.
+            if let (Some((picks, ks)), Some(grid)) = (picks, own.as_ref())
+                && !overlap
+            {
+                let times = pick_times(picks, &l.index);
+                let k1 = NonZero::new(ks + 1).unwrap_or(kk);
+                let d2 = grid.for_each_point(
+                    k1,
+                    |i| times.get(i).is_some_and(|&t| t > 0),
+                    |_, nb| nb.last().map_or(f64::INFINITY, |x| x.0),
+                )?;
+                for (i, &t) in times.iter().enumerate() {
+                    let d = d2[i].sqrt();
+                    if t > 0 && inside(l.positions[i], d) {
+                        spacing_d.extend(std::iter::repeat_n(d, t as usize));
+                        resolved[c].push(i as u32);
+                    }
+                }
+            }
+            border_only[c] = own.is_some() && !overlap && (estimate.is_none() || single);
             if single && own.is_some() {
                 let mut w = self
                     .store
@@ -190,8 +218,25 @@ impl Preparer<'_> {
                     ),
                 });
             }
-            let mut positions = l.positions.clone();
-            let mut index = l.index.clone();
+            // The chunk's points that (c)'s searches can reach: when every query left is a
+            // point within its ball's radius r <= R of a face of the box, its neighbours lie
+            // within 2R of that face (distance to a plane is 1-Lipschitz); otherwise all.
+            let sel: Vec<u32> = if border_only[c] {
+                let (lo, hi) = set.bbox.unwrap_or((DVec3::ZERO, DVec3::ZERO));
+                let magnitude = lo.abs().max(hi.abs()).max_element();
+                let reach = 2.0 * halo2[c].sqrt() * (1.0 + 1e-6) + magnitude * 1e-12;
+                (0..m as u32)
+                    .filter(|&i| {
+                        let p = l.positions[i as usize];
+                        (0..3).any(|a| p[a] - lo[a] <= reach || hi[a] - p[a] <= reach)
+                    })
+                    .collect()
+            } else {
+                (0..m as u32).collect()
+            };
+            let mz = sel.len();
+            let mut positions: Vec<DVec3> = sel.iter().map(|&i| l.positions[i as usize]).collect();
+            let mut index: Vec<u64> = sel.iter().map(|&i| l.index[i as usize]).collect();
             if let Some(hf) = &halo {
                 let hs = Set::whole(hf.clone());
                 self.store.for_each(&hs, |r| {
@@ -220,7 +265,9 @@ impl Preparer<'_> {
                     }
                     None => vec![false; m],
                 };
-                let missing = |i: usize| i < m && !known.get(i).copied().unwrap_or(false);
+                // By the grid's index (`sel` maps the chunk's part of it to the chunk's).
+                let missing =
+                    |j: usize| j < mz && !known.get(sel[j] as usize).copied().unwrap_or(false);
                 let found = grid.for_each_point(k, missing, |i, nb| {
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
@@ -237,9 +284,9 @@ impl Preparer<'_> {
                             .create(PATCH)
                             .map_err(|e| self.store.io(e))?;
                         let mut rec = [0u8; PATCH];
-                        for (i, n) in found.iter().enumerate().take(m) {
-                            if missing(i) {
-                                rec[..4].copy_from_slice(&(i as u32).to_le_bytes());
+                        for (j, n) in found.iter().enumerate().take(mz) {
+                            if missing(j) {
+                                rec[..4].copy_from_slice(&sel[j].to_le_bytes());
                                 rec[4..].copy_from_slice(&normal_bytes(*n));
                                 w.push(&rec).map_err(|e| self.store.io(e))?;
                             }
@@ -252,7 +299,8 @@ impl Preparer<'_> {
                             .scratch
                             .create(NORMAL)
                             .map_err(|e| self.store.io(e))?;
-                        for n in found.iter().take(m) {
+                        debug_assert_eq!(mz, m, "all normals are found from the whole chunk");
+                        for n in found.iter().take(mz) {
                             w.push(&normal_bytes(*n)).map_err(|e| self.store.io(e))?;
                         }
                         (w.finish().map_err(|e| self.store.io(e))?, None)
@@ -264,22 +312,19 @@ impl Preparer<'_> {
             if let Some((picks, ks)) = picks {
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
                 // How often each point of the chunk is picked (counted once: the search asks
-                // for every copy of every position).
-                let times: Vec<u32> = l
-                    .index
-                    .iter()
-                    .map(|&g| {
-                        let from = picks.partition_point(|&x| x < g);
-                        picks[from..].iter().take_while(|&&x| x == g).count() as u32
-                    })
-                    .collect();
+                // for every copy of every position), less the picks (a) answered.
+                let mut times = pick_times(picks, &l.index);
+                for &i in &resolved[c] {
+                    times[i as usize] = 0;
+                }
+                let times: Vec<u32> = sel.iter().map(|&i| times[i as usize]).collect();
                 let d2 = grid.for_each_point(
                     k1,
-                    |i| times.get(i).is_some_and(|&t| t > 0),
+                    |j| times.get(j).is_some_and(|&t| t > 0),
                     |_, nb| nb.last().map_or(0.0, |x| x.0),
                 )?;
-                for (i, d2) in d2.iter().enumerate().take(m) {
-                    let times = times[i] as usize;
+                for (j, d2) in d2.iter().enumerate().take(mz) {
+                    let times = times[j] as usize;
                     if times > 0 {
                         spacing_d.extend(std::iter::repeat_n(d2.sqrt(), times));
                     }
@@ -316,6 +361,17 @@ impl Preparer<'_> {
         }
         Ok(())
     }
+}
+
+/// How often each of the points of global indices `index` is among the sorted `picks`.
+fn pick_times(picks: &[u64], index: &[u64]) -> Vec<u32> {
+    index
+        .iter()
+        .map(|&g| {
+            let from = picks.partition_point(|&x| x < g);
+            picks[from..].iter().take_while(|&&x| x == g).count() as u32
+        })
+        .collect()
 }
 
 /// Squared distance from `p` to the box `(lo, hi)`.
