@@ -138,7 +138,7 @@ function main(data) {
     );
     select.value = String(state.method);
     const m = methods[state.method];
-    setting.textContent = `${m.name}: ${m.setting || 'its defaults'}; ${m.n_visible_total.toLocaleString()} of ${data.n_total.toLocaleString()} points visible; ${fmt(m.seconds, 4)} s`;
+    setting.textContent = `${m.name}: ${m.setting || 'its defaults'}; ${m.n_visible_total.toLocaleString()} of ${data.n_total.toLocaleString()} points visible; ${fmt(m.seconds, 4)} s${m.timing ? ` (${m.timing})` : ''}`;
     const rows = [];
     for (const c of [TRUE_POSITIVE, FALSE_NEGATIVE, FALSE_POSITIVE, HIDDEN, OFF_SURFACE]) {
       if (c === OFF_SURFACE && !off) continue;

@@ -102,6 +102,9 @@ test('bunny: the first frame within 3 s', { skip }, async () => {
   const s = await page.evaluate(() => window.pointsight.state);
   console.log(`bunny: first frame ${s.firstFrameMs.toFixed(0)} ms, complete ${s.completeMs.toFixed(0)} ms, decode ${s.decodeMs.toFixed(0)} ms`);
   assert.ok(s.firstFrameMs < FIRST_FRAME_LIMIT_MS, `first frame at ${s.firstFrameMs} ms (limit ${FIRST_FRAME_LIMIT_MS} ms)`);
+  // `pointsight view` runs each method once, and the page says so beside its seconds.
+  const text = await page.evaluate(() => document.body.innerText);
+  assert.match(text, /points visible; [0-9.]+ s \(one run\)/, 'the seconds say what they are');
   await page.screenshot({ path: join(dir, 'bunny.png') });
   await page.close();
 });

@@ -55,9 +55,14 @@ pub struct MethodRun {
     pub setting: String,
     /// Visible indices, ascending.
     pub visible: Vec<u32>,
-    /// The method's seconds (one run).
+    /// The method's seconds.
     pub seconds: f64,
+    /// What `seconds` is: one run here, or the experiment's median.
+    pub timing: String,
 }
+
+/// How a page's seconds were taken when the method ran once for the page.
+pub const ONE_RUN: &str = "one run";
 
 /// What was written.
 #[derive(Debug, Clone)]
@@ -257,6 +262,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<Written> {
             setting: setting.clone(),
             visible: out.visible,
             seconds,
+            timing: ONE_RUN.to_owned(),
         });
     }
     let truth = page::Truth::of(&ds, &camera, &runs)?;

@@ -232,6 +232,7 @@ impl Page<'_> {
                 "visible": b64(&bitset(&ord, |i| flags[i])),
                 "n_visible_total": r.visible.len(),
                 "seconds": r.seconds,
+                "timing": r.timing,
                 "scores": [s.precision(), s.recall(),
                     if self.truth.is_reference { s.f1() } else { s.jaccard() }],
                 "counts": {"tp": tp, "fn": fnn, "fp": fp, "hidden": hidden, "off": off_n},

@@ -16,7 +16,7 @@ use std::path::Path;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 
-use super::{MethodRun, choose, lod, page, run_method};
+use super::{MethodRun, ONE_RUN, choose, lod, page, run_method};
 use crate::datasets;
 use crate::output::{read_csv, write_atomic};
 
@@ -159,6 +159,7 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         return Ok(Vec::new());
     }
     let script = page::bundle()?;
+    let measured = measured_seconds(reports);
     let mut entries = Vec::new();
     for name in names {
         let ds = match datasets::load(name, data_dir) {
@@ -173,12 +174,17 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         let mut runs = Vec::new();
         for (m, params, setting) in choose(None, &[])? {
             match run_method(m, &ds, &params, view, &camera) {
-                Ok((out, seconds)) => runs.push(MethodRun {
-                    name: m.name.to_owned(),
-                    setting,
-                    visible: out.visible,
-                    seconds,
-                }),
+                Ok((out, seconds)) => {
+                    let (seconds, timing) =
+                        page_seconds(&measured, name, view, m.name, &setting, seconds);
+                    runs.push(MethodRun {
+                        name: m.name.to_owned(),
+                        setting,
+                        visible: out.visible,
+                        seconds,
+                        timing,
+                    });
+                }
                 Err(e) => eprintln!("viewer pages: {name}: {} left out: {e:#}", m.name),
             }
         }
@@ -224,6 +230,60 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         });
     }
     Ok(entries)
+}
+
+/// A row of `visibility/results.csv`, as far as a page's seconds need it.
+#[derive(Debug, Deserialize)]
+struct Measured {
+    dataset: String,
+    view: usize,
+    method: String,
+    params: String,
+    seconds: Option<f64>,
+    samples: Option<u32>,
+    status: String,
+}
+
+/// A page's seconds for `method` at `setting` on `view` of `dataset`: the visibility
+/// experiment's median where it timed that very setting there, else `one_run` (the run made
+/// for the page); with what they are.
+fn page_seconds(
+    measured: &[Measured],
+    dataset: &str,
+    view: usize,
+    method: &str,
+    setting: &str,
+    one_run: f64,
+) -> (f64, String) {
+    measured
+        .iter()
+        .find(|r| {
+            r.dataset == dataset
+                && r.view == view
+                && r.method == method
+                && r.params == setting
+                && r.status == "ok"
+        })
+        .and_then(|r| {
+            Some((
+                r.seconds?,
+                format!("median of {} runs in the visibility experiment", r.samples?),
+            ))
+        })
+        .unwrap_or((one_run, ONE_RUN.to_owned()))
+}
+
+/// The visibility experiment's timed rows under `reports` (none when it has no results or
+/// they cannot be read: the pages then say "one run").
+fn measured_seconds(reports: &Path) -> Vec<Measured> {
+    let path = reports.join("visibility").join("results.csv");
+    if !path.is_file() {
+        return Vec::new();
+    }
+    read_csv(&path).unwrap_or_else(|e| {
+        eprintln!("viewer pages: seconds from one run each: {e:#}");
+        Vec::new()
+    })
 }
 
 /// Writes the level-of-detail page of each of `names` (view 0 at the `lod` experiment's
@@ -513,5 +573,26 @@ mod tests {
         );
         // No results: no real dataset to draw.
         assert!(real_datasets(dir.path(), "visibility").unwrap().is_empty());
+    }
+
+    /// The committed report's pages take every default method's seconds from the visibility
+    /// experiment's medians (its labels and the pages' settings agree), and a setting the
+    /// experiment never timed keeps the page's own run, said so.
+    #[test]
+    fn pages_show_the_experiments_median_for_every_default_method() {
+        let reports = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../reports");
+        let measured = measured_seconds(&reports);
+        assert!(!measured.is_empty(), "no committed visibility results");
+        let dataset = &measured[0].dataset;
+        for (m, _, setting) in choose(None, &[]).unwrap() {
+            let (seconds, timing) = page_seconds(&measured, dataset, 0, m.name, &setting, -1.0);
+            assert!(
+                seconds >= 0.0 && timing.starts_with("median of "),
+                "{} at {setting:?} on {dataset}: {timing}",
+                m.name
+            );
+        }
+        let (seconds, timing) = page_seconds(&measured, dataset, 0, "hpr", "gamma=-7", 0.25);
+        assert_eq!((seconds, timing.as_str()), (0.25, ONE_RUN));
     }
 }
