@@ -1,5 +1,5 @@
-//! The eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix, for the covariance
-//! normals of [`crate::normals`].
+//! The eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix, and the covariance
+//! normal of a set of neighbours (seed 002 eq. 2.1) it gives [`crate::normals`].
 //!
 //! Method: the closed form that PCL's normal estimation uses (`pcl::eigen33`, after Smith,
 //! "Eigenvalues of a symmetric 3 × 3 matrix", Comm. ACM 4(4), 1961): the matrix is scaled by
@@ -15,6 +15,21 @@
 //! same bits. The closed form takes about a fifth of Jacobi's time; the tests compare the two.
 
 use glam::{DMat3, DVec3};
+
+/// The unit normal of the neighbours `points` (in order: the sums follow it): the eigenvector
+/// of the smallest eigenvalue of their covariance (eq. 2.1), unoriented.
+pub fn covariance_normal(points: impl Iterator<Item = DVec3> + Clone) -> DVec3 {
+    let (sum, count) = points
+        .clone()
+        .fold((DVec3::ZERO, 0usize), |(s, c), p| (s + p, c + 1));
+    let mean = sum / count.max(1) as f64;
+    let mut cov = DMat3::ZERO;
+    for p in points {
+        let d = p - mean;
+        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+    }
+    smallest_eigenvector(cov)
+}
 
 /// Below this squared length (relative to the scaled matrix) the cross products do not
 /// determine the null space: the eigenvalues are (nearly) repeated.

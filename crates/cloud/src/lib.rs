@@ -33,6 +33,7 @@ pub mod memory;
 pub mod mesh;
 pub mod normals;
 pub mod ooc;
+pub mod orient;
 pub mod points;
 pub mod recentre;
 pub mod rng;

@@ -10,10 +10,12 @@
 //! size and never fail to converge.
 //!
 //! Orientation: covariance analysis gives a direction, not a sign. [`Orientation`] names the
-//! documented rules; the default, [`Orientation::AwayFromCentroid`], flips each normal so that
-//! n·(p − centroid) ≥ 0, right for star-shaped objects and wrong inside deep concavities.
-//! Where a reference is known (a sampled mesh's face normals), [`Orientation::Reference`]
-//! follows it. Hoppe's minimum-spanning-tree propagation is not implemented.
+//! documented rules: [`Orientation::Propagated`], Hoppe et al. 1992's minimum-spanning-tree
+//! propagation over a guide chosen by position ([`crate::orient`]), what the level-of-detail
+//! builds use, right in concave parts too; [`Orientation::AwayFromCentroid`] flips each normal
+//! so that n·(p − centroid) ≥ 0, right for star-shaped objects and wrong inside deep
+//! concavities; [`Orientation::TowardsViewpoint`] faces a sensor. Where a reference is known
+//! (a sampled mesh's face normals), [`Orientation::Reference`] follows it.
 
 use std::num::NonZero;
 
@@ -26,6 +28,9 @@ use crate::points::check_finite;
 /// How estimated normals get their sign.
 #[derive(Debug, Clone, Copy)]
 pub enum Orientation<'a> {
+    /// Hoppe's minimum spanning tree over the guide of [`crate::orient`] (at most
+    /// [`crate::orient::GUIDE_MAX`] points; the whole cloud when it is no larger).
+    Propagated,
     /// n·(p − centroid of the cloud) ≥ 0.
     AwayFromCentroid,
     /// n·(viewpoint − p) ≥ 0: the normal faces a sensor or camera.
@@ -71,6 +76,23 @@ pub fn estimate_normals(
         reason: "k must be positive".into(),
     })?;
     let centroid = centroid(positions);
+    if let Orientation::Propagated = orientation {
+        let raw = grid.for_each_point(
+            k_nz,
+            |_| true,
+            |_, neighbours| covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize])),
+        )?;
+        drop(grid);
+        let guide = crate::orient::Guide::new(
+            crate::orient::select_guide(positions, crate::orient::guide_max()),
+            k,
+        )?;
+        return Ok(positions
+            .iter()
+            .zip(&raw)
+            .map(|(p, n)| guide.orient(*p, *n))
+            .collect());
+    }
     grid.for_each_point(
         k_nz,
         |_| true,
@@ -78,6 +100,7 @@ pub fn estimate_normals(
             let p = positions[i];
             let n = covariance_normal(neighbours.iter().map(|nb| positions[nb.1 as usize]));
             let reference = match orientation {
+                Orientation::Propagated => DVec3::Z,
                 Orientation::AwayFromCentroid => p - centroid,
                 Orientation::TowardsViewpoint(v) => v - p,
                 Orientation::Reference(r) => r[i].as_dvec3(),
@@ -127,20 +150,7 @@ pub fn orient(n: DVec3, reference: DVec3) -> Vec3 {
     }
 }
 
-/// The unit normal of the neighbours `points` (in order: the sums follow it): the eigenvector
-/// of the smallest eigenvalue of their covariance (eq. 2.1), unoriented.
-pub fn covariance_normal(points: impl Iterator<Item = DVec3> + Clone) -> DVec3 {
-    let (sum, count) = points
-        .clone()
-        .fold((DVec3::ZERO, 0usize), |(s, c), p| (s + p, c + 1));
-    let mean = sum / count.max(1) as f64;
-    let mut cov = DMat3::ZERO;
-    for p in points {
-        let d = p - mean;
-        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-    }
-    smallest_eigenvector(cov)
-}
+pub use crate::eigen3::covariance_normal;
 
 /// Unit eigenvector of the smallest eigenvalue of a symmetric 3×3 matrix
 /// ([`crate::eigen3`]: closed form, Jacobi where the eigenvalue is repeated).

@@ -4,7 +4,7 @@
 //! in-memory build when it does.
 //!
 //! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
-//! neighbour estimates oriented away from the centroid when it has none; the leaf radius
+//! neighbour estimates oriented by Hoppe's spanning tree (`cloud::orient`) when it has none; the leaf radius
 //! [`LEAF_RADIUS_SPACINGS`] density spacings (the `lod` experiment's `REF_RADIUS` is this)
 //! (`cloud::spacing::density_spacing`, k = 8, 20,000 points, seed 1); the file's colours when
 //! it has them (the experiment paints its own texture instead, which a file build cannot know).

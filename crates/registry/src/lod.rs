@@ -114,7 +114,8 @@ fn texture_coords(cloud: &PointCloud) -> Vec<Vec2> {
 /// point from it through the cloud's texture coordinates (else the spherical parameterisation
 /// of `srn::param` about the bounding box's centre; without one, the cloud's own colours, else
 /// a grey of 200/255, and those coordinates), a unit normal per point (the cloud's, else
-/// k-nearest-neighbour estimates: 16 neighbours, oriented away from the centroid, as a scan
+/// k-nearest-neighbour estimates: 16 neighbours, oriented by Hoppe's spanning tree
+/// (`cloud::orient`), as a scan
 /// file often has none), and the full-detail splat radius `radius_spacings` density spacings
 /// (`cloud::spacing::density_spacing`, k = 8, 20,000 samples).
 pub struct LodData {
@@ -157,7 +158,7 @@ impl LodData {
                 let n = cloud::normals::estimate_normals(
                     &cloud.positions,
                     16.min(cloud.len()),
-                    cloud::normals::Orientation::AwayFromCentroid,
+                    cloud::normals::Orientation::Propagated,
                 )?;
                 // The methods that read the cloud's own normals (QSplat, SPT) get these too.
                 cloud.normals = Some(n.clone());

@@ -10,8 +10,8 @@
 //! per-chunk files, each chunk worked on in memory):
 //!
 //! 1. the input is streamed once into a scratch file (input order, [`record`]), with its
-//!    bounding box, the centroid (summed in input order, as [`crate::normals`] sums it) and a
-//!    strided sample;
+//!    bounding box, a strided sample and, for estimated normals, the orientation's guide
+//!    (positions chosen by their hash, [`crate::orient`]: the same set in memory);
 //! 2. a set of more points than a chunk holds is split ([`partition`]): the midpoint of its
 //!    box's longest axis, a stable partition, two levels of splits a group of two to four
 //!    sets; a set that fits a chunk is a chunk, a larger one is split again (QSplat's split,
@@ -20,13 +20,18 @@
 //!    each point is written once, to its chunk;
 //! 3. where the normals are estimated, or the leaf radius is the density spacing, each chunk's
 //!    neighbourhoods are completed by a halo ([`neighbours`]) and its normals and the spacing
-//!    sample's distances computed.
+//!    sample's distances computed; each normal takes its sign from the guide (Hoppe's tree
+//!    over it, built once between steps 2 and 3), so it is the in-memory normal, bit for bit.
 //!
 //! A cloud that fits one chunk is prepared in memory instead ([`Prepared::Whole`]).
 //!
 //! Memory: a chunk of m points takes the method's bytes per point ([`Options::bytes_per_point`])
 //! · m at its peak, [`NEIGHBOUR_BYTES_PER_POINT`] per point of a chunk and its halo during the
-//! neighbour searches; scratch buffers, the sample and the tree of splits need [`RESERVE`] more.
+//! neighbour searches; scratch buffers, the sample, the orientation's guide (at most
+//! [`crate::orient::GUIDE_MAX`] points, about 20 MiB, held once the split's write buffers are
+//! freed) and the tree of splits need [`RESERVE`] more; building the guide takes
+//! [`crate::orient::BUILD_BYTES_PER_POINT`] a guide point, within all of the limit but
+//! [`GUIDE_BUILD_RESERVE`], while no chunk is loaded.
 //! A chunk and its halo must fit for the neighbour searches.
 
 mod chunks;
@@ -47,6 +52,9 @@ use self::error::{Error, Result};
 use self::record::{REC, pack};
 use crate::spill::Scratch;
 
+/// Bytes of the reserve in use while the orientation's guide is built (the sample, the tree of
+/// splits, the guide's points; the split's write buffers are freed by then).
+pub const GUIDE_BUILD_RESERVE: u64 = 16 << 20;
 /// Bytes per point of a chunk and its halo during the neighbour searches.
 pub const NEIGHBOUR_BYTES_PER_POINT: u64 = 160;
 /// Memory the preparation needs beside its chunk (scratch buffers, sample, tree of splits).
@@ -74,8 +82,9 @@ pub struct Point {
 pub enum Normals {
     /// The input's.
     Given,
-    /// [`crate::normals::estimate_normals`] with `k.min(n)` neighbours, oriented away from the
-    /// centroid.
+    /// [`crate::normals::estimate_normals`] with `k.min(n)` neighbours, oriented by
+    /// [`crate::normals::Orientation::Propagated`] (Hoppe's tree over the guide of
+    /// [`crate::orient`], the same set in memory and out of core).
     Estimate {
         /// Neighbours.
         k: usize,
@@ -206,7 +215,7 @@ pub fn prepare_in_memory(
         Normals::Estimate { k } => crate::normals::estimate_normals(
             positions,
             k.min(positions.len()),
-            crate::normals::Orientation::AwayFromCentroid,
+            crate::normals::Orientation::Propagated,
         )?,
     };
     let radius = match opts.radius {
@@ -289,9 +298,11 @@ pub fn prepare<E: From<Error>>(
     let mut w = b.store.create()?;
     let mut batch = Vec::new();
     let mut bbox = (DVec3::INFINITY, DVec3::NEG_INFINITY);
-    let mut sum = DVec3::ZERO;
     let mut sample: Vec<(DVec3, u64)> = Vec::new();
     let mut stride = 1u64;
+    // The orientation's guide: a set of positions, found in this pass.
+    let mut guide = matches!(opts.normals, Normals::Estimate { .. })
+        .then(|| crate::orient::GuideSampler::new(crate::orient::guide_max()));
     let mut rec = [0u8; REC];
     let mut n: u64 = 0;
     loop {
@@ -309,7 +320,9 @@ pub fn prepare<E: From<Error>>(
                 .into());
             }
             bbox = (bbox.0.min(p.position), bbox.1.max(p.position));
-            sum += p.position;
+            if let Some(g) = guide.as_mut() {
+                g.push(p.position);
+            }
             if n.is_multiple_of(stride) {
                 sample.push((p.position, n));
                 if sample.len() >= 2 * SAMPLE {
@@ -375,10 +388,34 @@ pub fn prepare<E: From<Error>>(
     }
     // 2. Split down to chunks.
     let (root, levels) = b.partition(segments, n, bbox)?;
+    // The guide's normals and tree, built while no chunk is in memory and the split's write
+    // buffers are freed (all of the limit but [`GUIDE_BUILD_RESERVE`] holds it); the guide
+    // itself then stays within the reserve.
+    let guide = match (guide, opts.normals) {
+        (Some(g), Normals::Estimate { k }) => {
+            let need = g.len() as u64 * crate::orient::BUILD_BYTES_PER_POINT;
+            if need > opts.memory_limit.saturating_sub(GUIDE_BUILD_RESERVE) {
+                return Err(Error::InvalidParameter {
+                    name: "memory_limit",
+                    reason: format!(
+                        "the normals' orientation guide of {} points needs {} to build, more \
+                         than the limit leaves beside the {} in use then; raise the limit to {} \
+                         or more",
+                        g.len(),
+                        crate::memory::human(u128::from(need)),
+                        crate::memory::human(u128::from(GUIDE_BUILD_RESERVE)),
+                        crate::memory::human(u128::from(need + GUIDE_BUILD_RESERVE))
+                    ),
+                }
+                .into());
+            }
+            Some(crate::orient::Guide::new(g.finish(), k.min(n as usize)).map_err(Error::Cloud)?)
+        }
+        _ => None,
+    };
     b.store.root = root;
     summary.top_levels = levels;
     // 3. Neighbourhoods.
-    let centroid = sum / n as f64;
     let mut spacing_d = Vec::new();
     let picks = match opts.radius {
         Radius::DensitySpacing {
@@ -418,7 +455,7 @@ pub fn prepare<E: From<Error>>(
             &sample,
             k_halo,
             estimate,
-            centroid,
+            guide.as_ref(),
             picks.as_ref(),
             &mut spacing_d,
         )?;

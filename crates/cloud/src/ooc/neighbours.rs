@@ -39,7 +39,7 @@ impl Preparer<'_> {
         sample: &[(DVec3, u64)],
         k_halo: usize,
         estimate: Option<usize>,
-        centroid: DVec3,
+        guide: Option<&crate::orient::Guide>,
         picks: Option<&(Vec<u64>, usize)>,
         spacing_d: &mut Vec<f64>,
     ) -> Result<u64> {
@@ -49,6 +49,11 @@ impl Preparer<'_> {
         })?;
         let sample_entries: Vec<[f64; 3]> = sample.iter().map(|s| s.0.to_array()).collect();
         let sample_tree = kd_tree(&sample_entries)?;
+        // The normals' sign: the guide's (`crate::orient`), as the in-memory estimate has it.
+        let sign = |p: DVec3, n: DVec3| match guide {
+            Some(g) => g.orient(p, n),
+            None => crate::normals::orient(n, DVec3::Z),
+        };
         // (a) Every chunk's halo radius. When the normals' k is the halo's, the one query per
         // point also gives the normal of every point whose ball lies inside its chunk's box:
         // its neighbours are its true ones, in `canonical_knn`'s order, so the normal is the
@@ -93,7 +98,7 @@ impl Preparer<'_> {
                             let n = crate::normals::covariance_normal(
                                 nb.iter().map(|x| l.positions[x.1 as usize]),
                             );
-                            (0.0, Some(crate::normals::orient(n, p - centroid)))
+                            (0.0, Some(sign(p, n)))
                         } else {
                             (0.0, None)
                         }
@@ -272,7 +277,7 @@ impl Preparer<'_> {
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
                     );
-                    crate::normals::orient(n, positions[i] - centroid)
+                    sign(positions[i], n)
                 })?;
                 // The chunk's normals: (a)'s file with the ones found here as a patch, or all
                 // found here.

@@ -216,7 +216,7 @@ fn every_builtin_lod_method_builds_on_a_cloud_without_normals_or_texture() {
         .as_ref()
         .expect("estimated normals in the cloud");
     assert_eq!(n, &data.normals);
-    // Oriented away from the centroid: outward on a sphere.
+    // Oriented by the spanning tree from the top point's +z: outward on a sphere.
     assert!(
         data.cloud
             .positions

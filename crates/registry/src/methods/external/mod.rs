@@ -9,7 +9,7 @@
 //! - The caller writes the cloud once per preparation as binary little-endian PLY: `x y z`
 //!   doubles (point k is index k); with protocol 2 also `nx ny nz` floats, the dataset's normals
 //!   or, when it has none, the estimates the `lod` experiment uses (16 nearest neighbours,
-//!   oriented away from the centroid: [`points::estimated_normals`]), and the dataset's `red green blue`
+//!   oriented by Hoppe's spanning tree: [`points::estimated_normals`]), and the dataset's `red green blue`
 //!   and `u v` when it has them. It starts the method's `command` once per setting (the `--set`
 //!   pairs), in the method's folder, with `--points FILE --params JSON --protocol P` appended
 //!   (`JSON`: the pairs as an object of strings) and, with protocol 2, `--normals dataset` or

@@ -12,12 +12,13 @@ use super::manifest::external_error;
 use crate::error::Result;
 
 /// The normals protocol 2 sends for a cloud without its own: 16 nearest neighbours (fewer on
-/// a smaller cloud), oriented away from the centroid, as the `lod` experiment estimates them.
+/// a smaller cloud), oriented by Hoppe's spanning tree (`cloud::orient`), as the `lod`
+/// experiment estimates them.
 pub fn estimated_normals(positions: &[cloud::glam::DVec3]) -> Result<Vec<Vec3>> {
     Ok(cloud::normals::estimate_normals(
         positions,
         16.min(positions.len()),
-        cloud::normals::Orientation::AwayFromCentroid,
+        cloud::normals::Orientation::Propagated,
     )?)
 }
 
