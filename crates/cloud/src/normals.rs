@@ -20,6 +20,7 @@
 use std::num::NonZero;
 
 use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::knn_grid::GridKnn;
@@ -88,7 +89,7 @@ pub fn estimate_normals(
             k,
         )?;
         return Ok(positions
-            .iter()
+            .par_iter()
             .zip(&raw)
             .map(|(p, n)| guide.orient(*p, *n))
             .collect());
