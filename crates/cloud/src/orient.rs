@@ -40,7 +40,7 @@ use crate::error::{Error, Result};
 use crate::knn_grid::GridKnn;
 
 /// Guide points at most (expected; the hash makes the count vary by a few hundred).
-pub const GUIDE_MAX: usize = 1 << 18;
+pub const GUIDE_MAX: usize = 1 << 16;
 /// The guide limit the builds use: [`GUIDE_MAX`]; in this crate's own tests 10,000, so that
 /// their clouds of tens of thousands of points meet a guide smaller than themselves in memory
 /// and out of core alike.

@@ -193,7 +193,7 @@ fn the_dragon_is_oriented_as_its_mesh() {
     let pts = cloud.positions;
     let away = estimate_normals(&pts, 16, Orientation::AwayFromCentroid).unwrap();
     let raw = unoriented(&pts, 16);
-    let w = Guide::new(select_guide(&pts, GUIDE_MAX), 16).unwrap();
+    let w = Guide::new(select_guide(&pts, pts.len()), 16).unwrap();
     assert_eq!(w.len(), pts.len());
     let whole: Vec<Vec3> = signed(&w, &pts, &raw);
     let g = Guide::new(select_guide(&pts, 20_000), 16).unwrap();
