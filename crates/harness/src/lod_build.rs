@@ -67,15 +67,16 @@ pub struct Built {
 }
 
 /// Disk a `qsplat` out-of-core build cell of the scale experiment needs per point: the LAZ input takes 11.4 bytes per point
-/// and the written file 6.8; the scratch files held at most 120.7 bytes per point at once at
-/// 10^7 points (1151 MiB, 13 chunks) and at 10^8 (11,515 MiB, 154 chunks;
-/// `Scratch::peak_bytes`), of 382 and 604 written in all: 139 in all, and a quarter more for
-/// margin.
-pub const OOC_DISK_PER_POINT: u64 = 175;
+/// and the written file 6.8; the scratch files (positions as the LAZ grid's integers, no
+/// colours where the file has none: 16-byte records, and 12 bytes of normal) held at most 29.0
+/// bytes per point at once at 10^7 points (290 MB, 13 chunks) and 28.3 at 10^8 (2,831 MB, 154
+/// chunks; `Scratch::peak_bytes`), of 56.5 and 56.6 written in all: 47 in all, and a quarter
+/// more for margin.
+pub const OOC_DISK_PER_POINT: u64 = 59;
 
-/// Disk an `spt` out-of-core build cell of the scale experiment needs per point: the LAZ (11.4), the preparation's scratch
-/// (120.7, as QSplat's) while the points it hands on are written (47), then the sorted runs
-/// (about 91) beside the file (84.6 at 10^7): about 188, and a quarter more for margin.
+/// Disk an `spt` out-of-core build cell of the scale experiment needs per point: the LAZ (11.4), then
+/// SPT's own scratch (the sorted runs, at most 104.4 bytes per point at once at 10^7, more than
+/// the preparation's 29) beside the file (84.7 at 10^7): about 200, and a sixth more for margin.
 pub const SPT_OOC_DISK_PER_POINT: u64 = 235;
 
 /// Disk the out-of-core build of `method` (one of [`OUT_OF_CORE`]) needs per point, its LAZ
@@ -115,15 +116,18 @@ pub fn parse_size(text: &str) -> Result<u64> {
 }
 
 /// The options of the `lod` experiment's preparation for a cloud with or without normals,
-/// under `memory_limit`, in chunks of `bytes_per_point` (the method's).
+/// under `memory_limit`, in chunks of `bytes_per_point` (the method's), its scratch records
+/// keeping what `records` says.
 pub fn prepare_options(
     memory_limit: u64,
     has_normals: bool,
     bytes_per_point: u64,
+    records: cloud::ooc::Records,
 ) -> cloud::ooc::Options {
     cloud::ooc::Options {
         memory_limit,
         bytes_per_point,
+        records,
         normals: if has_normals {
             Normals::Given
         } else {
@@ -146,6 +150,7 @@ fn qsplat_options(prepare: &cloud::ooc::Options, colors: bool) -> qsplat::ooc::O
         colors,
         normals: prepare.normals,
         radius: prepare.radius,
+        grid: prepare.records.grid,
         fail_after_bytes: prepare.fail_after_bytes,
     }
 }
@@ -234,6 +239,11 @@ fn build_unnamed(
         loaded = Some(c);
         flags
     };
+    // A LAS file's positions are integers of its grid: the scratch keeps those.
+    let records = cloud::ooc::Records {
+        grid: las_stream.as_ref().map(cloud::io::las::LasStream::grid),
+        colors,
+    };
     let mut chunk = cloud::PointCloud {
         colors: colors.then(Vec::new),
         ..cloud::PointCloud::default()
@@ -268,7 +278,12 @@ fn build_unnamed(
         }
     };
     let built = if method == "spt" {
-        let opts = prepare_options(memory_limit, has_normals, spt::ooc::PREPARE_BYTES_PER_POINT);
+        let opts = prepare_options(
+            memory_limit,
+            has_normals,
+            spt::ooc::PREPARE_BYTES_PER_POINT,
+            records,
+        );
         let (prepared, summary) = cloud::ooc::prepare(&mut source, &opts, out, &mut |s, n| {
             set(prepare_stage(s), n)
         })?;
@@ -322,7 +337,12 @@ fn build_unnamed(
         }
     } else {
         let opts = qsplat_options(
-            &prepare_options(memory_limit, has_normals, qsplat::ooc::BYTES_PER_POINT),
+            &prepare_options(
+                memory_limit,
+                has_normals,
+                qsplat::ooc::BYTES_PER_POINT,
+                records,
+            ),
             colors,
         );
         let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> { Ok(source(batch)?) };
@@ -383,13 +403,19 @@ fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Resul
             u64::MAX,
             c.normals.is_some(),
             spt::ooc::PREPARE_BYTES_PER_POINT,
+            cloud::ooc::Records::default(),
         );
         let (normals, radius) = cloud::ooc::prepare_in_memory(&positions, c.normals, &opts)?;
         let spt = spt::ooc::in_memory(positions, normals, c.colors, 2.0 * radius)?;
         spt::file::write(&spt, out)?;
         radius
     } else {
-        let prepare = prepare_options(u64::MAX, c.normals.is_some(), qsplat::ooc::BYTES_PER_POINT);
+        let prepare = prepare_options(
+            u64::MAX,
+            c.normals.is_some(),
+            qsplat::ooc::BYTES_PER_POINT,
+            cloud::ooc::Records::default(),
+        );
         let opts = qsplat_options(&prepare, c.colors.is_some());
         let (tree, radius) = qsplat::ooc::in_memory(positions, c.normals, c.colors, &opts)?;
         qsplat::file::write(&tree, out)?;

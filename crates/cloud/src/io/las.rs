@@ -222,6 +222,17 @@ impl LasStream {
         self.read
     }
 
+    /// The grid every position of the file lies on: per axis `scale · i + offset` with the
+    /// header's scale and offset and a 32-bit `i`, the `las` crate's decoding (which
+    /// [`LasStream::next_into`] gives).
+    pub fn grid(&self) -> crate::ooc::Grid {
+        let t = self.reader.header().transforms();
+        crate::ooc::Grid {
+            scale: [t.x.scale, t.y.scale, t.z.scale],
+            offset: [t.x.offset, t.y.offset, t.z.offset],
+        }
+    }
+
     /// Appends the next chunk's points (those of the kept classes) to `cloud`'s positions,
     /// intensity, classification and colours (each where `cloud` has the array); `false` once
     /// every point was read. A file with fewer points than announced is

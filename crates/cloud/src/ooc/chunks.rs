@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use glam::{DVec3, Vec3};
 
 use super::error::{Error, Result};
-use super::record::{REC, SHORT, unpack};
+use super::record::{Layout, REC};
 use crate::spill::{Scratch, SpillFile, SpillWriter};
 
 /// A range of a scratch file: a set of points in input order (with its normals' files).
@@ -109,9 +109,9 @@ pub struct Chunks {
     /// The root part.
     pub(super) root: usize,
     pub(super) chunks: Vec<Set>,
-    /// Bytes of the records [`Chunks::create`] writes: [`REC`], or [`SHORT`] (no normal) before
-    /// the normals are estimated.
-    pub(super) rec: usize,
+    /// The layout of the records [`Chunks::create`] writes (no normal where the normals are
+    /// estimated: they go to files of their own).
+    pub(super) layout: Layout,
 }
 
 impl Chunks {
@@ -181,12 +181,14 @@ impl Chunks {
     }
 
     pub(super) fn create(&self) -> Result<SpillWriter> {
-        self.scratch.create(self.rec).map_err(|e| self.io(e))
+        self.scratch
+            .create(self.layout.len())
+            .map_err(|e| self.io(e))
     }
 
-    /// Writes `rec`'s first [`Chunks::rec`] bytes (a writer of [`Chunks::create`]).
+    /// Writes `rec`'s first [`Layout::len`] bytes (a writer of [`Chunks::create`]).
     pub(super) fn push(&self, w: &mut SpillWriter, rec: &[u8; REC]) -> Result<()> {
-        w.push(&rec[..self.rec]).map_err(|e| self.io(e))
+        w.push(&rec[..self.layout.len()]).map_err(|e| self.io(e))
     }
 
     pub(super) fn for_each(
@@ -198,10 +200,9 @@ impl Chunks {
             .file
             .reader(set.start, set.count)
             .map_err(|e| self.io(e))?;
-        // Short records leave the normal's bytes zero.
         let mut b = [0u8; REC];
         let len = set.file.record();
-        if len != REC && len != SHORT {
+        if len != self.layout.len() {
             return Err(self.io(io::Error::other("scratch file of unknown records")));
         }
         while r.next_into(&mut b[..len]).map_err(|e| self.io(e))? {
@@ -219,7 +220,7 @@ impl Chunks {
             index: Vec::with_capacity(m),
         };
         self.for_each(set, |r| {
-            let (p, i) = unpack(r);
+            let (p, i) = self.layout.unpack(r);
             l.positions.push(p.position);
             l.normals.push(p.normal);
             l.colors.push(p.color);

@@ -49,7 +49,8 @@ use glam::{DVec3, Vec3};
 use self::chunks::Set;
 pub use self::chunks::{Chunks, Part, PartKind, Points};
 use self::error::{Error, Result};
-use self::record::{REC, pack};
+pub use self::record::{Grid, Records};
+use self::record::{Layout, REC};
 use crate::spill::Scratch;
 
 /// Bytes of the reserve in use while the orientation's guide is built (the sample, the tree of
@@ -122,6 +123,8 @@ pub struct Options {
     pub normals: Normals,
     /// Leaf radius.
     pub radius: Radius,
+    /// What the scratch records keep ([`Records::default`]: any input).
+    pub records: Records,
     /// Tests: scratch writes fail (as on a full disk) after this many bytes.
     pub fail_after_bytes: Option<u64>,
 }
@@ -282,11 +285,8 @@ pub fn prepare<E: From<Error>>(
             parts: Vec::new(),
             root: 0,
             chunks: Vec::new(),
-            // Until the normals are estimated, the records need not carry them.
-            rec: match opts.normals {
-                Normals::Given => REC,
-                Normals::Estimate { .. } => record::SHORT,
-            },
+            // Estimated normals go to files of their own.
+            layout: Layout::new(opts.records, opts.normals == Normals::Given),
         },
         cap,
         opts,
@@ -334,7 +334,7 @@ pub fn prepare<E: From<Error>>(
             let Ok(index) = u32::try_from(n) else {
                 return Err(too_many(n + 1).into());
             };
-            pack(p, index, &mut rec);
+            b.store.layout.pack(p, index, &mut rec)?;
             if w.len() == partition::SEGMENT {
                 let full = std::mem::replace(&mut w, b.store.create()?);
                 segments.push(full.finish().map_err(|e| b.store.io(e))?);

@@ -25,7 +25,7 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 use super::chunks::{NORMAL, PATCH, PartKind, Set, normal_bytes, normal_of};
 use super::error::{Error, Result};
-use super::record::{REC, position_of, unpack};
+use super::record::REC;
 use super::{HALO_BUFFER, NEIGHBOUR_BYTES_PER_POINT, Preparer, Stage};
 use crate::spill::{SpillFile, SpillWriter};
 
@@ -173,7 +173,7 @@ impl Preparer<'_> {
         for d in 0..self.store.chunks.len() {
             let set = self.store.chunks[d].clone();
             self.store.for_each(&set, |r| {
-                let p = position_of(r);
+                let p = self.store.layout.position_of(r);
                 stack.clear();
                 stack.push(root);
                 while let Some(t) = stack.pop() {
@@ -185,7 +185,7 @@ impl Preparer<'_> {
                         PartKind::Inner(kids) => stack.extend(kids.iter().copied()),
                         PartKind::Chunk(c) if *c != d => {
                             buffered.entry(*c).or_default().push(*r);
-                            buffered_bytes += self.store.rec;
+                            buffered_bytes += self.store.layout.len();
                         }
                         PartKind::Chunk(_) => {}
                     }
@@ -245,7 +245,7 @@ impl Preparer<'_> {
             if let Some(hf) = &halo {
                 let hs = Set::whole(hf.clone());
                 self.store.for_each(&hs, |r| {
-                    let (p, i) = unpack(r);
+                    let (p, i) = self.store.layout.unpack(r);
                     positions.push(p.position);
                     index.push(i);
                     Ok(())
@@ -354,12 +354,13 @@ impl Preparer<'_> {
                 None => halos[c].insert(
                     self.store
                         .scratch
-                        .create(self.store.rec)
+                        .create(self.store.layout.len())
                         .map_err(|e| self.store.io(e))?,
                 ),
             };
             for r in &recs {
-                w.push(&r[..self.store.rec]).map_err(|e| self.store.io(e))?;
+                w.push(&r[..self.store.layout.len()])
+                    .map_err(|e| self.store.io(e))?;
             }
             // Release the writer's buffer until more arrives.
             w.flush().map_err(|e| self.store.io(e))?;

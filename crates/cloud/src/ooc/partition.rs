@@ -7,12 +7,13 @@
 //! so the tree of splits is found level by level, each level by a pass over the input (in
 //! input order, read, not written) that sends every point down the splits known so far and
 //! gathers the count and box of the sets it reaches. A set once known to be a chunk takes its
-//! points, in input order, in the next pass (in the same pass when its parent, a first split of
-//! a group, had no more points than a chunk: then both its halves are chunks). A set whose
+//! points, in input order, in the last pass (its count and box are known once its parent's
+//! split is: a first split of a group with no more points than a chunk makes two chunks). A set whose
 //! points all lie on one side of its midpoint (coincident points) is halved by position: its
 //! first half in input order to the left, counted in the pass. The input is kept in segments,
-//! and the last pass removes each once read, so the input and the chunks are not on the disk
-//! at once.
+//! and the last pass, the only one that writes, removes each once read, so the input and the
+//! chunks are not on the disk at once (the most scratch at once is the input's records and a
+//! segment).
 //!
 //! This is the partition of the in-memory build's (QSplat's `build`, whose split is a stable
 //! partition): the same sets, each in input order. As in PotreeConverter 2 (Schütz et al.
@@ -22,7 +23,7 @@ use glam::DVec3;
 
 use super::chunks::{Part, PartKind, Set};
 use super::error::Result;
-use super::record::{REC, position_of};
+use super::record::REC;
 use super::{Preparer, Stage};
 use crate::spill::{SpillFile, SpillWriter};
 
@@ -126,15 +127,18 @@ impl Preparer<'_> {
                     v.count = 0;
                     v.bbox = EMPTY;
                 }
+                // Chunks are written in the last pass only, so the input's segments (removed
+                // as that pass reads them) and the chunks are never on the disk at once.
                 if let State::Chunk {
                     writer: w @ None,
                     file: None,
                 } = &mut v.state
+                    && last
                 {
                     *w = Some(
                         self.store
                             .scratch
-                            .create_buffered(self.store.rec, buffer)
+                            .create_buffered(self.store.layout.len(), buffer)
                             .map_err(|e| self.store.io(e))?,
                     );
                 }
@@ -171,7 +175,7 @@ impl Preparer<'_> {
     /// Sends record `r` down the splits to the set that gathers it (or to the chunk it is in,
     /// already written: nothing).
     fn place(&self, nodes: &mut [Node], r: &[u8; REC]) -> Result<()> {
-        let p = position_of(r);
+        let p = self.store.layout.position_of(r);
         let mut v = 0;
         loop {
             let node = &mut nodes[v];
@@ -193,11 +197,14 @@ impl Preparer<'_> {
                     node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
                     return Ok(());
                 }
-                State::Chunk { writer, .. } => {
-                    if let Some(w) = writer {
+                State::Chunk { writer, file } => {
+                    // A chunk not yet written gathers its count and box in every pass.
+                    if file.is_none() {
                         node.count += 1;
                         node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
-                        self.store.push(w, r)?;
+                        if let Some(w) = writer {
+                            self.store.push(w, r)?;
+                        }
                     }
                     return Ok(());
                 }

@@ -37,6 +37,7 @@ fn options(memory_limit: u64) -> Options {
             seed: 1,
             factor: 1.5,
         },
+        records: Records::default(),
         fail_after_bytes: None,
     }
 }

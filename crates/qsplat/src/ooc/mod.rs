@@ -57,6 +57,9 @@ pub struct Options {
     pub normals: Normals,
     /// Leaf radius.
     pub radius: Radius,
+    /// The grid the input's positions lie on, where it declares one (LAS, LAZ): the scratch
+    /// records keep integers (`cloud::ooc::Records`).
+    pub grid: Option<cloud::ooc::Grid>,
     /// Tests: scratch writes fail (as on a full disk) after this many bytes.
     pub fail_after_bytes: Option<u64>,
 }
@@ -69,6 +72,11 @@ impl Options {
             bytes_per_point: BYTES_PER_POINT,
             normals: self.normals,
             radius: self.radius,
+            // Colours the build drops need no place on the disk either.
+            records: cloud::ooc::Records {
+                grid: self.grid,
+                colors: self.colors,
+            },
             fail_after_bytes: self.fail_after_bytes,
         }
     }

@@ -74,6 +74,7 @@ fn options(chunk: u64, colors: bool, normals: Normals, radius: Radius) -> Option
         colors,
         normals,
         radius,
+        grid: None,
         fail_after_bytes: None,
     }
 }
@@ -86,11 +87,26 @@ const DENSITY: Radius = Radius::DensitySpacing {
 };
 
 fn same_bytes(pts: &[Point], normals: Normals, radius: Radius, colors: bool, chunks: &[u64]) {
+    same_bytes_on(pts, normals, radius, colors, None, chunks);
+}
+
+/// [`same_bytes`] with the scratch records' positions on `grid`.
+fn same_bytes_on(
+    pts: &[Point],
+    normals: Normals,
+    radius: Radius,
+    colors: bool,
+    grid: Option<cloud::ooc::Grid>,
+    chunks: &[u64],
+) {
     let dir = tempfile::tempdir().unwrap();
     let want = in_memory_bytes(pts, &options(1 << 30, colors, normals, radius));
     for &chunk in chunks {
         let out = dir.path().join("t.qsplat");
-        let opts = options(chunk, colors, normals, radius);
+        let opts = Options {
+            grid,
+            ..options(chunk, colors, normals, radius)
+        };
         let s = out_of_core(pts, &opts, &out).unwrap();
         if (chunk as usize) < pts.len() {
             assert!(s.chunks >= 5 && s.top_levels >= 2, "{s:?}");
@@ -136,6 +152,52 @@ fn the_same_bytes_with_estimated_normals_and_density_spacing() {
         &[MIN_CHUNK, 7_000, 9_500],
     );
     same_bytes(&pts, Normals::Given, DENSITY, false, &[MIN_CHUNK]);
+}
+
+/// Positions on a LAS-like grid (`scale · i + offset`, the `las` crate's formula), which the
+/// scratch records keep as integers: the same bytes, with and without colours.
+#[test]
+fn the_same_bytes_with_positions_kept_as_integers_of_their_grid() {
+    let grid = cloud::ooc::Grid {
+        scale: [1e-5, 1e-5, 1e-6],
+        offset: [0.3, -0.2, 1_000.0],
+    };
+    let mut pts = cloud(40_000, 2);
+    for p in &mut pts {
+        for a in 0..3 {
+            let i = ((p.position[a] - grid.offset[a]) / grid.scale[a]).round();
+            p.position[a] = grid.scale[a] * i + grid.offset[a];
+        }
+    }
+    for colors in [true, false] {
+        same_bytes_on(
+            &pts,
+            Normals::Estimate { k: 16 },
+            DENSITY,
+            colors,
+            Some(grid),
+            &[MIN_CHUNK, 9_500],
+        );
+    }
+    same_bytes_on(
+        &pts,
+        Normals::Given,
+        Radius::Fixed(0.002),
+        true,
+        Some(grid),
+        &[7_000],
+    );
+    // A point off the grid it declares is an error naming it, and leaves nothing behind.
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.qsplat");
+    pts[777].position.x += 0.3 * grid.scale[0];
+    let opts = Options {
+        grid: Some(grid),
+        ..options(MIN_CHUNK, true, Normals::Estimate { k: 16 }, DENSITY)
+    };
+    let e = out_of_core(&pts, &opts, &out).unwrap_err().to_string();
+    assert!(e.contains("point 777") && e.contains("grid"), "{e}");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
 
 #[test]
