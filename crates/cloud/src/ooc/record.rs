@@ -11,7 +11,8 @@
 //! - the normal (12 bytes) only where it is given: estimated normals go to files of their own
 //!   beside the chunks' (`chunks::Set::normals`).
 //!
-//! A LAZ point without colour takes 16 bytes instead of 43. Every record is written twice
+//! A LAZ point without colour, its normal estimated, takes 16 bytes instead of 31 (28 instead
+//! of 43 with its normal given). Every record is written twice
 //! (the input, then its chunk), so each byte saved here is saved twice.
 
 use glam::{DVec3, Vec3};
