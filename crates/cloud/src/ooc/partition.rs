@@ -172,8 +172,8 @@ impl Preparer<'_> {
         self.emit(&mut nodes, 0)
     }
 
-    /// Sends record `r` down the splits to the set that gathers it (or to the chunk it is in,
-    /// already written: nothing).
+    /// Sends record `r` down the splits to the set that gathers it (a chunk also writes it in
+    /// the last pass).
     fn place(&self, nodes: &mut [Node], r: &[u8; REC]) -> Result<()> {
         let p = self.store.layout.position_of(r);
         let mut v = 0;
@@ -197,14 +197,13 @@ impl Preparer<'_> {
                     node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
                     return Ok(());
                 }
-                State::Chunk { writer, file } => {
-                    // A chunk not yet written gathers its count and box in every pass.
-                    if file.is_none() {
-                        node.count += 1;
-                        node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
-                        if let Some(w) = writer {
-                            self.store.push(w, r)?;
-                        }
+                State::Chunk { writer, .. } => {
+                    // A chunk gathers its count and box in every pass (none is written before
+                    // the last), and takes its points in the last.
+                    node.count += 1;
+                    node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
+                    if let Some(w) = writer {
+                        self.store.push(w, r)?;
                     }
                     return Ok(());
                 }
