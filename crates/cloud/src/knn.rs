@@ -66,13 +66,33 @@ impl Knn {
     /// The index of `positions` (finite; the caller checks), point `i` having global index
     /// `global(i)` (the identity for a whole cloud). Fails when there are no points.
     pub fn new(positions: &[DVec3], global: impl Fn(u64) -> u64 + Sync) -> Result<Self> {
+        Self::build(positions, global, true)
+    }
+
+    /// [`Knn::new`] on the calling thread alone: for an index built lazily inside a parallel
+    /// loop (as [`crate::knn_grid::GridKnn`]'s fallback is), where a parallel build would let
+    /// the waiting thread take up another of the loop's queries and initialise the same index
+    /// re-entrantly.
+    pub fn new_sequential(positions: &[DVec3], global: impl Fn(u64) -> u64 + Sync) -> Result<Self> {
+        Self::build(positions, global, false)
+    }
+
+    fn build(
+        positions: &[DVec3],
+        global: impl Fn(u64) -> u64 + Sync,
+        parallel: bool,
+    ) -> Result<Self> {
         if positions.is_empty() {
             return Err(Error::EmptyCloud);
         }
-        let global: Vec<u64> = (0..positions.len() as u64)
-            .into_par_iter()
-            .map(&global)
-            .collect();
+        let global: Vec<u64> = if parallel {
+            (0..positions.len() as u64)
+                .into_par_iter()
+                .map(&global)
+                .collect()
+        } else {
+            (0..positions.len() as u64).map(&global).collect()
+        };
         let mut order: Vec<u32> = (0..positions.len() as u32).collect();
         if positions.len() > u32::MAX as usize {
             return Err(Error::InvalidParameter {
@@ -83,7 +103,12 @@ impl Knn {
                 ),
             });
         }
-        order.par_sort_unstable_by_key(|&i| (key(positions[i as usize]), global[i as usize]));
+        let by = |&i: &u32| (key(positions[i as usize]), global[i as usize]);
+        if parallel {
+            order.par_sort_unstable_by_key(by);
+        } else {
+            order.sort_unstable_by_key(by);
+        }
         let coincide = order
             .windows(2)
             .any(|w| key(positions[w[0] as usize]) == key(positions[w[1] as usize]));
@@ -326,6 +351,7 @@ mod tests {
                 .map(|i| (i * 7919) % 100_003)
                 .collect();
             let knn = Knn::new(&pts, |i| global[i as usize]).unwrap();
+            let sequential = Knn::new_sequential(&pts, |i| global[i as usize]).unwrap();
             for k in [1, 3, 16, 50] {
                 let k_nz = NonZero::new(k).unwrap();
                 for p in pts.iter().step_by(7) {
@@ -333,6 +359,11 @@ mod tests {
                         knn.canonical_knn(*p, k_nz),
                         brute(&pts, &global, *p, k),
                         "clean {clean}, copies {copies}, k {k}, at {p}"
+                    );
+                    assert_eq!(
+                        sequential.canonical_knn(*p, k_nz),
+                        knn.canonical_knn(*p, k_nz),
+                        "sequential build"
                     );
                     let want = brute(&pts, &global, *p, k).last().unwrap().0;
                     assert_eq!(knn.kth_distance2(*p, k_nz), want);

@@ -9,9 +9,12 @@
 //! Method: the cell-list (linked-cell) neighbour search of molecular dynamics (Allen &
 //! Tildesley, *Computer Simulation of Liquids*, 1987, §5.3.2), as PotreeConverter 2 and
 //! point-cloud libraries bin points for neighbour queries: the points are binned in cubic
-//! cells (sorted by cell, so a row of cells is one slice), and a query scans the 3 × 3 × 3
-//! cells around its own, gathered once for all the queries of a cell into flat columns, and
-//! selects the k best (a fixed k, no tree). The answer is exact when the k-th distance is below
+//! cells (sorted by cell, so a row of cells is one slice, found from a table of rows where it
+//! is small), and a query scans the 3 × 3 × 3 cells around its own, gathered once for all the
+//! queries of a cell into flat columns, and selects the k best (a fixed k, no tree) by
+//! integer keys (distance bits, then the global index among ties at the k-th distance).
+//! [`GridKnn::nearest`] answers any position the same way (the orientation's guide asks it
+//! for a point's nearest guide points), reusing a block while the queries stay in one cell. The answer is exact when the k-th distance is below
 //! the distance from the query to the scanned block's faces (less a margin for the rounding of
 //! the binning); otherwise the 5 × 5 × 5 block is scanned, and if that does not suffice
 //! either (an isolated point) the query goes to [`crate::knn::Knn`] (built once, on the first
@@ -28,6 +31,7 @@
 //! one position share one query.
 //! [`GridKnn::examined`] counts the candidates tried, for the tests' bound.
 
+use std::borrow::Cow;
 use std::cell::{Cell, RefCell};
 use std::num::NonZero;
 use std::sync::OnceLock;
@@ -48,7 +52,7 @@ const MAX_RING: i64 = 2;
 /// k-nearest-neighbour queries for its own points.
 #[derive(Debug)]
 pub struct GridKnn<'a> {
-    positions: &'a [DVec3],
+    positions: Cow<'a, [DVec3]>,
     /// Global index of each point (by local index).
     global: Vec<u64>,
     origin: DVec3,
@@ -61,6 +65,10 @@ pub struct GridKnn<'a> {
     /// `cstart[c]..cstart[c + 1]`.
     cells: Vec<u64>,
     cstart: Vec<u32>,
+    /// Where each row of cells (a `(y, z)`, by `z · dims[1] + y`) starts in `cells`, one more
+    /// for the end: a block's rows found without a search; `None` where the rows would
+    /// outnumber the occupied cells by far (then each row is a binary search in `cells`).
+    rows: Option<Vec<u32>>,
     /// Distinct positions; position `d` has copies `members[dstart[d]..dstart[d + 1]]`.
     dpos: Vec<[f64; 3]>,
     dstart: Vec<u32>,
@@ -120,6 +128,25 @@ impl<'a> GridKnn<'a> {
         global: impl Fn(u64) -> u64 + Sync,
         k_hint: usize,
     ) -> Result<Self> {
+        Self::build(Cow::Borrowed(positions), global, k_hint)
+    }
+
+    /// [`GridKnn::new`] owning its points (a grid kept beside them, as
+    /// [`crate::orient::Guide`] keeps its own).
+    pub fn new_owned(
+        positions: Vec<DVec3>,
+        global: impl Fn(u64) -> u64 + Sync,
+        k_hint: usize,
+    ) -> Result<GridKnn<'static>> {
+        GridKnn::build(Cow::Owned(positions), global, k_hint)
+    }
+
+    fn build(
+        owned: Cow<'a, [DVec3]>,
+        global: impl Fn(u64) -> u64 + Sync,
+        k_hint: usize,
+    ) -> Result<Self> {
+        let positions: &[DVec3] = &owned;
         let n = positions.len();
         if n == 0 {
             return Err(Error::EmptyCloud);
@@ -216,9 +243,23 @@ impl<'a> GridKnn<'a> {
         }
         cstart.push(dpos.len() as u32);
         dstart.push(members.len() as u32);
+        let row_count = (dims[1] as u64).saturating_mul(dims[2] as u64);
+        let rows = (row_count <= 4 * cells.len() as u64 + 1024).then(|| {
+            let mut rows = Vec::with_capacity(row_count as usize + 1);
+            let mut at = 0usize;
+            for r in 0..=row_count {
+                // The first cell of row r or later (the row is the key's upper 42 bits).
+                let first = cell_key([0, (r % dims[1] as u64) as i64, (r / dims[1] as u64) as i64]);
+                while at < cells.len() && (r == row_count || cells[at] < first) {
+                    at += 1;
+                }
+                rows.push(at as u32);
+            }
+            rows
+        });
         let scale = lo.abs().max(hi.abs()).max_element() + extent;
         Ok(Self {
-            positions,
+            positions: owned,
             global,
             origin: lo,
             cell,
@@ -227,6 +268,7 @@ impl<'a> GridKnn<'a> {
             margin: 1e-6 * cell + 1e-12 * scale,
             cells,
             cstart,
+            rows,
             dpos,
             dstart,
             members,
@@ -285,10 +327,16 @@ impl<'a> GridKnn<'a> {
         let x1 = (c[0] + r).min(self.dims[0] - 1);
         for z in (c[2] - r).max(0)..=(c[2] + r).min(self.dims[2] - 1) {
             for y in (c[1] - r).max(0)..=(c[1] + r).min(self.dims[1] - 1) {
-                let a = self
-                    .cells
-                    .partition_point(|&key| key < cell_key([x0, y, z]));
-                let b = a + self.cells[a..].partition_point(|&key| key <= cell_key([x1, y, z]));
+                let (lo, hi) = match &self.rows {
+                    Some(rows) => {
+                        let r = (z * self.dims[1] + y) as usize;
+                        (rows[r] as usize, rows[r + 1] as usize)
+                    }
+                    None => (0, self.cells.len()),
+                };
+                let row = &self.cells[lo..hi];
+                let a = lo + row.partition_point(|&key| key < cell_key([x0, y, z]));
+                let b = a + self.cells[a..hi].partition_point(|&key| key <= cell_key([x1, y, z]));
                 for d in self.cstart[a] as usize..self.cstart[b] as usize {
                     let (s, e) = (self.dstart[d] as usize, self.dstart[d + 1] as usize);
                     let p = self.dpos[d];
@@ -337,25 +385,53 @@ impl<'a> GridKnn<'a> {
         } else {
             f64::INFINITY
         };
-        let order =
-            |a: &(f64, u64, u32), b: &(f64, u64, u32)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        // The candidates within the bound as keys (distance bits, block index): squared
+        // distances are never negative, so their bits order as they do, and a key is one
+        // integer to compare. The k best by key are the k best by (distance, global index)
+        // except among ties at the k-th distance, settled by global index below.
+        // The candidates within the bound as keys (distance bits, block index): squared
+        // distances are never negative, so their bits order as they do, and a key is one
+        // integer to compare. The k best by key are the k best by (distance, global index)
+        // except among ties at the k-th distance, settled by global index below.
+        let cand: &mut Vec<u128> = &mut block.cand.borrow_mut();
+        let want = k.min(n);
         for threshold in [bound, f64::INFINITY] {
-            out.clear();
-            out.extend(
+            cand.clear();
+            cand.extend(
                 d2.iter()
                     .enumerate()
                     .filter(|e| *e.1 <= threshold)
-                    .map(|(i, &d)| (d, block.g[i], i as u32)),
+                    .map(|(i, &d)| (u128::from(d.to_bits()) << 64) | i as u128),
             );
-            if out.len() >= k.min(n) {
+            if cand.len() >= want {
                 break;
             }
         }
-        if out.len() > k {
-            out.select_nth_unstable_by(k - 1, order);
-            out.truncate(k);
+        let dist = |key: u128| (key >> 64) as u64;
+        let index = |key: u128| key as u32;
+        if cand.len() > want && want > 0 {
+            cand.select_nth_unstable(want - 1);
+            let last = dist(cand[want - 1]);
+            if cand[want..].iter().any(|&key| dist(key) == last) {
+                // Ties at the k-th distance: those of least global index.
+                let below = cand[..want].iter().filter(|&&key| dist(key) < last).count();
+                let mut tied: Vec<u128> = cand
+                    .iter()
+                    .filter(|&&key| dist(key) == last)
+                    .copied()
+                    .collect();
+                tied.sort_unstable_by_key(|&key| block.g[index(key) as usize]);
+                cand.retain(|&key| dist(key) < last);
+                cand.extend(tied.into_iter().take(want - below));
+            }
+            cand.truncate(want);
         }
-        out.sort_unstable_by(order);
+        out.clear();
+        out.extend(cand.iter().map(|&key| {
+            let i = index(key);
+            (f64::from_bits(dist(key)), block.g[i as usize], i)
+        }));
+        out.sort_unstable_by_key(|e| (e.0.to_bits(), e.1));
         block.last_full.set(out.len() == k);
         let (c, r) = (block.cell, block.ring);
         let covers_all = (0..3).all(|a| c[a] - r <= 0 && c[a] + r >= self.dims[a] - 1);
@@ -401,7 +477,7 @@ impl<'a> GridKnn<'a> {
         self.fell_back.fetch_add(1, Ordering::Relaxed);
         let knn = self
             .fallback
-            .get_or_init(|| Knn::new(self.positions, |i| self.global[i as usize]).ok())
+            .get_or_init(|| Knn::new_sequential(&self.positions, |i| self.global[i as usize]).ok())
             .as_ref()
             .ok_or(Error::EmptyCloud)?;
         let kk = NonZero::new(k).ok_or(Error::InvalidParameter {
@@ -422,6 +498,27 @@ impl<'a> GridKnn<'a> {
         self.query(&p.to_array(), k.get(), &mut s, &mut e)?;
         self.examined.fetch_add(e, Ordering::Relaxed);
         Ok(s.res)
+    }
+
+    /// The `k` nearest neighbours of any position `p` as (squared distance, local index) in
+    /// canonical order, as [`GridKnn::canonical_knn`] gives them, with `scratch`'s buffers:
+    /// successive queries near one another (in one cell) share its block of candidates, as
+    /// [`GridKnn::for_each_point`]'s do (the candidates tried are counted in the scratch,
+    /// [`Queries::examined`], not in [`GridKnn::examined`]). A scratch serves one grid:
+    /// [`Queries::default`] for another.
+    pub fn nearest<'s>(
+        &self,
+        p: DVec3,
+        k: NonZero<usize>,
+        scratch: &'s mut Queries,
+    ) -> Result<&'s [(f64, u64)]> {
+        self.query(
+            &p.to_array(),
+            k.get(),
+            &mut scratch.scratch,
+            &mut scratch.examined,
+        )?;
+        Ok(&scratch.scratch.res)
     }
 
     /// `f(i, neighbours)` for every point `i` of the grid with `want(i)`, its `k` nearest
@@ -490,6 +587,8 @@ struct Block {
     l: Vec<u32>,
     /// The candidates' squared distances to the current query.
     d2: RefCell<Vec<f64>>,
+    /// The selection's keys (distance bits, block index).
+    cand: RefCell<Vec<u128>>,
     /// Whether the last selection from this block found k candidates (then kept in
     /// [`Scratch::sel`]).
     last_full: Cell<bool>,
@@ -503,6 +602,21 @@ impl Block {
         self.g.clear();
         self.l.clear();
         self.last_full.set(false);
+    }
+}
+
+/// A caller's buffers for [`GridKnn::nearest`] (one grid's: its block of candidates is the
+/// last query's).
+#[derive(Debug, Default)]
+pub struct Queries {
+    scratch: Scratch,
+    examined: u64,
+}
+
+impl Queries {
+    /// Candidates the queries with this scratch tried.
+    pub fn examined(&self) -> u64 {
+        self.examined
     }
 }
 
@@ -639,6 +753,62 @@ mod tests {
             );
         }
         assert!(base <= 400.0, "clean: {base}");
+    }
+
+    #[test]
+    fn nearest_to_any_position_as_brute_force_with_one_scratch() {
+        // Queries at, between and far outside the points, in an order that reuses a block
+        // for neighbouring queries and leaves it for distant ones; copies and a lattice's
+        // ties included; one scratch throughout.
+        let mut rng = seeded(8, "knn-grid-nearest-test");
+        let mut pts: Vec<DVec3> = (0..800)
+            .map(|_| DVec3::new(rng.random(), rng.random(), rng.random::<f64>() * 0.1))
+            .collect();
+        pts.extend(std::iter::repeat_n(pts[3], 12));
+        pts.extend((0..125).map(|i| {
+            DVec3::new(
+                2.0 + f64::from(i % 5),
+                f64::from((i / 5) % 5),
+                f64::from(i / 25),
+            ) * 0.25
+        }));
+        let global: Vec<u64> = (0..pts.len() as u64).map(|i| (i * 613) % 2003).collect();
+        let grid = GridKnn::new(&pts, |i| global[i as usize], 6).unwrap();
+        let mut queries: Vec<DVec3> = pts.iter().step_by(3).copied().collect();
+        queries.extend((0..600).map(|_| {
+            DVec3::new(
+                rng.random_range(-0.5..3.5),
+                rng.random_range(-0.5..1.5),
+                rng.random_range(-0.3..1.3),
+            )
+        }));
+        queries.extend([DVec3::new(50.0, 1.0, 0.0), DVec3::new(0.5, -20.0, 7.0)]);
+        let mut scratch = Queries::default();
+        for k in [1, 4, 6, 17] {
+            let kk = NonZero::new(k).unwrap();
+            for (i, q) in queries.iter().enumerate() {
+                let got = grid.nearest(*q, kk, &mut scratch).unwrap().to_vec();
+                assert_eq!(got, brute(&pts, &global, *q, k), "k {k}, query {i} at {q}");
+            }
+        }
+        assert!(scratch.examined() > 0);
+    }
+
+    #[test]
+    fn an_owned_grid_answers_as_a_borrowed_one() {
+        let pts: Vec<DVec3> = (0..300)
+            .map(|i| DVec3::new(f64::from(i % 17), f64::from(i % 13), f64::from(i % 7)) * 0.1)
+            .collect();
+        let kk = NonZero::new(9).unwrap();
+        let borrowed = GridKnn::new(&pts, |i| i, 9).unwrap();
+        let owned = GridKnn::new_owned(pts.clone(), |i| i, 9).unwrap();
+        let a = borrowed
+            .for_each_point(kk, |_| true, |_, nb| nb.to_vec())
+            .unwrap();
+        let b = owned
+            .for_each_point(kk, |_| true, |_, nb| nb.to_vec())
+            .unwrap();
+        assert_eq!(a, b);
     }
 
     proptest! {

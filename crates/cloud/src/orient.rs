@@ -20,24 +20,26 @@
 //! over a stream (the shift only grows, and the set kept is always a superset of the final one).
 //! The guide's points are sorted by position, their normals estimated among themselves (the
 //! cloud's own k) and oriented by the tree. A point of the cloud then takes the sign of one
-//! guide normal: among its [`CANDIDATES`] nearest distinct guide positions (by distance, a k-d
-//! tree's order on ties: the same tree, so the same answer, for every caller), the one whose
-//! tangent plane passes closest to it (|(p − g) · n_g| least, the first on ties), which keeps two
-//! close sheets of opposite normals apart (4 candidates agreed with the dragon's mesh as often
-//! as 8, and took half the time). When the guide is the whole
+//! guide normal: among its [`CANDIDATES`] nearest distinct guide positions (by distance, ties
+//! by position order: [`crate::knn`]'s canonical order over the sorted distinct positions,
+//! found by a [`GridKnn`] over them), the one whose tangent plane passes closest to it
+//! (|(p − g) · n_g| least, the first on ties), which keeps two close sheets of opposite normals
+//! apart (4 candidates agreed with the dragon's mesh as often as 8, and took half the time).
+//! The grid replaced a k-d tree query per point (the tree's own order on ties), which took as
+//! long as the point's 16 nearest neighbours in the cloud. When the guide is the whole
 //! cloud, a point's own entry (distance 0, plane distance 0) decides, and the rule is exactly
 //! the tree's on the whole cloud.
 
+use std::cell::RefCell;
 use std::cmp::{Ordering, Reverse};
 use std::collections::BinaryHeap;
 use std::num::NonZero;
+use std::sync::atomic::{AtomicU64, Ordering as AtomicOrdering};
 
 use glam::{DVec3, Vec3};
 
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
-
 use crate::error::{Error, Result};
-use crate::knn_grid::GridKnn;
+use crate::knn_grid::{GridKnn, Queries};
 
 /// Guide points at most (expected; the hash makes the count vary by a few hundred).
 pub const GUIDE_MAX: usize = 1 << 16;
@@ -159,7 +161,19 @@ pub struct Guide {
     normals: Vec<DVec3>,
     /// The distinct positions (the first of each run of copies, by index into `positions`).
     distinct: Vec<u32>,
-    tree: Option<ImmutableKdTree<f64, 3>>,
+    /// A grid over the distinct positions (local index: into `distinct`).
+    grid: Option<GridKnn<'static>>,
+    /// Which guide a thread's query buffers belong to.
+    id: u64,
+}
+
+/// Guides made so far (each gets its own id).
+static GUIDES: AtomicU64 = AtomicU64::new(1);
+
+thread_local! {
+    /// A thread's buffers for guide queries: the id of the guide they belong to and the
+    /// grid's scratch (its last block of candidates).
+    static QUERIES: RefCell<(u64, Queries)> = RefCell::new((0, Queries::default()));
 }
 
 impl Guide {
@@ -174,7 +188,8 @@ impl Guide {
                 positions: Vec::new(),
                 normals: Vec::new(),
                 distinct: Vec::new(),
-                tree: None,
+                grid: None,
+                id: GUIDES.fetch_add(1, AtomicOrdering::Relaxed),
             });
         }
         let k = k.clamp(3, points.len());
@@ -200,21 +215,14 @@ impl Guide {
                 i == 0 || by_position(&points[i as usize - 1], &points[i as usize]).is_ne()
             })
             .collect();
-        let entries: Vec<[f64; 3]> = distinct
-            .iter()
-            .map(|&i| points[i as usize].to_array())
-            .collect();
-        let tree = ImmutableKdTree::<f64, 3>::new_from_slice(&entries).map_err(|e| {
-            Error::InvalidParameter {
-                name: "guide",
-                reason: format!("cannot build a k-d tree: {e:?}"),
-            }
-        })?;
+        let entries: Vec<DVec3> = distinct.iter().map(|&i| points[i as usize]).collect();
+        let grid = GridKnn::new_owned(entries, |i| i, CANDIDATES)?;
         Ok(Guide {
             positions: points,
             normals,
             distinct,
-            tree: Some(tree),
+            grid: Some(grid),
+            id: GUIDES.fetch_add(1, AtomicOrdering::Relaxed),
         })
     }
 
@@ -230,25 +238,59 @@ impl Guide {
 
     /// The guide's oriented normal that decides the sign at `p` (module doc).
     pub fn reference(&self, p: DVec3) -> DVec3 {
-        let Some(tree) = &self.tree else {
+        let Some(grid) = &self.grid else {
             return DVec3::Z;
         };
         let m = NonZero::new(CANDIDATES.min(self.distinct.len())).unwrap_or(NonZero::<usize>::MIN);
+        let answer = |queries: &mut Queries| match grid.nearest(p, m, queries) {
+            Ok(found) => self.closest_plane(p, found.iter().map(|x| x.1)),
+            // (The grid fails only where it cannot build its k-d tree for a far query, which a
+            // guide of at least two positions always can; the same answer by brute force.)
+            Err(_) => self.closest_plane(p, self.brute_nearest(p, m.get()).into_iter()),
+        };
+        QUERIES.with(|cell| match cell.try_borrow_mut() {
+            Ok(mut held) => {
+                let (id, queries) = &mut *held;
+                if *id != self.id {
+                    // Another guide's block of candidates.
+                    *queries = Queries::default();
+                    *id = self.id;
+                }
+                answer(queries)
+            }
+            // (Never re-entered, as no query runs parallel work; fresh buffers if it were.)
+            Err(_) => answer(&mut Queries::default()),
+        })
+    }
+
+    /// Among the distinct guide positions `candidates` (in canonical order), the normal of the
+    /// one whose tangent plane passes closest to `p`, the first on ties.
+    fn closest_plane(&self, p: DVec3, candidates: impl Iterator<Item = u64>) -> DVec3 {
         let mut best = (f64::INFINITY, DVec3::Z);
-        // The tree's order (by distance; its own order on ties, the same for every caller of
-        // this guide, which is all the rule needs).
-        for nb in tree
-            .query(&p.to_array())
-            .nearest_n::<SquaredEuclidean<f64>>(m)
-            .execute()
-        {
-            let g = self.distinct[nb.item as usize] as usize;
-            let d = (p - self.positions[g]).dot(self.normals[g]).abs();
-            if d < best.0 {
-                best = (d, self.normals[g]);
+        for d in candidates {
+            let g = self.distinct[d as usize] as usize;
+            let dist = (p - self.positions[g]).dot(self.normals[g]).abs();
+            if dist < best.0 {
+                best = (dist, self.normals[g]);
             }
         }
         best.1
+    }
+
+    /// The `m` nearest distinct guide positions of `p` in canonical order (by squared
+    /// distance summed as the grid sums it, ties by index), by brute force.
+    fn brute_nearest(&self, p: DVec3, m: usize) -> Vec<u64> {
+        let mut all: Vec<(f64, u64)> = self
+            .distinct
+            .iter()
+            .enumerate()
+            .map(|(d, &g)| {
+                let v = p - self.positions[g as usize];
+                ((v.x * v.x + v.y * v.y) + v.z * v.z, d as u64)
+            })
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        all.into_iter().take(m).map(|x| x.1).collect()
     }
 
     /// `n` (unoriented, at `p`) with the guide's sign (flipped when n · reference < 0, as

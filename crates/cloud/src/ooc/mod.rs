@@ -28,7 +28,7 @@
 //! Memory: a chunk of m points takes the method's bytes per point ([`Options::bytes_per_point`])
 //! · m at its peak, [`NEIGHBOUR_BYTES_PER_POINT`] per point of a chunk and its halo during the
 //! neighbour searches; scratch buffers, the sample, the orientation's guide (at most
-//! [`crate::orient::GUIDE_MAX`] points, about 5 MiB, held once the split's write buffers are
+//! [`crate::orient::GUIDE_MAX`] points and the grid its queries use, about 8 MiB, held once the split's write buffers are
 //! freed) and the tree of splits need [`RESERVE`] more; building the guide takes
 //! [`crate::orient::BUILD_BYTES_PER_POINT`] a guide point, within all of the limit but
 //! [`GUIDE_BUILD_RESERVE`], while no chunk is loaded.

@@ -209,3 +209,73 @@ fn the_dragon_is_oriented_as_its_mesh() {
     );
     assert!(a >= 0.99 && b >= 0.99, "tree {a}, guided {b}");
 }
+
+/// The rule of the module doc by brute force: the `CANDIDATES` nearest distinct guide
+/// positions by (squared distance, position order), the one whose plane passes closest.
+fn brute_reference(g: &Guide, p: DVec3) -> DVec3 {
+    g.closest_plane(
+        p,
+        g.brute_nearest(p, CANDIDATES.min(g.distinct.len()))
+            .into_iter(),
+    )
+}
+
+#[test]
+fn the_reference_is_the_rule_by_brute_force_ties_and_far_points_included() {
+    // A torus (guide of every 4th point, about) queried at its own points, at points off
+    // it and far outside the guide's box, in an order that reuses and abandons the grid's
+    // blocks; and an integer lattice, where many guide points tie in distance.
+    let (pts, _) = torus(12_000, 9);
+    let g = Guide::new(select_guide(&pts, 3_000), 16).unwrap();
+    let mut rng = seeded(4, "guide-reference-test");
+    let mut queries: Vec<DVec3> = pts.iter().step_by(7).copied().collect();
+    queries.extend((0..2_000).map(|_| {
+        DVec3::new(
+            rng.random_range(-1.6..1.6),
+            rng.random_range(-1.6..1.6),
+            rng.random_range(-0.5..0.5),
+        )
+    }));
+    queries.extend([DVec3::new(40.0, -3.0, 2.0), DVec3::new(-9.0, 0.0, -30.0)]);
+    for (i, q) in queries.iter().enumerate() {
+        assert_eq!(g.reference(*q), brute_reference(&g, *q), "query {i} at {q}");
+    }
+    let lattice: Vec<DVec3> = (0..1_000)
+        .map(|i| {
+            DVec3::new(
+                f64::from(i % 10),
+                f64::from((i / 10) % 10),
+                f64::from(i / 100),
+            )
+        })
+        .collect();
+    let g = Guide::new(lattice.clone(), 8).unwrap();
+    for q in lattice
+        .iter()
+        .map(|p| *p + DVec3::splat(0.5))
+        .chain(lattice.iter().copied())
+    {
+        assert_eq!(g.reference(q), brute_reference(&g, q), "lattice query {q}");
+    }
+}
+
+#[test]
+fn two_guides_on_one_thread_keep_their_own_answers() {
+    // A thread's query buffers belong to one guide: alternating between two guides whose
+    // grids have (nearly) the same cells, at the same query points, must not answer one
+    // guide's query from the other's candidates.
+    let (a, _) = torus(6_000, 1);
+    let b: Vec<DVec3> = a
+        .iter()
+        .enumerate()
+        .map(|(i, p)| *p + 1e-4 * DVec3::new((i as f64).sin(), (i as f64).cos(), 0.0))
+        .collect();
+    let (ga, gb) = (
+        Guide::new(a.clone(), 12).unwrap(),
+        Guide::new(b.clone(), 12).unwrap(),
+    );
+    for p in a.iter().step_by(5) {
+        assert_eq!(ga.reference(*p), brute_reference(&ga, *p));
+        assert_eq!(gb.reference(*p), brute_reference(&gb, *p));
+    }
+}
