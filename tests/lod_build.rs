@@ -125,6 +125,33 @@ fn equal_within_the_limit(method: &str) {
             peak <= ((limit_mib + 64) << 20) as f64,
             "{method}: peak {peak} over {limit_mib} MiB + 64 MiB: {stdout}"
         );
+        // Every stage timed, in order, their seconds adding up to the build's.
+        let stages: Vec<(String, f64)> = stdout
+            .split_whitespace()
+            .find_map(|kv| kv.strip_prefix("stage_seconds="))
+            .unwrap_or_else(|| panic!("no stage_seconds: {stdout}"))
+            .split(',')
+            .map(|e| {
+                let (k, v) = e.split_once(':').unwrap();
+                (k.to_owned(), v.parse().unwrap())
+            })
+            .collect();
+        let keys: Vec<&str> = stages.iter().map(|e| e.0.as_str()).collect();
+        let prepare = ["read", "split", "guide", "normals", "halos"];
+        let own: &[&str] = if method == "spt" {
+            &["feed", "count", "distribute", "build", "merge"]
+        } else {
+            &["roots", "encode", "write"]
+        };
+        assert_eq!(keys, [&prepare[..], own].concat(), "{method}: {stdout}");
+        let (sum, seconds) = (
+            stages.iter().map(|e| e.1).sum::<f64>(),
+            field(&stdout, "seconds"),
+        );
+        assert!(
+            sum <= seconds + 0.02 && sum >= 0.9 * seconds - 0.02,
+            "{method}: stages add up to {sum} s of {seconds} s: {stdout}"
+        );
         let got = std::fs::read(&out).unwrap();
         assert!(
             got == want,

@@ -167,8 +167,11 @@ pub enum Command {
     /// limit: out of core when the cloud does not fit (scratch files in a hidden folder beside
     /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints
     /// one line: `points=N seconds=T points_per_second=R peak_rss_bytes=B chunks=C
-    /// top_levels=L leaf_radius=X file_bytes=F scratch_bytes=S scratch_peak_bytes=P` (S: written
-    /// to scratch in all; P: the most on disk at once).
+    /// top_levels=L leaf_radius=X file_bytes=F scratch_bytes=S scratch_peak_bytes=P
+    /// stage_seconds=read:T1,split:T2,...` (S: written to scratch in all; P: the most on disk at
+    /// once; the wall-clock seconds of each stage: read, split, guide, normals (within chunks),
+    /// halos (across their borders), then roots, encode, write for QSplat or feed, count,
+    /// distribute, build, merge for SPT; read, build in memory).
     LodBuild {
         /// The point file.
         #[arg(long)]

@@ -40,7 +40,7 @@ pub const LEAF_RADIUS_SPACINGS: f64 = 1.5;
 pub const OUT_OF_CORE: &[&str] = &["qsplat", "spt"];
 
 /// What `lod-build` did.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct Built {
     /// Points.
     pub points: u64,
@@ -64,6 +64,59 @@ pub struct Built {
     pub scratch_bytes: u64,
     /// The most bytes the scratch files held at once.
     pub scratch_peak_bytes: u64,
+    /// Wall-clock seconds of each stage, in the order they began ([`Stages`]' keys).
+    pub stages: Vec<(&'static str, f64)>,
+}
+
+/// The wall-clock time of a build's stages, as its progress reports them: a stage runs from
+/// its first report to the next stage's (a key met again adds to its first entry).
+#[derive(Debug)]
+pub struct Stages {
+    done: Vec<(&'static str, f64)>,
+    current: (&'static str, Instant),
+}
+
+impl Stages {
+    /// A clock whose first stage, `key`, begins now.
+    pub fn start(key: &'static str) -> Self {
+        Stages {
+            done: Vec::new(),
+            current: (key, Instant::now()),
+        }
+    }
+
+    /// Stage `key` is running now (a new one begins when it differs from the current).
+    pub fn at(&mut self, key: &'static str) {
+        if key != self.current.0 {
+            self.close();
+            self.current = (key, Instant::now());
+        }
+    }
+
+    fn close(&mut self) {
+        let (key, since) = self.current;
+        let seconds = since.elapsed().as_secs_f64();
+        match self.done.iter_mut().find(|e| e.0 == key) {
+            Some(e) => e.1 += seconds,
+            None => self.done.push((key, seconds)),
+        }
+        self.current.1 = Instant::now();
+    }
+
+    /// The stages' seconds, the current one ended now.
+    pub fn finish(mut self) -> Vec<(&'static str, f64)> {
+        self.close();
+        self.done
+    }
+}
+
+/// `stages` as `key:seconds` pairs joined by commas (`read:2.61,split:1.30`).
+pub fn stages_text(stages: &[(&'static str, f64)]) -> String {
+    stages
+        .iter()
+        .map(|(k, s)| format!("{k}:{s:.2}"))
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 /// Disk a `qsplat` out-of-core build cell of the scale experiment needs per point: the LAZ input takes 11.4 bytes per point
@@ -155,12 +208,14 @@ fn qsplat_options(prepare: &cloud::ooc::Options, colors: bool) -> qsplat::ooc::O
     }
 }
 
-/// The progress bar's words for a stage of the preparation.
-fn prepare_stage(stage: cloud::ooc::Stage) -> &'static str {
+/// The key and the progress bar's words of a stage of the preparation.
+fn prepare_stage(stage: cloud::ooc::Stage) -> (&'static str, &'static str) {
     match stage {
-        cloud::ooc::Stage::Read => "reading",
-        cloud::ooc::Stage::Split => "splitting into chunks",
-        cloud::ooc::Stage::Neighbours => "normals and spacing",
+        cloud::ooc::Stage::Read => ("read", "reading"),
+        cloud::ooc::Stage::Split => ("split", "splitting into chunks"),
+        cloud::ooc::Stage::Guide => ("guide", "orienting the normals' guide"),
+        cloud::ooc::Stage::Neighbours => ("normals", "normals and spacing within chunks"),
+        cloud::ooc::Stage::Halos => ("halos", "normals and spacing across chunk borders"),
     }
 }
 
@@ -211,7 +266,9 @@ fn build_unnamed(
     let start = Instant::now();
     let is_las = cloud::io::Format::of_path(cloud_path) == Some(cloud::io::Format::Las);
     let bar = progress.then(|| crate::progress::bar(0, "reading"));
-    let set = |msg: &'static str, count: u64| {
+    let clock = std::cell::RefCell::new(Stages::start("read"));
+    let set = |(key, msg): (&'static str, &'static str), count: u64| {
+        clock.borrow_mut().at(key);
         if let Some(b) = &bar {
             if b.message() != msg {
                 b.set_message(msg);
@@ -288,6 +345,7 @@ fn build_unnamed(
             set(prepare_stage(s), n)
         })?;
         drop(loaded.take());
+        set(("feed", "handing the points to SPT"), 0);
         let mut spt_build = spt::ooc::Builder::new(
             &spt::ooc::Options {
                 memory_limit,
@@ -313,10 +371,10 @@ fn build_unnamed(
             &mut |stage: spt::ooc::Stage, count: u64| {
                 set(
                     match stage {
-                        spt::ooc::Stage::Count => "counting octree cells",
-                        spt::ooc::Stage::Distribute => "distributing to chunks",
-                        spt::ooc::Stage::Build => "building chunks",
-                        spt::ooc::Stage::Merge => "merging the sorted list",
+                        spt::ooc::Stage::Count => ("count", "counting octree cells"),
+                        spt::ooc::Stage::Distribute => ("distribute", "distributing to chunks"),
+                        spt::ooc::Stage::Build => ("build", "building chunks"),
+                        spt::ooc::Stage::Merge => ("merge", "merging the sorted list"),
                     },
                     count,
                 );
@@ -334,6 +392,7 @@ fn build_unnamed(
             file_bytes: 0,
             scratch_bytes: built.scratch_bytes + summary.scratch_bytes,
             scratch_peak_bytes: summary.scratch_peak_bytes.max(built.scratch_peak_bytes),
+            stages: Vec::new(),
         }
     } else {
         let opts = qsplat_options(
@@ -350,9 +409,9 @@ fn build_unnamed(
             set(
                 match stage {
                     qsplat::ooc::Stage::Prepare(s) => prepare_stage(s),
-                    qsplat::ooc::Stage::Build => "building chunk roots",
-                    qsplat::ooc::Stage::Encode => "encoding chunks",
-                    qsplat::ooc::Stage::Write => "writing levels",
+                    qsplat::ooc::Stage::Build => ("roots", "building chunk roots"),
+                    qsplat::ooc::Stage::Encode => ("encode", "encoding chunks"),
+                    qsplat::ooc::Stage::Write => ("write", "writing levels"),
                 },
                 count,
             )
@@ -369,12 +428,15 @@ fn build_unnamed(
             file_bytes: 0,
             scratch_bytes: summary.scratch_bytes,
             scratch_peak_bytes: summary.scratch_peak_bytes,
+            stages: Vec::new(),
         }
     };
     if let Some(b) = bar {
         b.finish_and_clear();
     }
+    let stages = clock.into_inner().finish();
     Ok(Built {
+        stages,
         seconds: start.elapsed().as_secs_f64(),
         peak_rss_bytes: peak_rss(),
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
@@ -394,7 +456,9 @@ fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Resul
         bail!("lod-build: method {method:?} has no file (these have: {OUT_OF_CORE:?})");
     }
     let start = Instant::now();
+    let mut clock = Stages::start("read");
     let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
+    clock.at("build");
     let c = loaded.cloud;
     let n = c.len() as u64;
     let positions: Vec<DVec3> = c.positions;
@@ -437,6 +501,7 @@ fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Resul
         file_bytes: std::fs::metadata(out).map_or(0, |m| m.len()),
         scratch_bytes: 0,
         scratch_peak_bytes: 0,
+        stages: clock.finish(),
     })
 }
 

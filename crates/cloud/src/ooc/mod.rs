@@ -159,8 +159,14 @@ pub enum Stage {
     Read,
     /// Splitting into chunks (points placed in chunks).
     Split,
-    /// Neighbourhoods: normals and spacing (points done).
+    /// Building the orientation's guide (its points; once, when the normals are estimated).
+    Guide,
+    /// Neighbourhoods within each chunk: normals and spacing of the points whose
+    /// neighbourhood lies inside their chunk (points done).
     Neighbours,
+    /// Neighbourhoods across the chunks' borders: the halos sent, then the normals and
+    /// spacing of the points near a border (points done).
+    Halos,
 }
 
 /// The prepared cloud.
@@ -393,6 +399,7 @@ pub fn prepare<E: From<Error>>(
     // itself then stays within the reserve.
     let guide = match (guide, opts.normals) {
         (Some(g), Normals::Estimate { k }) => {
+            (b.progress)(Stage::Guide, g.len() as u64);
             let need = g.len() as u64 * crate::orient::BUILD_BYTES_PER_POINT;
             if need > opts.memory_limit.saturating_sub(GUIDE_BUILD_RESERVE) {
                 return Err(Error::InvalidParameter {

@@ -68,6 +68,8 @@ impl Preparer<'_> {
         // answered (local indices).
         let mut border_only = vec![false; self.store.chunks.len()];
         let mut resolved: Vec<Vec<u32>> = vec![Vec::new(); self.store.chunks.len()];
+        self.done = 0;
+        (self.progress)(Stage::Neighbours, 0);
         for (c, r2) in halo2.iter_mut().enumerate() {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
@@ -152,7 +154,10 @@ impl Preparer<'_> {
                 }
                 early[c] = Some(w.finish().map_err(|e| self.store.io(e))?);
             }
+            self.done += set.count;
+            (self.progress)(Stage::Neighbours, self.done);
         }
+        (self.progress)(Stage::Halos, 0);
         // Slack for the rounding of box distances against point distances.
         let slack = |r2: f64| r2 * (1.0 + 1e-9) + f64::MIN_POSITIVE;
         for t in 0..self.store.parts.len() {
@@ -202,6 +207,7 @@ impl Preparer<'_> {
         let budget = self.cap * self.opts.bytes_per_point / NEIGHBOUR_BYTES_PER_POINT;
         let mut largest = 0u64;
         self.done = 0;
+        (self.progress)(Stage::Halos, 0);
         for (c, halo) in halos.into_iter().enumerate() {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
@@ -338,7 +344,7 @@ impl Preparer<'_> {
             drop(grid);
             drop((positions, index));
             self.done += m as u64;
-            (self.progress)(Stage::Neighbours, self.done);
+            (self.progress)(Stage::Halos, self.done);
         }
         Ok(largest)
     }

@@ -26,7 +26,7 @@ pub fn lod_build(
     println!(
         "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
          top_levels={} leaf_radius={:e} file_bytes={} scratch_bytes={} \
-         scratch_peak_bytes={}",
+         scratch_peak_bytes={} stage_seconds={}",
         built.points,
         built.seconds,
         built.points as f64 / built.seconds.max(1e-9),
@@ -36,7 +36,8 @@ pub fn lod_build(
         built.leaf_radius,
         built.file_bytes,
         built.scratch_bytes,
-        built.scratch_peak_bytes
+        built.scratch_peak_bytes,
+        lod_build::stages_text(&built.stages)
     );
     Ok(())
 }

@@ -187,8 +187,8 @@ fn ooc_cell(
             prepare_seconds,
             detail: format!(
                 "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} {}, \
-                 LAZ {:.0} MiB, scratch {:.0} MiB written, {:.0} MiB at most, file {:.0} MiB; \
-                 selection from the file \
+                 LAZ {:.0} MiB, scratch {:.0} MiB written, {:.0} MiB at most, file {:.0} MiB, \
+                 stage seconds {}; selection from the file \
                  ({}, view 0): {:.3} ms median of {}, {} splats, read {:.1} MiB, cache {:.1} \
                  MiB, peak after {:.0} MiB",
                 mib(OOC_LIMIT),
@@ -201,6 +201,7 @@ fn ooc_cell(
                 mib(built.scratch_bytes),
                 mib(built.scratch_peak_bytes),
                 mib(built.file_bytes),
+                crate::lod_build::stages_text(&built.stages),
                 setting.label(),
                 s.timing.median * 1e3,
                 s.timing.samples,
