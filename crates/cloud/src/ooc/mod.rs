@@ -370,7 +370,8 @@ pub fn prepare<E: From<Error>>(
         ..Summary::default()
     };
     if n <= cap {
-        // It fits: the in-memory preparation.
+        // It fits: the in-memory preparation (its normals and spacing timed as such).
+        (b.progress)(Stage::Neighbours, 0);
         let mut whole = Points::default();
         for seg in segments {
             let part = b.store.load_set(&Set::whole(seg))?;

@@ -136,6 +136,7 @@ pub fn build_file(
     let chunks = match prepared {
         Prepared::Whole(whole) => {
             // It fit: the in-memory build.
+            progress(Stage::Encode, 0);
             let cloud = cloud::PointCloud {
                 positions: whole.positions,
                 normals: Some(whole.normals),
