@@ -100,7 +100,6 @@ impl Stages {
             Some(e) => e.1 += seconds,
             None => self.done.push((key, seconds)),
         }
-        self.current.1 = Instant::now();
     }
 
     /// The stages' seconds, the current one ended now.

@@ -207,7 +207,6 @@ impl Preparer<'_> {
         let budget = self.cap * self.opts.bytes_per_point / NEIGHBOUR_BYTES_PER_POINT;
         let mut largest = 0u64;
         self.done = 0;
-        (self.progress)(Stage::Halos, 0);
         for (c, halo) in halos.into_iter().enumerate() {
             let set = self.store.chunks[c].clone();
             let l = self.store.load_set(&set)?;
