@@ -49,8 +49,10 @@ pub const OOC_SUFFIX: &str = "-build-ooc";
 pub const OOC_LIMIT: u64 = 1 << 30;
 
 /// The time cap of an out-of-core build cell (its preparation, writing the LAZ input, has
-/// [`PREPARE_CAP_FACTOR`] times it): long enough for 10^9 points at the rates measured.
-pub const OOC_CAP: Duration = Duration::from_secs(3600);
+/// [`PREPARE_CAP_FACTOR`] times it): three hours, long enough for 10^9 points at the rates
+/// measured (QSplat: 0.28 M points/s at 10^8 on a 2-core machine, so about an hour at 10^9;
+/// the cap before, one hour, would have skipped the cell by its prediction from 10^8).
+pub const OOC_CAP: Duration = Duration::from_secs(3 * 3600);
 
 /// Disk copc_converter's out-of-core cell needs per point: the LAZ input (11.4), its scratch
 /// folder (at most 40.7 at 10^7 points, 388 MiB, read every 200 ms) and the COPC file (9.5):
