@@ -28,11 +28,11 @@ pub enum Error {
         /// The cause.
         source: std::io::Error,
     },
-    /// A file of an older format version (before the block checksums).
+    /// A file of an older format version (1: before the block checksums; 2: splats as floats).
     #[error(
         "{path}: written by an older pointsight (sequential point tree file format version \
-         {version}, this reads version {current}, which adds checksums); rebuild it with \
-         `pointsight lod-build`"
+         {version}, this reads version {current}: checksums since 2, quantised splats since 3); \
+         rebuild it with `pointsight lod-build`"
     )]
     OldVersion {
         /// The file.

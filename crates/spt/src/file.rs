@@ -6,7 +6,7 @@
 //! entries, come first.
 //!
 //! Layout (little-endian):
-//! - header, [`HEADER`] bytes: magic `PSSPTREE`; version (u32, 2); flags (u32, bit 0:
+//! - header, [`HEADER`] bytes: magic `PSSPTREE`; version (u32, 3); flags (u32, bit 0:
 //!   colours); points, groups, entries (u64 each); the hierarchy's local origin (3 × f64); the
 //!   grid's origin (3 × f64) and step (f64); the leaf diameter (f64); the root's box (6 × u16)
 //!   and the CRC-32 of the header's bytes before it (u32; version 1 had 4 zero bytes);
@@ -14,19 +14,23 @@
 //!   the last entry (u32 each), sorted by e_g² descending after the root's group (whose e_g² is
 //!   +∞);
 //! - entries, 16 bytes each: the node's box (6 × u16) and e_g² (f32);
-//! - splats, 28 bytes an entry: centre relative to the local origin (3 × f32), radius (f32),
-//!   normal (3 × f32);
-//! - with colours, 12 bytes an entry: the mean colour in [0, 1] (3 × f32);
+//! - splats, 14 bytes an entry ([`crate::pack`]): centre within the entry's box (3 × u16),
+//!   radius (f32), normal (octahedral, 2 × u16);
+//! - with colours, 3 bytes an entry: the mean colour in [0, 1] (3 × u8);
 //! - the block checksums ([`cloud::io::checksum`], CRC-32, u32 each): each section above
 //!   (groups, entries, splats, colours, in that order) cut into blocks of [`BLOCK_ITEMS`]
 //!   items (the last may be shorter), one checksum a block, the sections' in file order:
-//!   4 bytes per 256 groups, 12 (16 with colours) per 256 entries, about 0.1 % of the file.
+//!   4 bytes per 256 groups, 8 (12 with colours) per 256 entries, about 0.1 % of the file.
+//!
+//! Version 3 quantises the splats ([`crate::pack`]: the cut is unchanged, the centres and
+//! normals drawn move by at most its stated bounds); versions 1 (no checksums) and 2 (splats
+//! and colours as f32, 28 and 12 bytes) are refused with [`Error::OldVersion`].
 //!
 //! The block is the unit [`crate::paged`] reads (a read of some items reads the blocks that
 //! hold them and checks each; [`crate::paged::BLOCK_GROUPS`] is a multiple of it). A value that
 //! stays finite and in range after a flipped byte is caught only so.
 //!
-//! [`parse_header`] checks the magic and version (version 1, without checksums, is
+//! [`parse_header`] checks the magic and version (an older version is
 //! [`Error::OldVersion`]: "rebuild it with `pointsight lod-build`"), the header's checksum
 //! and that the counts fit the file's length (nothing is allocated from a count the file
 //! cannot back); [`check`] checks every block's checksum of a whole file; [`crate::paged`]
@@ -41,12 +45,13 @@ use cloud::glam::DVec3;
 
 use crate::Spt;
 use crate::error::{Error, Result};
-use crate::list::{Entry, Group, QBox};
+use crate::list::{Entry, Grid, Group, QBox};
+pub use crate::pack::{COLOR, SPLAT};
 
 /// The file's magic.
 pub const MAGIC: &[u8; 8] = b"PSSPTREE";
 /// The format's version.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 /// Items (groups, entries, splats or colours) per checksummed block.
 pub const BLOCK_ITEMS: usize = 256;
 /// The sections' names in errors.
@@ -57,10 +62,6 @@ pub const HEADER: usize = 8 + 4 + 4 + 3 * 8 + 3 * 8 + 3 * 8 + 8 + 8 + 12 + 4;
 pub const GROUP: usize = 24;
 /// Bytes of an entry.
 pub const ENTRY: usize = 16;
-/// Bytes of an entry's splat.
-pub const SPLAT: usize = 28;
-/// Bytes of an entry's colour.
-pub const COLOR: usize = 12;
 
 /// What the header says.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -220,21 +221,12 @@ pub fn push_entry(b: &mut Vec<u8>, e: &Entry) {
     b.extend_from_slice(&e.e2.to_le_bytes());
 }
 
-/// Appends a node's splat bytes (centre relative to the local origin, radius, normal).
-pub fn push_splat(b: &mut Vec<u8>, n: &crate::hierarchy::Node) {
-    for v in n.center.to_array() {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-    b.extend_from_slice(&n.radius().to_le_bytes());
-    for v in n.normal.to_array() {
-        b.extend_from_slice(&v.to_le_bytes());
-    }
-}
-
-/// Appends a node's colour bytes.
-pub fn push_color(b: &mut Vec<u8>, n: &crate::hierarchy::Node) {
-    for v in n.color.to_array() {
-        b.extend_from_slice(&v.to_le_bytes());
+/// The grid of `spt`'s boxes, its local origin included.
+pub fn grid_of(spt: &Spt) -> Grid {
+    Grid {
+        local: spt.hierarchy.origin,
+        origin: spt.quant.origin,
+        cell: spt.quant.cell,
     }
 }
 
@@ -264,12 +256,13 @@ pub fn to_bytes(spt: &Spt) -> Vec<u8> {
     for e in &spt.list.entries {
         push_entry(&mut b, e);
     }
-    for &n in &spt.list.node {
-        push_splat(&mut b, &spt.hierarchy.nodes[n as usize]);
+    let grid = grid_of(spt);
+    for (e, &n) in spt.list.entries.iter().zip(&spt.list.node) {
+        crate::pack::push_splat(&mut b, &spt.hierarchy.nodes[n as usize], &e.b, &grid);
     }
     if spt.colors {
         for &n in &spt.list.node {
-            push_color(&mut b, &spt.hierarchy.nodes[n as usize]);
+            crate::pack::push_color(&mut b, &spt.hierarchy.nodes[n as usize]);
         }
     }
     seal(&mut b, &h);
@@ -402,7 +395,7 @@ pub fn parse_header(bytes: &[u8], len: u64, path: &str) -> Result<Header> {
     }
     let mut c = Cursor { bytes, at: 8 };
     let version = c.u32();
-    if version == 1 {
+    if (1..VERSION).contains(&version) {
         return Err(Error::OldVersion {
             path: path.to_string(),
             version,

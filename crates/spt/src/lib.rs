@@ -5,9 +5,9 @@
 //! e_g (eq. 5.5); [`list`] flattens it into the list sorted by r_max that a view cuts with a
 //! sequential scan of a prefix; [`recursive`] is the depth-first traversal of §5.3.3 that the
 //! scan must reproduce exactly (a property test checks it for random views and thresholds);
-//! [`file`] stores the list as a view reads it; [`ooc`] builds that file out of core, the same
-//! bytes as the in-memory build; [`paged`] cuts it from the file, reading only the prefix a
-//! view needs.
+//! [`file`] stores the list as a view reads it, its splats quantised by [`pack`]; [`ooc`]
+//! builds that file out of core, the same bytes as the in-memory build; [`paged`] cuts it from
+//! the file, reading only the prefix a view needs.
 //!
 //! The threshold ε is the image-space error e_g / r in radians; [`epsilon_for_pixels`] converts
 //! a tolerance in pixels for a camera. Splats are drawn with the node's diameter d (screen size
@@ -23,6 +23,7 @@ pub mod file;
 pub mod hierarchy;
 pub mod list;
 pub mod ooc;
+pub mod pack;
 pub mod paged;
 pub mod recursive;
 
@@ -183,6 +184,34 @@ impl Spt {
             normal: n.normal,
             color: n.color,
         }
+    }
+
+    /// The splats of a cut's entries as its file stores them ([`pack`]: centres and normals
+    /// quantised, colours in 8 bits): what [`paged::PagedTree::splats`] reads back.
+    pub fn file_splats(&self, entries: &[u32]) -> Vec<Splat> {
+        let grid = file::grid_of(self);
+        let mut b = Vec::with_capacity(pack::SPLAT + pack::COLOR);
+        entries
+            .iter()
+            .map(|&e| {
+                let q = self.list.entries[e as usize].b;
+                let n = &self.hierarchy.nodes[self.node_of(e) as usize];
+                b.clear();
+                pack::push_splat(&mut b, n, &q, &grid);
+                pack::push_color(&mut b, n);
+                let (center, radius, normal) = pack::splat_of(&b, &q, grid.origin, grid.cell);
+                Splat {
+                    center,
+                    radius: f64::from(radius),
+                    normal,
+                    color: if self.colors {
+                        pack::color_of(&b[pack::SPLAT..])
+                    } else {
+                        Vec3::splat(0.75)
+                    },
+                }
+            })
+            .collect()
     }
 
     /// The splats of a cut's entries.

@@ -12,7 +12,7 @@
 //! The header is checked when the file is opened ([`crate::file::parse_header`], its checksum
 //! included); every group
 //! and entry is checked as it is read (the groups tile the entries in order, one to eight
-//! each, errors sorted and finite, boxes ordered) and every splat read is checked finite; a
+//! each, errors sorted and finite, boxes ordered) and every splat read has a finite radius; a
 //! damaged file is [`Error::Corrupt`] with its byte offset.
 
 use std::fs::File;
@@ -262,6 +262,9 @@ impl PagedTree {
                 return Err(not_ascending());
             }
             let s0 = self.sections[2] + (a * file::SPLAT) as u64;
+            // The entries' boxes: a splat's centre is stored within its entry's box.
+            self.read_items(1, a, b)?;
+            let boxes = std::mem::take(&mut self.raw);
             self.read_items(2, a, b)?;
             let raw = std::mem::take(&mut self.raw);
             let mut cols = Vec::new();
@@ -272,26 +275,22 @@ impl PagedTree {
             for &e in &entries[i..j] {
                 let k = e as usize - a;
                 let r = &raw[k * file::SPLAT..(k + 1) * file::SPLAT];
-                let f = |o: usize| f32::from_le_bytes([r[o], r[o + 1], r[o + 2], r[o + 3]]);
-                let center = Vec3::new(f(0), f(4), f(8));
-                let radius = f(12);
-                let normal = Vec3::new(f(16), f(20), f(24));
+                let q = file::box_of(&boxes[k * file::ENTRY..(k + 1) * file::ENTRY]);
+                let (center, radius, normal) =
+                    crate::pack::splat_of(r, &q, self.header.grid_origin, self.header.cell);
                 let color = if colors {
-                    let c = &cols[k * file::COLOR..(k + 1) * file::COLOR];
-                    let g = |o: usize| f32::from_le_bytes([c[o], c[o + 1], c[o + 2], c[o + 3]]);
-                    Vec3::new(g(0), g(4), g(8))
+                    crate::pack::color_of(&cols[k * file::COLOR..(k + 1) * file::COLOR])
                 } else {
                     Vec3::splat(0.75)
                 };
-                let finite = center.is_finite() && normal.is_finite() && color.is_finite();
-                if !(finite && radius >= 0.0 && radius.is_finite()) {
+                if !(ordered(&q) && radius >= 0.0 && radius.is_finite()) {
                     return Err(self.corrupt(
                         s0 + (k * file::SPLAT) as u64,
-                        format!("splat {e} is not finite"),
+                        format!("splat {e}: radius not finite or its box not ordered"),
                     ));
                 }
                 out.push(Splat {
-                    center: self.header.local + center.as_dvec3(),
+                    center,
                     radius: f64::from(radius),
                     normal,
                     color,
@@ -386,16 +385,29 @@ mod tests {
                         (sa.groups, sa.entries, sa.tested, sa.selected),
                         (sb.groups, sb.entries, sb.tested, sb.selected)
                     );
-                    let want = spt.splats(&a);
+                    let want = spt.file_splats(&a);
                     let got = f.splats(&b).unwrap();
-                    assert_eq!(want.len(), got.len());
-                    for (w, g) in want.iter().zip(&got) {
-                        assert_eq!(
-                            (w.center, w.radius, w.normal),
-                            (g.center, g.radius, g.normal)
-                        );
+                    assert_eq!(want, got);
+                    // Within `pack`'s bounds of the tree's own splats.
+                    for ((w, g), &e) in spt.splats(&a).iter().zip(&got).zip(&a) {
+                        let q = spt.list.entries[e as usize].b;
+                        let h = f.header();
+                        for k in 0..3 {
+                            let step = f64::from(q.hi[k] - q.lo[k]) * h.cell / 65_535.0;
+                            let err = (w.center[k] - g.center[k]).abs();
+                            let f32_rounding = (w.center[k] - h.local[k]).abs() * 1.2e-7;
+                            assert!(err <= step / 2.0 + f32_rounding, "{e} {k}: {err} {step}");
+                        }
+                        assert_eq!(w.radius, g.radius);
+                        let angle = w
+                            .normal
+                            .cross(g.normal)
+                            .length()
+                            .atan2(w.normal.dot(g.normal));
+                        assert!(angle <= crate::pack::NORMAL_MAX_ERROR, "{e}: {angle}");
                         if colors {
-                            assert_eq!(w.color, g.color);
+                            let d = (w.color - g.color).abs().max_element();
+                            assert!(d <= 1.0 / 510.0 + 1e-6, "{e}: {d}");
                         }
                     }
                 }
@@ -472,36 +484,37 @@ mod tests {
     }
 
     #[test]
-    fn a_version_1_file_is_refused_with_rebuild_it() {
+    fn files_of_versions_1_and_2_are_refused_with_rebuild_it() {
         let dir = tempfile::tempdir().unwrap();
         let (_, path) = tree_file(2_000, false, dir.path());
-        let mut b = std::fs::read(&path).unwrap();
-        b[8..12].copy_from_slice(&1u32.to_le_bytes());
-        let old = dir.path().join("old.spt");
-        std::fs::write(&old, &b).unwrap();
-        for e in [
-            file::verify(&old).unwrap_err(),
-            PagedTree::open(&old).unwrap_err(),
-        ] {
-            assert!(
-                matches!(
-                    e,
-                    Error::OldVersion {
-                        version: 1,
-                        current: 2,
-                        ..
-                    }
-                ),
-                "{e}"
-            );
-            let m = e.to_string();
-            assert!(
-                m.contains("old.spt")
-                    && m.contains("older pointsight")
-                    && m.contains("rebuild it with `pointsight lod-build`"),
-                "{m}"
-            );
+        for version in [1u32, 2] {
+            let mut b = std::fs::read(&path).unwrap();
+            b[8..12].copy_from_slice(&version.to_le_bytes());
+            let old = dir.path().join("old.spt");
+            std::fs::write(&old, &b).unwrap();
+            for e in [
+                file::verify(&old).unwrap_err(),
+                PagedTree::open(&old).unwrap_err(),
+            ] {
+                assert!(
+                    matches!(e, Error::OldVersion { version: v, current: 3, .. } if v == version),
+                    "{e}"
+                );
+                let m = e.to_string();
+                assert!(
+                    m.contains("old.spt")
+                        && m.contains("older pointsight")
+                        && m.contains("rebuild it with `pointsight lod-build`"),
+                    "{m}"
+                );
+            }
         }
+        // A version from the future is a damaged file, not an old one.
+        let mut b = std::fs::read(&path).unwrap();
+        b[8..12].copy_from_slice(&4u32.to_le_bytes());
+        let new = dir.path().join("new.spt");
+        std::fs::write(&new, &b).unwrap();
+        assert!(matches!(PagedTree::open(&new), Err(Error::Corrupt { .. })));
     }
 
     #[test]

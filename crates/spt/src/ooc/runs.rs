@@ -90,7 +90,7 @@ impl Builder {
                         batch.group(boxes[i], e2[i], counter + i as u64, node.children.len());
                         for &k in &node.children {
                             let k = k as usize;
-                            batch.entry(&boxes[k], e2[k], &nodes[k], self.opts.colors);
+                            batch.entry(&boxes[k], e2[k], &nodes[k], self.opts.colors, grid);
                         }
                     }
                     let last = nodes.len() - 1;
@@ -117,7 +117,7 @@ impl Builder {
                     let (b, e) = (grid.qbox(&node), grid.e2(&node));
                     batch.group(b, e, counter, kids.len());
                     for k in &kid_nodes {
-                        batch.entry(&k.1, k.2, &k.0, self.opts.colors);
+                        batch.entry(&k.1, k.2, &k.0, self.opts.colors, grid);
                     }
                     let mut node = node;
                     node.children = Vec::new();
@@ -129,7 +129,7 @@ impl Builder {
         self.write_run(&mut batch, &mut runs)?;
         let root = made.pop().flatten().ok_or(internal("no root"))?;
         let mut bytes = Vec::with_capacity(ENTRY_REC);
-        push_entry_rec(&mut bytes, &root.1, root.2, &root.0, self.opts.colors);
+        push_entry_rec(&mut bytes, &root.1, root.2, &root.0, self.opts.colors, grid);
         runs.root = (root.1, bytes);
         runs.nodes = counter;
         Ok(runs)
@@ -178,11 +178,18 @@ pub(super) const GREC: usize = 12 + 4 + 8 + 1;
 /// Bytes of an entry in a run: the file's entry, splat and colour.
 pub(super) const ENTRY_REC: usize = file::ENTRY + file::SPLAT + file::COLOR;
 
-pub(super) fn push_entry_rec(b: &mut Vec<u8>, q: &QBox, e2: f32, n: &Node, colors: bool) {
+pub(super) fn push_entry_rec(
+    b: &mut Vec<u8>,
+    q: &QBox,
+    e2: f32,
+    n: &Node,
+    colors: bool,
+    grid: &Grid,
+) {
     file::push_entry(b, &Entry { b: *q, e2 });
-    file::push_splat(b, n);
+    crate::pack::push_splat(b, n, q, grid);
     if colors {
-        file::push_color(b, n);
+        crate::pack::push_color(b, n);
     } else {
         b.extend_from_slice(&[0; file::COLOR]);
     }
@@ -218,8 +225,8 @@ impl Batch {
         });
     }
 
-    pub(super) fn entry(&mut self, q: &QBox, e2: f32, n: &Node, colors: bool) {
-        push_entry_rec(&mut self.entries, q, e2, n, colors);
+    pub(super) fn entry(&mut self, q: &QBox, e2: f32, n: &Node, colors: bool, grid: &Grid) {
+        push_entry_rec(&mut self.entries, q, e2, n, colors, grid);
     }
 }
 

@@ -134,7 +134,7 @@ fn the_file_cuts_as_the_tree_does() {
             let sb = f.cut_into(eye, eps, &mut b).unwrap();
             assert_eq!(a, b);
             assert_eq!(sa, sb);
-            assert_eq!(spt.splats(&a), f.splats(&b).unwrap());
+            assert_eq!(spt.file_splats(&a), f.splats(&b).unwrap());
         }
     }
 }
