@@ -377,6 +377,17 @@ mod tests {
         assert_eq!(scratch.usage.live.load(Ordering::Relaxed), 0);
     }
 
+    /// Records `from..from + n` of a file of u32 records.
+    fn u32s(f: &SpillFile, from: u64, n: u64) -> Vec<u32> {
+        let mut r = f.reader(from, n).unwrap();
+        let mut b = [0u8; 4];
+        let mut got = Vec::new();
+        while r.next_into(&mut b).unwrap() {
+            got.push(u32::from_le_bytes(b));
+        }
+        got
+    }
+
     #[test]
     fn records_round_trip_and_everything_is_removed() {
         let dir = tempfile::tempdir().unwrap();
@@ -387,13 +398,7 @@ mod tests {
             w.push(&i.to_le_bytes()).unwrap();
         }
         let f = w.finish().unwrap();
-        let mut r = f.reader(10, 5).unwrap();
-        let mut b = [0u8; 4];
-        let mut got = Vec::new();
-        while r.next_into(&mut b).unwrap() {
-            got.push(u32::from_le_bytes(b));
-        }
-        assert_eq!(got, vec![10, 11, 12, 13, 14]);
+        assert_eq!(u32s(&f, 10, 5), vec![10, 11, 12, 13, 14]);
         assert!(f.reader(999, 2).is_err());
         drop(f);
         assert_eq!(std::fs::read_dir(scratch.dir()).unwrap().count(), 0);
@@ -435,12 +440,6 @@ mod tests {
         want.push(701);
         assert_eq!(w.len(), 702);
         let f = w.finish().unwrap();
-        let mut r = f.reader(0, 702).unwrap();
-        let mut b = [0u8; 4];
-        let mut got = Vec::new();
-        while r.next_into(&mut b).unwrap() {
-            got.push(u32::from_le_bytes(b));
-        }
-        assert_eq!(got, want);
+        assert_eq!(u32s(&f, 0, 702), want);
     }
 }

@@ -87,7 +87,7 @@ pub fn color_of(c: &[u8]) -> Vec3 {
 }
 
 /// ±1 by the sign, +1 at zero (the octahedral map's `signNotZero`).
-fn sign(x: f32) -> f32 {
+fn sign(x: f64) -> f64 {
     if x >= 0.0 { 1.0 } else { -1.0 }
 }
 
@@ -98,7 +98,8 @@ pub fn oct_encode(n: Vec3) -> [u16; 2] {
     let l1 = n.x.abs() + n.y.abs() + n.z.abs();
     let (mut x, mut y) = (n.x / l1, n.y / l1);
     if n.z < 0.0 {
-        (x, y) = ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y));
+        let (sx, sy) = (sign(f64::from(x)) as f32, sign(f64::from(y)) as f32);
+        (x, y) = ((1.0 - y.abs()) * sx, (1.0 - x.abs()) * sy);
     }
     let to = |v: f32| ((v.clamp(-1.0, 1.0) + 1.0) * 0.5 * OCT).clamp(0.0, OCT);
     let (fx, fy) = (to(x), to(y));
@@ -130,9 +131,8 @@ fn oct_decode64(code: [u16; 2]) -> DVec3 {
     let x = f64::from(code[0]) / oct * 2.0 - 1.0;
     let y = f64::from(code[1]) / oct * 2.0 - 1.0;
     let z = 1.0 - x.abs() - y.abs();
-    let s = |v: f64| if v >= 0.0 { 1.0 } else { -1.0 };
     let (x, y) = if z < 0.0 {
-        ((1.0 - y.abs()) * s(x), (1.0 - x.abs()) * s(y))
+        ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y))
     } else {
         (x, y)
     };
