@@ -16,7 +16,18 @@ use crate::points::{PointCloud, SurfaceSample};
 use crate::rng::{RngExt, seeded};
 
 /// Samples `n` points on the surface of `mesh`, area-weighted, reproducibly from `seed`.
+///
+/// The cloud is held in memory: a sample larger than the memory available is refused with
+/// [`Error::OutOfMemory`] before anything is allocated ([`SurfaceSampler`] streams instead).
 pub fn sample_surface(mesh: &TriMesh, n: usize, seed: u64) -> Result<PointCloud> {
+    let per_point = size_of::<DVec3>()
+        + size_of::<glam::Vec3>()
+        + size_of::<SurfaceSample>()
+        + mesh.uvs.as_ref().map_or(0, |_| size_of::<Vec2>());
+    crate::memory::ensure(
+        n as u128 * per_point as u128,
+        &format!("sampling {n} points of a mesh"),
+    )?;
     let mut sampler = SurfaceSampler::new(mesh, seed)?;
     let mut positions = Vec::with_capacity(n);
     let mut normals = Vec::with_capacity(n);
@@ -204,5 +215,15 @@ mod tests {
             sample_surface(&empty, 10, 0),
             Err(Error::EmptyMesh)
         ));
+    }
+
+    #[test]
+    fn a_sample_larger_than_memory_is_refused_before_allocating() {
+        let mesh = crate::synth::icosphere(1);
+        let e = sample_surface(&mesh, 1 << 40, 0).unwrap_err();
+        assert!(
+            matches!(&e, Error::OutOfMemory { what, .. } if what.contains("1099511627776 points")),
+            "{e}"
+        );
     }
 }

@@ -336,6 +336,18 @@ impl SpillReader {
         Ok(true)
     }
 
+    /// Appends every record left in the range to `out`, at once.
+    pub fn read_rest(&mut self, out: &mut Vec<u8>) -> io::Result<()> {
+        let bytes = usize::try_from(self.left * self.record)
+            .map_err(|_| io::Error::other("a scratch range larger than memory"))?;
+        let from = out.len();
+        out.resize(from + bytes, 0);
+        self.input.read_exact(&mut out[from..])?;
+        self.pos += self.left;
+        self.left = 0;
+        Ok(())
+    }
+
     /// Moves to record `index` (a no-op when already there).
     pub fn seek_to(&mut self, index: u64) -> io::Result<()> {
         if index != self.pos {

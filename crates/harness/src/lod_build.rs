@@ -169,6 +169,18 @@ pub fn parse_size(text: &str) -> Result<u64> {
     Ok(bytes as u64)
 }
 
+/// Bytes per point read at once from a LAS or LAZ file: the stream's, the decoded positions
+/// and colours, and the preparation's batch.
+const READ_BYTES_PER_POINT: u64 = cloud::io::las::STREAM_BYTES_PER_POINT
+    + 27
+    + size_of::<Point>() as u64;
+
+/// Points read at once under `memory_limit`: an eighth of the limit (the reading buffers are
+/// gone before the first chunk is loaded), at most [`cloud::io::las::CHUNK`].
+fn read_chunk(memory_limit: u64) -> u64 {
+    (memory_limit / 8 / READ_BYTES_PER_POINT).clamp(1 << 14, cloud::io::las::CHUNK)
+}
+
 /// The options of the `lod` experiment's preparation for a cloud with or without normals,
 /// under `memory_limit`, in chunks of `bytes_per_point` (the method's), its scratch records
 /// keeping what `records` says.
@@ -281,7 +293,8 @@ fn build_unnamed(
     let mut loaded = None;
     let (has_normals, colors) = if is_las {
         let stream =
-            cloud::io::las::LasStream::open(cloud_path, &cloud::io::las::LasOptions::default())?;
+            cloud::io::las::LasStream::open(cloud_path, &cloud::io::las::LasOptions::default())?
+                .with_chunk(read_chunk(memory_limit));
         if let Some(b) = &bar {
             b.set_length(stream.announced);
         }
@@ -321,6 +334,11 @@ fn build_unnamed(
                 normal: Vec3::ZERO,
                 color: chunk.colors.as_ref().map_or([0; 3], |c| c[i]),
             }));
+            if !more {
+                // The reading buffers go before the chunks come.
+                las_stream = None;
+                chunk = cloud::PointCloud::default();
+            }
             Ok(more)
         } else if let Some(c) = loaded.as_ref() {
             let end = (at + (1 << 16)).min(c.len());
@@ -330,7 +348,11 @@ fn build_unnamed(
                 color: c.colors.as_ref().map_or([0; 3], |k| k[i]),
             }));
             at = end;
-            Ok(at < c.len())
+            let more = at < c.len();
+            if !more {
+                loaded = None;
+            }
+            Ok(more)
         } else {
             Ok(false)
         }

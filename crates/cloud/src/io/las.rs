@@ -27,6 +27,10 @@ use crate::points::PointCloud;
 
 /// Points decoded per chunk.
 pub const CHUNK: u64 = 1 << 20;
+/// Bytes a [`LasStream`] holds per point of its chunk, at most: the decoded records (up to 67
+/// bytes in LAS 1.4's formats without extra bytes) and the compressed ones (a LAZ point takes
+/// about 11).
+pub const STREAM_BYTES_PER_POINT: u64 = 80;
 
 /// Options of the LAS reader.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
@@ -97,6 +101,8 @@ pub struct LasStream {
     raw: RawHeader,
     len: u64,
     chunk: las::PointData,
+    /// Points decoded per call of [`LasStream::next_into`].
+    chunk_points: u64,
     /// Points the header announces.
     pub announced: u64,
     read: u64,
@@ -209,12 +215,22 @@ impl LasStream {
             raw,
             len,
             chunk,
+            chunk_points: CHUNK,
             announced,
             read: 0,
             with_color: header.point_format().has_color,
             parallel,
             classes: options.classes.clone(),
         })
+    }
+
+    /// Decodes `points` points per call of [`LasStream::next_into`] (at least one) instead of
+    /// [`CHUNK`]: the memory the stream holds is about [`STREAM_BYTES_PER_POINT`] a point of
+    /// it. (A parallel LAZ decoder works on every core only when a call spans as many of the
+    /// file's chunks, 50,000 points each as LAStools writes them.)
+    pub fn with_chunk(mut self, points: u64) -> Self {
+        self.chunk_points = points.max(1);
+        self
     }
 
     /// Points decoded so far.
@@ -272,7 +288,7 @@ impl LasStream {
         };
         let got = self
             .reader
-            .fill_points(CHUNK.min(announced - read), &mut self.chunk)
+            .fill_points(self.chunk_points.min(announced - read), &mut self.chunk)
             .map_err(malformed)?;
         if got == 0 {
             return Err(ReadError::new(

@@ -16,8 +16,10 @@
 //!    box's longest axis, a stable partition, two levels of splits a group of two to four
 //!    sets; a set that fits a chunk is a chunk, a larger one is split again (QSplat's split,
 //!    §3.1 of Rusinkiewicz & Levoy 2000, so QSplat's chunks are subtrees of its in-memory
-//!    tree, each in input order); passes over the input find the splits level by level, and
-//!    each point is written once, to its chunk;
+//!    tree, each in input order); passes over the input find the splits level by level while
+//!    the sets are larger than memory, then each set is written to a file of its own and split
+//!    in memory, each point written to its chunk (once more on the way where its set was too
+//!    large for memory at once);
 //! 3. where the normals are estimated, or the leaf radius is the density spacing, each chunk's
 //!    neighbourhoods are completed by a halo ([`neighbours`]) and its normals and the spacing
 //!    sample's distances computed; each normal takes its sign from the guide (Hoppe's tree
@@ -64,8 +66,9 @@ pub const RESERVE: u64 = 48 << 20;
 pub const MIN_CHUNK: u64 = 4_096;
 /// Points of the sample that bounds small chunks' neighbour distances.
 const SAMPLE: usize = 1 << 15;
-/// Bytes of halo records buffered before they are appended to their files.
-const HALO_BUFFER: usize = 16 << 20;
+/// Bytes of halo records buffered before they are appended to their files (in vectors that
+/// may hold twice as much).
+const HALO_BUFFER: usize = 8 << 20;
 
 /// One input point.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -353,6 +356,8 @@ pub fn prepare<E: From<Error>>(
             break;
         }
     }
+    // The read buffer goes before the chunks come.
+    drop(batch);
     if n == 0 {
         return Err(Error::EmptyCloud.into());
     }

@@ -1,41 +1,57 @@
 //! Step 2 of the preparation: the input split into chunks as a binary space partition splits
 //! it (the midpoint of a set's box's longest axis, points below it to the left; two levels of
 //! splits make a group of two to four sets; a set that fits a chunk is a chunk), each point
-//! written to scratch once, into its chunk's file.
+//! written to scratch once or twice.
 //!
-//! The split of a set needs its box, and a set's box is known only once its parent's split is:
-//! so the tree of splits is found level by level, each level by a pass over the input (in
-//! input order, read, not written) that sends every point down the splits known so far and
-//! gathers the count and box of the sets it reaches. A set once known to be a chunk takes its
-//! points, in input order, in the last pass (its count and box are known once its parent's
-//! split is: a first split of a group with no more points than a chunk makes two chunks). A set whose
-//! points all lie on one side of its midpoint (coincident points) is halved by position: its
-//! first half in input order to the left, counted in the pass. The input is kept in segments,
-//! and the last pass, the only one that writes, removes each once read, so the input and the
-//! chunks are not on the disk at once (the most scratch at once is the input's records and a
-//! segment).
+//! The split of a set needs its box, and a set's box is known only once its parent's split is.
+//! Sets too large to hold in memory are found level by level, each level by a pass over the
+//! input (in input order, read, not written) that sends every point down the splits known so
+//! far and gathers the count and box of the sets it reaches. Once every set still to split
+//! holds at most what memory holds ([`Preparer::subset_points`]: its parent's count bounds
+//! it), one last pass writes each of them, in input order, to a file of its own (a *subset*),
+//! and each set known to be a chunk to its chunk's file. Each subset is then split in memory
+//! down to its chunks: its records loaded, a stable partition of their indices per split, each
+//! chunk written in input order as it is found. An input that fits memory at once is split in
+//! memory from the start (each point written once, to its chunk). A set whose points all lie on
+//! one side of its midpoint (coincident points) is halved by position: its first half in input
+//! order to the left. The input is kept in segments, and the last pass, the only one that
+//! writes, removes each once read, so the input and the subsets are not on the disk at once
+//! (the most scratch at once is the input's records and a segment).
 //!
 //! This is the partition of the in-memory build's (QSplat's `build`, whose split is a stable
-//! partition): the same sets, each in input order. As in PotreeConverter 2 (Schütz et al.
-//! 2020, count, then distribute), the passes before the last only count.
+//! partition): the same sets, each in input order, whichever sets are split in memory. As in
+//! PotreeConverter 2 (Schütz et al. 2020, count, then distribute), the passes before the last
+//! only count; as in its hierarchical distribution, a pass distributes to subsets that are then
+//! split on their own, so the input is not read once per level of the tree (13 passes of 16 GB
+//! at 10^9 points before).
 
 use glam::DVec3;
 
 use super::chunks::{Part, PartKind, Set};
 use super::error::Result;
-use super::record::REC;
 use super::{Preparer, Stage};
 use crate::spill::{SpillFile, SpillWriter};
 
 /// Records of an input segment.
 pub(super) const SEGMENT: u64 = 1 << 20;
-/// Write-buffer bytes shared by the chunks one pass writes.
+/// Write-buffer bytes shared by the files the last pass over the input writes.
 const WRITE_BUFFERS: usize = 32 << 20;
+/// The smallest write buffer of a file that pass writes (many files share [`WRITE_BUFFERS`]).
+const MIN_WRITE_BUFFER: usize = 4 << 10;
+/// Bytes per point beside its record while a subset is split in memory (its index, and its
+/// index again in the partition's temporary).
+const INDEX_BYTES: u64 = 8;
+
+#[cfg(test)]
+thread_local! {
+    /// Tests: the most points of a subset split in memory, in place of the limit's.
+    pub(super) static SUBSET_POINTS: std::cell::Cell<Option<u64>> = const { std::cell::Cell::new(None) };
+}
 
 /// What is known of a set of the tree of splits.
-#[derive(Debug)]
+#[derive(Debug, Clone, Copy)]
 enum State {
-    /// Its count and box are gathered by this pass.
+    /// Its count and box are gathered by the next pass.
     Pending,
     /// Split at `mid` on `axis` (points below it to `kids[0]`).
     Split {
@@ -45,11 +61,8 @@ enum State {
     },
     /// Halved by position: its first `h` points (in input order) to `kids[0]`.
     Halve { h: u64, kids: [usize; 2] },
-    /// A chunk: its writer during the pass that writes it, then its file.
-    Chunk {
-        writer: Option<SpillWriter>,
-        file: Option<SpillFile>,
-    },
+    /// A chunk.
+    Chunk,
 }
 
 /// A set of the tree of splits.
@@ -58,31 +71,51 @@ struct Node {
     /// Splits above it (even: a set [`Preparer::partition`]'s recursion sees; odd: a first
     /// split's half, split again when it has two points or more).
     depth: u32,
+    /// The most points it can hold (its parent's count).
+    bound: u64,
     count: u64,
     bbox: (DVec3, DVec3),
     overlap: bool,
     /// Points seen so far this pass (a halved set's rank).
     seen: u64,
     state: State,
+    /// The writer of its points during the pass that writes them (a chunk's or a subset's).
+    writer: Option<SpillWriter>,
+    /// Its points in input order, once written: a chunk's, or a subset's still to split.
+    file: Option<SpillFile>,
 }
 
 const EMPTY: (DVec3, DVec3) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
 
 impl Node {
-    fn new(depth: u32, overlap: bool, state: State) -> Self {
+    fn new(depth: u32, bound: u64, overlap: bool, state: State) -> Self {
         Node {
             depth,
+            bound,
             count: 0,
             bbox: EMPTY,
             overlap,
             seen: 0,
             state,
+            writer: None,
+            file: None,
         }
     }
 
-    /// Whether this pass gathers its count and box.
+    /// Whether its count and box are still to be gathered.
     fn gathers(&self) -> bool {
-        matches!(self.state, State::Pending | State::Chunk { file: None, .. })
+        match self.state {
+            State::Pending => true,
+            State::Chunk => self.file.is_none(),
+            State::Split { .. } | State::Halve { .. } => false,
+        }
+    }
+
+    fn kids(&self) -> Option<[usize; 2]> {
+        match self.state {
+            State::Split { kids, .. } | State::Halve { kids, .. } => Some(kids),
+            State::Pending | State::Chunk => None,
+        }
     }
 }
 
@@ -108,34 +141,45 @@ impl Preparer<'_> {
         n: u64,
         bbox: (DVec3, DVec3),
     ) -> Result<(usize, u32)> {
-        let mut root = Node::new(0, false, State::Pending);
+        let mut root = Node::new(0, n, false, State::Pending);
         root.count = n;
         root.bbox = bbox;
         let mut nodes = vec![root];
         self.decide(&mut nodes, 0);
         self.done = 0;
+        let fits = self.subset_points();
+        if n <= fits {
+            // All of it in memory at once: split there, each point written once.
+            let mut recs = Vec::new();
+            recs.try_reserve_exact(n as usize * self.store.layout.len())
+                .map_err(|e| self.store.io(std::io::Error::other(e)))?;
+            for seg in std::mem::take(&mut segments) {
+                seg.reader(0, seg.len())
+                    .and_then(|mut r| r.read_rest(&mut recs))
+                    .map_err(|e| self.store.io(e))?;
+                // (The segment goes once read.)
+            }
+            self.split_in_memory(&mut nodes, 0, &recs)?;
+            return self.emit(&mut nodes, 0);
+        }
+        // Passes over the input on disk, the last writing the subsets and the chunks found.
         while nodes.iter().any(Node::gathers) {
-            let last = !nodes.iter().any(|v| matches!(v.state, State::Pending));
-            let writers = nodes
+            let last = nodes
                 .iter()
-                .filter(|v| matches!(v.state, State::Chunk { file: None, .. }))
-                .count();
-            let buffer = (WRITE_BUFFERS / writers.max(1)).clamp(64 << 10, 1 << 20);
+                .all(|v| !matches!(v.state, State::Pending) || v.bound <= fits);
+            let writes = |v: &Node| last && v.gathers();
+            let writers = nodes.iter().filter(|v| writes(v)).count();
+            let buffer = (WRITE_BUFFERS / writers.max(1)).clamp(MIN_WRITE_BUFFER, 1 << 20);
             for v in nodes.iter_mut() {
                 v.seen = 0;
                 if v.gathers() {
                     v.count = 0;
                     v.bbox = EMPTY;
                 }
-                // Chunks are written in the last pass only, so the input's segments (removed
-                // as that pass reads them) and the chunks are never on the disk at once.
-                if let State::Chunk {
-                    writer: w @ None,
-                    file: None,
-                } = &mut v.state
-                    && last
-                {
-                    *w = Some(
+                // Written in the last pass only, so the input's segments (removed as that
+                // pass reads them) and the subsets are never on the disk at once.
+                if writes(v) {
+                    v.writer = Some(
                         self.store
                             .scratch
                             .create_buffered(self.store.layout.len(), buffer)
@@ -154,34 +198,141 @@ impl Preparer<'_> {
                 // (In the last pass, the segment goes once read.)
             }
             for v in nodes.iter_mut() {
-                if let State::Chunk { writer, file } = &mut v.state
-                    && let Some(w) = writer.take()
-                {
-                    *file = Some(w.finish().map_err(|e| self.store.io(e))?);
-                    self.done += v.count;
+                if let Some(w) = v.writer.take() {
+                    v.file = Some(w.finish().map_err(|e| self.store.io(e))?);
                 }
             }
-            (self.progress)(Stage::Split, self.done);
             for v in 0..nodes.len() {
                 if matches!(nodes[v].state, State::Pending) {
                     self.decide(&mut nodes, v);
                 }
             }
+            self.report(&nodes);
+            if last {
+                break;
+            }
         }
         drop(segments);
+        // Each subset split in memory (one that is a chunk keeps its file as the chunk's).
+        for v in 0..nodes.len() {
+            if nodes[v].file.is_some() && nodes[v].kids().is_some() {
+                let mut recs = Vec::new();
+                if let Some(file) = nodes[v].file.take() {
+                    file.reader(0, file.len())
+                        .and_then(|mut r| r.read_rest(&mut recs))
+                        .map_err(|e| self.store.io(e))?;
+                }
+                self.split_in_memory(&mut nodes, v, &recs)?;
+            }
+        }
         self.emit(&mut nodes, 0)
     }
 
-    /// Sends record `r` down the splits to the set that gathers it (a chunk also writes it in
-    /// the last pass).
-    fn place(&self, nodes: &mut [Node], r: &[u8; REC]) -> Result<()> {
+    /// The most points a subset split in memory may hold: its records and their indices in
+    /// three quarters of what a chunk may take.
+    fn subset_points(&self) -> u64 {
+        #[cfg(test)]
+        if let Some(m) = SUBSET_POINTS.get() {
+            return m;
+        }
+        let budget = self.cap.saturating_mul(self.opts.bytes_per_point) / 4 * 3;
+        budget / (self.store.layout.len() as u64 + INDEX_BYTES)
+    }
+
+    /// Reports the points placed in chunks so far.
+    fn report(&mut self, nodes: &[Node]) {
+        self.done = nodes
+            .iter()
+            .filter(|v| matches!(v.state, State::Chunk) && v.file.is_some())
+            .map(|v| v.count)
+            .sum();
+        (self.progress)(Stage::Split, self.done);
+    }
+
+    /// Splits set `top` (decided, split or halved) down to its chunks in memory, each chunk
+    /// written to its file as it is found: `recs` its records in input order.
+    fn split_in_memory(&mut self, nodes: &mut Vec<Node>, top: usize, recs: &[u8]) -> Result<()> {
+        let len = self.store.layout.len();
+        let m = recs.len() / len;
+        let Ok(m32) = u32::try_from(m) else {
+            return Err(super::too_many(m as u64));
+        };
+        let layout = self.store.layout;
+        let pos = |i: u32| layout.position_of(&recs[i as usize * len..(i as usize + 1) * len]);
+        let mut idx: Vec<u32> = (0..m32).collect();
+        let mut right: Vec<u32> = Vec::new();
+        let mut stack = vec![(top, 0usize, m)];
+        let mut reported = self.done;
+        while let Some((v, a, b)) = stack.pop() {
+            if nodes[v].gathers() {
+                let mut bbox = EMPTY;
+                for &i in &idx[a..b] {
+                    let p = pos(i);
+                    bbox = (bbox.0.min(p), bbox.1.max(p));
+                }
+                nodes[v].count = (b - a) as u64;
+                nodes[v].bbox = bbox;
+                if matches!(nodes[v].state, State::Pending) {
+                    self.decide(nodes, v);
+                }
+            }
+            match nodes[v].state {
+                State::Chunk => {
+                    let mut w = self.store.create()?;
+                    for &i in &idx[a..b] {
+                        w.push(&recs[i as usize * len..(i as usize + 1) * len])
+                            .map_err(|e| self.store.io(e))?;
+                    }
+                    nodes[v].file = Some(w.finish().map_err(|e| self.store.io(e))?);
+                    self.done += (b - a) as u64;
+                    if self.done - reported >= SEGMENT {
+                        reported = self.done;
+                        (self.progress)(Stage::Split, self.done);
+                    }
+                }
+                State::Split { axis, mid, kids } => {
+                    // A stable partition: the left ones in place, in order, then the right.
+                    right.clear();
+                    let mut w = a;
+                    for j in a..b {
+                        let i = idx[j];
+                        if pos(i)[axis] < mid {
+                            idx[w] = i;
+                            w += 1;
+                        } else {
+                            right.push(i);
+                        }
+                    }
+                    idx[w..b].copy_from_slice(&right);
+                    stack.push((kids[1], w, b));
+                    stack.push((kids[0], a, w));
+                }
+                State::Halve { h, kids } => {
+                    let h = a + h as usize;
+                    stack.push((kids[1], h, b));
+                    stack.push((kids[0], a, h));
+                }
+                State::Pending => {
+                    return Err(self.store.io(std::io::Error::other(
+                        "a set of the split left undecided",
+                    )));
+                }
+            }
+        }
+        (self.progress)(Stage::Split, self.done);
+        Ok(())
+    }
+
+    /// Sends record `r` down the splits to the set that gathers it (and writes it to that
+    /// set's file in the last pass).
+    fn place(&self, nodes: &mut [Node], r: &[u8]) -> Result<()> {
         let p = self.store.layout.position_of(r);
         let mut v = 0;
         loop {
             let node = &mut nodes[v];
-            v = match &mut node.state {
+            v = match node.state {
                 State::Split { axis, mid, kids } => {
-                    if p[*axis] < *mid {
+                    if p[axis] < mid {
                         kids[0]
                     } else {
                         kids[1]
@@ -190,20 +341,14 @@ impl Preparer<'_> {
                 State::Halve { h, kids } => {
                     let rank = node.seen;
                     node.seen += 1;
-                    if rank < *h { kids[0] } else { kids[1] }
+                    if rank < h { kids[0] } else { kids[1] }
                 }
-                State::Pending => {
+                State::Pending | State::Chunk => {
                     node.count += 1;
                     node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
-                    return Ok(());
-                }
-                State::Chunk { writer, .. } => {
-                    // A chunk gathers its count and box in every pass (none is written before
-                    // the last), and takes its points in the last.
-                    node.count += 1;
-                    node.bbox = (node.bbox.0.min(p), node.bbox.1.max(p));
-                    if let Some(w) = writer {
-                        self.store.push(w, r)?;
+                    if let Some(w) = &mut node.writer {
+                        w.push(&r[..self.store.layout.len()])
+                            .map_err(|e| self.store.io(e))?;
                     }
                     return Ok(());
                 }
@@ -221,29 +366,21 @@ impl Preparer<'_> {
         };
         let even = depth.is_multiple_of(2);
         if (even && n <= self.cap) || (!even && n < 2) {
-            nodes[v].state = State::Chunk {
-                writer: None,
-                file: None,
-            };
+            nodes[v].state = State::Chunk;
             return;
         }
         let (axis, mid) = split_plane(bbox);
         // Every point to the right (none below the midpoint) or to the left.
         let degenerate = !(bbox.0[axis] < mid) || bbox.1[axis] < mid;
         // The halves of a group's first split that fits are chunks.
-        let kid = || {
-            if !even && n <= self.cap {
-                State::Chunk {
-                    writer: None,
-                    file: None,
-                }
-            } else {
-                State::Pending
-            }
+        let kid = if !even && n <= self.cap {
+            State::Chunk
+        } else {
+            State::Pending
         };
         let kids = [nodes.len(), nodes.len() + 1];
         for _ in 0..2 {
-            nodes.push(Node::new(depth + 1, overlap || degenerate, kid()));
+            nodes.push(Node::new(depth + 1, n, overlap || degenerate, kid));
         }
         nodes[v].state = if degenerate {
             State::Halve { h: n / 2, kids }
@@ -255,17 +392,9 @@ impl Preparer<'_> {
     /// The parts and chunks of the set `v` of an even depth, children before parents, chunks
     /// numbered in the order of a depth-first recursion; returns its part and its levels.
     fn emit(&mut self, nodes: &mut [Node], v: usize) -> Result<(usize, u32)> {
-        let kids_of = |x: &Node| match x.state {
-            State::Split { kids, .. } | State::Halve { kids, .. } => Some(kids),
-            _ => None,
-        };
-        let Some(halves) = kids_of(&nodes[v]) else {
+        let Some(halves) = nodes[v].kids() else {
             let x = &mut nodes[v];
-            let file = match &mut x.state {
-                State::Chunk { file, .. } => file.take(),
-                _ => None,
-            };
-            let file = file.ok_or_else(|| {
+            let file = x.file.take().ok_or_else(|| {
                 self.store.io(std::io::Error::other(
                     "a chunk of the split was not written",
                 ))
@@ -288,7 +417,7 @@ impl Preparer<'_> {
         };
         let mut groups = Vec::with_capacity(4);
         for h in halves {
-            match kids_of(&nodes[h]) {
+            match nodes[h].kids() {
                 Some(two) => groups.extend(two),
                 None => groups.push(h),
             }

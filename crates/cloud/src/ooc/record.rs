@@ -12,8 +12,8 @@
 //!   beside the chunks' (`chunks::Set::normals`).
 //!
 //! A LAZ point without colour, its normal estimated, takes 16 bytes instead of 31 (28 instead
-//! of 43 with its normal given). Every record is written twice
-//! (the input, then its chunk), so each byte saved here is saved twice.
+//! of 43 with its normal given). Every record is written two or three times (the input, its
+//! subset where the split makes one, then its chunk), so each byte saved here is saved as often.
 
 use glam::{DVec3, Vec3};
 
@@ -176,7 +176,7 @@ impl Layout {
     }
 
     /// A record's position alone.
-    pub(super) fn position_of(&self, b: &[u8; REC]) -> DVec3 {
+    pub(super) fn position_of(&self, b: &[u8]) -> DVec3 {
         match &self.grid {
             Some(g) => DVec3::from_array(std::array::from_fn(|a| {
                 let o = 4 * a;

@@ -163,3 +163,73 @@ fn bad_inputs_and_limits_are_errors() {
     );
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// What a preparation's split made: each chunk's input indices (in its order) and box, and the
+/// parts above them.
+fn split_of(prepared: &Prepared) -> Vec<(Vec<u64>, [u64; 6], String)> {
+    let Prepared::Chunked(chunks) = prepared else {
+        panic!("not chunked");
+    };
+    let bits = |b: (DVec3, DVec3)| {
+        let (lo, hi) = (b.0.to_array(), b.1.to_array());
+        [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(f64::to_bits)
+    };
+    let mut out: Vec<_> = (0..chunks.len())
+        .map(|c| {
+            let set = &chunks.chunks[c];
+            (
+                chunks.load(c).unwrap().index,
+                bits(set.bbox.unwrap()),
+                format!("{}", set.overlap),
+            )
+        })
+        .collect();
+    out.extend(
+        chunks
+            .parts()
+            .iter()
+            .map(|p| (Vec::new(), bits(p.bbox), format!("{:?}", p.kind))),
+    );
+    out
+}
+
+#[test]
+fn the_split_is_the_same_on_disk_in_subsets_and_in_memory() {
+    // Clusters of copies of one point fill several chunks (halved by position).
+    let mut pts = cloud(60_000, 7);
+    // On a grid, as a LAS file's are: points on split planes.
+    for p in &mut pts {
+        p.position = (p.position * 256.0).round() / 256.0;
+    }
+    for i in (0..pts.len()).step_by(5).take(9_000) {
+        pts[i].position = DVec3::new(0.25, 0.5, 0.0);
+    }
+    let opts = Options {
+        normals: Normals::Given,
+        radius: Radius::Fixed(0.01),
+        ..options(RESERVE + MIN_CHUNK * 640)
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.lod");
+    let mut want = None;
+    // Every level by a pass over the input; passes, then subsets of at most 7,000 or 25,000
+    // points; all in memory at once.
+    for fits in [0, 7_000, 25_000, u64::MAX] {
+        partition::SUBSET_POINTS.set(Some(fits));
+        let (prepared, summary) = run(&pts, &opts, &out).unwrap();
+        partition::SUBSET_POINTS.set(None);
+        let got = split_of(&prepared);
+        assert!(summary.chunks >= 20, "{summary:?}");
+        let rec = 24 + 3 + 4 + 12;
+        let writes = summary.scratch_bytes as f64 / (rec * pts.len()) as f64;
+        // The input and the chunks; the subsets once more, when there are.
+        let most = if fits == 0 || fits == u64::MAX { 2.0 } else { 3.0 };
+        assert!(writes <= most && writes > 1.9, "{fits}: {writes} {summary:?}");
+        match &want {
+            None => want = Some(got),
+            Some(w) => assert!(*w == got, "subsets of {fits} points split otherwise"),
+        }
+        drop(prepared);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}

@@ -10,8 +10,9 @@
 //!
 //! 1. to 3. `cloud::ooc::prepare`: the input streamed to scratch; split as [`crate::build`]
 //!    splits (the midpoint of a set's box's longest axis, two levels of splits a group of two
-//!    to four, as [`crate::build`]'s `groups`) down to chunks, each point written once, to its
-//!    chunk, in input order: the order the in-memory build's stable partition gives every set;
+//!    to four, as [`crate::build`]'s `groups`) down to chunks, each point written to its chunk
+//!    (first to a subset's file where its set is larger than memory), in input order: the
+//!    order the in-memory build's stable partition gives every set;
 //!    normals and the leaf radius with halos, the in-memory ones bit for bit;
 //! 4. each chunk's root is computed in memory (the same splits and parents as the build, the
 //!    nodes below the root counted, not stored), and the parents above the chunks are made

@@ -48,6 +48,33 @@ fn rates_against_the_peer(rows: &[Row]) -> String {
     out
 }
 
+/// A warning for each out-of-core cell whose peak memory went over the build's `limit`
+/// (bytes), or nothing: a limit the build does not keep is a result, not a footnote.
+fn over_the_limit(rows: &[Row], limit: u64) -> String {
+    let over: Vec<String> = rows
+        .iter()
+        .filter(|r| r.method.ends_with(OOC_SUFFIX) && r.status == "ok")
+        .filter(|r| r.peak_rss_bytes > limit)
+        .map(|r| {
+            format!(
+                "`{}` at {} points peaked at {:.0} MiB",
+                r.method,
+                r.n_points,
+                r.peak_rss_bytes as f64 / 1048576.0
+            )
+        })
+        .collect();
+    if over.is_empty() {
+        return String::new();
+    }
+    format!(
+        "**Over the memory limit** of the out-of-core builds ({:.0} MiB; the cell process's \
+         peak, the LAZ it wrote before the build included): {}.\n\n",
+        limit as f64 / 1048576.0,
+        over.join("; ")
+    )
+}
+
 /// The group of a scale cell's method, by the cell names' convention: 0 a visibility method,
 /// 1 a hull (`hull-NAME`), 2 an LOD build or selection (`NAME-build`, `NAME-select`,
 /// `NAME-build-ooc`).
@@ -221,6 +248,11 @@ pub fn render(dir: &Path) -> Result<()> {
             )
         })
         .collect();
+    let limit = meta
+        .as_ref()
+        .and_then(|m| m.parameters["out_of_core"]["memory_limit_bytes"].as_u64())
+        .unwrap_or(super::plan::OOC_LIMIT);
+    let over = over_the_limit(&rows, limit);
     let ooc: Vec<String> = rows
         .iter()
         .filter(|r| r.method.ends_with(OOC_SUFFIX) && !r.detail.is_empty())
@@ -251,7 +283,7 @@ pub fn render(dir: &Path) -> Result<()> {
          `prepare s` the cell's input before it (sampling the cloud; a hull's flip; an LOD \
          method's normals), under a cap of its own ({} s on the operation, {} s on the \
          preparation). Cells not run or stopped say why.\n\n\
-         {images}{}{ooc}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
+         {over}{images}{}{ooc}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
         cap,
         prepare_cap,
         markdown_table(
@@ -372,16 +404,23 @@ mod tests {
         assert!(dir.path().join("seconds_hulls.png").exists());
     }
 
-    #[test]
-    fn our_rates_are_given_over_the_peers_at_each_size() {
-        let row = |method: &str, n: u64, seconds: f64, status: &str| Row {
+    /// A row of an out-of-core cell: `seconds`, peak MiB, status.
+    fn ooc_row(method: &str, n: u64, seconds: f64, peak_mib: u64, status: &str) -> Row {
+        Row {
             method: method.into(),
             n_points: n,
             seconds,
-            peak_rss_bytes: 0,
+            peak_rss_bytes: peak_mib << 20,
             status: status.into(),
             prepare_seconds: 0.0,
             detail: String::new(),
+        }
+    }
+
+    #[test]
+    fn our_rates_are_given_over_the_peers_at_each_size() {
+        let row = |method: &str, n: u64, seconds: f64, status: &str| {
+            ooc_row(method, n, seconds, 0, status)
         };
         let rows = [
             row("qsplat-build-ooc", 1_000_000, 5.0, "ok"),
@@ -401,6 +440,26 @@ mod tests {
             "\nAt 1000000 points, our rate over copc_converter's (0.50 M points/s): \
              `qsplat-build-ooc` 0.40×, `spt-build-ooc` 0.25×.\n"
         );
+    }
+
+    #[test]
+    fn a_build_over_its_memory_limit_is_flagged() {
+        let row = |method: &str, n: u64, peak_mib: u64, status: &str| {
+            ooc_row(method, n, 1.0, peak_mib, status)
+        };
+        let rows = [
+            row("qsplat-build-ooc", 1_000_000_000, 2186, "ok"),
+            row("spt-build-ooc", 100_000_000, 965, "ok"),
+            row("spt-build-ooc", 1_000_000_000, 0, "skipped: disk"),
+            row("qsplat-build", 10_000_000, 4297, "ok"),
+        ];
+        assert_eq!(
+            over_the_limit(&rows, 1 << 30),
+            "**Over the memory limit** of the out-of-core builds (1024 MiB; the cell process's \
+             peak, the LAZ it wrote before the build included): `qsplat-build-ooc` at \
+             1000000000 points peaked at 2186 MiB.\n\n"
+        );
+        assert_eq!(over_the_limit(&rows[1..], 1 << 30), "");
     }
 
     #[test]
