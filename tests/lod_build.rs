@@ -162,6 +162,43 @@ fn equal_within_the_limit(method: &str) {
     assert_eq!(entries(dir.path()), ["mem.lod", "ooc80.lod", "sheet.laz"]);
 }
 
+/// A cloud larger than memory holds at once (at 80 MiB, sets of about 930,000 of these
+/// points): the split counts on disk, then writes subsets and splits each in memory; the
+/// peak stays within the limit all the same.
+#[test]
+#[allow(clippy::unwrap_used)] // a test: a failure is the test failing
+fn a_split_through_subsets_stays_within_the_limit() {
+    let dir = tempfile::tempdir().unwrap();
+    let laz = dir.path().join("sheet.laz");
+    let n = 1_300_000;
+    write_cloud(&laz, n);
+    let out = dir.path().join("big.qsplat");
+    let run = pointsight(&[
+        "lod-build",
+        "--cloud",
+        laz.to_str().unwrap(),
+        "--method",
+        "qsplat",
+        "--memory-limit",
+        "80MiB",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    // Records of 19 bytes (grid integers, colour, index) and 12-byte normals: the input, the
+    // subsets and the chunks make three writes of most records.
+    let per_point = field(&stdout, "scratch_bytes") / n as f64;
+    assert!(per_point > 2.5 * 19.0 + 12.0, "no subsets? {stdout}");
+    let peak = field(&stdout, "peak_rss_bytes");
+    assert!(peak <= (80u64 << 20) as f64, "peak {peak} over 80 MiB: {stdout}");
+    assert_eq!(entries(dir.path()), ["big.qsplat", "sheet.laz"]);
+}
+
 #[test]
 fn bad_input_fails_naming_the_cause_and_leaves_nothing() {
     let dir = tempfile::tempdir().unwrap();

@@ -150,9 +150,7 @@ impl Preparer<'_> {
         let fits = self.subset_points();
         if n <= fits {
             // All of it in memory at once: split there, each point written once.
-            let mut recs = Vec::new();
-            recs.try_reserve_exact(n as usize * self.store.layout.len())
-                .map_err(|e| self.store.io(std::io::Error::other(e)))?;
+            let mut recs = self.records_buffer(n)?;
             for seg in std::mem::take(&mut segments) {
                 seg.reader(0, seg.len())
                     .and_then(|mut r| r.read_rest(&mut recs))
@@ -216,7 +214,7 @@ impl Preparer<'_> {
         // Each subset split in memory (one that is a chunk keeps its file as the chunk's).
         for v in 0..nodes.len() {
             if nodes[v].file.is_some() && nodes[v].kids().is_some() {
-                let mut recs = Vec::new();
+                let mut recs = self.records_buffer(nodes[v].count)?;
                 if let Some(file) = nodes[v].file.take() {
                     file.reader(0, file.len())
                         .and_then(|mut r| r.read_rest(&mut recs))
@@ -237,6 +235,22 @@ impl Preparer<'_> {
         }
         let budget = self.cap.saturating_mul(self.opts.bytes_per_point) / 4 * 3;
         budget / (self.store.layout.len() as u64 + INDEX_BYTES)
+    }
+
+    /// An empty buffer for the records of `n` points (at most [`Preparer::subset_points`]),
+    /// allocated whole, or the error saying memory is short.
+    fn records_buffer(&self, n: u64) -> Result<Vec<u8>> {
+        let bytes = n.saturating_mul(self.store.layout.len() as u64);
+        let what = || format!("splitting a set of {n} points in memory");
+        crate::memory::ensure(u128::from(bytes + n * INDEX_BYTES), &what())?;
+        let mut recs = Vec::new();
+        recs.try_reserve_exact(usize::try_from(bytes).unwrap_or(usize::MAX))
+            .map_err(|_| crate::Error::OutOfMemory {
+                what: what(),
+                needed: crate::memory::human(u128::from(bytes)),
+                available: "less (the allocation failed)".into(),
+            })?;
+        Ok(recs)
     }
 
     /// Reports the points placed in chunks so far.
@@ -260,7 +274,7 @@ impl Preparer<'_> {
         let layout = self.store.layout;
         let pos = |i: u32| layout.position_of(&recs[i as usize * len..(i as usize + 1) * len]);
         let mut idx: Vec<u32> = (0..m32).collect();
-        let mut right: Vec<u32> = Vec::new();
+        let mut right: Vec<u32> = Vec::with_capacity(m);
         let mut stack = vec![(top, 0usize, m)];
         let mut reported = self.done;
         while let Some((v, a, b)) = stack.pop() {
