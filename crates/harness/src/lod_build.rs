@@ -122,8 +122,8 @@ pub fn stages_text(stages: &[(&'static str, f64)]) -> String {
 /// and the written file 6.8; the scratch files (positions as the LAZ grid's integers, no
 /// colours where the file has none: 16-byte records, and 12 bytes of normal) held at most 29.0
 /// bytes per point at once at 10^7 points (290 MB, 13 chunks) and 28.3 at 10^8 (2,831 MB, 154
-/// chunks; `Scratch::peak_bytes`), of 56.5 and 56.6 written in all: 47 in all, and a quarter
-/// more for margin.
+/// chunks; `Scratch::peak_bytes`; 28.2 at 10^9), of 56.5 and 72.6 written in all (the split's
+/// subsets): 47 in all, and a quarter more for margin.
 pub const OOC_DISK_PER_POINT: u64 = 59;
 
 /// Disk an `spt` out-of-core build cell of the scale experiment needs per point: the LAZ (11.4),
