@@ -46,6 +46,29 @@ fn write_cloud(path: &Path, n: usize) {
     cloud::io::las::write_las(path, &c).expect("the LAZ is written");
 }
 
+/// `lod-build` of `laz` by `method` within `limit` into `out`, which must succeed: its
+/// standard output.
+fn build_ooc(laz: &Path, method: &str, limit: &str, out: &Path) -> String {
+    let (laz, out) = (laz.display().to_string(), out.display().to_string());
+    let run = pointsight(&[
+        "lod-build",
+        "--cloud",
+        &laz,
+        "--method",
+        method,
+        "--memory-limit",
+        limit,
+        "--out",
+        &out,
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    String::from_utf8_lossy(&run.stdout).into_owned()
+}
+
 fn entries(dir: &Path) -> Vec<String> {
     let mut v: Vec<String> = std::fs::read_dir(dir)
         .expect("a readable folder")
@@ -92,23 +115,7 @@ fn equal_within_the_limit(method: &str) {
     {
         let limit_mib = 80u64;
         let out = dir.path().join(format!("ooc{limit_mib}.lod"));
-        let run = pointsight(&[
-            "lod-build",
-            "--cloud",
-            laz.to_str().unwrap(),
-            "--method",
-            method,
-            "--memory-limit",
-            &format!("{limit_mib}MiB"),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
-        let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        let stdout = build_ooc(&laz, method, &format!("{limit_mib}MiB"), &out);
         // Several chunks (the library's tests force two levels above them).
         assert!(field(&stdout, "chunks") >= 4.0, "{method}: {stdout}");
         // The scratch's peak on disk is part of what it wrote in all.
@@ -173,23 +180,7 @@ fn a_split_through_subsets_stays_within_the_limit() {
     let n = 1_300_000;
     write_cloud(&laz, n);
     let out = dir.path().join("big.qsplat");
-    let run = pointsight(&[
-        "lod-build",
-        "--cloud",
-        laz.to_str().unwrap(),
-        "--method",
-        "qsplat",
-        "--memory-limit",
-        "80MiB",
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let stdout = build_ooc(&laz, "qsplat", "80MiB", &out);
     // Records of 19 bytes (grid integers, colour, index) and 12-byte normals: the input, the
     // subsets and the chunks make three writes of most records.
     let per_point = field(&stdout, "scratch_bytes") / n as f64;
