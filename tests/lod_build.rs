@@ -186,7 +186,10 @@ fn a_split_through_subsets_stays_within_the_limit() {
     let per_point = field(&stdout, "scratch_bytes") / n as f64;
     assert!(per_point > 2.5 * 19.0 + 12.0, "no subsets? {stdout}");
     let peak = field(&stdout, "peak_rss_bytes");
-    assert!(peak <= (80u64 << 20) as f64, "peak {peak} over 80 MiB: {stdout}");
+    assert!(
+        peak <= (80u64 << 20) as f64,
+        "peak {peak} over 80 MiB: {stdout}"
+    );
     assert_eq!(entries(dir.path()), ["big.qsplat", "sheet.laz"]);
 }
 

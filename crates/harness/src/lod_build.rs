@@ -171,9 +171,8 @@ pub fn parse_size(text: &str) -> Result<u64> {
 
 /// Bytes per point read at once from a LAS or LAZ file: the stream's, the decoded positions
 /// and colours, and the preparation's batch.
-const READ_BYTES_PER_POINT: u64 = cloud::io::las::STREAM_BYTES_PER_POINT
-    + 27
-    + size_of::<Point>() as u64;
+const READ_BYTES_PER_POINT: u64 =
+    cloud::io::las::STREAM_BYTES_PER_POINT + 27 + size_of::<Point>() as u64;
 
 /// Points read at once under `memory_limit`: an eighth of the limit (the reading buffers are
 /// gone before the first chunk is loaded), at most [`cloud::io::las::CHUNK`].

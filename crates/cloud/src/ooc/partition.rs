@@ -327,9 +327,9 @@ impl Preparer<'_> {
                     stack.push((kids[0], a, h));
                 }
                 State::Pending => {
-                    return Err(self.store.io(std::io::Error::other(
-                        "a set of the split left undecided",
-                    )));
+                    return Err(self
+                        .store
+                        .io(std::io::Error::other("a set of the split left undecided")));
                 }
             }
         }

@@ -230,8 +230,14 @@ fn the_split_is_the_same_on_disk_in_subsets_and_in_memory() {
         // may be a chunk already: 15 % of the points at 7,000, all at 25,000).
         match fits {
             0 | u64::MAX => assert!((writes - 2.0).abs() < 1e-9, "{fits}: {writes} {summary:?}"),
-            7_000 => assert!(writes > 2.1 && writes <= 3.0, "{fits}: {writes} {summary:?}"),
-            _ => assert!(writes > 2.9 && writes <= 3.0, "{fits}: {writes} {summary:?}"),
+            7_000 => assert!(
+                writes > 2.1 && writes <= 3.0,
+                "{fits}: {writes} {summary:?}"
+            ),
+            _ => assert!(
+                writes > 2.9 && writes <= 3.0,
+                "{fits}: {writes} {summary:?}"
+            ),
         }
         match &want {
             None => want = Some(got),
