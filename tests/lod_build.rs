@@ -146,7 +146,7 @@ fn equal_within_the_limit(method: &str) {
         let keys: Vec<&str> = stages.iter().map(|e| e.0.as_str()).collect();
         let prepare = ["read", "split", "guide", "normals", "halos"];
         let own: &[&str] = if method == "spt" {
-            &["feed", "count", "distribute", "build", "merge"]
+            &["count", "distribute", "build", "merge"]
         } else {
             &["roots", "encode", "write"]
         };

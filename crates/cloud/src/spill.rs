@@ -79,6 +79,18 @@ impl Scratch {
         })
     }
 
+    /// A second scratch directory beside `out` whose files count with `other`'s: the bytes
+    /// written, the bytes held at once and the failing writes of [`Scratch::fail_after`] are
+    /// those of both together (a build that reads another's scratch files while it writes its
+    /// own, as the SPT build reads the preparation's chunks).
+    pub fn beside_counted_with(out: &Path, other: &Scratch) -> io::Result<Self> {
+        let mut s = Self::beside(out)?;
+        s.written = Arc::clone(&other.written);
+        s.usage = Arc::clone(&other.usage);
+        s.fail_after = other.fail_after;
+        Ok(s)
+    }
+
     /// Makes every write fail (as a full disk does) once `bytes` have been written in total.
     pub fn fail_after(mut self, bytes: u64) -> Self {
         self.fail_after = Some(bytes);
@@ -387,6 +399,42 @@ mod tests {
         assert_eq!(scratch.peak_bytes(), 6 << 20);
         drop((c, d));
         assert_eq!(scratch.usage.live.load(Ordering::Relaxed), 0);
+    }
+
+    #[test]
+    fn a_scratch_counted_with_another_counts_both_and_fails_with_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("x.spt");
+        let first = Scratch::beside(&out).unwrap().fail_after(40);
+        let second = Scratch::beside_counted_with(&out, &first).unwrap();
+        assert_ne!(first.dir(), second.dir());
+        let mut a = first.create(4).unwrap();
+        for _ in 0..4 {
+            a.push(&[1; 4]).unwrap();
+        }
+        let a = a.finish().unwrap();
+        let mut b = second.create(4).unwrap();
+        for _ in 0..5 {
+            b.push(&[2; 4]).unwrap();
+        }
+        let b = b.finish().unwrap();
+        // Both files at once, written and held, seen from either.
+        for s in [&first, &second] {
+            assert_eq!((s.bytes_written(), s.peak_bytes()), (36, 36));
+        }
+        drop(a);
+        // The disk fills for both: 36 written, the next 8 cross 40.
+        let mut c = second.create(4).unwrap();
+        c.push(&[3; 4]).unwrap();
+        assert_eq!(
+            c.push(&[3; 4]).unwrap_err().kind(),
+            io::ErrorKind::StorageFull
+        );
+        drop((b, c));
+        let second_dir = second.dir().to_path_buf();
+        drop(second);
+        assert!(!second_dir.exists());
+        assert!(first.dir().exists());
     }
 
     /// Records `from..from + n` of a file of u32 records.

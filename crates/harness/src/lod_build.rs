@@ -367,28 +367,20 @@ fn build_unnamed(
             set(prepare_stage(s), n)
         })?;
         drop(loaded.take());
-        set(("feed", "handing the points to SPT"), 0);
-        let mut spt_build = spt::ooc::Builder::new(
+        // A whole cloud's preparation left no scratch files: its numbers add to the build's;
+        // a chunked one's count with the build's own (`spt::ooc::build_prepared`).
+        let (prepared_bytes, prepared_peak) = match &prepared {
+            cloud::ooc::Prepared::Whole(_) => (summary.scratch_bytes, summary.scratch_peak_bytes),
+            cloud::ooc::Prepared::Chunked(_) => (0, 0),
+        };
+        let built = spt::ooc::build_prepared(
+            prepared,
             &spt::ooc::Options {
                 memory_limit,
                 colors,
                 fail_after_bytes: None,
             },
             out,
-        )?;
-        let mut batch = Vec::new();
-        prepared.for_each_chunk(|points| -> Result<()> {
-            batch.clear();
-            batch.extend((0..points.positions.len()).map(|i| spt::ooc::Point {
-                position: points.positions[i],
-                normal: points.normals[i],
-                color: points.colors[i],
-                index: points.index[i],
-            }));
-            Ok(spt_build.push(&batch)?)
-        })?;
-        drop(prepared);
-        let built = spt_build.finish(
             2.0 * summary.leaf_radius,
             &mut |stage: spt::ooc::Stage, count: u64| {
                 set(
@@ -412,8 +404,8 @@ fn build_unnamed(
             largest_halo: summary.largest_halo,
             leaf_radius: summary.leaf_radius,
             file_bytes: 0,
-            scratch_bytes: built.scratch_bytes + summary.scratch_bytes,
-            scratch_peak_bytes: summary.scratch_peak_bytes.max(built.scratch_peak_bytes),
+            scratch_bytes: built.scratch_bytes + prepared_bytes,
+            scratch_peak_bytes: built.scratch_peak_bytes.max(prepared_peak),
             stages: Vec::new(),
         }
     } else {

@@ -71,3 +71,18 @@ pub enum Error {
 
 /// Result alias of the `spt` crate.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+/// The out-of-core preparation's errors (its chunks read by [`crate::ooc::build_prepared`]) as
+/// this crate's of the same meaning.
+impl From<cloud::ooc::error::Error> for Error {
+    fn from(e: cloud::ooc::error::Error) -> Self {
+        use cloud::ooc::error::Error as E;
+        match e {
+            E::Cloud(e) => Error::Cloud(e),
+            E::EmptyCloud => Error::EmptyCloud,
+            E::MissingNormals => Error::MissingNormals,
+            E::InvalidParameter { name, reason } => Error::InvalidParameter { name, reason },
+            E::Io { path, source } => Error::Io { path, source },
+        }
+    }
+}

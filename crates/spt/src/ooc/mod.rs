@@ -10,7 +10,9 @@
 //!
 //! 1. the points are pushed ([`Builder::push`]) into a scratch file, with their bounding box
 //!    (which fixes the root cube and the hierarchy's local origin, as [`crate::build`] has
-//!    them);
+//!    them); or, prepared by `cloud::ooc::prepare` ([`build_prepared`]), read where they lie
+//!    each pass (the prepared chunks, or the whole cloud in memory), the box their parts', the
+//!    indices and the box checked by the first counting pass; no copy is written;
 //! 2. counting passes: each adds [`REFINE`] octree levels of counts below the cells that hold
 //!    more points than a chunk, descending by the very comparisons of
 //!    [`hierarchy::build_cell`]; the first also takes the box of the leaf discs, which gives
@@ -21,7 +23,8 @@
 //!    by the same call with the budget left; chunks follow in the arena's order (children
 //!    before parents, octants in order), consecutive ones gathered into bins of at most a
 //!    chunk's points;
-//! 4. one pass distributes the points to their bins' files;
+//! 4. one pass distributes the points to their bins' files (removing each prepared chunk once
+//!    read);
 //! 5. each bin is loaded, its points put back in input order (the points carry their index in
 //!    the input, so they may come in any order), each chunk built in memory, its nodes
 //!    quantised on the global grid and numbered as in the whole arena, and its sibling groups
@@ -40,7 +43,11 @@
 //!
 //! Memory: a chunk of m points needs about [`BYTES_PER_POINT`] · m bytes at its peak (records,
 //! the hierarchy's nodes twice while subtrees are joined, the quantised groups of the run);
-//! buffers, counts and the planned top need [`RESERVE`] more.
+//! buffers, counts and the planned top need [`RESERVE`] more. The counting passes and the
+//! distribution of prepared points hold one prepared chunk (or the whole prepared cloud) in
+//! memory, about 56 bytes a point of a chunk the preparation sized at
+//! [`PREPARE_BYTES_PER_POINT`]: a tenth of what a chunk's build takes, and no chunk is built
+//! then.
 
 mod merge;
 mod plan;
@@ -175,106 +182,73 @@ pub struct Builder {
     scratch: Scratch,
     writer: Option<SpillWriter>,
     n: u64,
-    max_index: u64,
-    /// Sums of the indices and their squares (wrapping): a permutation of 0..n has known ones.
-    index_sums: (u64, u64),
-    bbox: (DVec3, DVec3),
+    /// What the points pushed so far add up to.
+    tally: Tally,
     rec: Vec<u8>,
     leaf_diameter: f64,
 }
 
-impl Builder {
-    /// A build of `out` under `opts`; scratch files go to a directory beside `out`, removed
-    /// at the end, also after an error.
-    pub fn new(opts: &Options, out: &Path) -> Result<Self> {
-        let cap = chunk_capacity(opts.memory_limit)?;
-        let io = |source| Error::Io {
-            path: out.display().to_string(),
-            source,
-        };
-        let mut scratch = Scratch::beside(out).map_err(io)?;
-        if let Some(b) = opts.fail_after_bytes {
-            scratch = scratch.fail_after(b);
-        }
-        let writer = scratch.create(REC).map_err(io)?;
-        Ok(Self {
-            opts: opts.clone(),
-            out: out.to_path_buf(),
-            cap,
-            scratch,
-            writer: Some(writer),
+/// Where a build reads its points from, once per pass.
+enum Input {
+    /// The records [`Builder::push`] wrote to a scratch file.
+    Pushed(SpillFile),
+    /// The chunks `cloud::ooc::prepare` wrote, read where they lie
+    /// ([`build_prepared`]).
+    Prepared(cloud::ooc::Chunks),
+    /// The points `cloud::ooc::prepare` kept in memory, as they are ([`build_prepared`]).
+    Whole(cloud::ooc::Points),
+}
+
+/// The checks of a set of points: their box, largest input index and the (wrapping) sums of
+/// their indices and of the indices' squares (a permutation of 0..n has known ones).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Tally {
+    n: u64,
+    bbox: (DVec3, DVec3),
+    max_index: u64,
+    index_sums: (u64, u64),
+}
+
+impl Default for Tally {
+    fn default() -> Self {
+        Tally {
             n: 0,
+            bbox: (DVec3::INFINITY, DVec3::NEG_INFINITY),
             max_index: 0,
             index_sums: (0, 0),
-            bbox: (DVec3::INFINITY, DVec3::NEG_INFINITY),
-            rec: vec![0; REC],
-            leaf_diameter: 0.0,
-        })
-    }
-
-    fn io(&self, source: io::Error) -> Error {
-        Error::Io {
-            path: if source.kind() == io::ErrorKind::StorageFull {
-                format!("{} (scratch files)", self.scratch.dir().display())
-            } else {
-                self.out.display().to_string()
-            },
-            source,
         }
     }
+}
 
-    /// Adds points.
-    pub fn push(&mut self, points: &[Point]) -> Result<()> {
-        for p in points {
-            if !p.position.is_finite() {
-                return Err(Error::Cloud(cloud::Error::NonFinite {
-                    index: p.index as usize,
-                }));
-            }
-            if !p.normal.is_finite() {
-                return Err(Error::InvalidParameter {
-                    name: "normals",
-                    reason: format!("point {} has a non-finite normal", p.index),
-                });
-            }
-            self.bbox = (self.bbox.0.min(p.position), self.bbox.1.max(p.position));
-            self.max_index = self.max_index.max(p.index);
-            self.index_sums = (
-                self.index_sums.0.wrapping_add(p.index),
-                self.index_sums
-                    .1
-                    .wrapping_add(p.index.wrapping_mul(p.index)),
-            );
-            pack(p, &mut self.rec);
-            let w = self.writer.as_mut().ok_or(Error::InvalidParameter {
-                name: "builder",
-                reason: "points pushed after the build".into(),
-            })?;
-            if let Err(e) = w.push(&self.rec) {
-                return Err(self.io(e));
-            }
-            self.n += 1;
+impl Tally {
+    /// Adds `p`, refusing a non-finite position or normal.
+    fn add(&mut self, p: &Point) -> Result<()> {
+        if !p.position.is_finite() {
+            return Err(Error::Cloud(cloud::Error::NonFinite {
+                index: p.index as usize,
+            }));
         }
+        if !p.normal.is_finite() {
+            return Err(Error::InvalidParameter {
+                name: "normals",
+                reason: format!("point {} has a non-finite normal", p.index),
+            });
+        }
+        self.n += 1;
+        self.bbox = (self.bbox.0.min(p.position), self.bbox.1.max(p.position));
+        self.max_index = self.max_index.max(p.index);
+        self.index_sums = (
+            self.index_sums.0.wrapping_add(p.index),
+            self.index_sums
+                .1
+                .wrapping_add(p.index.wrapping_mul(p.index)),
+        );
         Ok(())
     }
 
-    /// Builds the file of the points pushed with leaf discs of `leaf_diameter` (known only
-    /// once every point is in when it comes from their spacing); `progress` hears each
-    /// stage's count.
-    pub fn finish(
-        mut self,
-        leaf_diameter: f64,
-        progress: &mut dyn FnMut(Stage, u64),
-    ) -> Result<Summary> {
-        if !(leaf_diameter > 0.0) || !leaf_diameter.is_finite() {
-            return Err(Error::InvalidParameter {
-                name: "leaf_diameter",
-                reason: format!("must be positive, got {leaf_diameter}"),
-            });
-        }
-        self.leaf_diameter = leaf_diameter;
-        let writer = self.writer.take().ok_or(Error::EmptyCloud)?;
-        let all = writer.finish().map_err(|e| self.io(e))?;
+    /// Fails unless the points are some (at most 2^31 - 1) and their indices are 0..n, each
+    /// once.
+    fn check(&self) -> Result<()> {
         let n = self.n;
         if n == 0 {
             return Err(Error::EmptyCloud);
@@ -309,31 +283,185 @@ impl Builder {
                 ),
             });
         }
+        Ok(())
+    }
+}
+
+/// Builds the file of the points `cloud::ooc::prepare` prepared (normals and all) into `out`,
+/// with leaf discs of `leaf_diameter`, reading the prepared chunks where they lie instead of
+/// copying them to a scratch file of its own ([`Builder::push`]): each counting pass and the
+/// distribution read them, and the distribution removes each chunk once it is read. Its own
+/// scratch files count with the preparation's ([`Scratch::beside_counted_with`]): the
+/// summary's scratch bytes are both builds' together. A cloud the preparation held in memory
+/// at once ([`cloud::ooc::Prepared::Whole`]) is read from there (built in memory when it fits
+/// this build's limit too). The same bytes as [`Builder::push`] of the same points, then
+/// [`Builder::finish`].
+pub fn build_prepared(
+    prepared: cloud::ooc::Prepared,
+    opts: &Options,
+    out: &Path,
+    leaf_diameter: f64,
+    progress: &mut dyn FnMut(Stage, u64),
+) -> Result<Summary> {
+    let cap = chunk_capacity(opts.memory_limit)?;
+    let io = |source| Error::Io {
+        path: out.display().to_string(),
+        source,
+    };
+    // The points and their box as the preparation counted them (its chunks' boxes are those
+    // of the positions it wrote); the first pass over them checks both.
+    let mut tally = Tally::default();
+    let (input, scratch) = match prepared {
+        cloud::ooc::Prepared::Whole(points) => {
+            tally.n = points.positions.len() as u64;
+            for p in &points.positions {
+                tally.bbox = (tally.bbox.0.min(*p), tally.bbox.1.max(*p));
+            }
+            (Input::Whole(points), Scratch::beside(out).map_err(io)?)
+        }
+        cloud::ooc::Prepared::Chunked(chunks) => {
+            for part in chunks.parts() {
+                if let cloud::ooc::PartKind::Chunk(c) = part.kind {
+                    tally.n += chunks.points_of(c);
+                    tally.bbox = (tally.bbox.0.min(part.bbox.0), tally.bbox.1.max(part.bbox.1));
+                }
+            }
+            let scratch = Scratch::beside_counted_with(out, chunks.scratch()).map_err(io)?;
+            (Input::Prepared(chunks), scratch)
+        }
+    };
+    let scratch = match opts.fail_after_bytes {
+        Some(b) => scratch.fail_after(b),
+        None => scratch,
+    };
+    let b = Builder {
+        opts: opts.clone(),
+        out: out.to_path_buf(),
+        cap,
+        scratch,
+        writer: None,
+        n: tally.n,
+        tally,
+        rec: vec![0; REC],
+        leaf_diameter: 0.0,
+    };
+    b.build(input, leaf_diameter, progress)
+}
+
+impl Builder {
+    /// A build of `out` under `opts`; scratch files go to a directory beside `out`, removed
+    /// at the end, also after an error.
+    pub fn new(opts: &Options, out: &Path) -> Result<Self> {
+        let cap = chunk_capacity(opts.memory_limit)?;
+        let io = |source| Error::Io {
+            path: out.display().to_string(),
+            source,
+        };
+        let mut scratch = Scratch::beside(out).map_err(io)?;
+        if let Some(b) = opts.fail_after_bytes {
+            scratch = scratch.fail_after(b);
+        }
+        let writer = scratch.create(REC).map_err(io)?;
+        Ok(Self {
+            opts: opts.clone(),
+            out: out.to_path_buf(),
+            cap,
+            scratch,
+            writer: Some(writer),
+            n: 0,
+            tally: Tally::default(),
+            rec: vec![0; REC],
+            leaf_diameter: 0.0,
+        })
+    }
+
+    fn io(&self, source: io::Error) -> Error {
+        Error::Io {
+            path: if source.kind() == io::ErrorKind::StorageFull {
+                format!("{} (scratch files)", self.scratch.dir().display())
+            } else {
+                self.out.display().to_string()
+            },
+            source,
+        }
+    }
+
+    /// Adds points.
+    pub fn push(&mut self, points: &[Point]) -> Result<()> {
+        for p in points {
+            self.tally.add(p)?;
+            pack(p, &mut self.rec);
+            let w = self.writer.as_mut().ok_or(Error::InvalidParameter {
+                name: "builder",
+                reason: "points pushed after the build".into(),
+            })?;
+            if let Err(e) = w.push(&self.rec) {
+                return Err(self.io(e));
+            }
+            self.n += 1;
+        }
+        Ok(())
+    }
+
+    /// Builds the file of the points pushed with leaf discs of `leaf_diameter` (known only
+    /// once every point is in when it comes from their spacing); `progress` hears each
+    /// stage's count.
+    pub fn finish(
+        mut self,
+        leaf_diameter: f64,
+        progress: &mut dyn FnMut(Stage, u64),
+    ) -> Result<Summary> {
+        let writer = self.writer.take().ok_or(Error::EmptyCloud)?;
+        let all = writer.finish().map_err(|e| self.io(e))?;
+        self.build(Input::Pushed(all), leaf_diameter, progress)
+    }
+
+    /// Steps 2 to 6 of the module doc on `input`.
+    fn build(
+        mut self,
+        mut input: Input,
+        leaf_diameter: f64,
+        progress: &mut dyn FnMut(Stage, u64),
+    ) -> Result<Summary> {
+        if !(leaf_diameter > 0.0) || !leaf_diameter.is_finite() {
+            return Err(Error::InvalidParameter {
+                name: "leaf_diameter",
+                reason: format!("must be positive, got {leaf_diameter}"),
+            });
+        }
+        self.leaf_diameter = leaf_diameter;
+        let n = self.n;
+        // Pushed points were checked as they came; prepared ones are by the first pass over
+        // them.
+        let prepared = !matches!(input, Input::Pushed(_));
+        if !prepared {
+            self.tally.check()?;
+        }
         let mut summary = Summary {
             points: n,
             chunk_capacity: self.cap,
             ..Summary::default()
         };
         if n <= self.cap {
-            let pts = self.load(&all, 0, n, false)?;
-            drop(all);
-            let mut positions = Vec::with_capacity(pts.len());
-            let mut normals = Vec::with_capacity(pts.len());
-            let mut colors = Vec::with_capacity(if self.opts.colors { pts.len() } else { 0 });
-            for (p, _) in &pts {
-                positions.push(p.position);
-                normals.push(p.normal);
-                if self.opts.colors {
-                    colors.push(p.color);
-                }
-            }
+            progress(Stage::Build, 0);
+            let mut tally = Tally::default();
+            let mut pts = Vec::with_capacity(n as usize);
+            self.for_each_point(&mut input, false, |p| {
+                tally.add(p)?;
+                pts.push(*p);
+                Ok(())
+            })?;
+            drop(input);
+            self.check_prepared(prepared, &tally)?;
+            pts.sort_unstable_by_key(|p| p.index);
+            let positions = pts.iter().map(|p| p.position).collect();
+            let normals = pts.iter().map(|p| p.normal).collect();
+            let colors = self
+                .opts
+                .colors
+                .then(|| pts.iter().map(|p| p.color).collect());
             drop(pts);
-            let spt = in_memory(
-                positions,
-                normals,
-                self.opts.colors.then_some(colors),
-                self.leaf_diameter,
-            )?;
+            let spt = in_memory(positions, normals, colors, self.leaf_diameter)?;
             file::write(&spt, &self.out)?;
             summary.chunks = 1;
             summary.largest_chunk = n;
@@ -343,8 +471,8 @@ impl Builder {
         }
         // 2. Counting passes, the leaf discs' box with the first.
         let aabb = cloud::Aabb {
-            min: self.bbox.0,
-            max: self.bbox.1,
+            min: self.tally.bbox.0,
+            max: self.tally.bbox.1,
         };
         let origin = aabb.center();
         let (rc, rh) = hierarchy::root_cell(&aabb);
@@ -364,13 +492,18 @@ impl Builder {
             }
             missing.truncate(TARGETS);
             let first = summary.count_passes == 0;
+            let mut tally = Tally::default();
             self.count_pass(
-                &all,
+                &mut input,
                 &mut cells,
                 &missing,
                 first.then_some((origin, half32, &mut leaf_box)),
+                (first && prepared).then_some(&mut tally),
                 progress,
             )?;
+            if first {
+                self.check_prepared(prepared, &tally)?;
+            }
             summary.count_passes += 1;
         };
         let grid = Grid::new(origin, leaf_box.0, leaf_box.1);
@@ -392,9 +525,9 @@ impl Builder {
         summary.chunks = chunks.len() as u64;
         summary.top_nodes = (tops.len() - chunks.len()) as u64;
         mark_chunks(&mut cells, self.cap, 0, &mut 0)?;
-        // 4. Distribution.
-        let bin_files = self.distribute(&all, &cells, &chunks, bins, progress)?;
-        drop(all);
+        // 4. Distribution (the prepared chunks removed as they are read).
+        let bin_files = self.distribute(&mut input, &cells, &chunks, bins, progress)?;
+        drop(input);
         // 5. Chunks, the top and their runs.
         let runs = self.build_runs(&tops, &chunks, bin_files, origin, &grid, progress)?;
         summary.runs = runs.runs.len() as u64;
@@ -405,25 +538,59 @@ impl Builder {
         Ok(summary)
     }
 
-    /// Records `start..start + count` of `file` (plain or distributed), with their chunk,
-    /// sorted by (chunk, input index); a repeated index is an error.
-    fn load(
+    /// For prepared points (`prepared`), fails unless `tally` (of a pass over all of them)
+    /// holds valid indices and the count and box the preparation gave.
+    fn check_prepared(&self, prepared: bool, tally: &Tally) -> Result<()> {
+        if !prepared {
+            return Ok(());
+        }
+        tally.check()?;
+        if tally.n != self.tally.n || tally.bbox != self.tally.bbox {
+            return Err(internal(&format!(
+                "the prepared chunks hold {} points in {:?}, their parts say {} in {:?}",
+                tally.n, tally.bbox, self.tally.n, self.tally.bbox
+            )));
+        }
+        Ok(())
+    }
+
+    /// `f` on every point of `input`, in the order of its files; with `release`, each
+    /// prepared chunk is removed once read.
+    fn for_each_point(
         &self,
-        file: &SpillFile,
-        start: u64,
-        count: u64,
-        distributed: bool,
-    ) -> Result<Vec<(Point, u32)>> {
-        let size = if distributed { DREC } else { REC };
+        input: &mut Input,
+        release: bool,
+        mut f: impl FnMut(&Point) -> Result<()>,
+    ) -> Result<()> {
+        match input {
+            Input::Pushed(all) => {
+                let mut r = all.reader(0, all.len()).map_err(|e| self.io(e))?;
+                let mut buf = [0u8; REC];
+                while r.next_into(&mut buf).map_err(|e| self.io(e))? {
+                    f(&unpack(&buf))?;
+                }
+            }
+            Input::Prepared(chunks) => {
+                for c in 0..chunks.len() {
+                    each_of(&chunks.load(c)?, &mut f)?;
+                    if release {
+                        chunks.release(c)?;
+                    }
+                }
+            }
+            Input::Whole(pts) => each_of(pts, &mut f)?,
+        }
+        Ok(())
+    }
+
+    /// Records `start..start + count` of a distributed `file`, with their chunk, sorted by
+    /// (chunk, input index); a repeated index is an error.
+    fn load(&self, file: &SpillFile, start: u64, count: u64) -> Result<Vec<(Point, u32)>> {
         let mut r = file.reader(start, count).map_err(|e| self.io(e))?;
-        let mut buf = vec![0u8; size];
+        let mut buf = vec![0u8; DREC];
         let mut out = Vec::with_capacity(count as usize);
         while r.next_into(&mut buf).map_err(|e| self.io(e))? {
-            let chunk = if distributed {
-                u32::from_le_bytes(buf[REC..DREC].try_into().unwrap_or([0; 4]))
-            } else {
-                0
-            };
+            let chunk = u32::from_le_bytes(buf[REC..DREC].try_into().unwrap_or([0; 4]));
             out.push((unpack(&buf), chunk));
         }
         out.sort_unstable_by_key(|(p, c)| (*c, p.index));
@@ -435,6 +602,19 @@ impl Builder {
         }
         Ok(out)
     }
+}
+
+/// `f` on each of the prepared points `pts`, in their order.
+fn each_of(pts: &cloud::ooc::Points, f: &mut impl FnMut(&Point) -> Result<()>) -> Result<()> {
+    for i in 0..pts.positions.len() {
+        f(&Point {
+            position: pts.positions[i],
+            normal: pts.normals[i],
+            color: pts.colors[i],
+            index: pts.index[i],
+        })?;
+    }
+    Ok(())
 }
 
 /// An error that only a bug in this build can cause.

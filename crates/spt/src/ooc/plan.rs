@@ -6,8 +6,8 @@
 use cloud::glam::{DVec3, Vec3};
 use cloud::spill::SpillFile;
 
-use super::record::{DREC, REC, position_of};
-use super::{Builder, NONE, Point, REFINE, SMALL_BUFFER, Stage, internal};
+use super::record::{DREC, REC, pack};
+use super::{Builder, Input, NONE, Point, REFINE, SMALL_BUFFER, Stage, Tally, internal};
 use crate::error::{Error, Result};
 use crate::hierarchy::{self, COLLAPSE};
 
@@ -54,12 +54,14 @@ pub(super) enum Top {
 
 impl Builder {
     /// One counting pass: [`REFINE`] levels of counts below each of `targets`.
+    /// With `tally`, every point is also added to it (the checks of prepared points).
     pub(super) fn count_pass(
         &self,
-        all: &SpillFile,
+        input: &mut Input,
         cells: &mut Vec<Cell>,
         targets: &[u32],
         mut leaf_box: Option<(DVec3, f32, &mut (Vec3, Vec3))>,
+        mut tally: Option<&mut Tally>,
         progress: &mut dyn FnMut(Stage, u64),
     ) -> Result<()> {
         let width = 1usize << (3 * REFINE);
@@ -68,11 +70,12 @@ impl Builder {
             slot[x as usize] = t as u32;
         }
         let mut counts = vec![vec![0u32; width]; targets.len()];
-        let mut r = all.reader(0, all.len()).map_err(|e| self.io(e))?;
-        let mut buf = [0u8; REC];
         let mut seen = 0u64;
-        while r.next_into(&mut buf).map_err(|e| self.io(e))? {
-            let p = position_of(&buf);
+        self.for_each_point(input, false, |point| {
+            if let Some(t) = tally.as_mut() {
+                t.add(point)?;
+            }
+            let p = point.position;
             if let Some((origin, half, b)) = leaf_box.as_mut() {
                 let c = (p - *origin).as_vec3();
                 b.0 = b.0.min(c - *half);
@@ -106,7 +109,8 @@ impl Builder {
             if seen.is_multiple_of(1 << 20) {
                 progress(Stage::Count, seen);
             }
-        }
+            Ok(())
+        })?;
         progress(Stage::Count, seen);
         for (t, &x) in targets.iter().enumerate() {
             for (code, &k) in counts[t].iter().enumerate() {
@@ -137,7 +141,7 @@ impl Builder {
     /// Distributes the points to their bins' files (records tagged with their chunk).
     pub(super) fn distribute(
         &self,
-        all: &SpillFile,
+        input: &mut Input,
         cells: &[Cell],
         chunks: &[(usize, u32)],
         bins: u32,
@@ -151,11 +155,11 @@ impl Builder {
                     .map_err(|e| self.io(e))?,
             );
         }
-        let mut r = all.reader(0, all.len()).map_err(|e| self.io(e))?;
         let mut buf = [0u8; DREC];
         let mut seen = 0u64;
-        while r.next_into(&mut buf[..REC]).map_err(|e| self.io(e))? {
-            let p = position_of(&buf);
+        self.for_each_point(input, true, |point| {
+            let p = point.position;
+            pack(point, &mut buf[..REC]);
             let mut x = 0usize;
             while cells[x].chunk == NONE {
                 let k = cells[x].kids[hierarchy::octant(p, cells[x].center)];
@@ -172,7 +176,8 @@ impl Builder {
             if seen.is_multiple_of(1 << 20) {
                 progress(Stage::Distribute, seen);
             }
-        }
+            Ok(())
+        })?;
         progress(Stage::Distribute, seen);
         writers
             .into_iter()

@@ -31,9 +31,3 @@ pub(super) fn unpack(b: &[u8]) -> Point {
         index: u64::from_le_bytes(b[39..47].try_into().unwrap_or([0; 8])),
     }
 }
-
-/// A record's position alone.
-pub(super) fn position_of(b: &[u8]) -> DVec3 {
-    let f = |o: usize| f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
-    DVec3::new(f(0), f(8), f(16))
-}

@@ -53,7 +53,7 @@ impl Builder {
                         let file = bin_files[bin as usize]
                             .take()
                             .ok_or(internal("a bin loaded twice"))?;
-                        let pts = self.load(&file, 0, file.len(), true)?;
+                        let pts = self.load(&file, 0, file.len())?;
                         drop(file);
                         loaded = Some((bin, pts, 0));
                     }

@@ -231,3 +231,122 @@ fn bad_limits_and_inputs() {
     assert!(e.to_string().contains("coincident"), "{e}");
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
 }
+
+/// `pts` prepared by `cloud::ooc::prepare` (in input order, their own normals, a fixed
+/// radius) in chunks of at most `prep_chunk` points, then built by [`build_prepared`] under
+/// `opts` (its full disk also the preparation's); returns the build's summary and the
+/// preparation's scratch bytes.
+fn from_prepared(
+    pts: &[Point],
+    prep_chunk: u64,
+    opts: &Options,
+    out: &Path,
+) -> Result<(Summary, u64)> {
+    let mut sorted = pts.to_vec();
+    sorted.sort_by_key(|p| p.index);
+    let mut at = 0;
+    let mut source = |batch: &mut Vec<cloud::ooc::Point>| -> Result<bool> {
+        let end = (at + 7_000).min(sorted.len());
+        batch.extend(sorted[at..end].iter().map(|p| cloud::ooc::Point {
+            position: p.position,
+            normal: p.normal,
+            color: p.color,
+        }));
+        at = end;
+        Ok(at < sorted.len())
+    };
+    let prep = cloud::ooc::Options {
+        memory_limit: cloud::ooc::RESERVE + prep_chunk * PREPARE_BYTES_PER_POINT,
+        bytes_per_point: PREPARE_BYTES_PER_POINT,
+        normals: cloud::ooc::Normals::Given,
+        radius: cloud::ooc::Radius::Fixed(0.002),
+        records: cloud::ooc::Records::default(),
+        fail_after_bytes: opts.fail_after_bytes,
+    };
+    let (prepared, summary) = cloud::ooc::prepare(&mut source, &prep, out, &mut |_, _| {})?;
+    let s = build_prepared(prepared, opts, out, 0.004, &mut |_, _| {})?;
+    Ok((s, summary.scratch_bytes))
+}
+
+#[test]
+fn prepared_chunks_read_where_they_lie_give_the_same_bytes() {
+    let pts = cloud(60_000, 7);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    for colors in [true, false] {
+        let want = file::to_bytes(&in_memory_spt(&pts, colors));
+        // Chunked preparations (this build's chunks smaller, larger, and the whole cloud),
+        // and a whole one (pushed).
+        for (prep_chunk, chunk) in [
+            (MIN_CHUNK, 11_000),
+            (9_000, MIN_CHUNK),
+            (9_000, 100_000),
+            (100_000, MIN_CHUNK),
+        ] {
+            let (s, prep_bytes) =
+                from_prepared(&pts, prep_chunk, &options(chunk, colors), &out).unwrap();
+            let got = std::fs::read(&out).unwrap();
+            let first = got.iter().zip(&want).position(|(a, b)| a != b);
+            assert_eq!(
+                (got.len(), first),
+                (want.len(), None),
+                "{prep_chunk}/{chunk}: {s:?}"
+            );
+            assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+            let n = pts.len() as u64;
+            if prep_chunk < 60_000 && chunk < 60_000 {
+                assert!(s.chunks >= 5 && s.runs >= 2, "{s:?}");
+                // The scratch counts the preparation's files with the build's, and the
+                // prepared points are not copied: the pushed route's bytes less its copy.
+                let pushed = out_of_core(&pts, &options(chunk, colors), &out).unwrap();
+                assert_eq!(
+                    s.scratch_bytes - prep_bytes,
+                    pushed.scratch_bytes - n * REC as u64,
+                    "{s:?}, preparation {prep_bytes}, pushed {pushed:?}"
+                );
+                eprintln!(
+                    "{prep_chunk}/{chunk}: {:.1} B/pt written ({:.1} by the preparation), \
+                     {:.1} at once; pushed: {:.1} more, {:.1} at once",
+                    s.scratch_bytes as f64 / n as f64,
+                    prep_bytes as f64 / n as f64,
+                    s.scratch_peak_bytes as f64 / n as f64,
+                    pushed.scratch_bytes as f64 / n as f64,
+                    pushed.scratch_peak_bytes as f64 / n as f64,
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_full_disk_while_reading_prepared_chunks_leaves_nothing() {
+    let pts = cloud(30_000, 8);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    let (s, prep_bytes) = from_prepared(&pts, MIN_CHUNK, &options(MIN_CHUNK, true), &out).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    // Within the preparation, in the distribution, in the runs and in the merge.
+    for after in [
+        prep_bytes / 2,
+        prep_bytes + 1_000,
+        prep_bytes + (s.scratch_bytes - prep_bytes) / 2,
+        s.scratch_bytes - 1_000,
+    ] {
+        let opts = Options {
+            fail_after_bytes: Some(after),
+            ..options(MIN_CHUNK, true)
+        };
+        let e = from_prepared(&pts, MIN_CHUNK, &opts, &out).unwrap_err();
+        match &e {
+            Error::Io { source, .. } => {
+                assert_eq!(source.kind(), io::ErrorKind::StorageFull, "{after}: {e}")
+            }
+            other => panic!("{after}: {other}"),
+        }
+        let left: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert!(left.is_empty(), "{after}: {left:?}");
+    }
+}
