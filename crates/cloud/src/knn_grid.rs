@@ -7,6 +7,11 @@
 //! candidates a query, 44 of them within the previous query's bound): selecting by integer keys
 //! took about 7 % off one thread's query time; keeping the best in a sorted array as they come,
 //! or cells of 0.4 k instead of 0.6 k (85 candidates), measured no faster on this machine.
+//! Gathering the candidates within the bound without a branch on each (a third of them pass,
+//! so the branch was mispredicted often) took about 8 % off the queries of 2·10^6 points of a
+//! wavy sheet at k = 16 (whole-process CPU time, 12 pairs: median ratio 0.92, spread 0.82 to
+//! 1.11); sorting all the candidates within the bound instead of selecting the k best, or
+//! 64-bit keys of truncated distances, measured no faster.
 //!
 //! Method: the cell-list (linked-cell) neighbour search of molecular dynamics (Allen &
 //! Tildesley, *Computer Simulation of Liquids*, 1987, §5.3.2), as PotreeConverter 2 and
@@ -395,13 +400,16 @@ impl<'a> GridKnn<'a> {
         let cand: &mut Vec<u128> = &mut block.cand.borrow_mut();
         let want = k.min(n);
         for threshold in [bound, f64::INFINITY] {
+            // Branch-free: every candidate is written, the length advances past those within
+            // the threshold (about a third pass: a branch on each mispredicted often).
             cand.clear();
-            cand.extend(
-                d2.iter()
-                    .enumerate()
-                    .filter(|e| *e.1 <= threshold)
-                    .map(|(i, &d)| (u128::from(d.to_bits()) << 64) | i as u128),
-            );
+            cand.resize(n, 0);
+            let mut len = 0;
+            for (i, &d) in d2.iter().enumerate() {
+                cand[len] = (u128::from(d.to_bits()) << 64) | i as u128;
+                len += usize::from(d <= threshold);
+            }
+            cand.truncate(len);
             if cand.len() >= want {
                 break;
             }
