@@ -170,7 +170,7 @@ pub enum Command {
     /// top_levels=L leaf_radius=X file_bytes=F scratch_bytes=S scratch_peak_bytes=P
     /// stage_seconds=read:T1,split:T2,...` (S: written to scratch in all; P: the most on disk at
     /// once; the wall-clock seconds of each stage: read, split, guide, normals (within chunks),
-    /// halos (across their borders), then roots, encode, write for QSplat or feed, count,
+    /// halos (across their borders), then roots, encode, write for QSplat or count,
     /// distribute, build, merge for SPT; read, build in memory).
     LodBuild {
         /// The point file.

@@ -127,10 +127,11 @@ pub fn stages_text(stages: &[(&'static str, f64)]) -> String {
 pub const OOC_DISK_PER_POINT: u64 = 59;
 
 /// Disk an `spt` out-of-core build cell of the scale experiment needs per point: the LAZ (11.4),
-/// then SPT's own scratch, at most 98 bytes per point at once at 10^7 (the pushed records beside
-/// their distributed copies), and while the file (62.3 at 10^7, format version 3) is merged, the
-/// sorted runs (about 68): about 142, and a sixth more for margin (235 before the version 3
-/// file, whose splats and runs are smaller).
+/// then the scratch, the preparation's and SPT's together, at most 67.7 bytes per point at once
+/// at 10^7 and 10^8 (98 before SPT read the prepared chunks where they lie instead of copying
+/// them), and while the file (62.3, format version 3) is merged, the sorted runs (about 68):
+/// about 142, and a sixth more for margin (235 before the version 3 file, whose splats and runs
+/// are smaller).
 pub const SPT_OOC_DISK_PER_POINT: u64 = 165;
 
 /// Disk the out-of-core build of `method` (one of [`OUT_OF_CORE`]) needs per point, its LAZ

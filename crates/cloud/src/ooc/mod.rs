@@ -377,7 +377,12 @@ pub fn prepare<E: From<Error>>(
     if n <= cap {
         // It fits: the in-memory preparation (its normals and spacing timed as such).
         (b.progress)(Stage::Neighbours, 0);
-        let mut whole = Points::default();
+        let mut whole = Points {
+            positions: Vec::with_capacity(n as usize),
+            normals: Vec::with_capacity(n as usize),
+            colors: Vec::with_capacity(n as usize),
+            index: Vec::with_capacity(n as usize),
+        };
         for seg in segments {
             let part = b.store.load_set(&Set::whole(seg))?;
             whole.positions.extend(part.positions);

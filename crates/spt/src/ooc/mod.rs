@@ -45,7 +45,7 @@
 //! the hierarchy's nodes twice while subtrees are joined, the quantised groups of the run);
 //! buffers, counts and the planned top need [`RESERVE`] more. The counting passes and the
 //! distribution of prepared points hold one prepared chunk (or the whole prepared cloud) in
-//! memory, about 56 bytes a point of a chunk the preparation sized at
+//! memory, about 48 bytes a point of a chunk the preparation sized at
 //! [`PREPARE_BYTES_PER_POINT`]: a tenth of what a chunk's build takes, and no chunk is built
 //! then.
 
@@ -108,7 +108,8 @@ pub struct Options {
     pub memory_limit: u64,
     /// Colours kept.
     pub colors: bool,
-    /// Tests: scratch writes fail (as on a full disk) after this many bytes.
+    /// Tests: scratch writes fail (as on a full disk) after this many bytes (with
+    /// [`build_prepared`] of prepared chunks, the preparation's bytes counted too).
     pub fail_after_bytes: Option<u64>,
 }
 

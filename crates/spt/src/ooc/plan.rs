@@ -70,6 +70,7 @@ impl Builder {
             slot[x as usize] = t as u32;
         }
         let mut counts = vec![vec![0u32; width]; targets.len()];
+        progress(Stage::Count, 0);
         let mut seen = 0u64;
         self.for_each_point(input, false, |point| {
             if let Some(t) = tally.as_mut() {
@@ -157,6 +158,7 @@ impl Builder {
         }
         let mut buf = [0u8; DREC];
         let mut seen = 0u64;
+        progress(Stage::Distribute, 0);
         self.for_each_point(input, true, |point| {
             let p = point.position;
             pack(point, &mut buf[..REC]);

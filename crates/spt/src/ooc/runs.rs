@@ -27,6 +27,7 @@ impl Builder {
         grid: &Grid,
         progress: &mut dyn FnMut(Stage, u64),
     ) -> Result<Runs> {
+        progress(Stage::Build, 0);
         let mut runs = Runs::default();
         let mut batch = Batch::default();
         // Per top: its node (children cleared), box and error, arena index.
