@@ -182,8 +182,8 @@ pub struct Builder {
     cap: u64,
     scratch: Scratch,
     writer: Option<SpillWriter>,
-    n: u64,
-    /// What the points pushed so far add up to.
+    /// The points pushed so far, what they add up to (their count is the build's); for
+    /// prepared points, what the preparation says they are.
     tally: Tally,
     rec: Vec<u8>,
     leaf_diameter: f64,
@@ -341,7 +341,6 @@ pub fn build_prepared(
         cap,
         scratch,
         writer: None,
-        n: tally.n,
         tally,
         rec: vec![0; REC],
         leaf_diameter: 0.0,
@@ -369,7 +368,6 @@ impl Builder {
             cap,
             scratch,
             writer: Some(writer),
-            n: 0,
             tally: Tally::default(),
             rec: vec![0; REC],
             leaf_diameter: 0.0,
@@ -399,7 +397,6 @@ impl Builder {
             if let Err(e) = w.push(&self.rec) {
                 return Err(self.io(e));
             }
-            self.n += 1;
         }
         Ok(())
     }
@@ -431,7 +428,7 @@ impl Builder {
             });
         }
         self.leaf_diameter = leaf_diameter;
-        let n = self.n;
+        let n = self.tally.n;
         // Pushed points were checked as they came; prepared ones are by the first pass over
         // them.
         let prepared = !matches!(input, Input::Pushed(_));
@@ -448,12 +445,16 @@ impl Builder {
             let mut tally = Tally::default();
             let mut pts = Vec::with_capacity(n as usize);
             self.for_each_point(&mut input, false, |p| {
-                tally.add(p)?;
+                if prepared {
+                    tally.add(p)?;
+                }
                 pts.push(*p);
                 Ok(())
             })?;
             drop(input);
-            self.check_prepared(prepared, &tally)?;
+            if prepared {
+                self.check_prepared(&tally)?;
+            }
             pts.sort_unstable_by_key(|p| p.index);
             let positions = pts.iter().map(|p| p.position).collect();
             let normals = pts.iter().map(|p| p.normal).collect();
@@ -502,8 +503,8 @@ impl Builder {
                 (first && prepared).then_some(&mut tally),
                 progress,
             )?;
-            if first {
-                self.check_prepared(prepared, &tally)?;
+            if first && prepared {
+                self.check_prepared(&tally)?;
             }
             summary.count_passes += 1;
         };
@@ -539,12 +540,9 @@ impl Builder {
         Ok(summary)
     }
 
-    /// For prepared points (`prepared`), fails unless `tally` (of a pass over all of them)
-    /// holds valid indices and the count and box the preparation gave.
-    fn check_prepared(&self, prepared: bool, tally: &Tally) -> Result<()> {
-        if !prepared {
-            return Ok(());
-        }
+    /// For prepared points, fails unless `tally` (of a pass over all of them) holds valid
+    /// indices and the count and box the preparation gave.
+    fn check_prepared(&self, tally: &Tally) -> Result<()> {
         tally.check()?;
         if tally.n != self.tally.n || tally.bbox != self.tally.bbox {
             return Err(internal(&format!(
