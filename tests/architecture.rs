@@ -256,13 +256,13 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "the viewer colours every method's points against the ground truth",
     ),
     (
-        "lod_build.rs",
+        "lod_build/mod.rs",
         "qsplat",
         "pointsight lod-build writes QSplat files out of core (qsplat::ooc, after the \
          method-neutral cloud::ooc::prepare)",
     ),
     (
-        "lod_build.rs",
+        "lod_build/mod.rs",
         "spt",
         "pointsight lod-build writes sequential point tree files out of core (spt::ooc, fed by \
          cloud::ooc::prepare)",
@@ -1116,7 +1116,7 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
          confidence score, each against exact HPR",
     ),
     (
-        "lod_build.rs",
+        "lod_build/mod.rs",
         "pointsight lod-build: the QSplat and SPT files built out of core (MAY_NAME)",
     ),
     (

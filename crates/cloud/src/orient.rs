@@ -100,6 +100,9 @@ pub struct GuideSampler {
     max: usize,
     seen: u64,
     shift: u32,
+    /// The most points `shift` holds for (`max · 2^shift`): the shift is
+    /// recomputed only past it.
+    until: u128,
     kept: Vec<(u64, DVec3)>,
 }
 
@@ -110,6 +113,7 @@ impl GuideSampler {
             max,
             seen: 0,
             shift: 0,
+            until: max.max(1) as u128,
             kept: Vec::new(),
         }
     }
@@ -117,13 +121,18 @@ impl GuideSampler {
     /// Takes the next point of the stream.
     pub fn push(&mut self, p: DVec3) {
         self.seen += 1;
-        let s = guide_shift(self.seen, self.max);
-        if s != self.shift {
-            self.shift = s;
-            self.kept.retain(|e| in_guide(e.0, s));
+        if u128::from(self.seen) > self.until {
+            let s = guide_shift(self.seen, self.max);
+            self.until = (self.max.max(1) as u128)
+                .checked_shl(s)
+                .unwrap_or(u128::MAX);
+            if s != self.shift {
+                self.shift = s;
+                self.kept.retain(|e| in_guide(e.0, s));
+            }
         }
         let h = position_hash(p);
-        if in_guide(h, s) {
+        if in_guide(h, self.shift) {
             self.kept.push((h, p));
         }
     }

@@ -279,3 +279,23 @@ fn two_guides_on_one_thread_keep_their_own_answers() {
         assert_eq!(gb.reference(*p), brute_reference(&gb, *p));
     }
 }
+
+#[test]
+fn the_streamed_guide_equals_the_whole_ones_at_every_count_and_bound() {
+    // The sampler recomputes its shift only past `max · 2^shift`: every prefix of the stream,
+    // at bounds that make it change often, gives the set of the whole prefix.
+    let (pts, _) = torus(2_100, 3);
+    for max in [1, 2, 3, 7, 64, 5_000] {
+        let mut sampler = GuideSampler::new(max);
+        for (n, p) in pts.iter().enumerate() {
+            sampler.push(*p);
+            if n % 97 == 0 || n + 1 == pts.len() || (n + 1).is_power_of_two() {
+                let mut streamed = sampler.clone().finish();
+                let mut whole = select_guide(&pts[..=n], max);
+                streamed.sort_by(by_position);
+                whole.sort_by(by_position);
+                assert_eq!(streamed, whole, "max {max}, {} points", n + 1);
+            }
+        }
+    }
+}

@@ -22,6 +22,8 @@ use cloud::ooc::{Normals, Point, Radius};
 
 use crate::rss::peak_rss;
 
+mod read_ahead;
+
 /// The density-spacing rule of the `lod` experiment.
 pub const SPACING_K: usize = 8;
 /// Points the spacing samples.
@@ -171,9 +173,10 @@ pub fn parse_size(text: &str) -> Result<u64> {
 }
 
 /// Bytes per point read at once from a LAS or LAZ file: the stream's, the decoded positions
-/// and colours, and the preparation's batch.
+/// and colours, and two batches (the one being prepared and the one read ahead,
+/// [`read_ahead`]).
 const READ_BYTES_PER_POINT: u64 =
-    cloud::io::las::STREAM_BYTES_PER_POINT + 27 + size_of::<Point>() as u64;
+    cloud::io::las::STREAM_BYTES_PER_POINT + 27 + 2 * size_of::<Point>() as u64;
 
 /// Points read at once under `memory_limit`: an eighth of the limit (the reading buffers are
 /// gone before the first chunk is loaded), at most [`cloud::io::las::CHUNK`].
@@ -289,163 +292,144 @@ fn build_unnamed(
             b.set_position(count);
         }
     };
-    let mut las_stream = None;
-    let mut loaded = None;
-    let (has_normals, colors) = if is_las {
-        let stream =
-            cloud::io::las::LasStream::open(cloud_path, &cloud::io::las::LasOptions::default())?
-                .with_chunk(read_chunk(memory_limit));
-        if let Some(b) = &bar {
-            b.set_length(stream.announced);
-        }
-        let colors = stream.with_color;
-        las_stream = Some(stream);
-        (false, colors)
-    } else {
-        let c = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?.cloud;
-        if let Some(b) = &bar {
-            b.set_length(c.len() as u64);
-        }
-        let flags = (c.normals.is_some(), c.colors.is_some());
-        loaded = Some(c);
-        flags
-    };
-    // A LAS file's positions are integers of its grid: the scratch keeps those.
-    let records = cloud::ooc::Records {
-        grid: las_stream.as_ref().map(cloud::io::las::LasStream::grid),
-        colors,
-    };
-    let mut chunk = cloud::PointCloud {
-        colors: colors.then(Vec::new),
-        ..cloud::PointCloud::default()
-    };
-    let mut at = 0usize;
-    let mut source = |batch: &mut Vec<Point>| -> Result<bool, cloud::ooc::error::Error> {
-        if let Some(stream) = las_stream.as_mut() {
-            chunk.positions.clear();
-            if let Some(c) = chunk.colors.as_mut() {
-                c.clear();
+    // LAS and LAZ are decoded on a thread of their own, a batch ahead of the preparation.
+    let built = std::thread::scope(|scope| -> Result<Built> {
+        let mut ahead = None;
+        let mut loaded = None;
+        let (has_normals, colors, grid) = if is_las {
+            let (a, info) =
+                read_ahead::ReadAhead::open(scope, cloud_path, read_chunk(memory_limit))?;
+            if let Some(b) = &bar {
+                b.set_length(info.announced);
             }
-            let more = stream
-                .next_into(&mut chunk)
-                .map_err(|e| cloud::ooc::error::Error::Cloud(cloud::Error::Read(e)))?;
-            batch.extend(chunk.positions.iter().enumerate().map(|(i, &p)| Point {
-                position: p,
-                normal: Vec3::ZERO,
-                color: chunk.colors.as_ref().map_or([0; 3], |c| c[i]),
-            }));
-            if !more {
-                // The reading buffers go before the chunks come.
-                las_stream = None;
-                chunk = cloud::PointCloud::default();
-            }
-            Ok(more)
-        } else if let Some(c) = loaded.as_ref() {
-            let end = (at + (1 << 16)).min(c.len());
-            batch.extend((at..end).map(|i| Point {
-                position: c.positions[i],
-                normal: c.normals.as_ref().map_or(Vec3::ZERO, |n| n[i]),
-                color: c.colors.as_ref().map_or([0; 3], |k| k[i]),
-            }));
-            at = end;
-            let more = at < c.len();
-            if !more {
-                loaded = None;
-            }
-            Ok(more)
+            ahead = Some(a);
+            // A LAS file's positions are integers of its grid: the scratch keeps those.
+            (false, info.with_color, Some(info.grid))
         } else {
-            Ok(false)
-        }
-    };
-    let built = if method == "spt" {
-        let opts = prepare_options(
-            memory_limit,
-            has_normals,
-            spt::ooc::PREPARE_BYTES_PER_POINT,
-            records,
-        );
-        let (prepared, summary) = cloud::ooc::prepare(&mut source, &opts, out, &mut |s, n| {
-            set(prepare_stage(s), n)
-        })?;
-        drop(loaded.take());
-        // A whole cloud's preparation left no scratch files: its numbers add to the build's;
-        // a chunked one's count with the build's own (`spt::ooc::build_prepared`).
-        let (prepared_bytes, prepared_peak) = match &prepared {
-            cloud::ooc::Prepared::Whole(_) => (summary.scratch_bytes, summary.scratch_peak_bytes),
-            cloud::ooc::Prepared::Chunked(_) => (0, 0),
+            let c = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?.cloud;
+            if let Some(b) = &bar {
+                b.set_length(c.len() as u64);
+            }
+            let flags = (c.normals.is_some(), c.colors.is_some(), None);
+            loaded = Some(c);
+            flags
         };
-        let built = spt::ooc::build_prepared(
-            prepared,
-            &spt::ooc::Options {
-                memory_limit,
-                colors,
-                fail_after_bytes: None,
-            },
-            out,
-            2.0 * summary.leaf_radius,
-            &mut |stage: spt::ooc::Stage, count: u64| {
-                set(
-                    match stage {
-                        spt::ooc::Stage::Count => ("count", "counting octree cells"),
-                        spt::ooc::Stage::Distribute => ("distribute", "distributing to chunks"),
-                        spt::ooc::Stage::Build => ("build", "building chunks"),
-                        spt::ooc::Stage::Merge => ("merge", "merging the sorted list"),
-                    },
-                    count,
-                );
-            },
-        )?;
-        Built {
-            points: built.points,
-            seconds: 0.0,
-            peak_rss_bytes: 0,
-            chunks: built.chunks,
-            top_levels: built.top_nodes as u32,
-            top_unit: "top nodes",
-            largest_halo: summary.largest_halo,
-            leaf_radius: summary.leaf_radius,
-            file_bytes: 0,
-            scratch_bytes: built.scratch_bytes + prepared_bytes,
-            scratch_peak_bytes: built.scratch_peak_bytes.max(prepared_peak),
-            stages: Vec::new(),
-        }
-    } else {
-        let opts = qsplat_options(
-            &prepare_options(
+        let records = cloud::ooc::Records { grid, colors };
+        let mut at = 0usize;
+        let mut source = |batch: &mut Vec<Point>| -> Result<bool, cloud::ooc::error::Error> {
+            if let Some(a) = ahead.as_mut() {
+                a.next(batch)
+            } else if let Some(c) = loaded.as_ref() {
+                let end = (at + (1 << 16)).min(c.len());
+                batch.extend((at..end).map(|i| Point {
+                    position: c.positions[i],
+                    normal: c.normals.as_ref().map_or(Vec3::ZERO, |n| n[i]),
+                    color: c.colors.as_ref().map_or([0; 3], |k| k[i]),
+                }));
+                at = end;
+                let more = at < c.len();
+                if !more {
+                    loaded = None;
+                }
+                Ok(more)
+            } else {
+                Ok(false)
+            }
+        };
+        let built = if method == "spt" {
+            let opts = prepare_options(
                 memory_limit,
                 has_normals,
-                qsplat::ooc::BYTES_PER_POINT,
+                spt::ooc::PREPARE_BYTES_PER_POINT,
                 records,
-            ),
-            colors,
-        );
-        let mut source = |batch: &mut Vec<Point>| -> qsplat::Result<bool> { Ok(source(batch)?) };
-        let summary = qsplat::ooc::build_file(&mut source, &opts, out, &mut |stage, count| {
-            set(
-                match stage {
-                    qsplat::ooc::Stage::Prepare(s) => prepare_stage(s),
-                    qsplat::ooc::Stage::Build => ("roots", "building chunk roots"),
-                    qsplat::ooc::Stage::Encode => ("encode", "encoding chunks"),
-                    qsplat::ooc::Stage::Write => ("write", "writing levels"),
+            );
+            let (prepared, summary) = cloud::ooc::prepare(&mut source, &opts, out, &mut |s, n| {
+                set(prepare_stage(s), n)
+            })?;
+            drop(loaded.take());
+            // A whole cloud's preparation left no scratch files: its numbers add to the build's;
+            // a chunked one's count with the build's own (`spt::ooc::build_prepared`).
+            let (prepared_bytes, prepared_peak) = match &prepared {
+                cloud::ooc::Prepared::Whole(_) => {
+                    (summary.scratch_bytes, summary.scratch_peak_bytes)
+                }
+                cloud::ooc::Prepared::Chunked(_) => (0, 0),
+            };
+            let built = spt::ooc::build_prepared(
+                prepared,
+                &spt::ooc::Options {
+                    memory_limit,
+                    colors,
+                    fail_after_bytes: None,
                 },
-                count,
-            )
-        })?;
-        Built {
-            points: summary.points,
-            seconds: 0.0,
-            peak_rss_bytes: 0,
-            chunks: summary.chunks,
-            top_levels: summary.top_levels,
-            top_unit: "top levels",
-            largest_halo: summary.largest_halo,
-            leaf_radius: summary.leaf_radius,
-            file_bytes: 0,
-            scratch_bytes: summary.scratch_bytes,
-            scratch_peak_bytes: summary.scratch_peak_bytes,
-            stages: Vec::new(),
-        }
-    };
+                out,
+                2.0 * summary.leaf_radius,
+                &mut |stage: spt::ooc::Stage, count: u64| {
+                    set(
+                        match stage {
+                            spt::ooc::Stage::Count => ("count", "counting octree cells"),
+                            spt::ooc::Stage::Distribute => ("distribute", "distributing to chunks"),
+                            spt::ooc::Stage::Build => ("build", "building chunks"),
+                            spt::ooc::Stage::Merge => ("merge", "merging the sorted list"),
+                        },
+                        count,
+                    );
+                },
+            )?;
+            Built {
+                points: built.points,
+                seconds: 0.0,
+                peak_rss_bytes: 0,
+                chunks: built.chunks,
+                top_levels: built.top_nodes as u32,
+                top_unit: "top nodes",
+                largest_halo: summary.largest_halo,
+                leaf_radius: summary.leaf_radius,
+                file_bytes: 0,
+                scratch_bytes: built.scratch_bytes + prepared_bytes,
+                scratch_peak_bytes: built.scratch_peak_bytes.max(prepared_peak),
+                stages: Vec::new(),
+            }
+        } else {
+            let opts = qsplat_options(
+                &prepare_options(
+                    memory_limit,
+                    has_normals,
+                    qsplat::ooc::BYTES_PER_POINT,
+                    records,
+                ),
+                colors,
+            );
+            let mut source =
+                |batch: &mut Vec<Point>| -> qsplat::Result<bool> { Ok(source(batch)?) };
+            let summary = qsplat::ooc::build_file(&mut source, &opts, out, &mut |stage, count| {
+                set(
+                    match stage {
+                        qsplat::ooc::Stage::Prepare(s) => prepare_stage(s),
+                        qsplat::ooc::Stage::Build => ("roots", "building chunk roots"),
+                        qsplat::ooc::Stage::Encode => ("encode", "encoding chunks"),
+                        qsplat::ooc::Stage::Write => ("write", "writing levels"),
+                    },
+                    count,
+                )
+            })?;
+            Built {
+                points: summary.points,
+                seconds: 0.0,
+                peak_rss_bytes: 0,
+                chunks: summary.chunks,
+                top_levels: summary.top_levels,
+                top_unit: "top levels",
+                largest_halo: summary.largest_halo,
+                leaf_radius: summary.leaf_radius,
+                file_bytes: 0,
+                scratch_bytes: summary.scratch_bytes,
+                scratch_peak_bytes: summary.scratch_peak_bytes,
+                stages: Vec::new(),
+            }
+        };
+        Ok(built)
+    })?;
     if let Some(b) = bar {
         b.finish_and_clear();
     }
