@@ -175,75 +175,111 @@ pub fn build_cell(
     half: f64,
     budget: u32,
 ) -> Vec<Node> {
+    // Every inner node has two or more children: at most 2m - 1 nodes (the capacity's pages
+    // beyond those written are never touched).
+    let mut nodes = Vec::with_capacity((2 * items.len()).saturating_sub(1));
+    let mut tmp = Vec::new();
+    build_into(
+        input, origin, items, center, half, budget, &mut nodes, &mut tmp,
+    );
+    nodes
+}
+
+/// [`build_cell`] appending the subtree's nodes to `nodes` (its indices absolute in it, as
+/// [`build_cell`]'s relative ones shifted by where it starts); returns the subtree's root.
+/// `tmp` is the octant partition's buffer. Subtrees of [`PARALLEL`] points or more are built
+/// in parallel, each into a vector of its own appended in order (a node is copied once per
+/// parallel level above it, not once per level).
+#[allow(clippy::too_many_arguments)]
+fn build_into(
+    input: &Input<'_>,
+    origin: DVec3,
+    items: &mut [u32],
+    center: DVec3,
+    half: f64,
+    budget: u32,
+    nodes: &mut Vec<Node>,
+    tmp: &mut Vec<u32>,
+) -> u32 {
     if items.len() == 1 {
-        return vec![leaf(input, origin, items[0])];
+        nodes.push(leaf(input, origin, items[0]));
+        return (nodes.len() - 1) as u32;
     }
     // Partition into octants; collapse single-octant chains; split coincident points by list.
-    let mut groups: Vec<(usize, usize, DVec3)> = Vec::new();
+    let mut groups = [(0usize, 0usize, DVec3::ZERO); 8];
+    let mut n_groups = 0;
     let (mut c, mut h) = (center, half);
-    let mut tmp = Vec::new();
     for _ in 0..budget.max(1) {
-        let counts = partition_octants(input, items, c, &mut tmp);
-        groups.clear();
+        let counts = partition_octants(input, items, c, tmp);
+        n_groups = 0;
         let mut start = 0;
         for (o, &k) in counts.iter().enumerate() {
             if k > 0 {
-                groups.push((start, start + k, octant_center(c, h, o)));
+                groups[n_groups] = (start, start + k, octant_center(c, h, o));
+                n_groups += 1;
                 start += k;
             }
         }
-        if groups.len() > 1 {
+        if n_groups > 1 {
             break;
         }
         c = groups[0].2;
         h *= 0.5;
     }
-    drop(tmp);
-    if groups.len() == 1 {
+    if n_groups == 1 {
         // Coincident points: halves by list position.
         let m = items.len() / 2;
-        groups = vec![(0, m, c), (m, items.len(), c)];
+        groups[0] = (0, m, c);
+        groups[1] = (m, items.len(), c);
+        n_groups = 2;
         h *= 2.0;
     }
-    let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(groups.len());
-    let mut rest: &mut [u32] = items;
-    let mut consumed = 0;
-    for &(s, e, oc) in &groups {
-        let (head, tail) = rest.split_at_mut(e - consumed);
-        debug_assert_eq!(s, consumed);
-        slices.push((head, oc));
-        rest = tail;
-        consumed = e;
-    }
-    let total: usize = slices.iter().map(|s| s.0.len()).sum();
-    let subtrees: Vec<Vec<Node>> = if total >= PARALLEL {
+    let groups = &groups[..n_groups];
+    let mut children = Vec::with_capacity(n_groups);
+    if items.len() >= PARALLEL {
         use rayon::prelude::*;
-        slices
+        let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(n_groups);
+        let mut rest: &mut [u32] = items;
+        let mut consumed = 0;
+        for &(_, e, oc) in groups {
+            let (head, tail) = rest.split_at_mut(e - consumed);
+            slices.push((head, oc));
+            rest = tail;
+            consumed = e;
+        }
+        let subtrees: Vec<Vec<Node>> = slices
             .into_par_iter()
             .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
-            .collect()
+            .collect();
+        for sub in subtrees {
+            let offset = nodes.len() as u32;
+            let n = sub.len() as u32;
+            nodes.extend(sub.into_iter().map(|mut node| {
+                for k in &mut node.children {
+                    *k += offset;
+                }
+                node
+            }));
+            children.push(offset + n - 1);
+        }
     } else {
-        slices
-            .into_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
-            .collect()
-    };
-    let mut nodes = Vec::with_capacity(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
-    let mut children = Vec::with_capacity(subtrees.len());
-    for sub in subtrees {
-        let offset = nodes.len() as u32;
-        let n = sub.len() as u32;
-        nodes.extend(sub.into_iter().map(|mut node| {
-            for k in &mut node.children {
-                *k += offset;
-            }
-            node
-        }));
-        children.push(offset + n - 1);
+        for &(s, e, oc) in groups {
+            let root = build_into(
+                input,
+                origin,
+                &mut items[s..e],
+                oc,
+                0.5 * h,
+                COLLAPSE,
+                nodes,
+                tmp,
+            );
+            children.push(root);
+        }
     }
-    let parent = parent_of(&nodes, children);
+    let parent = parent_of(nodes, children);
     nodes.push(parent);
-    nodes
+    (nodes.len() - 1) as u32
 }
 
 fn leaf(input: &Input<'_>, origin: DVec3, i: u32) -> Node {
@@ -325,6 +361,18 @@ pub fn perpendicular_error(c: Vec3, n: Vec3, kids: &[&Node]) -> f32 {
     hi - lo
 }
 
+/// The cosine and sine of each of the [`E_T_DIRECTIONS`] angles `π k / E_T_DIRECTIONS`,
+/// computed once (the very values computing them at each node gives).
+fn directions() -> &'static [(f32, f32); E_T_DIRECTIONS] {
+    static TABLE: std::sync::OnceLock<[(f32, f32); E_T_DIRECTIONS]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let angle = std::f32::consts::PI * k as f32 / E_T_DIRECTIONS as f32;
+            (angle.cos(), angle.sin())
+        })
+    })
+}
+
 /// The tangential error: the disc's diameter minus the narrowest interval, over
 /// [`E_T_DIRECTIONS`] directions in the disc's plane, holding the children's discs projected
 /// onto the plane; at least 0.
@@ -332,9 +380,8 @@ pub fn tangential_error(c: Vec3, n: Vec3, diameter: f32, kids: &[&Node]) -> f32 
     let a = n.any_orthonormal_vector();
     let b = n.cross(a);
     let mut narrowest = f32::INFINITY;
-    for k in 0..E_T_DIRECTIONS {
-        let angle = std::f32::consts::PI * k as f32 / E_T_DIRECTIONS as f32;
-        let u = a * angle.cos() + b * angle.sin();
+    for &(cos, sin) in directions() {
+        let u = a * cos + b * sin;
         let (mut hi, mut lo) = (f32::NEG_INFINITY, f32::INFINITY);
         for kid in kids {
             // Support of a disc (radius r, normal m) in the in-plane direction u.

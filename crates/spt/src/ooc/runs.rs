@@ -8,6 +8,7 @@ use std::cmp::Ordering;
 
 use cloud::glam::{DVec3, Vec3};
 use cloud::spill::SpillFile;
+use rayon::prelude::*;
 
 use super::plan::{LoadedBin, Top};
 use super::{Builder, Stage, internal};
@@ -82,18 +83,9 @@ impl Builder {
                     let nodes =
                         hierarchy::build_cell(&input, origin, &mut items, *center, *half, *budget);
                     drop(items);
-                    let boxes: Vec<QBox> = nodes.iter().map(|n| grid.qbox(n)).collect();
-                    let e2: Vec<f32> = nodes.iter().map(|n| grid.e2(n)).collect();
-                    for (i, node) in nodes.iter().enumerate() {
-                        if node.children.is_empty() {
-                            continue;
-                        }
-                        batch.group(boxes[i], e2[i], counter + i as u64, node.children.len());
-                        for &k in &node.children {
-                            let k = k as usize;
-                            batch.entry(&boxes[k], e2[k], &nodes[k], self.opts.colors, grid);
-                        }
-                    }
+                    let boxes: Vec<QBox> = nodes.par_iter().map(|n| grid.qbox(n)).collect();
+                    let e2: Vec<f32> = nodes.par_iter().map(|n| grid.e2(n)).collect();
+                    batch.chunk(&nodes, &boxes, &e2, counter, self.opts.colors, grid);
                     let last = nodes.len() - 1;
                     let mut root = nodes[last].clone();
                     root.children = Vec::new();
@@ -141,9 +133,10 @@ impl Builder {
         if batch.groups.is_empty() {
             return Ok(());
         }
+        // (The keys are distinct, arena indices: any sort gives the one order.)
         batch
             .groups
-            .sort_unstable_by(|a, b| key_order(a.e2, a.gid, b.e2, b.gid));
+            .par_sort_unstable_by(|a, b| key_order(a.e2, a.gid, b.e2, b.gid));
         let mut g = self.scratch.create(GREC).map_err(|e| self.io(e))?;
         let mut e = self.scratch.create(ENTRY_REC).map_err(|e| self.io(e))?;
         let mut rec = Vec::with_capacity(GREC);
@@ -228,6 +221,52 @@ impl Batch {
 
     pub(super) fn entry(&mut self, q: &QBox, e2: f32, n: &Node, colors: bool, grid: &Grid) {
         push_entry_rec(&mut self.entries, q, e2, n, colors, grid);
+    }
+
+    /// A chunk's groups (its nodes with children, in arena order, numbered from `counter`)
+    /// and their entries, as [`Batch::group`] and [`Batch::entry`] one by one would add them;
+    /// the entries encoded in parallel, each group's into its own place.
+    pub(super) fn chunk(
+        &mut self,
+        nodes: &[Node],
+        boxes: &[QBox],
+        e2: &[f32],
+        counter: u64,
+        colors: bool,
+        grid: &Grid,
+    ) {
+        let start = self.entries.len();
+        let mut at = start / ENTRY_REC;
+        for (i, node) in nodes.iter().enumerate() {
+            if !node.children.is_empty() {
+                self.group(boxes[i], e2[i], counter + i as u64, node.children.len());
+                // `group` takes the first entry from the buffer's length: set it here.
+                if let Some(g) = self.groups.last_mut() {
+                    g.first = at;
+                }
+                at += node.children.len();
+            }
+        }
+        self.entries.resize(at * ENTRY_REC, 0);
+        // Each group's entries, a slice of its own.
+        let mut parts: Vec<(&Node, &mut [u8])> = Vec::new();
+        let mut rest = &mut self.entries[start..];
+        for node in nodes.iter().filter(|n| !n.children.is_empty()) {
+            let (head, tail) = rest.split_at_mut(node.children.len() * ENTRY_REC);
+            parts.push((node, head));
+            rest = tail;
+        }
+        parts.into_par_iter().with_min_len(256).for_each_init(
+            || Vec::with_capacity(ENTRY_REC),
+            |rec, (node, out)| {
+                for (&k, slot) in node.children.iter().zip(out.chunks_exact_mut(ENTRY_REC)) {
+                    let k = k as usize;
+                    rec.clear();
+                    push_entry_rec(rec, &boxes[k], e2[k], &nodes[k], colors, grid);
+                    slot.copy_from_slice(rec);
+                }
+            },
+        );
     }
 }
 
