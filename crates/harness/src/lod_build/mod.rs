@@ -9,7 +9,9 @@
 //! (`cloud::spacing::density_spacing`, k = 8, 20,000 points, seed 1); the file's colours when
 //! it has them (the experiment paints its own texture instead, which a file build cannot know).
 //!
-//! Input: LAS and LAZ are streamed chunk by chunk (`cloud::io::las::LasStream`); PLY, E57 and
+//! Input: LAS and LAZ are streamed chunk by chunk (`cloud::io::las::LasStream`), the next batch
+//! decoded on a thread of its own while the preparation writes the current one
+//! (`read_ahead`); PLY, E57 and
 //! the other formats are read whole first (their readers are not streamed), so for those the
 //! memory limit covers the build but not the reading.
 
@@ -174,7 +176,7 @@ pub fn parse_size(text: &str) -> Result<u64> {
 
 /// Bytes per point read at once from a LAS or LAZ file: the stream's, the decoded positions
 /// and colours, and two batches (the one being prepared and the one read ahead,
-/// [`read_ahead`]).
+/// `read_ahead`).
 const READ_BYTES_PER_POINT: u64 =
     cloud::io::las::STREAM_BYTES_PER_POINT + 27 + 2 * size_of::<Point>() as u64;
 
