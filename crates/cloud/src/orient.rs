@@ -59,11 +59,7 @@ pub const BUILD_BYTES_PER_POINT: u64 = 320;
 /// The 64-bit hash of a position (`-0.0` and `0.0` are one position): SplitMix64's finaliser
 /// over the three coordinates' bits.
 pub fn position_hash(p: DVec3) -> u64 {
-    let mix = |mut z: u64| {
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
+    let mix = crate::rng::splitmix64;
     let [x, y, z] = [p.x + 0.0, p.y + 0.0, p.z + 0.0].map(f64::to_bits);
     mix(mix(mix(x ^ 0x9e37_79b9_7f4a_7c15) ^ y) ^ z)
 }
@@ -97,11 +93,9 @@ pub fn select_guide(positions: &[DVec3], max: usize) -> Vec<DVec3> {
 /// for the whole stream.
 #[derive(Debug, Clone)]
 pub struct GuideSampler {
-    max: usize,
     seen: u64,
     shift: u32,
-    /// The most points `shift` holds for (`max · 2^shift`): the shift is
-    /// recomputed only past it.
+    /// The most points `shift` holds for (`max · 2^shift`, [`guide_shift`]).
     until: u128,
     kept: Vec<(u64, DVec3)>,
 }
@@ -110,7 +104,6 @@ impl GuideSampler {
     /// A sampler keeping at most `max` points expected.
     pub fn new(max: usize) -> Self {
         GuideSampler {
-            max,
             seen: 0,
             shift: 0,
             until: max.max(1) as u128,
@@ -121,15 +114,12 @@ impl GuideSampler {
     /// Takes the next point of the stream.
     pub fn push(&mut self, p: DVec3) {
         self.seen += 1;
+        // `seen` passes `until` one at a time: the shift grows by one (`guide_shift`).
         if u128::from(self.seen) > self.until {
-            let s = guide_shift(self.seen, self.max);
-            self.until = (self.max.max(1) as u128)
-                .checked_shl(s)
-                .unwrap_or(u128::MAX);
-            if s != self.shift {
-                self.shift = s;
-                self.kept.retain(|e| in_guide(e.0, s));
-            }
+            self.shift += 1;
+            self.until <<= 1;
+            let s = self.shift;
+            self.kept.retain(|e| in_guide(e.0, s));
         }
         let h = position_hash(p);
         if in_guide(h, self.shift) {

@@ -33,7 +33,12 @@ fn mix(seed: u64, purpose: &str) -> u64 {
         h ^= u64::from(b);
         h = h.wrapping_mul(0x0100_0000_01b3);
     }
-    let mut z = seed ^ h;
+    splitmix64(seed ^ h)
+}
+
+/// SplitMix64's finaliser (Steele, Lea and Flood 2014): a 64-bit hash of `z`, every bit
+/// depending on every bit.
+pub fn splitmix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)

@@ -175,9 +175,13 @@ pub fn build_cell(
     half: f64,
     budget: u32,
 ) -> Vec<Node> {
-    // Every inner node has two or more children: at most 2m - 1 nodes (the capacity's pages
-    // beyond those written are never touched).
-    let mut nodes = Vec::with_capacity((2 * items.len()).saturating_sub(1));
+    // Every inner node has two or more children: at most 2m - 1 nodes. A set built in parallel
+    // reserves once its subtrees are built, for their nodes exactly (`build_into`).
+    let mut nodes = if items.len() < PARALLEL {
+        Vec::with_capacity((2 * items.len()).saturating_sub(1))
+    } else {
+        Vec::new()
+    };
     let mut tmp = Vec::new();
     build_into(
         input, origin, items, center, half, budget, &mut nodes, &mut tmp,
@@ -238,6 +242,9 @@ fn build_into(
     let mut children = Vec::with_capacity(n_groups);
     if items.len() >= PARALLEL {
         use rayon::prelude::*;
+        // (Reached only at the top of a `build_cell`, `nodes` empty; the subtrees have
+        // buffers of their own.)
+        *tmp = Vec::new();
         let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(n_groups);
         let mut rest: &mut [u32] = items;
         let mut consumed = 0;
@@ -251,6 +258,7 @@ fn build_into(
             .into_par_iter()
             .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
             .collect();
+        nodes.reserve_exact(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
         for sub in subtrees {
             let offset = nodes.len() as u32;
             let n = sub.len() as u32;

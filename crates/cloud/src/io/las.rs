@@ -598,7 +598,14 @@ mod tests {
     #[test]
     fn the_columns_equal_the_las_crates_points() {
         let dir = tempfile::tempdir().unwrap();
-        for (format, name) in [(3u8, "l.las"), (3, "l.laz"), (7, "e.las"), (7, "e.laz")] {
+        for (format, name) in [
+            (1u8, "n.las"),
+            (3, "l.las"),
+            (3, "l.laz"),
+            (7, "e.las"),
+            (7, "e.laz"),
+        ] {
+            let colored = format != 1;
             let path = dir.path().join(name);
             let mut header = Builder::from((1, 4));
             header.point_format = las::point::Format::new(format).unwrap();
@@ -629,11 +636,13 @@ mod tests {
                         [0u8, 2, 5, 31][i as usize % 4],
                     )
                     .unwrap(),
-                    color: Some(Color::new(
-                        (i * 13) as u16,
-                        (i * 29 % 65_536) as u16,
-                        (i * 7 % 65_536) as u16,
-                    )),
+                    color: colored.then(|| {
+                        Color::new(
+                            (i * 13) as u16,
+                            (i * 29 % 65_536) as u16,
+                            (i * 7 % 65_536) as u16,
+                        )
+                    }),
                     gps_time: Some(t),
                     ..Point::default()
                 };
@@ -673,6 +682,10 @@ mod tests {
                 assert_eq!(got.intensity.unwrap(), want, "{name}");
                 let want: Vec<u8> = kept.iter().map(|p| u8::from(p.classification)).collect();
                 assert_eq!(got.classification.unwrap(), want, "{name}");
+                if !colored {
+                    assert!(got.colors.is_none(), "{name}: no colours in format 1");
+                    continue;
+                }
                 let want: Vec<[u8; 3]> = kept
                     .iter()
                     .map(|p| {

@@ -83,15 +83,10 @@ impl<'scope> ReadAhead<'scope> {
                 ahead.join();
                 Err(e)
             }
+            // The thread ends without a header only by panicking: the panic goes on here.
             Err(_) => {
                 ahead.join();
-                Err(cloud::ReadError::new(
-                    path,
-                    cloud::Location::File,
-                    cloud::ReadErrorKind::Io(std::io::Error::other(
-                        "the reading thread stopped before the header",
-                    )),
-                ))
+                unreachable!("the reading thread ended without a header or a panic");
             }
         }
     }
@@ -104,13 +99,10 @@ impl<'scope> ReadAhead<'scope> {
         }
         let got = match self.batches.recv() {
             Ok(got) => got,
-            // The thread ended without a last batch: it panicked (joined below, which says so).
+            // The thread ends without a last batch only by panicking: the panic goes on here.
             Err(_) => {
                 self.join();
-                return Err(Error::Io {
-                    path: "the reading thread".into(),
-                    source: std::io::Error::other("it stopped before the last batch"),
-                });
+                unreachable!("the reading thread ended without its last batch or a panic");
             }
         };
         let (points, more) = match got {

@@ -236,20 +236,24 @@ impl Batch {
         grid: &Grid,
     ) {
         let start = self.entries.len();
+        let first_group = self.groups.len();
         let mut at = start / ENTRY_REC;
         for (i, node) in nodes.iter().enumerate() {
             if !node.children.is_empty() {
-                self.group(boxes[i], e2[i], counter + i as u64, node.children.len());
-                // `group` takes the first entry from the buffer's length: set it here.
-                if let Some(g) = self.groups.last_mut() {
-                    g.first = at;
-                }
+                self.groups.push(GroupRec {
+                    b: boxes[i],
+                    e2: e2[i],
+                    gid: counter + i as u64,
+                    first: at,
+                    count: node.children.len(),
+                });
                 at += node.children.len();
             }
         }
         self.entries.resize(at * ENTRY_REC, 0);
         // Each group's entries, a slice of its own.
-        let mut parts: Vec<(&Node, &mut [u8])> = Vec::new();
+        let mut parts: Vec<(&Node, &mut [u8])> =
+            Vec::with_capacity(self.groups.len() - first_group);
         let mut rest = &mut self.entries[start..];
         for node in nodes.iter().filter(|n| !n.children.is_empty()) {
             let (head, tail) = rest.split_at_mut(node.children.len() * ENTRY_REC);
