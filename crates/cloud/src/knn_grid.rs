@@ -30,8 +30,9 @@
 //! both give the very same numbers.
 //!
 //! The cell size is chosen so that an occupied cell holds about `0.6 k` distinct positions,
-//! measured (the median occupied cell, over one occupied cell in sixteen by a hash of its key in a large set; a surface's cells fill as the square of their size) rather than assumed; it
-//! changes only the speed, never an answer.
+//! measured rather than assumed (the median occupied cell, in a large set over one occupied
+//! cell in sixteen by a hash of its key; a surface's cells fill as the square of their size);
+//! it changes only the speed, never an answer.
 //!
 //! Coincident points keep [`crate::knn`]'s bound: each cell lists distinct positions, each with
 //! its copies by global index; a block takes at most k copies of a position (the later ones, at

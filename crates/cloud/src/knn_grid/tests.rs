@@ -133,9 +133,7 @@ fn a_large_sets_cells_are_sized_from_a_sample_of_its_cells() {
         let sampled = median_run(&keys);
         let mut all = keys.clone();
         all.sort_unstable();
-        let mut runs: Vec<usize> = all.chunk_by(|a, b| a == b).map(<[u64]>::len).collect();
-        let mid = runs.len() / 2;
-        let whole = *runs.select_nth_unstable(mid).1 as f64;
+        let whole = median(&mut runs_of(&all));
         assert!(
             (0.75..=1.34).contains(&(sampled / whole)),
             "cell {cell}: sampled median {sampled}, every cell's {whole}"
