@@ -26,6 +26,7 @@
 //! at 10^9 points before).
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::chunks::{Part, PartKind, Set};
 use super::error::Result;
@@ -41,6 +42,11 @@ const MIN_WRITE_BUFFER: usize = 4 << 10;
 /// Bytes per point beside its record while a subset is split in memory (its index, and its
 /// index again in the partition's temporary).
 const INDEX_BYTES: u64 = 8;
+/// Sets this large are split, sized and written by every thread (smaller ones by one); small
+/// in the tests, so that their clouds take the parallel paths too.
+const PARALLEL: usize = if cfg!(test) { 1 << 11 } else { 1 << 16 };
+/// Indices whose records a large chunk gathers at once before writing them (a few MB).
+const WINDOW: usize = if cfg!(test) { 1 << 12 } else { 1 << 18 };
 
 #[cfg(test)]
 thread_local! {
@@ -274,16 +280,23 @@ impl Preparer<'_> {
         let layout = self.store.layout;
         let pos = |i: u32| layout.position_of(&recs[i as usize * len..(i as usize + 1) * len]);
         let mut idx: Vec<u32> = (0..m32).collect();
-        let mut right: Vec<u32> = Vec::with_capacity(m);
+        let mut right: Vec<u32> = Vec::new();
         let mut stack = vec![(top, 0usize, m)];
         let mut reported = self.done;
         while let Some((v, a, b)) = stack.pop() {
             if nodes[v].gathers() {
-                let mut bbox = EMPTY;
-                for &i in &idx[a..b] {
+                let grow = |(lo, hi): (DVec3, DVec3), &i: &u32| {
                     let p = pos(i);
-                    bbox = (bbox.0.min(p), bbox.1.max(p));
-                }
+                    (lo.min(p), hi.max(p))
+                };
+                let bbox = if b - a >= PARALLEL {
+                    idx[a..b]
+                        .par_iter()
+                        .fold(|| EMPTY, grow)
+                        .reduce(|| EMPTY, |x, y| (x.0.min(y.0), x.1.max(y.1)))
+                } else {
+                    idx[a..b].iter().fold(EMPTY, grow)
+                };
                 nodes[v].count = (b - a) as u64;
                 nodes[v].bbox = bbox;
                 if matches!(nodes[v].state, State::Pending) {
@@ -293,9 +306,22 @@ impl Preparer<'_> {
             match nodes[v].state {
                 State::Chunk => {
                     let mut w = self.store.create()?;
-                    for &i in &idx[a..b] {
-                        w.push(&recs[i as usize * len..(i as usize + 1) * len])
-                            .map_err(|e| self.store.io(e))?;
+                    let record = |i: u32| &recs[i as usize * len..(i as usize + 1) * len];
+                    if b - a >= PARALLEL {
+                        // The records gathered in parallel, a window at a time.
+                        for window in idx[a..b].chunks(WINDOW) {
+                            let pieces: Vec<Vec<u8>> = window
+                                .par_chunks(PARALLEL / 4)
+                                .map(|ix| ix.iter().flat_map(|&i| record(i)).copied().collect())
+                                .collect();
+                            for piece in &pieces {
+                                w.push_all(piece).map_err(|e| self.store.io(e))?;
+                            }
+                        }
+                    } else {
+                        for &i in &idx[a..b] {
+                            w.push(record(i)).map_err(|e| self.store.io(e))?;
+                        }
                     }
                     nodes[v].file = Some(w.finish().map_err(|e| self.store.io(e))?);
                     self.done += (b - a) as u64;
@@ -306,18 +332,33 @@ impl Preparer<'_> {
                 }
                 State::Split { axis, mid, kids } => {
                     // A stable partition: the left ones in place, in order, then the right.
-                    right.clear();
-                    let mut w = a;
-                    for j in a..b {
-                        let i = idx[j];
-                        if pos(i)[axis] < mid {
-                            idx[w] = i;
-                            w += 1;
-                        } else {
-                            right.push(i);
+                    let w = if b - a >= PARALLEL {
+                        // Each piece's two sides found in parallel, then laid out in order.
+                        let sides: Vec<(Vec<u32>, Vec<u32>)> = idx[a..b]
+                            .par_chunks(PARALLEL / 4)
+                            .map(|ix| ix.iter().partition(|&&i| pos(i)[axis] < mid))
+                            .collect();
+                        let mut w = a;
+                        for side in sides.iter().map(|s| &s.0).chain(sides.iter().map(|s| &s.1)) {
+                            idx[w..w + side.len()].copy_from_slice(side);
+                            w += side.len();
                         }
-                    }
-                    idx[w..b].copy_from_slice(&right);
+                        a + sides.iter().map(|s| s.0.len()).sum::<usize>()
+                    } else {
+                        right.clear();
+                        let mut w = a;
+                        for j in a..b {
+                            let i = idx[j];
+                            if pos(i)[axis] < mid {
+                                idx[w] = i;
+                                w += 1;
+                            } else {
+                                right.push(i);
+                            }
+                        }
+                        idx[w..b].copy_from_slice(&right);
+                        w
+                    };
                     stack.push((kids[1], w, b));
                     stack.push((kids[0], a, w));
                 }
