@@ -133,16 +133,47 @@ pub fn octant_center(c: DVec3, h: f64, o: usize) -> DVec3 {
     )
 }
 
+/// A point as the octant partitions sort it: its index, and where it lies.
+trait Item: Copy + Default + Send + Sync {
+    fn position(self, input: &Input<'_>) -> DVec3;
+}
+
+impl Item for u32 {
+    #[inline(always)]
+    fn position(self, input: &Input<'_>) -> DVec3 {
+        input.positions[self as usize]
+    }
+}
+
+/// A point of a subtree built by one thread, its position carried along: the partitions of
+/// its levels then read memory in order instead of the chunk's positions by index (an index's
+/// position lies anywhere in them).
+#[derive(Debug, Clone, Copy, Default)]
+struct Local {
+    p: DVec3,
+    i: u32,
+}
+
+impl Item for Local {
+    #[inline(always)]
+    fn position(self, _: &Input<'_>) -> DVec3 {
+        self.p
+    }
+}
+
 /// Stable partition of `items` by octant (a counting sort); returns the counts.
-fn partition_octants(
+fn partition_octants<T: Item>(
     input: &Input<'_>,
-    items: &mut [u32],
+    items: &mut [T],
     c: DVec3,
-    tmp: &mut Vec<u32>,
+    tmp: &mut Vec<T>,
 ) -> [usize; 8] {
+    if items.len() >= 4 * PARALLEL {
+        return partition_octants_parallel(input, items, c);
+    }
     let mut counts = [0usize; 8];
     for &i in items.iter() {
-        counts[octant(input.positions[i as usize], c)] += 1;
+        counts[octant(i.position(input), c)] += 1;
     }
     if counts.contains(&items.len()) {
         return counts;
@@ -152,14 +183,85 @@ fn partition_octants(
         at[o] = at[o - 1] + counts[o - 1];
     }
     tmp.clear();
-    tmp.resize(items.len(), 0);
+    tmp.resize(items.len(), T::default());
     for &i in items.iter() {
-        let o = octant(input.positions[i as usize], c);
+        let o = octant(i.position(input), c);
         tmp[at[o]] = i;
         at[o] += 1;
     }
     items.copy_from_slice(tmp);
     counts
+}
+
+/// [`partition_octants`] of a large set: each piece's points by octant in parallel, then laid
+/// out octant by octant, each octant's pieces in order (the same stable order).
+fn partition_octants_parallel<T: Item>(input: &Input<'_>, items: &mut [T], c: DVec3) -> [usize; 8] {
+    use rayon::prelude::*;
+    let pieces: Vec<[Vec<T>; 8]> = items
+        .par_chunks(PARALLEL)
+        .map(|piece| {
+            let mut by: [Vec<T>; 8] = Default::default();
+            for &i in piece {
+                by[octant(i.position(input), c)].push(i);
+            }
+            by
+        })
+        .collect();
+    let counts: [usize; 8] = std::array::from_fn(|o| pieces.iter().map(|p| p[o].len()).sum());
+    if !counts.contains(&items.len()) {
+        let mut w = 0;
+        for o in 0..8 {
+            for p in &pieces {
+                items[w..w + p[o].len()].copy_from_slice(&p[o]);
+                w += p[o].len();
+            }
+        }
+    }
+    counts
+}
+
+/// The octant groups of a cell of two or more points: its points partitioned by octant, the
+/// chains of single-octant cells collapsed (at most `budget` levels), coincident points halved
+/// by list position. Returns the groups (start, end, centre of the child cell), how many, and
+/// the half side of the cell the groups are octants of (doubled for halves, whose cells are
+/// the cell itself).
+fn octant_groups<T: Item>(
+    input: &Input<'_>,
+    items: &mut [T],
+    center: DVec3,
+    half: f64,
+    budget: u32,
+    tmp: &mut Vec<T>,
+) -> ([(usize, usize, DVec3); 8], usize, f64) {
+    let mut groups = [(0usize, 0usize, DVec3::ZERO); 8];
+    let mut n_groups = 0;
+    let (mut c, mut h) = (center, half);
+    for _ in 0..budget.max(1) {
+        let counts = partition_octants(input, items, c, tmp);
+        n_groups = 0;
+        let mut start = 0;
+        for (o, &k) in counts.iter().enumerate() {
+            if k > 0 {
+                groups[n_groups] = (start, start + k, octant_center(c, h, o));
+                n_groups += 1;
+                start += k;
+            }
+        }
+        if n_groups > 1 {
+            break;
+        }
+        c = groups[0].2;
+        h *= 0.5;
+    }
+    if n_groups == 1 {
+        // Coincident points: halves by list position.
+        let m = items.len() / 2;
+        groups[0] = (0, m, c);
+        groups[1] = (m, items.len(), c);
+        n_groups = 2;
+        h *= 2.0;
+    }
+    (groups, n_groups, h)
 }
 
 /// Builds the subtree of the points `items`, all inside the cube (centre, half side), in the
@@ -205,97 +307,114 @@ fn build_into(
     nodes: &mut Vec<Node>,
     tmp: &mut Vec<u32>,
 ) -> u32 {
-    if items.len() == 1 {
-        nodes.push(leaf(input, origin, items[0]));
-        return (nodes.len() - 1) as u32;
-    }
-    // Partition into octants; collapse single-octant chains; split coincident points by list.
-    let mut groups = [(0usize, 0usize, DVec3::ZERO); 8];
-    let mut n_groups = 0;
-    let (mut c, mut h) = (center, half);
-    for _ in 0..budget.max(1) {
-        let counts = partition_octants(input, items, c, tmp);
-        n_groups = 0;
-        let mut start = 0;
-        for (o, &k) in counts.iter().enumerate() {
-            if k > 0 {
-                groups[n_groups] = (start, start + k, octant_center(c, h, o));
-                n_groups += 1;
-                start += k;
+    if items.len() < PARALLEL {
+        // One thread builds it: the points with their positions, in a buffer of the thread's.
+        return LOCAL.with_borrow_mut(|(local, tmp)| {
+            local.clear();
+            local.extend(items.iter().map(|&i| Local {
+                p: input.positions[i as usize],
+                i,
+            }));
+            let root = build_serial(input, origin, local, center, half, budget, nodes, tmp);
+            if local.capacity() > KEEP {
+                *local = Vec::new();
+                *tmp = Vec::new();
             }
-        }
-        if n_groups > 1 {
-            break;
-        }
-        c = groups[0].2;
-        h *= 0.5;
+            root
+        });
     }
-    if n_groups == 1 {
-        // Coincident points: halves by list position.
-        let m = items.len() / 2;
-        groups[0] = (0, m, c);
-        groups[1] = (m, items.len(), c);
-        n_groups = 2;
-        h *= 2.0;
-    }
+    let (groups, n_groups, h) = octant_groups(input, items, center, half, budget, tmp);
     let groups = &groups[..n_groups];
     let mut children = Vec::with_capacity(n_groups);
-    if items.len() >= PARALLEL {
-        use rayon::prelude::*;
-        // (Reached only at the top of a `build_cell`, `nodes` empty; the subtrees have
-        // buffers of their own.)
-        *tmp = Vec::new();
-        let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(n_groups);
-        let mut rest: &mut [u32] = items;
-        let mut consumed = 0;
-        for &(_, e, oc) in groups {
-            let (head, tail) = rest.split_at_mut(e - consumed);
-            slices.push((head, oc));
-            rest = tail;
-            consumed = e;
-        }
-        let subtrees: Vec<Vec<Node>> = slices
-            .into_par_iter()
-            .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
-            .collect();
-        nodes.reserve_exact(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
-        for sub in subtrees {
-            let offset = nodes.len() as u32;
-            let n = sub.len() as u32;
-            nodes.extend(sub.into_iter().map(|mut node| {
+    use rayon::prelude::*;
+    // (Reached only at the top of a `build_cell`, `nodes` empty; the subtrees have buffers of
+    // their own.)
+    *tmp = Vec::new();
+    let mut slices: Vec<(&mut [u32], DVec3)> = Vec::with_capacity(n_groups);
+    let mut rest: &mut [u32] = items;
+    let mut consumed = 0;
+    for &(_, e, oc) in groups {
+        let (head, tail) = rest.split_at_mut(e - consumed);
+        slices.push((head, oc));
+        rest = tail;
+        consumed = e;
+    }
+    let subtrees: Vec<Vec<Node>> = slices
+        .into_par_iter()
+        .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
+        .collect();
+    nodes.reserve_exact(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
+    for mut sub in subtrees {
+        let offset = nodes.len() as u32;
+        let n = sub.len() as u32;
+        // Its children's indices shifted in parallel; then the nodes are moved (one copy).
+        if offset > 0 {
+            sub.par_iter_mut().with_min_len(4_096).for_each(|node| {
                 for k in &mut node.children {
                     *k += offset;
                 }
-                node
-            }));
-            children.push(offset + n - 1);
+            });
         }
-    } else {
-        for &(s, e, oc) in groups {
-            let root = build_into(
-                input,
-                origin,
-                &mut items[s..e],
-                oc,
-                0.5 * h,
-                COLLAPSE,
-                nodes,
-                tmp,
-            );
-            children.push(root);
-        }
+        nodes.append(&mut sub);
+        children.push(offset + n - 1);
     }
     let parent = parent_of(nodes, children);
     nodes.push(parent);
     (nodes.len() - 1) as u32
 }
 
-fn leaf(input: &Input<'_>, origin: DVec3, i: u32) -> Node {
+thread_local! {
+    /// A thread's points of the subtree it builds, and the partitions' buffer.
+    static LOCAL: std::cell::RefCell<(Vec<Local>, Vec<Local>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
+}
+
+/// Points a thread's [`LOCAL`] buffers keep between subtrees (larger ones are freed).
+const KEEP: usize = 4 * PARALLEL;
+
+/// [`build_into`] for a subtree one thread builds, its points carried with their positions.
+#[allow(clippy::too_many_arguments)]
+fn build_serial(
+    input: &Input<'_>,
+    origin: DVec3,
+    items: &mut [Local],
+    center: DVec3,
+    half: f64,
+    budget: u32,
+    nodes: &mut Vec<Node>,
+    tmp: &mut Vec<Local>,
+) -> u32 {
+    if let [one] = items {
+        nodes.push(leaf_at(input, origin, one.p, one.i));
+        return (nodes.len() - 1) as u32;
+    }
+    let (groups, n_groups, h) = octant_groups(input, items, center, half, budget, tmp);
+    let mut children = Vec::with_capacity(n_groups);
+    for &(s, e, oc) in &groups[..n_groups] {
+        let root = build_serial(
+            input,
+            origin,
+            &mut items[s..e],
+            oc,
+            0.5 * h,
+            COLLAPSE,
+            nodes,
+            tmp,
+        );
+        children.push(root);
+    }
+    let parent = parent_of(nodes, children);
+    nodes.push(parent);
+    (nodes.len() - 1) as u32
+}
+
+/// The leaf of point `i`, at `p` (its position).
+fn leaf_at(input: &Input<'_>, origin: DVec3, p: DVec3, i: u32) -> Node {
     let color = input.colors.map_or(Vec3::splat(0.75), |c| {
         let c = c[i as usize];
         Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) / 255.0
     });
-    let center = (input.positions[i as usize] - origin).as_vec3();
+    let center = (p - origin).as_vec3();
     let half = 0.5 * input.leaf_diameter as f32;
     Node {
         center,
@@ -385,21 +504,30 @@ fn directions() -> &'static [(f32, f32); E_T_DIRECTIONS] {
 /// [`E_T_DIRECTIONS`] directions in the disc's plane, holding the children's discs projected
 /// onto the plane; at least 0.
 pub fn tangential_error(c: Vec3, n: Vec3, diameter: f32, kids: &[&Node]) -> f32 {
+    const D: usize = E_T_DIRECTIONS;
     let a = n.any_orthonormal_vector();
     let b = n.cross(a);
-    let mut narrowest = f32::INFINITY;
-    for &(cos, sin) in directions() {
+    // The directions u = a cos + b sin as columns, and each direction's interval; the children
+    // in the outer loop so that the directions' arithmetic runs side by side (the very sums
+    // `Vec3::dot` makes, so the same values as a direction at a time).
+    let (mut ux, mut uy, mut uz) = ([0.0f32; D], [0.0f32; D], [0.0f32; D]);
+    for (j, &(cos, sin)) in directions().iter().enumerate() {
         let u = a * cos + b * sin;
-        let (mut hi, mut lo) = (f32::NEG_INFINITY, f32::INFINITY);
-        for kid in kids {
-            // Support of a disc (radius r, normal m) in the in-plane direction u.
-            let h = kid.radius() * (1.0 - kid.normal.dot(u).powi(2)).max(0.0).sqrt();
-            let x = (kid.center - c).dot(u);
-            hi = hi.max(x + h);
-            lo = lo.min(x - h);
-        }
-        narrowest = narrowest.min(hi - lo);
+        (ux[j], uy[j], uz[j]) = (u.x, u.y, u.z);
     }
+    let (mut hi, mut lo) = ([f32::NEG_INFINITY; D], [f32::INFINITY; D]);
+    for kid in kids {
+        // Support of a disc (radius r, normal m) in the in-plane direction u.
+        let (r, m, d) = (kid.radius(), kid.normal, kid.center - c);
+        for j in 0..D {
+            let mu = (m.x * ux[j]) + (m.y * uy[j]) + (m.z * uz[j]);
+            let h = r * (1.0 - mu * mu).max(0.0).sqrt();
+            let x = (d.x * ux[j]) + (d.y * uy[j]) + (d.z * uz[j]);
+            hi[j] = hi[j].max(x + h);
+            lo[j] = lo[j].min(x - h);
+        }
+    }
+    let narrowest = (0..D).map(|j| hi[j] - lo[j]).fold(f32::INFINITY, f32::min);
     (diameter - narrowest).max(0.0)
 }
 
@@ -453,6 +581,54 @@ mod tests {
         let refs: Vec<&Node> = kids.iter().collect();
         let e = tangential_error(Vec3::ZERO, Vec3::Z, 2.2, &refs);
         assert!((e - 2.0).abs() < 0.05, "{e}");
+    }
+
+    #[test]
+    fn the_parallel_octant_partition_is_the_counting_sort() {
+        // Large enough for pieces of `PARALLEL` points, with a cell centre off the middle and
+        // points on its planes (they go to the upper octant).
+        let pts: Vec<DVec3> = (0..5 * PARALLEL as u32 + 123)
+            .map(|i| {
+                let h = |s: u32| {
+                    f64::from(cloud::rng::splitmix64(u64::from(i) * 3 + u64::from(s)) as u32) / 4e9
+                };
+                let v = DVec3::new(h(0), h(1), h(2));
+                if i % 97 == 0 {
+                    DVec3::new(0.3, v.y, 0.4)
+                } else {
+                    v
+                }
+            })
+            .collect();
+        let normals = vec![Vec3::Z; pts.len()];
+        let input = Input {
+            positions: &pts,
+            normals: &normals,
+            colors: None,
+            leaf_diameter: 0.01,
+        };
+        let c = DVec3::new(0.3, 0.55, 0.4);
+        let mut serial: Vec<u32> = (0..pts.len() as u32).rev().collect();
+        let mut parallel = serial.clone();
+        let mut counts = [0usize; 8];
+        let mut by: [Vec<u32>; 8] = Default::default();
+        for &i in &serial {
+            counts[octant(pts[i as usize], c)] += 1;
+            by[octant(pts[i as usize], c)].push(i);
+        }
+        serial = by.concat();
+        assert!(parallel.len() >= 4 * PARALLEL);
+        assert_eq!(
+            partition_octants(&input, &mut parallel, c, &mut Vec::new()),
+            counts
+        );
+        assert_eq!(parallel, serial);
+        // Every point in one octant: the order stays.
+        let mut one: Vec<u32> = (0..pts.len() as u32).collect();
+        let far = DVec3::splat(-1.0);
+        let all = partition_octants(&input, &mut one, far, &mut Vec::new());
+        assert_eq!(all[7], pts.len());
+        assert!(one.iter().enumerate().all(|(k, &i)| i as usize == k));
     }
 
     #[test]

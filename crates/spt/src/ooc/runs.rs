@@ -139,19 +139,29 @@ impl Builder {
             .par_sort_unstable_by(|a, b| key_order(a.e2, a.gid, b.e2, b.gid));
         let mut g = self.scratch.create(GREC).map_err(|e| self.io(e))?;
         let mut e = self.scratch.create(ENTRY_REC).map_err(|e| self.io(e))?;
-        let mut rec = Vec::with_capacity(GREC);
-        for gr in &batch.groups {
-            rec.clear();
-            file::push_box(&mut rec, &gr.b);
-            rec.extend_from_slice(&gr.e2.to_le_bytes());
-            rec.extend_from_slice(&gr.gid.to_le_bytes());
-            rec.push(gr.count as u8);
-            g.push(&rec).map_err(|e| self.io(e))?;
-            let s = gr.first * ENTRY_REC;
-            for k in 0..gr.count {
-                let at = s + k * ENTRY_REC;
-                e.push(&batch.entries[at..at + ENTRY_REC])
-                    .map_err(|e| self.io(e))?;
+        // The groups' records and their entries in the sorted order, gathered in parallel a
+        // window of groups at a time (each piece's bytes in order), then written.
+        let entries = &batch.entries;
+        for window in batch.groups.chunks(RUN_WINDOW) {
+            let pieces: Vec<(Vec<u8>, Vec<u8>)> = window
+                .par_chunks(RUN_PIECE)
+                .map(|groups| {
+                    let mut g = Vec::with_capacity(groups.len() * GREC);
+                    let mut e = Vec::new();
+                    for gr in groups {
+                        file::push_box(&mut g, &gr.b);
+                        g.extend_from_slice(&gr.e2.to_le_bytes());
+                        g.extend_from_slice(&gr.gid.to_le_bytes());
+                        g.push(gr.count as u8);
+                        let s = gr.first * ENTRY_REC;
+                        e.extend_from_slice(&entries[s..s + gr.count * ENTRY_REC]);
+                    }
+                    (g, e)
+                })
+                .collect();
+            for (gp, ep) in &pieces {
+                g.push_all(gp).map_err(|e| self.io(e))?;
+                e.push_all(ep).map_err(|e| self.io(e))?;
             }
         }
         runs.groups += batch.groups.len() as u64;
@@ -166,6 +176,11 @@ impl Builder {
         Ok(())
     }
 }
+
+/// Groups whose records [`Builder::write_run`] gathers at once (about 2 MB of groups and up to
+/// eight entries each), and a thread's piece of them.
+const RUN_WINDOW: usize = 1 << 13;
+const RUN_PIECE: usize = 1 << 10;
 
 /// Bytes of a group in a run: box, e_g², arena index, entries.
 pub(super) const GREC: usize = 12 + 4 + 8 + 1;
