@@ -8,6 +8,7 @@
 use cloud::glam::DVec3;
 use cloud::ooc::{Chunks, PartKind, Points};
 use cloud::spill::SpillFile;
+use rayon::prelude::*;
 
 use super::{Options, Stage};
 use crate::build::{self, Node};
@@ -16,6 +17,10 @@ use crate::tree;
 
 /// Bytes of an encoded word on disk: word, colour, offset flag.
 pub(super) const WREC: usize = 4 + 2 + 1;
+/// Words whose records are made at once before they are written (a few MB), and a thread's
+/// piece of them (small in the tests, so that their chunks have many).
+const WINDOW: usize = if cfg!(test) { 1 << 9 } else { 1 << 18 };
+const PIECE: usize = if cfg!(test) { 1 << 6 } else { 1 << 13 };
 
 /// A chunk once encoded: its groups level by level in a scratch file of (word, colour,
 /// is-offset) records with offsets relative to the chunk's words.
@@ -140,15 +145,37 @@ impl<'a> Builder<'a> {
             .scratch()
             .create(WREC)
             .map_err(|e| self.chunks.io(e))?;
-        let mut offsets = parts.offsets.iter().peekable();
-        let mut rec = [0u8; WREC];
-        for (i, &word) in parts.words.iter().enumerate() {
-            let is_offset = offsets.next_if(|&&o| o == i).is_some();
-            rec[..4].copy_from_slice(&word.to_le_bytes());
+        // The records made in parallel, a window of words at a time, each piece's in order.
+        let record_of = |i: usize, is_offset: bool| {
+            let mut rec = [0u8; WREC];
+            rec[..4].copy_from_slice(&parts.words[i].to_le_bytes());
             let col = parts.colors.get(i).copied().unwrap_or(0);
             rec[4..6].copy_from_slice(&col.to_le_bytes());
             rec[6] = u8::from(is_offset);
-            w.push(&rec).map_err(|e| self.chunks.io(e))?;
+            rec
+        };
+        for window in (0..parts.words.len()).step_by(WINDOW) {
+            let end = (window + WINDOW).min(parts.words.len());
+            let pieces: Vec<Vec<u8>> = (window..end)
+                .step_by(PIECE)
+                .collect::<Vec<_>>()
+                .into_par_iter()
+                .map(|s| {
+                    let e = (s + PIECE).min(end);
+                    // The offset words from `s` on (their positions ascend).
+                    let mut o = parts.offsets.partition_point(|&x| x < s);
+                    let mut bytes = Vec::with_capacity((e - s) * WREC);
+                    for i in s..e {
+                        let is_offset = parts.offsets.get(o) == Some(&i);
+                        o += usize::from(is_offset);
+                        bytes.extend_from_slice(&record_of(i, is_offset));
+                    }
+                    bytes
+                })
+                .collect();
+            for piece in &pieces {
+                w.push_all(piece).map_err(|e| self.chunks.io(e))?;
+            }
         }
         let file = w.finish().map_err(|e| self.chunks.io(e))?;
         self.encoded[c] = Encoded {
