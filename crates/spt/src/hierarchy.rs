@@ -293,9 +293,10 @@ pub fn build_cell(
 
 /// [`build_cell`] appending the subtree's nodes to `nodes` (its indices absolute in it, as
 /// [`build_cell`]'s relative ones shifted by where it starts); returns the subtree's root.
-/// `tmp` is the octant partition's buffer. Subtrees of [`PARALLEL`] points or more are built
-/// in parallel, each into a vector of its own appended in order (a node is copied once per
-/// parallel level above it, not once per level).
+/// `tmp` is the octant partition's buffer for a set of [`PARALLEL`] points or more (a smaller
+/// one, built by one thread, [`build_serial`], uses its thread's buffers). Subtrees of
+/// [`PARALLEL`] points or more are built in parallel, each into a vector of its own appended in
+/// order (a node is moved once per parallel level above it, not once per level).
 #[allow(clippy::too_many_arguments)]
 fn build_into(
     input: &Input<'_>,
@@ -315,12 +316,7 @@ fn build_into(
                 p: input.positions[i as usize],
                 i,
             }));
-            let root = build_serial(input, origin, local, center, half, budget, nodes, tmp);
-            if local.capacity() > KEEP {
-                *local = Vec::new();
-                *tmp = Vec::new();
-            }
-            root
+            build_serial(input, origin, local, center, half, budget, nodes, tmp)
         });
     }
     let (groups, n_groups, h) = octant_groups(input, items, center, half, budget, tmp);
@@ -364,13 +360,11 @@ fn build_into(
 }
 
 thread_local! {
-    /// A thread's points of the subtree it builds, and the partitions' buffer.
+    /// A thread's points of the subtree it builds, and the partitions' buffer (kept between
+    /// subtrees: fewer than 2 · [`PARALLEL`] points each, about 1 MB).
     static LOCAL: std::cell::RefCell<(Vec<Local>, Vec<Local>)> =
         const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
-
-/// Points a thread's [`LOCAL`] buffers keep between subtrees (larger ones are freed).
-const KEEP: usize = 4 * PARALLEL;
 
 /// [`build_into`] for a subtree one thread builds, its points carried with their positions.
 #[allow(clippy::too_many_arguments)]

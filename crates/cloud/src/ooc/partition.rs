@@ -43,9 +43,9 @@ const MIN_WRITE_BUFFER: usize = 4 << 10;
 /// index again in the partition's temporary).
 const INDEX_BYTES: u64 = 8;
 /// Sets this large are split, sized and written by every thread (smaller ones by one); small
-/// in the tests, so that their clouds take the parallel paths too.
+/// in this crate's own tests, so that their clouds take the parallel paths too.
 const PARALLEL: usize = if cfg!(test) { 1 << 11 } else { 1 << 16 };
-/// Indices whose records a large chunk gathers at once before writing them (a few MB).
+/// Records a large chunk gathers at once before writing them (2^18: about 10 MB at most).
 const WINDOW: usize = if cfg!(test) { 1 << 12 } else { 1 << 18 };
 
 #[cfg(test)]
@@ -312,7 +312,13 @@ impl Preparer<'_> {
                         for window in idx[a..b].chunks(WINDOW) {
                             let pieces: Vec<Vec<u8>> = window
                                 .par_chunks(PARALLEL / 4)
-                                .map(|ix| ix.iter().flat_map(|&i| record(i)).copied().collect())
+                                .map(|ix| {
+                                    let mut bytes = Vec::with_capacity(ix.len() * len);
+                                    for &i in ix {
+                                        bytes.extend_from_slice(record(i));
+                                    }
+                                    bytes
+                                })
                                 .collect();
                             for piece in &pieces {
                                 w.push_all(piece).map_err(|e| self.store.io(e))?;
@@ -333,17 +339,38 @@ impl Preparer<'_> {
                 State::Split { axis, mid, kids } => {
                     // A stable partition: the left ones in place, in order, then the right.
                     let w = if b - a >= PARALLEL {
-                        // Each piece's two sides found in parallel, then laid out in order.
-                        let sides: Vec<(Vec<u32>, Vec<u32>)> = idx[a..b]
+                        // Each piece's two sides found in parallel (one vector of the piece's
+                        // size: the left side, then the right), then laid out in order: an
+                        // index again per point, as `INDEX_BYTES` counts.
+                        let sides: Vec<(Vec<u32>, usize)> = idx[a..b]
                             .par_chunks(PARALLEL / 4)
-                            .map(|ix| ix.iter().partition(|&&i| pos(i)[axis] < mid))
+                            .map(|ix| {
+                                let mut side = vec![0u32; ix.len()];
+                                let (mut l, mut r) = (0, ix.len());
+                                for &i in ix {
+                                    if pos(i)[axis] < mid {
+                                        side[l] = i;
+                                        l += 1;
+                                    } else {
+                                        r -= 1;
+                                        side[r] = i;
+                                    }
+                                }
+                                side[l..].reverse();
+                                (side, l)
+                            })
                             .collect();
                         let mut w = a;
-                        for side in sides.iter().map(|s| &s.0).chain(sides.iter().map(|s| &s.1)) {
-                            idx[w..w + side.len()].copy_from_slice(side);
-                            w += side.len();
+                        for (side, l) in &sides {
+                            idx[w..w + l].copy_from_slice(&side[..*l]);
+                            w += l;
                         }
-                        a + sides.iter().map(|s| s.0.len()).sum::<usize>()
+                        let left = w;
+                        for (side, l) in &sides {
+                            idx[w..w + side.len() - l].copy_from_slice(&side[*l..]);
+                            w += side.len() - l;
+                        }
+                        left
                     } else {
                         right.clear();
                         let mut w = a;
