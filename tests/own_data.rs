@@ -459,3 +459,106 @@ fn an_e57_file_with_two_scans_is_one_dataset_per_scan_or_merged() {
     all.push("--merge-scans");
     assert!(ok(dir.path(), &all).contains("points=10 "));
 }
+
+/// A manifest of samples of a mesh the registry does not know, far from the origin: `n` points
+/// plainly sampled (`plain`), and the same with noise (`noisy`, loaded whole).
+fn sampled_manifest(dir: &Path, n: usize) {
+    let (scene, _) = sphere_plane_scene(400, 800, 7);
+    write_off(
+        &dir.join("site.off"),
+        &scene.mesh,
+        DVec3::new(512_000.25, 4_194_304.5, 128.0),
+    );
+    std::fs::write(
+        dir.join("pointsight.toml"),
+        format!(
+            "[datasets.plain]\nmesh = \"site.off\"\nsample = {{ n = {n}, seed = 9 }}\n\n\
+             [datasets.noisy]\nmesh = \"site.off\"\nsample = {{ n = {n}, seed = 9 }}\n\
+             degrade = [\"noise:sigma=0.5\"]\n"
+        ),
+    )
+    .expect("the manifest is written");
+}
+
+#[test]
+fn a_sampled_dataset_is_exported_as_it_is_drawn_into_the_whole_exports_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    sampled_manifest(d, 30_000);
+    // The whole dataset, exactly (PLY keeps every bit), then what `export` writes of it as LAS
+    // or LAZ when it holds it, against the streamed files.
+    let ply = ok(d, &["export", "--dataset", "plain", "--out", "whole.ply"]);
+    assert!(ply.contains("points=30000"), "{ply}");
+    let whole = cloud::io::read(&d.join("whole.ply")).unwrap().cloud;
+    assert!(
+        whole.positions.iter().all(|p| p.x > 500_000.0),
+        "world coordinates"
+    );
+    for ext in ["laz", "las"] {
+        let line = ok(
+            d,
+            &["export", "--dataset", "plain", "--out", &format!("s.{ext}")],
+        );
+        assert!(
+            line.contains("points=30000 ") && line.contains("scale="),
+            "{line}"
+        );
+        let reference = d.join(format!("reference.{ext}"));
+        let scale = cloud::io::las::write_las(&reference, &whole).unwrap();
+        assert!(line.contains(&format!("scale={scale:e}")), "{line}");
+        assert_eq!(
+            std::fs::read(d.join(format!("s.{ext}"))).unwrap(),
+            std::fs::read(&reference).unwrap(),
+            "{ext}: the streamed file is the whole one's"
+        );
+    }
+    // A degraded sample is loaded whole, as before: its points are not the draws.
+    let noisy = ok(d, &["export", "--dataset", "noisy", "--out", "noisy.laz"]);
+    assert!(noisy.contains("points=30000"), "{noisy}");
+    let moved = cloud::io::read(&d.join("noisy.laz")).unwrap().cloud;
+    let plain = cloud::io::read(&d.join("s.laz")).unwrap().cloud;
+    assert_eq!(moved.len(), plain.len());
+    assert_ne!(moved.positions, plain.positions);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_sample_larger_than_memory_is_exported_as_las_within_it() {
+    // 5 * 10^6 points need 324 MiB loaded whole: under a 400 MB address-space limit (less the
+    // 80 MiB or so the process maps before it starts) the PLY export is refused before
+    // allocating, and the LAZ one streams them in about 17 MiB.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let n = 5_000_000;
+    sampled_manifest(d, n);
+    let run = |out: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 400000 && exec '{}' export --dataset plain --out {out}",
+                env!("CARGO_BIN_EXE_pointsight")
+            ))
+            .current_dir(d)
+            .env("POINTSIGHT_DATA", "/nonexistent/pointsight-data")
+            .output()
+            .unwrap()
+    };
+    let refused = run("whole.ply");
+    let err = String::from_utf8_lossy(&refused.stderr);
+    assert_eq!(refused.status.code(), Some(1), "{err}");
+    assert!(err.contains("refused before allocating"), "{err}");
+    assert!(!d.join("whole.ply").exists());
+    let streamed = run("big.laz");
+    let out = String::from_utf8_lossy(&streamed.stdout);
+    assert!(
+        streamed.status.success(),
+        "{}",
+        String::from_utf8_lossy(&streamed.stderr)
+    );
+    assert!(out.contains(&format!("points={n} ")), "{out}");
+    let header = las::Reader::from_path(d.join("big.laz"))
+        .unwrap()
+        .header()
+        .clone();
+    assert_eq!(header.number_of_points(), n as u64);
+}

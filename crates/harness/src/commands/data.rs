@@ -6,7 +6,8 @@
 use std::io::Write;
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
+use cloud::glam::DVec3;
 
 use crate::cli::ViewsFormat;
 use crate::{datasets, output, paths};
@@ -106,12 +107,22 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// `pointsight export`.
+/// `pointsight export`. A manifest's plain sample of a mesh written as LAS or LAZ is streamed
+/// ([`export_sample`]: any size in a few MiB); any other dataset is loaded whole first.
 pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
+    let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
+    if is_las && let Some((mesh, n, seed)) = datasets::plain_sample(dataset)? {
+        let scale = export_sample(&mesh, n, seed, out)
+            .with_context(|| format!("exporting dataset {dataset}"))?;
+        println!(
+            "dataset={dataset} points={n} file={} scale={scale:e}",
+            out.display()
+        );
+        return Ok(());
+    }
     let ds = datasets::load(dataset, data_dir)?;
     // In world coordinates (the recentring and rescaling undone: exact).
     let positions = ds.world_positions();
-    let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
     let n = positions.len();
     if is_las {
         let with_attributes = cloud::PointCloud {
@@ -136,6 +147,45 @@ pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
         println!("dataset={dataset} points={n} file={}", out.display());
     }
     Ok(())
+}
+
+/// Points drawn and written at a time by [`export_sample`].
+const EXPORT_BATCH: usize = 1 << 16;
+
+/// Writes the `n` samples of `mesh` drawn with `seed` as LAS or LAZ (by `out`'s extension)
+/// without holding them: the file the whole dataset's export writes, byte for byte. The
+/// sampler runs twice: first for the samples' bounding box, which fixes the file's grid as
+/// `cloud::io::las::write_las` fixes it from a whole cloud, then to write them. Returns the
+/// grid's scale.
+pub fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> Result<f64> {
+    let bar = crate::progress::bar(2 * n as u64, "export: box, then points");
+    let mut sampler = cloud::sample::SurfaceSampler::new(mesh, seed)?;
+    let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+    let mut batch = Vec::with_capacity(EXPORT_BATCH);
+    let mut left = n;
+    while left > 0 {
+        let k = left.min(EXPORT_BATCH);
+        batch.clear();
+        sampler.positions_into(k, &mut batch);
+        for p in &batch {
+            lo = lo.min(*p);
+            hi = hi.max(*p);
+        }
+        left -= k;
+        bar.inc(k as u64);
+    }
+    let mut sampler = cloud::sample::SurfaceSampler::new(mesh, seed)?;
+    let mut left = n;
+    let (scale, written) = cloud::io::las::write_las_streamed(out, lo, hi, |batch| {
+        let k = left.min(EXPORT_BATCH);
+        sampler.positions_into(k, batch);
+        left -= k;
+        bar.inc(k as u64);
+        left > 0
+    })?;
+    bar.finish_and_clear();
+    debug_assert_eq!(written, n as u64);
+    Ok(scale)
 }
 
 /// `pointsight inspect`.

@@ -71,6 +71,34 @@ pub struct FileDataset {
     pub degrade: (Vec<Degradation>, u64),
 }
 
+/// Largest coordinate of a mesh whose samples [`plain_sample`] streams: far below the
+/// 2^100 where [`load_files`] would rescale them (the recentred samples stay within twice it).
+const PLAIN_SAMPLE_MAX_COORD: f64 = (1u128 << 90) as f64;
+
+/// The mesh and the sample `(n, seed)` of `spec` when it is a plain sample of a mesh file (no
+/// point file, no degradation, at least one point, coordinates within 2^90): [`load_files`]
+/// then gives the sampler's draws (`cloud::sample::SurfaceSampler`) exactly, in world
+/// coordinates (its recentring is lossless and undone exactly; no rescaling applies), so they
+/// can be written as they are drawn instead of held (`pointsight export`). `None` otherwise;
+/// an error when the mesh cannot be read.
+pub fn plain_sample(spec: &FileDataset) -> Result<Option<(TriMesh, usize, u64)>> {
+    let (None, Some((n, seed)), Some(path)) = (&spec.cloud, spec.sample, &spec.mesh) else {
+        return Ok(None);
+    };
+    if n == 0 || !spec.degrade.0.is_empty() {
+        return Ok(None);
+    }
+    let mesh = read_mesh(path)?;
+    let largest = mesh
+        .vertices
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    if !(largest <= PLAIN_SAMPLE_MAX_COORD) {
+        return Ok(None);
+    }
+    Ok(Some((mesh, n, seed)))
+}
+
 /// Loads a dataset made of user files, recentred without loss.
 pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
     let mut files = Vec::new();

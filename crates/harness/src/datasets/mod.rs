@@ -253,6 +253,23 @@ pub fn lod_file(name: &str) -> Result<Option<LodFileDataset>> {
         .map(Some)
 }
 
+/// The mesh and the sample `(n, seed)` of dataset `name` when it is a manifest's plain sample
+/// of a mesh ([`files::plain_sample`]): its points are the sampler's draws, which a command
+/// may write as they come instead of loading the dataset. `None` for any other dataset.
+pub fn plain_sample(name: &str) -> Result<Option<(TriMesh, usize, u64)>> {
+    let Some(m) = manifest() else {
+        return Ok(None);
+    };
+    let Some(e) = m.datasets.get(name) else {
+        return Ok(None);
+    };
+    if e.lod_file.is_some() {
+        return Ok(None);
+    }
+    let spec = manifest_dataset(m, name, e)?;
+    files::plain_sample(&spec).with_context(|| format!("dataset {name} of {}", m.path.display()))
+}
+
 /// The mesh of dataset `name` alone (without sampling its cloud, where that can be avoided).
 pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
     if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
