@@ -460,8 +460,9 @@ fn an_e57_file_with_two_scans_is_one_dataset_per_scan_or_merged() {
     assert!(ok(dir.path(), &all).contains("points=10 "));
 }
 
-/// A manifest of samples of a mesh the registry does not know, far from the origin: `n` points
-/// plainly sampled (`plain`), and the same with noise (`noisy`, loaded whole).
+/// A manifest of samples of meshes the registry does not know, far from the origin: `n` points
+/// plainly sampled (`plain`), the same with noise (`noisy`, loaded whole), and `n` samples of a
+/// flat square whose heights are all `-0.0` (`flat`: the whole dataset's are `0.0`).
 fn sampled_manifest(dir: &Path, n: usize) {
     let (scene, _) = sphere_plane_scene(400, 800, 7);
     write_off(
@@ -470,11 +471,18 @@ fn sampled_manifest(dir: &Path, n: usize) {
         DVec3::new(512_000.25, 4_194_304.5, 128.0),
     );
     std::fs::write(
+        dir.join("flat.off"),
+        "OFF\n4 2 0\n512000 4194304 -0.0\n512001 4194304 -0.0\n512001 4194305 -0.0\n\
+         512000 4194305 -0.0\n3 0 1 2\n3 0 2 3\n",
+    )
+    .expect("the flat mesh is written");
+    std::fs::write(
         dir.join("pointsight.toml"),
         format!(
             "[datasets.plain]\nmesh = \"site.off\"\nsample = {{ n = {n}, seed = 9 }}\n\n\
              [datasets.noisy]\nmesh = \"site.off\"\nsample = {{ n = {n}, seed = 9 }}\n\
-             degrade = [\"noise:sigma=0.5\"]\n"
+             degrade = [\"noise:sigma=0.5\"]\n\n\
+             [datasets.flat]\nmesh = \"flat.off\"\nsample = {{ n = {n}, seed = 4 }}\n"
         ),
     )
     .expect("the manifest is written");
@@ -484,39 +492,47 @@ fn sampled_manifest(dir: &Path, n: usize) {
 fn a_sampled_dataset_is_exported_as_it_is_drawn_into_the_whole_exports_bytes() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    sampled_manifest(d, 30_000);
+    sampled_manifest(d, 150_000);
     // The whole dataset, exactly (PLY keeps every bit), then what `export` writes of it as LAS
-    // or LAZ when it holds it, against the streamed files.
-    let ply = ok(d, &["export", "--dataset", "plain", "--out", "whole.ply"]);
-    assert!(ply.contains("points=30000"), "{ply}");
-    let whole = cloud::io::read(&d.join("whole.ply")).unwrap().cloud;
-    assert!(
-        whole.positions.iter().all(|p| p.x > 500_000.0),
-        "world coordinates"
-    );
-    for ext in ["laz", "las"] {
-        let line = ok(
+    // or LAZ when it holds it, against the streamed files (three batches of draws).
+    for name in ["plain", "flat"] {
+        let ply = ok(
             d,
-            &["export", "--dataset", "plain", "--out", &format!("s.{ext}")],
+            &["export", "--dataset", name, "--out", &format!("{name}.ply")],
         );
+        assert!(ply.contains("points=150000"), "{ply}");
+        let whole = cloud::io::read(&d.join(format!("{name}.ply")))
+            .unwrap()
+            .cloud;
         assert!(
-            line.contains("points=30000 ") && line.contains("scale="),
-            "{line}"
+            whole.positions.iter().all(|p| p.x > 500_000.0),
+            "world coordinates"
         );
-        let reference = d.join(format!("reference.{ext}"));
-        let scale = cloud::io::las::write_las(&reference, &whole).unwrap();
-        assert!(line.contains(&format!("scale={scale:e}")), "{line}");
-        assert_eq!(
-            std::fs::read(d.join(format!("s.{ext}"))).unwrap(),
-            std::fs::read(&reference).unwrap(),
-            "{ext}: the streamed file is the whole one's"
-        );
+        if name == "flat" {
+            assert!(whole.positions.iter().all(|p| p.z.to_bits() == 0), "+0.0");
+        }
+        for ext in ["laz", "las"] {
+            let file = format!("{name}.{ext}");
+            let line = ok(d, &["export", "--dataset", name, "--out", &file]);
+            assert!(
+                line.contains("points=150000 ") && line.contains("scale="),
+                "{line}"
+            );
+            let reference = d.join(format!("reference.{ext}"));
+            let scale = cloud::io::las::write_las(&reference, &whole).unwrap();
+            assert!(line.contains(&format!("scale={scale:e}")), "{line}");
+            assert_eq!(
+                std::fs::read(d.join(&file)).unwrap(),
+                std::fs::read(&reference).unwrap(),
+                "{file}: the streamed file is the whole one's"
+            );
+        }
     }
     // A degraded sample is loaded whole, as before: its points are not the draws.
     let noisy = ok(d, &["export", "--dataset", "noisy", "--out", "noisy.laz"]);
-    assert!(noisy.contains("points=30000"), "{noisy}");
+    assert!(noisy.contains("points=150000"), "{noisy}");
     let moved = cloud::io::read(&d.join("noisy.laz")).unwrap().cloud;
-    let plain = cloud::io::read(&d.join("s.laz")).unwrap().cloud;
+    let plain = cloud::io::read(&d.join("plain.laz")).unwrap().cloud;
     assert_eq!(moved.len(), plain.len());
     assert_ne!(moved.positions, plain.positions);
 }
@@ -524,12 +540,12 @@ fn a_sampled_dataset_is_exported_as_it_is_drawn_into_the_whole_exports_bytes() {
 #[cfg(unix)]
 #[test]
 fn a_sample_larger_than_memory_is_exported_as_las_within_it() {
-    // 5 * 10^6 points need 324 MiB loaded whole: under a 400 MB address-space limit (less the
-    // 80 MiB or so the process maps before it starts) the PLY export is refused before
-    // allocating, and the LAZ one streams them in about 17 MiB.
+    // 6 * 10^6 points need 389 MiB loaded whole: under a 400 MB (390.6 MiB) address-space
+    // limit, less what the process maps before it samples (about 80 MiB), the PLY export is
+    // refused before allocating, and the LAZ one streams them in about 17 MiB.
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let n = 5_000_000;
+    let n = 6_000_000;
     sampled_manifest(d, n);
     let run = |out: &str| {
         Command::new("sh")

@@ -108,7 +108,9 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
 }
 
 /// `pointsight export`. A manifest's plain sample of a mesh written as LAS or LAZ is streamed
-/// ([`export_sample`]: any size in a few MiB); any other dataset is loaded whole first.
+/// ([`export_sample`]: memory for the mesh and a batch, whatever the sample's size; the
+/// dataset's views, which `export` does not use, are not read then); any other dataset is
+/// loaded whole first.
 pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
     let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
     if is_las && let Some((mesh, n, seed)) = datasets::plain_sample(dataset)? {
@@ -153,12 +155,14 @@ pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
 const EXPORT_BATCH: usize = 1 << 16;
 
 /// Writes the `n` samples of `mesh` drawn with `seed` as LAS or LAZ (by `out`'s extension)
-/// without holding them: the file the whole dataset's export writes, byte for byte. The
-/// sampler runs twice: first for the samples' bounding box, which fixes the file's grid as
-/// `cloud::io::las::write_las` fixes it from a whole cloud, then to write them. Returns the
+/// without holding them; for a dataset that `datasets::plain_sample` gives, the file its whole
+/// export writes, byte for byte. The sampler runs twice: first for the samples' bounding box,
+/// which fixes the file's grid as `cloud::io::las::write_las` fixes it from a whole cloud, then
+/// to write them. Each coordinate goes through `+ 0.0` as the whole dataset's does (its
+/// recentring undone), which turns `-0.0` into `0.0` and keeps every other value. Returns the
 /// grid's scale.
-pub fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> Result<f64> {
-    let bar = crate::progress::bar(2 * n as u64, "export: box, then points");
+fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> Result<f64> {
+    let bar = crate::progress::bar((n as u64).saturating_mul(2), "export: box, then points");
     let mut sampler = cloud::sample::SurfaceSampler::new(mesh, seed)?;
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
     let mut batch = Vec::with_capacity(EXPORT_BATCH);
@@ -168,8 +172,9 @@ pub fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> 
         batch.clear();
         sampler.positions_into(k, &mut batch);
         for p in &batch {
-            lo = lo.min(*p);
-            hi = hi.max(*p);
+            let p = *p + DVec3::ZERO;
+            lo = lo.min(p);
+            hi = hi.max(p);
         }
         left -= k;
         bar.inc(k as u64);
@@ -179,6 +184,9 @@ pub fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> 
     let (scale, written) = cloud::io::las::write_las_streamed(out, lo, hi, |batch| {
         let k = left.min(EXPORT_BATCH);
         sampler.positions_into(k, batch);
+        for p in batch.iter_mut() {
+            *p += DVec3::ZERO;
+        }
         left -= k;
         bar.inc(k as u64);
         left > 0

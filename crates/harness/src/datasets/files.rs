@@ -78,9 +78,10 @@ const PLAIN_SAMPLE_MAX_COORD: f64 = (1u128 << 90) as f64;
 /// The mesh and the sample `(n, seed)` of `spec` when it is a plain sample of a mesh file (no
 /// point file, no degradation, at least one point, coordinates within 2^90): [`load_files`]
 /// then gives the sampler's draws (`cloud::sample::SurfaceSampler`) exactly, in world
-/// coordinates (its recentring is lossless and undone exactly; no rescaling applies), so they
-/// can be written as they are drawn instead of held (`pointsight export`). `None` otherwise;
-/// an error when the mesh cannot be read.
+/// coordinates, but for `-0.0`, which comes back as `0.0` (its recentring is lossless and
+/// undone exactly; a rescaling, only ever upwards here, is exact too), so they can be written
+/// as they are drawn instead of held (`pointsight export`). `None` otherwise; an error when
+/// the mesh cannot be read.
 pub fn plain_sample(spec: &FileDataset) -> Result<Option<(TriMesh, usize, u64)>> {
     let (None, Some((n, seed)), Some(path)) = (&spec.cloud, spec.sample, &spec.mesh) else {
         return Ok(None);
