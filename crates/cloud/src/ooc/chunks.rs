@@ -120,6 +120,12 @@ impl Chunks {
         &self.parts
     }
 
+    /// The grid every prepared position lies on (the input's, a LAS or LAZ file's), if any:
+    /// a later pass may keep positions as its integers too.
+    pub fn grid(&self) -> Option<crate::ooc::Grid> {
+        self.layout.grid()
+    }
+
     /// The root part's index.
     pub fn root(&self) -> usize {
         self.root

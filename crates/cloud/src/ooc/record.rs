@@ -35,8 +35,9 @@ pub struct Grid {
 }
 
 impl Grid {
-    /// The integer of `x` on axis `a`, when one gives back exactly `x`.
-    fn integer(&self, a: usize, x: f64) -> Option<i32> {
+    /// The integer of `x` on axis `a`, when one gives back exactly `x`
+    /// ([`Grid::coordinate`]).
+    pub fn integer(&self, a: usize, x: f64) -> Option<i32> {
         let (s, o) = (self.scale[a], self.offset[a]);
         let guess = ((x - o) / s).round();
         if !guess.is_finite() {
@@ -50,7 +51,7 @@ impl Grid {
     }
 
     /// The coordinate of integer `i` on axis `a`.
-    fn coordinate(&self, a: usize, i: i32) -> f64 {
+    pub fn coordinate(&self, a: usize, i: i32) -> f64 {
         self.scale[a] * f64::from(i) + self.offset[a]
     }
 }
@@ -91,6 +92,11 @@ impl Layout {
             colors: records.colors,
             normal,
         }
+    }
+
+    /// The grid the positions are kept on, if any.
+    pub(super) fn grid(&self) -> Option<Grid> {
+        self.grid
     }
 
     fn position_bytes(&self) -> usize {

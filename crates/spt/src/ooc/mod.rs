@@ -24,7 +24,8 @@
 //!    before parents, octants in order), consecutive ones gathered into bins of at most a
 //!    chunk's points;
 //! 4. one pass distributes the points to their bins' files (removing each prepared chunk once
-//!    read);
+//!    read), each as a record of [`record::Layout`] (a LAS or LAZ input's positions as the
+//!    integers of its grid, the colour only where kept: 32 bytes a point instead of 51);
 //! 5. each bin is loaded, its points put back in input order (the points carry their index in
 //!    the input, so they may come in any order), each chunk built in memory, its nodes
 //!    quantised on the global grid and numbered as in the whole arena, and its sibling groups
@@ -63,7 +64,7 @@ use cloud::glam::{DVec3, Vec3};
 use cloud::spill::{Scratch, SpillFile, SpillWriter};
 
 use self::plan::{Cell, Top, mark_chunks, plan};
-use self::record::{DREC, REC, pack, unpack};
+use self::record::{Layout, REC, pack, unpack};
 use crate::Spt;
 use crate::error::{Error, Result};
 use crate::file;
@@ -187,6 +188,9 @@ pub struct Builder {
     tally: Tally,
     rec: Vec<u8>,
     leaf_diameter: f64,
+    /// The layout of the distributed points (positions on the prepared chunks' grid where
+    /// they have one).
+    drec: Layout,
 }
 
 /// Where a build reads its points from, once per pass.
@@ -335,6 +339,10 @@ pub fn build_prepared(
         Some(b) => scratch.fail_after(b),
         None => scratch,
     };
+    let grid = match &input {
+        Input::Prepared(chunks) => chunks.grid(),
+        Input::Pushed(_) | Input::Whole(_) => None,
+    };
     let b = Builder {
         opts: opts.clone(),
         out: out.to_path_buf(),
@@ -344,6 +352,10 @@ pub fn build_prepared(
         tally,
         rec: vec![0; REC],
         leaf_diameter: 0.0,
+        drec: Layout {
+            grid,
+            colors: opts.colors,
+        },
     };
     b.build(input, leaf_diameter, progress)
 }
@@ -371,6 +383,10 @@ impl Builder {
             tally: Tally::default(),
             rec: vec![0; REC],
             leaf_diameter: 0.0,
+            drec: Layout {
+                grid: None,
+                colors: opts.colors,
+            },
         })
     }
 
@@ -586,11 +602,10 @@ impl Builder {
     /// (chunk, input index); a repeated index is an error.
     fn load(&self, file: &SpillFile, start: u64, count: u64) -> Result<Vec<(Point, u32)>> {
         let mut r = file.reader(start, count).map_err(|e| self.io(e))?;
-        let mut buf = vec![0u8; DREC];
+        let mut buf = vec![0u8; self.drec.len()];
         let mut out = Vec::with_capacity(count as usize);
         while r.next_into(&mut buf).map_err(|e| self.io(e))? {
-            let chunk = u32::from_le_bytes(buf[REC..DREC].try_into().unwrap_or([0; 4]));
-            out.push((unpack(&buf), chunk));
+            out.push(self.drec.unpack(&buf));
         }
         out.sort_unstable_by_key(|(p, c)| (*c, p.index));
         if let Some(w) = out.windows(2).find(|w| w[0].0.index == w[1].0.index) {

@@ -6,7 +6,7 @@
 use cloud::glam::{DVec3, Vec3};
 use cloud::spill::SpillFile;
 
-use super::record::{DREC, REC, pack};
+use super::record::DREC;
 use super::{Builder, Input, NONE, Point, REFINE, SMALL_BUFFER, Stage, Tally, internal};
 use crate::error::{Error, Result};
 use crate::hierarchy::{self, COLLAPSE};
@@ -148,11 +148,12 @@ impl Builder {
         bins: u32,
         progress: &mut dyn FnMut(Stage, u64),
     ) -> Result<Vec<SpillFile>> {
+        let layout = self.drec;
         let mut writers = Vec::with_capacity(bins as usize);
         for _ in 0..bins {
             writers.push(
                 self.scratch
-                    .create_buffered(DREC, SMALL_BUFFER)
+                    .create_buffered(layout.len(), SMALL_BUFFER)
                     .map_err(|e| self.io(e))?,
             );
         }
@@ -161,7 +162,6 @@ impl Builder {
         progress(Stage::Distribute, 0);
         self.for_each_point(input, true, |point| {
             let p = point.position;
-            pack(point, &mut buf[..REC]);
             let mut x = 0usize;
             while cells[x].chunk == NONE {
                 let k = cells[x].kids[hierarchy::octant(p, cells[x].center)];
@@ -171,9 +171,16 @@ impl Builder {
                 x = k as usize;
             }
             let c = cells[x].chunk;
-            buf[REC..].copy_from_slice(&c.to_le_bytes());
+            layout.pack(point, c, &mut buf).ok_or_else(|| {
+                internal(&format!(
+                    "point {} at {} is off the prepared points' grid or its index too large",
+                    point.index, point.position
+                ))
+            })?;
             let bin = chunks[c as usize].1 as usize;
-            writers[bin].push(&buf).map_err(|e| self.io(e))?;
+            writers[bin]
+                .push(&buf[..layout.len()])
+                .map_err(|e| self.io(e))?;
             seen += 1;
             if seen.is_multiple_of(1 << 20) {
                 progress(Stage::Distribute, seen);

@@ -1,13 +1,15 @@
 //! A point on disk, as the scratch files hold it: position, normal, colour and input index
-//! ([`REC`] bytes), and a distributed one with its chunk ([`DREC`]).
+//! ([`REC`] bytes, the pushed points' file), and a distributed one with its chunk, laid out by
+//! [`Layout`] to hold only what the build keeps.
 
 use cloud::glam::{DVec3, Vec3};
+use cloud::ooc::Grid;
 
 use super::Point;
 
 /// Bytes of a point on disk: position, normal, colour, input index.
 pub(super) const REC: usize = 24 + 12 + 3 + 8;
-/// A distributed point: the record and its chunk.
+/// The most bytes a distributed point takes ([`Layout::len`]): the record and its chunk.
 pub(super) const DREC: usize = REC + 4;
 
 /// `p` as a record.
@@ -29,5 +31,154 @@ pub(super) fn unpack(b: &[u8]) -> Point {
         normal: Vec3::new(g(24), g(28), g(32)),
         color: [b[36], b[37], b[38]],
         index: u64::from_le_bytes(b[39..47].try_into().unwrap_or([0; 8])),
+    }
+}
+
+/// The layout of a distributed point (step 4 of the module doc): the position as three `f64`,
+/// or as the three `i32` of the grid the prepared points lie on (`cloud::ooc::Chunks::grid`:
+/// a LAS or LAZ input's, each checked to give back the very same `f64`); the normal; the colour
+/// only where the build keeps colours; the input index in 32 bits (a build refuses 2^31 points
+/// or more, `Tally::check`); the chunk. A LAZ point without colour takes 32 bytes instead of
+/// 51, and each is written once and read once.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Layout {
+    pub(super) grid: Option<Grid>,
+    pub(super) colors: bool,
+}
+
+impl Layout {
+    fn position_bytes(&self) -> usize {
+        if self.grid.is_some() { 12 } else { 24 }
+    }
+
+    /// Bytes of a distributed point.
+    pub(super) fn len(&self) -> usize {
+        self.position_bytes() + 12 + if self.colors { 3 } else { 0 } + 4 + 4
+    }
+
+    /// `p` of `chunk` into the first [`Layout::len`] bytes of `b`; `None` when its position is
+    /// off the grid or its index above 32 bits (neither can happen to a prepared point).
+    pub(super) fn pack(&self, p: &Point, chunk: u32, b: &mut [u8; DREC]) -> Option<()> {
+        let mut o = 0;
+        for a in 0..3 {
+            match &self.grid {
+                Some(g) => {
+                    b[o..o + 4].copy_from_slice(&g.integer(a, p.position[a])?.to_le_bytes());
+                    o += 4;
+                }
+                None => {
+                    b[o..o + 8].copy_from_slice(&p.position[a].to_le_bytes());
+                    o += 8;
+                }
+            }
+        }
+        for a in 0..3 {
+            b[o..o + 4].copy_from_slice(&p.normal[a].to_le_bytes());
+            o += 4;
+        }
+        if self.colors {
+            b[o..o + 3].copy_from_slice(&p.color);
+            o += 3;
+        }
+        b[o..o + 4].copy_from_slice(&u32::try_from(p.index).ok()?.to_le_bytes());
+        o += 4;
+        b[o..o + 4].copy_from_slice(&chunk.to_le_bytes());
+        Some(())
+    }
+
+    /// A distributed point and its chunk (the colour zero where the layout keeps none).
+    pub(super) fn unpack(&self, b: &[u8]) -> (Point, u32) {
+        let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
+        let mut o = 0;
+        let mut position = DVec3::ZERO;
+        for a in 0..3 {
+            match &self.grid {
+                Some(g) => {
+                    position[a] = g.coordinate(a, i32::from_le_bytes(word(o)));
+                    o += 4;
+                }
+                None => {
+                    position[a] = f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
+                    o += 8;
+                }
+            }
+        }
+        let mut normal = Vec3::ZERO;
+        for a in 0..3 {
+            normal[a] = f32::from_le_bytes(word(o));
+            o += 4;
+        }
+        let mut color = [0; 3];
+        if self.colors {
+            color.copy_from_slice(&b[o..o + 3]);
+            o += 3;
+        }
+        let index = u64::from(u32::from_le_bytes(word(o)));
+        let chunk = u32::from_le_bytes(word(o + 4));
+        (
+            Point {
+                position,
+                normal,
+                color,
+                index,
+            },
+            chunk,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_distributed_point_comes_back_as_it_went() {
+        let grid = Grid {
+            scale: [0.001, 0.01, 0.25],
+            offset: [512_000.0, -3.5, 7.0],
+        };
+        let p = Point {
+            position: DVec3::new(
+                grid.coordinate(0, 123_456),
+                grid.coordinate(1, -98_765),
+                grid.coordinate(2, i32::MAX),
+            ),
+            normal: Vec3::new(0.25, -0.5, 0.75),
+            color: [1, 2, 3],
+            index: u64::from(u32::MAX),
+        };
+        for (grid, colors, len) in [
+            (None, true, 47),
+            (None, false, 44),
+            (Some(grid), true, 35),
+            (Some(grid), false, 32),
+        ] {
+            let layout = Layout { grid, colors };
+            assert_eq!(layout.len(), len);
+            let mut b = [0u8; DREC];
+            layout.pack(&p, 77, &mut b).unwrap();
+            let (q, chunk) = layout.unpack(&b[..layout.len()]);
+            assert_eq!(chunk, 77);
+            assert_eq!(
+                q.position.to_array().map(f64::to_bits),
+                p.position.to_array().map(f64::to_bits)
+            );
+            assert_eq!((q.normal, q.index), (p.normal, p.index));
+            assert_eq!(q.color, if colors { p.color } else { [0; 3] });
+        }
+        let layout = Layout {
+            grid: Some(grid),
+            colors: false,
+        };
+        let off = Point {
+            position: DVec3::new(512_000.000_5, 0.0, 7.0),
+            ..p
+        };
+        assert!(layout.pack(&off, 0, &mut [0; DREC]).is_none());
+        let wide = Point {
+            index: 1 << 32,
+            ..p
+        };
+        assert!(layout.pack(&wide, 0, &mut [0; DREC]).is_none());
     }
 }

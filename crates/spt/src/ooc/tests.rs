@@ -242,6 +242,17 @@ fn from_prepared(
     opts: &Options,
     out: &Path,
 ) -> Result<(Summary, u64)> {
+    from_prepared_records(pts, prep_chunk, opts, out, cloud::ooc::Records::default())
+}
+
+/// [`from_prepared`] with the preparation's records kept as `records` says (a grid).
+fn from_prepared_records(
+    pts: &[Point],
+    prep_chunk: u64,
+    opts: &Options,
+    out: &Path,
+    records: cloud::ooc::Records,
+) -> Result<(Summary, u64)> {
     let mut sorted = pts.to_vec();
     sorted.sort_by_key(|p| p.index);
     let mut at = 0;
@@ -260,7 +271,7 @@ fn from_prepared(
         bytes_per_point: PREPARE_BYTES_PER_POINT,
         normals: cloud::ooc::Normals::Given,
         radius: cloud::ooc::Radius::Fixed(0.002),
-        records: cloud::ooc::Records::default(),
+        records,
         fail_after_bytes: opts.fail_after_bytes,
     };
     let (prepared, summary) = cloud::ooc::prepare(&mut source, &prep, out, &mut |_, _| {})?;
@@ -314,6 +325,46 @@ fn prepared_chunks_read_where_they_lie_give_the_same_bytes() {
                     pushed.scratch_peak_bytes as f64 / n as f64,
                 );
             }
+        }
+    }
+}
+
+#[test]
+fn points_on_the_inputs_grid_are_distributed_as_its_integers() {
+    // The cloud on a LAS-like grid (every position `scale * i + offset`, exactly).
+    let grid = cloud::ooc::Grid {
+        scale: [2f64.powi(-24), 3e-7, 2f64.powi(-23)],
+        offset: [0.125, -0.25, 0.5],
+    };
+    let mut pts = cloud(40_000, 12);
+    for p in &mut pts {
+        for a in 0..3 {
+            let i = ((p.position[a] - grid.offset[a]) / grid.scale[a]).round() as i32;
+            p.position[a] = grid.coordinate(a, i);
+        }
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.spt");
+    let n = pts.len() as u64;
+    for colors in [true, false] {
+        let want = file::to_bytes(&in_memory_spt(&pts, colors));
+        for (prep_chunk, chunk) in [(MIN_CHUNK, 9_000), (9_000, MIN_CHUNK)] {
+            let mut written = Vec::new();
+            for g in [None, Some(grid)] {
+                let records = cloud::ooc::Records { grid: g, colors };
+                let (s, prep_bytes) =
+                    from_prepared_records(&pts, prep_chunk, &options(chunk, colors), &out, records)
+                        .unwrap();
+                assert_eq!(
+                    std::fs::read(&out).unwrap(),
+                    want,
+                    "{g:?} {prep_chunk}/{chunk}"
+                );
+                assert!(s.chunks >= 4, "{s:?}");
+                written.push(s.scratch_bytes - prep_bytes);
+            }
+            // Each point is distributed once: 12 bytes of position instead of 24.
+            assert_eq!(written[0] - written[1], 12 * n, "{written:?}");
         }
     }
 }
