@@ -51,8 +51,7 @@ use glam::{DVec3, Vec3};
 use self::chunks::Set;
 pub use self::chunks::{Chunks, Part, PartKind, Points};
 use self::error::{Error, Result};
-pub use self::record::{Grid, Records};
-use self::record::{Layout, REC};
+pub use self::record::{Grid, Layout, REC, Records};
 use crate::spill::Scratch;
 
 /// Bytes of the reserve in use while the orientation's guide is built (the sample, the tree of

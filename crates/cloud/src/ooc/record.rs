@@ -22,7 +22,7 @@ use super::error::{Error, Result};
 
 /// The most bytes a record takes (position as `f64`, colour, index, normal): the size of the
 /// buffers records are read into.
-pub(super) const REC: usize = 24 + 3 + 4 + 12;
+pub const REC: usize = 24 + 3 + 4 + 12;
 
 /// The grid an input's positions lie on: along each axis, `scale · i + offset` for an `i32`
 /// `i` (LAS's point records, as the `las` crate decodes them).
@@ -78,7 +78,7 @@ impl Default for Records {
 
 /// The layout of the records of one preparation.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub(super) struct Layout {
+pub struct Layout {
     grid: Option<Grid>,
     colors: bool,
     normal: bool,
@@ -86,7 +86,7 @@ pub(super) struct Layout {
 
 impl Layout {
     /// The layout for `records`, with the normal where `normal` (given normals).
-    pub(super) fn new(records: Records, normal: bool) -> Self {
+    pub fn new(records: Records, normal: bool) -> Self {
         Layout {
             grid: records.grid,
             colors: records.colors,
@@ -104,16 +104,21 @@ impl Layout {
     }
 
     /// Bytes of a record.
-    pub(super) fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.position_bytes()
             + if self.colors { 3 } else { 0 }
             + 4
             + if self.normal { 12 } else { 0 }
     }
 
+    /// Never: a record holds at least its index.
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
     /// `p`, point `index` of the input (below 2^32: the caller checks), as a record in the
     /// first [`Layout::len`] bytes of `b`; an error when its position is off the grid.
-    pub(super) fn pack(&self, p: &Point, index: u32, b: &mut [u8; REC]) -> Result<()> {
+    pub fn pack(&self, p: &Point, index: u32, b: &mut [u8; REC]) -> Result<()> {
         let mut o = 0;
         match &self.grid {
             Some(g) => {
@@ -156,7 +161,7 @@ impl Layout {
 
     /// A record's point and input index (the normal zero where the layout has none, the
     /// colour zero where it keeps none).
-    pub(super) fn unpack(&self, b: &[u8; REC]) -> (Point, u64) {
+    pub fn unpack(&self, b: &[u8; REC]) -> (Point, u64) {
         let position = self.position_of(b);
         let mut o = self.position_bytes();
         let mut color = [0; 3];

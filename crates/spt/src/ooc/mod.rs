@@ -352,10 +352,7 @@ pub fn build_prepared(
         tally,
         rec: vec![0; REC],
         leaf_diameter: 0.0,
-        drec: Layout {
-            grid,
-            colors: opts.colors,
-        },
+        drec: Layout::new(grid, opts.colors),
     };
     b.build(input, leaf_diameter, progress)
 }
@@ -383,10 +380,7 @@ impl Builder {
             tally: Tally::default(),
             rec: vec![0; REC],
             leaf_diameter: 0.0,
-            drec: Layout {
-                grid: None,
-                colors: opts.colors,
-            },
+            drec: Layout::new(None, opts.colors),
         })
     }
 

@@ -34,92 +34,60 @@ pub(super) fn unpack(b: &[u8]) -> Point {
     }
 }
 
-/// The layout of a distributed point (step 4 of the module doc): the position as three `f64`,
-/// or as the three `i32` of the grid the prepared points lie on (`cloud::ooc::Chunks::grid`:
-/// a LAS or LAZ input's, each checked to give back the very same `f64`); the normal; the colour
-/// only where the build keeps colours; the input index in 32 bits (a build refuses 2^31 points
-/// or more, `Tally::check`); the chunk. A LAZ point without colour takes 32 bytes instead of
-/// 51, and each is written once and read once.
+/// The layout of a distributed point (step 4 of the module doc): the preparation's own record
+/// (`cloud::ooc::Layout`: the position as three `f64`, or as the three `i32` of the grid the
+/// prepared points lie on, `cloud::ooc::Chunks::grid`, each checked to give back the very same
+/// `f64`; the colour only where the build keeps colours; the input index in 32 bits, as a build
+/// refuses 2^31 points or more, `Tally::check`; the normal), then the chunk. A LAZ point
+/// without colour takes 32 bytes instead of 51, and each is written once and read once.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct Layout {
-    pub(super) grid: Option<Grid>,
-    pub(super) colors: bool,
+    record: cloud::ooc::Layout,
 }
 
 impl Layout {
-    fn position_bytes(&self) -> usize {
-        if self.grid.is_some() { 12 } else { 24 }
+    /// Positions on `grid` where given, colours where `colors`.
+    pub(super) fn new(grid: Option<Grid>, colors: bool) -> Self {
+        Layout {
+            record: cloud::ooc::Layout::new(cloud::ooc::Records { grid, colors }, true),
+        }
     }
 
     /// Bytes of a distributed point.
     pub(super) fn len(&self) -> usize {
-        self.position_bytes() + 12 + if self.colors { 3 } else { 0 } + 4 + 4
+        self.record.len() + 4
     }
 
     /// `p` of `chunk` into the first [`Layout::len`] bytes of `b`; `None` when its position is
     /// off the grid or its index above 32 bits (neither can happen to a prepared point).
     pub(super) fn pack(&self, p: &Point, chunk: u32, b: &mut [u8; DREC]) -> Option<()> {
-        let mut o = 0;
-        for a in 0..3 {
-            match &self.grid {
-                Some(g) => {
-                    b[o..o + 4].copy_from_slice(&g.integer(a, p.position[a])?.to_le_bytes());
-                    o += 4;
-                }
-                None => {
-                    b[o..o + 8].copy_from_slice(&p.position[a].to_le_bytes());
-                    o += 8;
-                }
-            }
-        }
-        for a in 0..3 {
-            b[o..o + 4].copy_from_slice(&p.normal[a].to_le_bytes());
-            o += 4;
-        }
-        if self.colors {
-            b[o..o + 3].copy_from_slice(&p.color);
-            o += 3;
-        }
-        b[o..o + 4].copy_from_slice(&u32::try_from(p.index).ok()?.to_le_bytes());
-        o += 4;
-        b[o..o + 4].copy_from_slice(&chunk.to_le_bytes());
+        let point = cloud::ooc::Point {
+            position: p.position,
+            normal: p.normal,
+            color: p.color,
+        };
+        let mut rec = [0u8; cloud::ooc::REC];
+        self.record
+            .pack(&point, u32::try_from(p.index).ok()?, &mut rec)
+            .ok()?;
+        let n = self.record.len();
+        b[..n].copy_from_slice(&rec[..n]);
+        b[n..n + 4].copy_from_slice(&chunk.to_le_bytes());
         Some(())
     }
 
     /// A distributed point and its chunk (the colour zero where the layout keeps none).
     pub(super) fn unpack(&self, b: &[u8]) -> (Point, u32) {
-        let word = |o: usize| [b[o], b[o + 1], b[o + 2], b[o + 3]];
-        let mut o = 0;
-        let mut position = DVec3::ZERO;
-        for a in 0..3 {
-            match &self.grid {
-                Some(g) => {
-                    position[a] = g.coordinate(a, i32::from_le_bytes(word(o)));
-                    o += 4;
-                }
-                None => {
-                    position[a] = f64::from_le_bytes(b[o..o + 8].try_into().unwrap_or([0; 8]));
-                    o += 8;
-                }
-            }
-        }
-        let mut normal = Vec3::ZERO;
-        for a in 0..3 {
-            normal[a] = f32::from_le_bytes(word(o));
-            o += 4;
-        }
-        let mut color = [0; 3];
-        if self.colors {
-            color.copy_from_slice(&b[o..o + 3]);
-            o += 3;
-        }
-        let index = u64::from(u32::from_le_bytes(word(o)));
-        let chunk = u32::from_le_bytes(word(o + 4));
+        let n = self.record.len();
+        let mut rec = [0u8; cloud::ooc::REC];
+        rec[..n].copy_from_slice(&b[..n]);
+        let (p, index) = self.record.unpack(&rec);
+        let chunk = u32::from_le_bytes([b[n], b[n + 1], b[n + 2], b[n + 3]]);
         (
             Point {
-                position,
-                normal,
-                color,
+                position: p.position,
+                normal: p.normal,
+                color: p.color,
                 index,
             },
             chunk,
@@ -153,7 +121,7 @@ mod tests {
             (Some(grid), true, 35),
             (Some(grid), false, 32),
         ] {
-            let layout = Layout { grid, colors };
+            let layout = Layout::new(grid, colors);
             assert_eq!(layout.len(), len);
             let mut b = [0u8; DREC];
             layout.pack(&p, 77, &mut b).unwrap();
@@ -166,10 +134,7 @@ mod tests {
             assert_eq!((q.normal, q.index), (p.normal, p.index));
             assert_eq!(q.color, if colors { p.color } else { [0; 3] });
         }
-        let layout = Layout {
-            grid: Some(grid),
-            colors: false,
-        };
+        let layout = Layout::new(Some(grid), false);
         let off = Point {
             position: DVec3::new(512_000.000_5, 0.0, 7.0),
             ..p
