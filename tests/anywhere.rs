@@ -559,6 +559,69 @@ fn run_visibility_on_your_files_gives_the_manifest_routes_rows() {
     );
 }
 
+/// `run scale` on a manifest dataset, the manifest and the methods folder given by flag from
+/// a folder of their own: the cells (child processes) read the same manifest and methods as
+/// the run (they knew neither: every row was "unknown dataset"), and the dataset's mesh is read
+/// alone (a sample of 10^12 points was refused as 61.8 TiB before any cell ran).
+#[test]
+fn run_scale_on_a_manifest_dataset_reaches_its_cells() {
+    let s = Sandbox::new();
+    write_scene(&s.work);
+    std::fs::write(
+        s.work.join("m.toml"),
+        "[datasets.scene]\nmesh = \"scene.off\"\nsample = { n = 1000000000000, seed = 1 }\n",
+    )
+    .unwrap();
+    // A methods folder of one method under a name no other folder has (and the protocol
+    // module the methods share).
+    let installed = s.prefix.join("share/pointsight/methods");
+    for (from, to) in [("example-zbuffer", "my-zbuffer"), ("_shared", "_shared")] {
+        let to = s.root.join("my-methods").join(to);
+        std::fs::create_dir_all(&to).unwrap();
+        for f in std::fs::read_dir(installed.join(from)).unwrap() {
+            let f = f.unwrap().path();
+            if f.is_file() {
+                std::fs::copy(&f, to.join(f.file_name().unwrap())).unwrap();
+            }
+        }
+    }
+    let sub = s.work.join("sub");
+    std::fs::create_dir_all(&sub).unwrap();
+    let methods = s.root.join("my-methods");
+    ok(&s.run_in(
+        &sub,
+        &[
+            "run",
+            "scale",
+            "--quick",
+            "--max-points",
+            "10000",
+            "--manifest",
+            "../m.toml",
+            "--methods-dir",
+            methods.to_str().unwrap(),
+            "--datasets",
+            "scene",
+            "--out",
+            "out",
+        ],
+    ));
+    let rows = rows_without(&sub.join("out/results.csv"), &[]);
+    let status = |m: &str| {
+        rows.iter()
+            .find(|r| r[0] == m)
+            .map(|r| r[4].clone())
+            .unwrap_or_else(|| panic!("no {m} row: {rows:?}"))
+    };
+    for m in ["hpr", "qsplat-build", "my-zbuffer"] {
+        assert_eq!(status(m), "ok", "{m}: {rows:?}");
+    }
+    assert!(
+        rows.iter().all(|r| r[1] == "10000" && r[4] == "ok"),
+        "every cell at 10^4 points ran: {rows:?}"
+    );
+}
+
 #[test]
 fn run_lod_takes_four_views_or_one_and_no_seed_table() {
     let s = Sandbox::new();

@@ -51,6 +51,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         cli.manifest.as_deref(),
     )?);
     let methods = paths::methods_dir(cli.methods_dir, clone.as_deref());
+    paths::use_methods_dir(methods.path.clone());
     match methods.warning() {
         // Said where methods matter; the scale experiment's cells are its children, which
         // the parent has warned for.

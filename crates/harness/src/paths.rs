@@ -42,6 +42,7 @@
 //! the same wherever its clone went.
 
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 use anyhow::{Result, bail};
 
@@ -205,6 +206,20 @@ pub fn methods_dir(given: Option<PathBuf>, clone: Option<&Path>) -> Place {
             .join("methods"),
         origin: Origin::Installed,
     }
+}
+
+/// The methods folder this process resolved ([`methods_dir`]), set once at start.
+static METHODS_IN_USE: OnceLock<PathBuf> = OnceLock::new();
+
+/// Records `path` as this process's methods folder (a second call keeps the first).
+pub fn use_methods_dir(path: PathBuf) {
+    let _ = METHODS_IN_USE.set(path);
+}
+
+/// The methods folder this process resolved, when [`use_methods_dir`] was called: what a
+/// child process of the same run must use too (the `scale` experiment's cells).
+pub fn methods_in_use() -> Option<&'static Path> {
+    METHODS_IN_USE.get().map(PathBuf::as_path)
 }
 
 /// The reports folder of a run without `--out`/`--reports`: `reports/` (`reports-quick/` for

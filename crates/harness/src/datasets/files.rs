@@ -100,6 +100,32 @@ pub fn plain_sample(spec: &FileDataset) -> Result<Option<(TriMesh, usize, u64)>>
     Ok(Some((mesh, n, seed)))
 }
 
+/// The mesh of `spec` alone, without reading its cloud file or drawing its sample (which may
+/// be far larger than memory): recentred by its own lossless offset and rescaled by a power of
+/// two where its coordinates are at the ends of the f64 range, as [`load_files`] treats a
+/// dataset's mesh. Its frame may differ from the loaded dataset's by that exact translation
+/// (the dataset's offset comes from its points), never in shape. An error when the dataset has
+/// no mesh or the mesh cannot be read.
+pub fn load_mesh(spec: &FileDataset) -> Result<TriMesh> {
+    let path = spec
+        .mesh
+        .as_ref()
+        .with_context(|| format!("dataset {} has no mesh", spec.name))?;
+    let mut mesh = read_mesh(path)?;
+    let origin = cloud::recentre::exact_offset(&mesh.vertices);
+    cloud::recentre::shift(&mut mesh.vertices, origin);
+    let coords = mesh.vertices.iter().flat_map(|p| p.to_array());
+    let scale = hull::exact_rescale(coords)
+        .with_context(|| format!("dataset {}", spec.name))?
+        .unwrap_or((1.0, 1.0));
+    if scale != (1.0, 1.0) {
+        for p in &mut mesh.vertices {
+            *p = *p * scale.0 * scale.1;
+        }
+    }
+    Ok(mesh)
+}
+
 /// Loads a dataset made of user files, recentred without loss.
 pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
     let mut files = Vec::new();

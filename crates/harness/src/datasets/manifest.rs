@@ -400,4 +400,57 @@ mod tests {
         );
         assert!(err.contains("unknown degradation \"blur\""), "{err}");
     }
+
+    #[test]
+    fn a_datasets_mesh_is_read_alone_without_its_sample_or_cloud() {
+        use crate::datasets::files::{load_files, load_mesh};
+        use cloud::glam::DVec3;
+        let dir = tempfile::tempdir().unwrap();
+        // A georeferenced mesh: every shift below must be exact for the shapes to be equal.
+        let at = DVec3::new(512_000.0, 4_194_304.0, 96.0);
+        let mesh = cloud::synth::sphere_scene(100).mesh;
+        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
+        for v in &mesh.vertices {
+            let w = *v + at;
+            off.push_str(&format!("{} {} {}\n", w.x, w.y, w.z));
+        }
+        for t in &mesh.triangles {
+            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+        }
+        std::fs::write(dir.path().join("ball.off"), off).unwrap();
+        let file = crate::datasets::read_mesh(&dir.path().join("ball.off")).unwrap();
+        let path = dir.path().join("m.toml");
+        std::fs::write(
+            &path,
+            "[datasets.huge]\nmesh = \"ball.off\"\nsample = { n = 1000000000000, seed = 1 }\n\
+             [datasets.scan]\nmesh = \"ball.off\"\ncloud = \"missing.ply\"\n\
+             [datasets.small]\nmesh = \"ball.off\"\nsample = { n = 2000, seed = 1 }\n\
+             [datasets.points]\ncloud = \"missing.ply\"\n",
+        )
+        .unwrap();
+        let m = Manifest::read(&path).unwrap();
+        let spec = |name: &str| manifest_dataset(&m, name, &m.datasets[name]).unwrap();
+        // The same shape as the file's, recentred: only a translation apart.
+        let same_shape = |got: &cloud::TriMesh| {
+            assert_eq!(got.triangles, file.triangles);
+            let d = file.vertices[0] - got.vertices[0];
+            assert!(d.length() > 1e6, "recentred: {d}");
+            assert!(
+                got.vertices
+                    .iter()
+                    .zip(&file.vertices)
+                    .all(|(g, f)| *g + d == *f)
+            );
+        };
+        // 10^12 points would be refused by the memory guard; the mesh alone is not.
+        same_shape(&load_mesh(&spec("huge")).unwrap());
+        // Its cloud file is never opened.
+        same_shape(&load_mesh(&spec("scan")).unwrap());
+        // The loaded dataset's mesh has the same shape.
+        let small = load_files(&spec("small")).unwrap();
+        same_shape(&load_mesh(&spec("small")).unwrap());
+        same_shape(small.mesh.as_ref().unwrap());
+        let err = format!("{:#}", load_mesh(&spec("points")).unwrap_err());
+        assert!(err.contains("dataset points has no mesh"), "{err}");
+    }
 }

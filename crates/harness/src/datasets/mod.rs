@@ -45,6 +45,12 @@ fn manifest() -> Option<&'static Manifest> {
     MANIFEST.get().and_then(Option::as_ref)
 }
 
+/// The file of this process's manifest, as given (`None` without one): what a child process
+/// of the same run must read too (the `scale` experiment's cells).
+pub fn manifest_path() -> Option<&'static Path> {
+    manifest().map(|m| m.path.as_path())
+}
+
 /// The names of every dataset: built-in, then the manifest's.
 pub fn names() -> Vec<String> {
     let mut out: Vec<String> = REGISTRY.iter().map(|d| d.name.to_owned()).collect();
@@ -270,12 +276,22 @@ pub fn plain_sample(name: &str) -> Result<Option<(TriMesh, usize, u64)>> {
     files::plain_sample(&spec).with_context(|| format!("dataset {name} of {}", m.path.display()))
 }
 
-/// The mesh of dataset `name` alone (without sampling its cloud, where that can be avoided).
+/// The mesh of dataset `name` alone: neither its cloud file nor its sample is read or drawn,
+/// so a `scale` cell's peak holds only what it measures and a sample larger than memory is no
+/// obstacle. A manifest's mesh comes from [`files::load_mesh`] (recentred by its own exact
+/// offset), a built-in dataset's as its file has it.
 pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
-    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
-        return load(name, data_dir)?
-            .mesh
-            .with_context(|| format!("dataset {name} has no mesh"));
+    if let Some(m) = manifest()
+        && let Some(e) = m.datasets.get(name)
+    {
+        if e.lod_file.is_some() {
+            bail!(
+                "dataset {name} of {} is a built QSplat file (lod_file), not a mesh",
+                m.path.display()
+            );
+        }
+        return files::load_mesh(&manifest_dataset(m, name, e)?)
+            .with_context(|| format!("dataset {name} of {}", m.path.display()));
     }
     builtin::load_mesh_of(info(name)?, data_dir)
 }

@@ -176,11 +176,24 @@ fn run_child(
         n,
         setting: setting.label(),
     };
-    let child = Command::new(exe)
+    let mut command = Command::new(exe);
+    command
         .arg(SUBCOMMAND)
         .args(args.to_args())
         .arg("--data-dir")
-        .arg(data_dir)
+        .arg(data_dir);
+    // The run's manifest and methods folder, whether given by flag, variable or found: by the
+    // variables `pointsight` reads (a program that embeds the registry has no such flags),
+    // absolute (the child's working directory is the parent's, but need not stay so).
+    for (var, path) in [
+        ("POINTSIGHT_MANIFEST", crate::datasets::manifest_path()),
+        ("POINTSIGHT_METHODS", crate::paths::methods_in_use()),
+    ] {
+        if let Some(p) = path {
+            command.env(var, std::path::absolute(p).unwrap_or_else(|_| p.to_owned()));
+        }
+    }
+    let child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn();
