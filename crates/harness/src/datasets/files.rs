@@ -100,17 +100,20 @@ pub fn plain_sample(spec: &FileDataset) -> Result<Option<(TriMesh, usize, u64)>>
     Ok(Some((mesh, n, seed)))
 }
 
-/// The mesh of `spec` alone, without reading its cloud file or drawing its sample (which may
-/// be far larger than memory): recentred by its own lossless offset and rescaled by a power of
-/// two where its coordinates are at the ends of the f64 range, as [`load_files`] treats a
-/// dataset's mesh. Its frame may differ from the loaded dataset's by that exact translation
-/// (the dataset's offset comes from its points), never in shape. An error when the dataset has
-/// no mesh or the mesh cannot be read.
-pub fn load_mesh(spec: &FileDataset) -> Result<TriMesh> {
+/// The mesh of `spec` alone, with its file's checksum for the run's record, without reading
+/// the cloud file or drawing the sample (which may be far larger than memory): recentred by its
+/// own lossless offset and rescaled by a power of two where its coordinates are at the ends of
+/// the f64 range, as [`load_files`] treats a dataset's mesh. Its frame may differ from the
+/// loaded dataset's by that exact translation (the dataset's offset comes from its points) and,
+/// at the ends of the f64 range only, by a power-of-two scale (chosen here from the mesh alone,
+/// there from the points and the mesh); never in shape. An error when the dataset has no mesh
+/// or the mesh cannot be read.
+pub fn load_mesh(spec: &FileDataset) -> Result<(TriMesh, SourceFile)> {
     let path = spec
         .mesh
         .as_ref()
         .with_context(|| format!("dataset {} has no mesh", spec.name))?;
+    let file = sha256_of(path)?;
     let mut mesh = read_mesh(path)?;
     let origin = cloud::recentre::exact_offset(&mesh.vertices);
     cloud::recentre::shift(&mut mesh.vertices, origin);
@@ -123,7 +126,7 @@ pub fn load_mesh(spec: &FileDataset) -> Result<TriMesh> {
             *p = *p * scale.0 * scale.1;
         }
     }
-    Ok(mesh)
+    Ok((mesh, file))
 }
 
 /// Loads a dataset made of user files, recentred without loss.

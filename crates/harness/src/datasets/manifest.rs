@@ -408,7 +408,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // A georeferenced mesh: every shift below must be exact for the shapes to be equal.
         let at = DVec3::new(512_000.0, 4_194_304.0, 96.0);
-        let mesh = cloud::synth::sphere_scene(100).mesh;
+        let mesh = cloud::synth::icosphere(2);
         let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
         for v in &mesh.vertices {
             let w = *v + at;
@@ -418,7 +418,7 @@ mod tests {
             off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
         }
         std::fs::write(dir.path().join("ball.off"), off).unwrap();
-        let file = crate::datasets::read_mesh(&dir.path().join("ball.off")).unwrap();
+        let file = crate::datasets::files::read_mesh(&dir.path().join("ball.off")).unwrap();
         let path = dir.path().join("m.toml");
         std::fs::write(
             &path,
@@ -443,12 +443,14 @@ mod tests {
             );
         };
         // 10^12 points would be refused by the memory guard; the mesh alone is not.
-        same_shape(&load_mesh(&spec("huge")).unwrap());
+        let (huge, file_record) = load_mesh(&spec("huge")).unwrap();
+        same_shape(&huge);
+        assert_eq!(file_record.sha256.len(), 64);
         // Its cloud file is never opened.
-        same_shape(&load_mesh(&spec("scan")).unwrap());
+        same_shape(&load_mesh(&spec("scan")).unwrap().0);
         // The loaded dataset's mesh has the same shape.
         let small = load_files(&spec("small")).unwrap();
-        same_shape(&load_mesh(&spec("small")).unwrap());
+        same_shape(&load_mesh(&spec("small")).unwrap().0);
         same_shape(small.mesh.as_ref().unwrap());
         let err = format!("{:#}", load_mesh(&spec("points")).unwrap_err());
         assert!(err.contains("dataset points has no mesh"), "{err}");

@@ -276,11 +276,12 @@ pub fn plain_sample(name: &str) -> Result<Option<(TriMesh, usize, u64)>> {
     files::plain_sample(&spec).with_context(|| format!("dataset {name} of {}", m.path.display()))
 }
 
-/// The mesh of dataset `name` alone: neither its cloud file nor its sample is read or drawn,
-/// so a `scale` cell's peak holds only what it measures and a sample larger than memory is no
-/// obstacle. A manifest's mesh comes from [`files::load_mesh`] (recentred by its own exact
-/// offset), a built-in dataset's as its file has it.
-pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
+/// The mesh of dataset `name` alone, with the user's file it came from (none for a built-in
+/// dataset): neither its cloud file nor its sample is read or drawn, so a `scale` cell's peak
+/// holds only what it measures and a sample larger than memory is no obstacle. A manifest's
+/// mesh comes from [`files::load_mesh`] (recentred by its own exact offset), a built-in
+/// dataset's as its file has it.
+pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<(TriMesh, Vec<SourceFile>)> {
     if let Some(m) = manifest()
         && let Some(e) = m.datasets.get(name)
     {
@@ -291,9 +292,10 @@ pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<TriMesh> {
             );
         }
         return files::load_mesh(&manifest_dataset(m, name, e)?)
+            .map(|(mesh, file)| (mesh, vec![file]))
             .with_context(|| format!("dataset {name} of {}", m.path.display()));
     }
-    builtin::load_mesh_of(info(name)?, data_dir)
+    Ok((builtin::load_mesh_of(info(name)?, data_dir)?, Vec::new()))
 }
 
 #[cfg(test)]

@@ -38,7 +38,7 @@ pub fn cell(
         seconds
     };
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
-    let mesh = crate::datasets::load_mesh_of(dataset, data_dir)?;
+    let (mesh, _) = crate::datasets::load_mesh_of(dataset, data_dir)?;
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
     let cam = cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default())?[0];
     if let Some(m) = method.strip_suffix(OOC_SUFFIX) {

@@ -87,7 +87,8 @@ pub fn run_in_this_process(args: &CellArgs, data_dir: &Path) -> Result<()> {
 /// first) ask for a scale cell, runs it ([`run_in_this_process`]) and returns the exit code;
 /// else `None`. `pointsight` reaches it through its own command line; a program that embeds
 /// the registry, registers its own methods and runs the scale experiment (whose cells re-run
-/// the current executable) calls it first thing in `main`, after registering.
+/// the current executable) calls it first thing in `main`, after registering; the run's
+/// manifest reaches it as `POINTSIGHT_MANIFEST` (read here unless the program set its own).
 pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
     let rest = args.get(1..)?;
     if rest.first().map(String::as_str) != Some(SUBCOMMAND) {
@@ -95,6 +96,12 @@ pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
     }
     let run = || -> Result<()> {
         let line = EntryLine::try_parse_from(rest)?;
+        // The parent run's manifest (a program's own, set before, is kept).
+        if let Some(p) = std::env::var_os("POINTSIGHT_MANIFEST").filter(|p| !p.is_empty()) {
+            crate::datasets::use_manifest(crate::datasets::manifest::Manifest::discover(Some(
+                Path::new(&p),
+            ))?);
+        }
         let data_dir = line.data_dir.as_deref().unwrap_or(data_dir);
         run_in_this_process(&line.cell, data_dir)
     };
@@ -176,21 +183,23 @@ fn run_child(
         n,
         setting: setting.label(),
     };
+    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
     let mut command = Command::new(exe);
     command
         .arg(SUBCOMMAND)
         .args(args.to_args())
         .arg("--data-dir")
-        .arg(data_dir);
-    // The run's manifest and methods folder, whether given by flag, variable or found: by the
-    // variables `pointsight` reads (a program that embeds the registry has no such flags),
-    // absolute (the child's working directory is the parent's, but need not stay so).
+        .arg(absolute(data_dir));
+    // The run's manifest and methods folder, whether given by flag, variable or found, as the
+    // variables `pointsight` reads ([`cell_entry`] reads the manifest's too; a program that
+    // embeds the registry has no such flags); every path absolute, so that the child does not
+    // depend on its working directory.
     for (var, path) in [
         ("POINTSIGHT_MANIFEST", crate::datasets::manifest_path()),
         ("POINTSIGHT_METHODS", crate::paths::methods_in_use()),
     ] {
         if let Some(p) = path {
-            command.env(var, std::path::absolute(p).unwrap_or_else(|_| p.to_owned()));
+            command.env(var, absolute(p));
         }
     }
     let child = command

@@ -83,12 +83,14 @@ impl Experiment for ScaleExperiment {
 
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         // One mesh (the first dataset's; by default the dragon): the cells sample it
-        // themselves. Fail early when it is missing.
+        // themselves. Fail early when it is missing; a user's mesh file goes into the run's
+        // record with its checksum.
         let dataset = ctx
             .datasets
             .first()
             .context("scale needs a dataset with a mesh")?;
-        crate::datasets::load_mesh_of(dataset, &ctx.data_dir)?;
+        let (_, files) = crate::datasets::load_mesh_of(dataset, &ctx.data_dir)?;
+        ctx.record_files(&files);
         let cap = Duration::from_secs(if ctx.quick { 30 } else { 40 });
         let in_core_sizes = sizes(ctx.quick, ctx.max_points);
         let ooc_sizes = ooc_sizes(ctx.quick, ctx.max_points);
