@@ -117,16 +117,27 @@ pub fn load_mesh(spec: &FileDataset) -> Result<(TriMesh, SourceFile)> {
     let mut mesh = read_mesh(path)?;
     let origin = cloud::recentre::exact_offset(&mesh.vertices);
     cloud::recentre::shift(&mut mesh.vertices, origin);
-    let coords = mesh.vertices.iter().flat_map(|p| p.to_array());
+    rescale_exactly(&spec.name, &mut [&mut mesh.vertices])?;
+    Ok((mesh, file))
+}
+
+/// Rescales every point of `sets` by the one power-of-two factor pair `hull::exact_rescale`
+/// chooses over all their coordinates (where they are at the ends of the f64 range; exact),
+/// and returns it (`(1, 1)`: unchanged).
+fn rescale_exactly(name: &str, sets: &mut [&mut [DVec3]]) -> Result<(f64, f64)> {
+    let coords = sets
+        .iter()
+        .flat_map(|s| s.iter())
+        .flat_map(|p| p.to_array());
     let scale = hull::exact_rescale(coords)
-        .with_context(|| format!("dataset {}", spec.name))?
+        .with_context(|| format!("dataset {name}"))?
         .unwrap_or((1.0, 1.0));
     if scale != (1.0, 1.0) {
-        for p in &mut mesh.vertices {
+        for p in sets.iter_mut().flat_map(|s| s.iter_mut()) {
             *p = *p * scale.0 * scale.1;
         }
     }
-    Ok((mesh, file))
+    Ok(scale)
 }
 
 /// Loads a dataset made of user files, recentred without loss.
@@ -168,25 +179,11 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         m
     });
     // Rescale: coordinates at the ends of the f64 range, by a power of two, exactly.
-    let coords = cloud
-        .positions
-        .iter()
-        .chain(mesh.iter().flat_map(|m| m.vertices.iter()))
-        .flat_map(|p| p.to_array());
-    let scale = hull::exact_rescale(coords)
-        .with_context(|| format!("dataset {}", spec.name))?
-        .unwrap_or((1.0, 1.0));
-    if scale != (1.0, 1.0) {
-        let (f1, f2) = scale;
-        for p in &mut cloud.positions {
-            *p = *p * f1 * f2;
-        }
-        if let Some(m) = mesh.as_mut() {
-            for p in &mut m.vertices {
-                *p = *p * f1 * f2;
-            }
-        }
+    let mut sets: Vec<&mut [DVec3]> = vec![&mut cloud.positions];
+    if let Some(m) = mesh.as_mut() {
+        sets.push(&mut m.vertices);
     }
+    let scale = rescale_exactly(&spec.name, &mut sets)?;
     let from_world = |c: &Camera| c.translated(origin).scaled(scale.0).scaled(scale.1);
     // Degrade (after rescaling: the steps' lengths are relative to the cloud).
     let (mut truth_positions, mut outliers) = (None, None);
