@@ -358,20 +358,26 @@ mod tests {
         }
     }
 
+    /// Writes `mesh`, moved by `shift`, as an OFF file (each coordinate's shortest exact text).
+    fn write_off(path: &Path, mesh: &cloud::TriMesh, shift: cloud::glam::DVec3) {
+        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
+        for v in &mesh.vertices {
+            let w = *v + shift;
+            off.push_str(&format!("{} {} {}\n", w.x, w.y, w.z));
+        }
+        for t in &mesh.triangles {
+            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
+        }
+        std::fs::write(path, off).expect("the OFF file is written");
+    }
+
     #[test]
     fn a_manifest_degrades_its_dataset_and_keeps_the_truth_clean() {
         use crate::datasets::files::load_files;
         use cloud::glam::DVec3;
         let dir = tempfile::tempdir().unwrap();
         let mesh = cloud::synth::sphere_scene(100).mesh;
-        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
-        for v in &mesh.vertices {
-            off.push_str(&format!("{} {} {}\n", v.x, v.y, v.z));
-        }
-        for t in &mesh.triangles {
-            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
-        }
-        std::fs::write(dir.path().join("ball.off"), off).unwrap();
+        write_off(&dir.path().join("ball.off"), &mesh, DVec3::ZERO);
         let path = dir.path().join("m.toml");
         std::fs::write(
             &path,
@@ -408,16 +414,11 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         // A georeferenced mesh: every shift below must be exact for the shapes to be equal.
         let at = DVec3::new(512_000.0, 4_194_304.0, 96.0);
-        let mesh = cloud::synth::icosphere(2);
-        let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
-        for v in &mesh.vertices {
-            let w = *v + at;
-            off.push_str(&format!("{} {} {}\n", w.x, w.y, w.z));
-        }
-        for t in &mesh.triangles {
-            off.push_str(&format!("3 {} {} {}\n", t[0], t[1], t[2]));
-        }
-        std::fs::write(dir.path().join("ball.off"), off).unwrap();
+        write_off(
+            &dir.path().join("ball.off"),
+            &cloud::synth::icosphere(2),
+            at,
+        );
         let file = crate::datasets::files::read_mesh(&dir.path().join("ball.off")).unwrap();
         let path = dir.path().join("m.toml");
         std::fs::write(
