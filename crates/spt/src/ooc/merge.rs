@@ -18,6 +18,9 @@ use crate::error::{Error, Result};
 use crate::file::{self, Header};
 use crate::list::{Grid, Group, QBox};
 
+/// Bytes of each section writer's buffer, so of each write.
+const OUT_BUFFER: usize = 4 << 10;
+
 impl Builder {
     /// Merges the runs into the file.
     pub(super) fn merge(
@@ -50,7 +53,7 @@ impl Builder {
             let open = |at: u64| -> io::Result<BufWriter<File>> {
                 let mut f = File::options().write(true).open(partial)?;
                 f.seek(SeekFrom::Start(at))?;
-                Ok(BufWriter::with_capacity(1 << 20, f))
+                Ok(BufWriter::with_capacity(OUT_BUFFER, f))
             };
             // Each section summed in blocks of file::BLOCK_ITEMS items (file's layout).
             let summed = |at: u64, item: usize| -> io::Result<Summed<BufWriter<File>>> {
