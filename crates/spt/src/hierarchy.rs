@@ -296,7 +296,9 @@ pub fn build_cell(
 /// `tmp` is the octant partition's buffer for a set of [`PARALLEL`] points or more (a smaller
 /// one, built by one thread, [`build_serial`], uses its thread's buffers). Subtrees of
 /// [`PARALLEL`] points or more are built in parallel, each into a vector of its own appended in
-/// order (a node is moved once per parallel level above it, not once per level).
+/// order (a node is moved once per parallel level above it, not once per level, and by all
+/// threads: on one thread, the moves took about 0.4 s of the 7.5 s chunk stage of a
+/// 10^7-point out-of-core build).
 #[allow(clippy::too_many_arguments)]
 fn build_into(
     input: &Input<'_>,
@@ -340,18 +342,17 @@ fn build_into(
         .map(|(s, oc)| build_cell(input, origin, s, oc, 0.5 * h, COLLAPSE))
         .collect();
     nodes.reserve_exact(subtrees.iter().map(Vec::len).sum::<usize>() + 1);
-    for mut sub in subtrees {
+    for sub in subtrees {
         let offset = nodes.len() as u32;
         let n = sub.len() as u32;
-        // Its children's indices shifted in parallel; then the nodes are moved (one copy).
-        if offset > 0 {
-            sub.par_iter_mut().with_min_len(4_096).for_each(|node| {
-                for k in &mut node.children {
-                    *k += offset;
-                }
-            });
-        }
-        nodes.append(&mut sub);
+        // Moved into place by all threads (one copy), their children's indices shifted on
+        // the way.
+        nodes.par_extend(sub.into_par_iter().with_min_len(4_096).map(|mut node| {
+            for k in &mut node.children {
+                *k += offset;
+            }
+            node
+        }));
         children.push(offset + n - 1);
     }
     let parent = parent_of(nodes, children);

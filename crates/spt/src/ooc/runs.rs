@@ -66,10 +66,10 @@ impl Builder {
                         return Err(internal("a chunk's points out of place"));
                     }
                     *at += m;
-                    let positions: Vec<DVec3> = mine.iter().map(|(p, _)| p.position).collect();
-                    let normals: Vec<Vec3> = mine.iter().map(|(p, _)| p.normal).collect();
+                    let positions: Vec<DVec3> = mine.par_iter().map(|(p, _)| p.position).collect();
+                    let normals: Vec<Vec3> = mine.par_iter().map(|(p, _)| p.normal).collect();
                     let colors: Vec<[u8; 3]> = if self.opts.colors {
-                        mine.iter().map(|(p, _)| p.color).collect()
+                        mine.par_iter().map(|(p, _)| p.color).collect()
                     } else {
                         Vec::new()
                     };
