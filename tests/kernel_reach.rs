@@ -10,7 +10,9 @@
 //! A program of its own (`harness = false`), as a program embedding the registry is: it
 //! registers its methods first thing in `main`, and forwards a scale cell to
 //! `harness::experiments::scale::child::cell_entry`, because the scale experiment runs each cell by
-//! re-running the current executable (this test binary) as a child process.
+//! re-running the current executable (this test binary) as a child process. A second scale run
+//! on a dataset of a manifest the program set checks that the cells find it (`cell_entry` reads
+//! the parent's manifest from `POINTSIGHT_MANIFEST`).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -330,6 +332,70 @@ fn every_experiment(root: &Path) {
         let prepare: f64 = fields[5].parse().expect("prepare_seconds");
         assert!(prepare.is_finite() && prepare >= 0.0, "scale: {rows:?}");
     }
+    // A dataset of the run's manifest: each cell (this executable re-run) finds it only
+    // because `cell_entry` reads the manifest the parent passes as `POINTSIGHT_MANIFEST`.
+    let manifest = write_manifest(root);
+    harness::datasets::use_manifest(
+        harness::datasets::manifest::Manifest::discover(Some(&manifest))
+            .expect("the manifest reads"),
+    );
+    let ctx = Context {
+        sweeps,
+        repeats: 1,
+        max_points: Some(10_000),
+        ..Context::new(
+            PathBuf::from("/nonexistent-pointsight-data"),
+            root.join("scale-manifest"),
+            true,
+            vec!["kernel-manifest-cube".into()],
+        )
+    };
+    let exp = experiments::experiment("scale").expect("the experiment exists");
+    assert!(experiments::run(exp, &ctx).expect("the experiment runs"));
+    let results = root.join("scale-manifest/results.csv");
+    for m in ["kernel-test-nearest", "kernel-test-stride-build"] {
+        let rows = lines_with(&results, &format!("{m},10000,"));
+        assert_eq!(
+            rows.len(),
+            1,
+            "scale on the manifest's dataset: {m}: {rows:?}"
+        );
+        assert_eq!(
+            rows[0].split(',').nth(4),
+            Some("ok"),
+            "scale on the manifest's dataset: {rows:?}"
+        );
+    }
+}
+
+/// A manifest in `root` of one dataset, 20,000 samples of a unit cube's surface (an OFF file
+/// beside it); returns its path.
+fn write_manifest(root: &Path) -> PathBuf {
+    let mut off = String::from("OFF\n8 12 0\n");
+    for k in 0..8 {
+        off += &format!("{} {} {}\n", k & 1, (k >> 1) & 1, (k >> 2) & 1);
+    }
+    for f in [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ] {
+        off += &format!(
+            "3 {} {} {}\n3 {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        );
+    }
+    std::fs::write(root.join("cube.off"), off).expect("the mesh is written");
+    let manifest = root.join("kernel.toml");
+    std::fs::write(
+        &manifest,
+        "[datasets.kernel-manifest-cube]\nmesh = \"cube.off\"\nsample = { n = 20000, seed = 3 }\n",
+    )
+    .expect("the manifest is written");
+    manifest
 }
 
 fn main() -> ExitCode {
