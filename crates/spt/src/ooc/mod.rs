@@ -597,7 +597,7 @@ impl Builder {
     fn load(&self, file: &SpillFile, start: u64, count: u64) -> Result<Vec<(Point, u32)>> {
         use rayon::prelude::*;
         let mut r = file.reader(start, count).map_err(|e| self.io(e))?;
-        // The records read at once (a chunk's build later takes twenty times their bytes),
+        // The records read at once (a chunk's build later takes over ten times their bytes),
         // then decoded by all threads in order.
         let mut bytes = Vec::new();
         r.read_rest(&mut bytes).map_err(|e| self.io(e))?;
