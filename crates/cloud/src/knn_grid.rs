@@ -449,20 +449,21 @@ impl<'a> GridKnn<'a> {
             cand.select_nth_unstable(want - 1);
             let last = dist(cand[want - 1]);
             if cand[want..].iter().any(|&key| dist(key) == last) {
-                // Ties at the k-th distance: those of least global index.
-                let below = cand[..want].iter().filter(|&&key| dist(key) < last).count();
+                // Ties at the k-th distance: those of least global index. (Every key nearer
+                // than the k-th is among the first k after the selection.)
+                let mut best: Vec<u128> = cand[..want]
+                    .iter()
+                    .filter(|&&key| dist(key) < last)
+                    .copied()
+                    .collect();
                 let mut tied: Vec<u128> = cand
                     .iter()
                     .filter(|&&key| dist(key) == last)
                     .copied()
                     .collect();
                 tied.sort_unstable_by_key(|&key| block.g[index(key) as usize]);
-                let mut best: Vec<u128> = cand
-                    .iter()
-                    .filter(|&&key| dist(key) < last)
-                    .copied()
-                    .collect();
-                best.extend(tied.into_iter().take(want - below));
+                let room = want - best.len();
+                best.extend(tied.into_iter().take(room));
                 cand[..want].copy_from_slice(&best);
             }
         }
