@@ -249,22 +249,24 @@ fn every_experiment(root: &Path) {
     assert!(visible(root, "kernel-test-zbuffer") > 1_000);
     let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").expect("small grids")))
         .expect("the sweeps resolve");
-    let run = |name: &str| {
+    // Experiment `name` on `dataset`, its results in `root/out`.
+    let run_on = |name: &str, dataset: &str, out: &str| {
         let ctx = Context {
             sweeps: sweeps.clone(),
             repeats: 1,
             max_points: Some(10_000),
             ..Context::new(
                 PathBuf::from("/nonexistent-pointsight-data"),
-                root.join(name),
+                root.join(out),
                 true,
-                vec!["sphere-plane-24000".into()],
+                vec![dataset.into()],
             )
         };
         let exp = experiments::experiment(name).expect("the experiment exists");
         assert!(experiments::run(exp, &ctx).expect("the experiment runs"));
-        root.join(name)
+        root.join(out)
     };
+    let run = |name: &str| run_on(name, "sphere-plane-24000", name);
     let vis = run("visibility");
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
@@ -339,20 +341,7 @@ fn every_experiment(root: &Path) {
         harness::datasets::manifest::Manifest::discover(Some(&manifest))
             .expect("the manifest reads"),
     );
-    let ctx = Context {
-        sweeps,
-        repeats: 1,
-        max_points: Some(10_000),
-        ..Context::new(
-            PathBuf::from("/nonexistent-pointsight-data"),
-            root.join("scale-manifest"),
-            true,
-            vec!["kernel-manifest-cube".into()],
-        )
-    };
-    let exp = experiments::experiment("scale").expect("the experiment exists");
-    assert!(experiments::run(exp, &ctx).expect("the experiment runs"));
-    let results = root.join("scale-manifest/results.csv");
+    let results = run_on("scale", "kernel-manifest-cube", "scale-manifest").join("results.csv");
     for m in ["kernel-test-nearest", "kernel-test-stride-build"] {
         let rows = lines_with(&results, &format!("{m},10000,"));
         assert_eq!(
