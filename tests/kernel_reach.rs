@@ -90,6 +90,7 @@ fn card(
         sweep: self::sweep(sweep),
         program: None,
         made_for: registry::Metric::Points,
+        exact: false,
         kind,
     }))
 }

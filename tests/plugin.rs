@@ -35,6 +35,7 @@ fn card(
         sweep,
         program: None,
         made_for: registry::Metric::Points,
+        exact: false,
         kind,
     }))
 }

@@ -50,6 +50,11 @@ pub struct Card {
     /// set (per point) or the image it shows (per pixel). Every visibility method is scored
     /// both ways; LOD methods, judged by their rendered image, say [`Metric::Pixels`].
     pub made_for: Metric,
+    /// True when it claims to return exactly the set its definition gives (an exact hull, exact
+    /// HPR and its peers): the findings check the claim against the exact set where a run has
+    /// one (Jaccard 0.999 on every unperturbed cell) and never rank a method that fails it;
+    /// `exact = true` in a `method.toml`.
+    pub exact: bool,
     /// What runs it.
     pub kind: Kind,
 }

@@ -30,6 +30,7 @@ pub static CARD: Card = Card {
     sweep: None,
     program: None,
     made_for: Metric::Points,
+    exact: true,
     kind: Kind::Visibility(&Hpr),
 };
 

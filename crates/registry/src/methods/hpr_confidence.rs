@@ -36,6 +36,7 @@ pub static CARD: Card = Card {
     sweep: None,
     program: None,
     made_for: Metric::Points,
+    exact: false,
     kind: Kind::Visibility(&HprConfidence),
 };
 

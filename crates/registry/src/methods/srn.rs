@@ -28,6 +28,7 @@ pub static CARD: Card = Card {
     sweep: None,
     program: None,
     made_for: Metric::Pixels,
+    exact: false,
     kind: Kind::Lod(&SrnMethod),
 };
 

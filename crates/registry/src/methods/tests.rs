@@ -50,6 +50,7 @@ fn named(name: &'static str, lod: bool) -> &'static Card {
         sweep: None,
         program: None,
         made_for: Metric::Points,
+        exact: false,
         kind: if lod {
             Kind::Lod(&Nothing)
         } else {

@@ -109,6 +109,7 @@ mod tests {
             sweep: None,
             program: None,
             made_for: registry::Metric::Points,
+            exact: false,
             kind: Kind::Visibility(&Nothing),
         }))
     }

@@ -49,6 +49,8 @@ struct Manifest {
     peer_of: Option<String>,
     kind: Option<String>,
     made_for: Option<String>,
+    #[serde(default)]
+    exact: bool,
     timeout_seconds: Option<f64>,
     cameras: Option<Vec<String>>,
     #[serde(default)]
@@ -94,6 +96,7 @@ pub struct ExternalMethod {
     pub(super) protocol: u32,
     pub(super) kind: Kind,
     pub(super) made_for: Metric,
+    pub(super) exact: bool,
     pub(super) command: Vec<String>,
     pub(super) check: Option<Vec<String>>,
     pub(super) install: Option<String>,
@@ -251,6 +254,7 @@ impl ExternalMethod {
             protocol: m.protocol,
             kind,
             made_for,
+            exact: m.exact,
             command: m.command,
             check: m.check,
             install: m.install,

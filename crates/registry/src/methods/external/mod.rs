@@ -66,6 +66,8 @@
 //! kind = "visibility"                        # or "lod"
 //! made_for = "points"                        # or "pixels": the score it is judged by
 //!                                            # (default: points; an LOD method: pixels)
+//! exact = true                               # it claims the exact set of its definition
+//!                                            # (checked; default: false)
 //! timeout_seconds = 120
 //! memory_bytes_per_point = 200               # for the scale experiment's memory guard
 //!                                            # (undeclared: not run above 10^6 points)
@@ -127,6 +129,7 @@ pub fn card(m: &'static ExternalMethod) -> &'static Card {
         sweep: m.sweep.clone(),
         program: Some(m),
         made_for: m.made_for,
+        exact: m.exact,
         kind,
     }))
 }

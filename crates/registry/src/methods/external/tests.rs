@@ -126,6 +126,20 @@ fn made_for_is_read_with_its_defaults_and_a_bad_value_refused() {
     assert!(err.contains("made_for = \"voxels\""), "{err}");
 }
 
+#[test]
+fn an_exactness_claim_is_read_and_absent_means_none() {
+    let exact = |extra: &str| {
+        let dir = folder(&format!("protocol = 2\ncommand = [\"true\"]\n{extra}"), "");
+        ExternalMethod::load(dir.path()).map(|m| card(Box::leak(Box::new(m))).exact)
+    };
+    assert!(!exact("").unwrap());
+    assert!(exact("exact = true\n").unwrap());
+    assert!(exact("exact = \"yes\"\n").is_err());
+    // Of the built-in cards, exact HPR claims it; the approximations do not.
+    assert!(crate::card("hpr").unwrap().exact);
+    assert!(!crate::card("hpr-approx").unwrap().exact);
+}
+
 /// End of input means exit: a program the caller is done with has its input closed and
 /// time to clean up (its temporary files), and one that does not exit is killed after
 /// [`EXIT_GRACE`].
