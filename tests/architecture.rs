@@ -174,7 +174,7 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "prints raycast::auto's constant",
     ),
     (
-        "experiments/robustness.rs",
+        "experiments/robustness/measure.rs",
         "truth",
         "scores against the ground truth",
     ),
@@ -1105,6 +1105,11 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
     (
         "experiments/reference.rs",
         "the ground truth's own experiment: its variants are the z-buffer and the reference",
+    ),
+    (
+        "experiments/rules/curve.rs",
+        "the BD-PSNR anchor: the random subsample every LOD curve is measured against, as the \
+         field's rate-distortion comparisons name their baseline",
     ),
     (
         "experiments/hull.rs",

@@ -304,6 +304,13 @@ fn assemble_report(reports: &Path) -> Result<()> {
         .any(|n| output::meta::RunMeta::read(&reports.join(n)).is_ok_and(|m| m.quick));
     let findings = experiments::findings::findings(reports, &names)?;
     experiments::findings::write(reports, &findings)?;
+    // Every ratio against a peer, once (the summaries print the same rows).
+    let ratios = experiments::ratios::all(reports)?;
+    experiments::ratios::write(reports, &ratios)?;
+    output::write_atomic(
+        &reports.join(experiments::ratios::MD),
+        experiments::ratios::markdown(&ratios).as_bytes(),
+    )?;
     // Each experiment's own rows beside its results, every row (the README may leave some
     // out and links here).
     for name in &names {
@@ -326,7 +333,20 @@ fn assemble_report(reports: &Path) -> Result<()> {
     output::report::assemble(
         reports,
         &sections,
-        &experiments::findings::readme_markdown(&findings, quick),
+        &format!(
+            "{}{}",
+            experiments::findings::readme_markdown(&findings, quick),
+            if ratios.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "Every time ratio against a peer ({} rows), by one pairing rule, with the run \
+                     it comes from: [ratios.md](ratios.md), machine-readable \
+                     [ratios.csv](ratios.csv).\n\n",
+                    ratios.len()
+                )
+            }
+        ),
         quick,
         &view::report::section(reports)?,
     )

@@ -1,31 +1,23 @@
 //! The findings: the answer of each experiment present, computed from its results CSVs, for the
-//! top of `reports/README.md` and for `reports/findings.csv` (issue 39, "verdicts first").
+//! top of `reports/README.md` and for `reports/findings.csv`.
 //!
 //! One row per condition: visibility per dataset, twice: F1 among the methods made for the
 //! visible set and per-pixel F1 among those made for the image ([`pixels`];
-//! `registry::Card::made_for`), robustness per degradation and level group (its milder and its
-//! harsher half of the levels; F1 over its datasets, those levels and views), LOD per dataset
-//! (PSNR over views and distances), scale per group (visibility, hulls, LOD builds in core, out
-//! of core: seconds and peak memory at 10^7 points and at the largest size a method of the
-//! group finished), hull per dataset (the
-//! fastest hull, the runner-up's time over its, paired per cell). A row names the best
-//! method at its best setting on these data, its value with its bootstrap 95 % interval over
-//! the views ([`crate::stats`]: none from fewer than [`crate::stats::MIN_VIEWS`]), the runner-up
-//! and the paired difference (no winner when its interval holds 0), the winner's cost and the
-//! cheapest method and setting within a tolerance of the best. A quick run's findings, and any
-//! from fewer than [`crate::stats::MIN_VIEWS`] views, are flagged indicative.
+//! `registry::Card::made_for`); robustness per degradation and level group, per pool of
+//! datasets ([`robustness`]); LOD per dataset at fixed point budgets and by BD-PSNR against the
+//! random subsample ([`lod`]); scale per group ([`scale`]); hull per dataset ([`hull`]). Every
+//! accuracy row follows the rules of [`verdict`] (same cells, one statistic, identical answers
+//! named, a practical margin); a method whose exactness claim failed is never ranked
+//! ([`wrong`]). The rules in plain words: `docs/verdicts.md`; `scripts/audit_findings.py`
+//! recomputes every row from the results CSVs by a second path (Python and pandas).
 //!
 //! Which setting stands for a method. Visibility: each family at its **tuned** setting, the one
-//! with the highest mean F1 over the run's tuning datasets (the definition, the mean over the
-//! tuning datasets of each one's mean over its views, is
-//! [`super::visibility::tuning`]'s); the condition says whether the dataset is an evaluation
-//! dataset (out-of-sample), a tuning one (in-sample) or, in a run without tuning data (a user's
-//! own data alone), that the setting is the **oracle**, best on the very data reported. The
-//! other experiments still take each method's best setting on the condition itself (the
-//! robustness `best` setting is itself tuned on the clean cloud; the choice between it and
-//! `auto` is made on the condition).
+//! with the highest mean F1 over the run's tuning datasets ([`super::visibility::tuning`]); the
+//! condition says whether the dataset is an evaluation dataset (out-of-sample), a tuning one
+//! (in-sample) or, in a run without tuning data, that the setting is the **oracle**.
+//! Robustness: `best`, tuned on the clean tuning datasets, and `auto`, the better of the two on
+//! the condition. LOD: each method's whole curve over its sweep, read at the budget.
 
-use std::collections::BTreeMap;
 use std::path::Path;
 
 use anyhow::Result;
@@ -35,167 +27,10 @@ use super::visibility::tuning::{Obs, Protocol, roles_of};
 use crate::datasets::Role;
 use crate::output::meta::RunMeta;
 use crate::output::{distinct, read_csv, write_csv};
-use crate::stats::{Estimate, MIN_VIEWS, bootstrap_mean};
-
-/// Seed of the findings' bootstrap.
-const SEED: u64 = 39;
+use crate::stats::MIN_VIEWS;
 
 /// The file the findings are written to, in the reports folder.
 pub const CSV: &str = "findings.csv";
-
-/// One measured cell: a method at a setting on one key (a view, or a view at a level or
-/// distance), its score (higher is better) and its cost (lower is better).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Cell {
-    /// Method (or family).
-    pub method: String,
-    /// Setting.
-    pub setting: String,
-    /// What pairs cells of different methods (the view, with its level or distance).
-    pub key: String,
-    /// Score (F1, PSNR), higher is better.
-    pub value: f64,
-    /// Cost (seconds, points rendered), lower is better.
-    pub cost: f64,
-}
-
-/// The best method's answer over a set of cells ([`verdict`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Verdict {
-    /// The best method.
-    pub method: String,
-    /// At its best setting.
-    pub setting: String,
-    /// Its mean score over its keys, with its interval (from at least [`MIN_VIEWS`] keys).
-    pub value: Estimate,
-    /// Its median cost.
-    pub cost: f64,
-    /// The best other method at its best setting, its mean score and the winner's paired
-    /// difference to it (over the keys both have).
-    pub runner_up: Option<(String, String, f64, Option<Estimate>)>,
-    /// The cheapest method and setting (lowest median cost) whose mean score is within the
-    /// tolerance of the best: method, setting, mean score, median cost.
-    pub cheapest: Option<(String, String, f64, f64)>,
-}
-
-impl Verdict {
-    /// `wins`, `no clear winner` (the difference's interval holds 0), `tie` (equal means),
-    /// `indicative` (no interval: fewer than [`MIN_VIEWS`] paired views), `only method`.
-    pub fn word(&self) -> &'static str {
-        match &self.runner_up {
-            None => "only method",
-            Some((_, _, v, _)) if (self.value.value - v).abs() < 1e-12 => "tie",
-            Some((_, _, _, None)) => "indicative",
-            Some((_, _, _, Some(d))) => match d.holds(0.0) {
-                None => "indicative",
-                Some(true) => "no clear winner",
-                Some(false) => "wins",
-            },
-        }
-    }
-}
-
-fn median(mut v: Vec<f64>) -> f64 {
-    v.retain(|x| !x.is_nan());
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
-
-/// The best method over `cells`: each method at the setting with its highest mean score (ties:
-/// the cheaper setting by median cost, then the first by name), methods ranked by that mean
-/// (ties: the cheaper, then by name: of two methods that choose the same points, the one that
-/// costs less is named); the cheapest
-/// (method, setting) within `tolerance` of the best mean. Cells with a non-finite score are
-/// left out; `None` when none is left.
-pub fn verdict(cells: &[Cell], tolerance: f64) -> Option<Verdict> {
-    // (method, setting) -> key -> (score, cost); a repeated key keeps its mean.
-    type Sums<'a> = BTreeMap<&'a str, (f64, f64, usize)>;
-    let mut groups: BTreeMap<(&str, &str), Sums<'_>> = BTreeMap::new();
-    for c in cells.iter().filter(|c| c.value.is_finite()) {
-        let e = groups
-            .entry((&c.method, &c.setting))
-            .or_default()
-            .entry(&c.key)
-            .or_insert((0.0, 0.0, 0));
-        e.0 += c.value;
-        e.1 += c.cost;
-        e.2 += 1;
-    }
-    type Views<'a> = BTreeMap<&'a str, (f64, f64)>;
-    let groups: BTreeMap<(&str, &str), Views<'_>> = groups
-        .into_iter()
-        .map(|(k, v)| {
-            let v = v
-                .into_iter()
-                .map(|(key, (s, c, n))| (key, (s / n as f64, c / n as f64)))
-                .collect();
-            (k, v)
-        })
-        .collect();
-    let mean = |v: &Views<'_>| v.values().map(|x| x.0).sum::<f64>() / v.len() as f64;
-    let cost = |v: &Views<'_>| median(v.values().map(|x| x.1).collect());
-    // Higher mean first, then lower cost (an unknown cost last), then name.
-    let order = |a: (f64, f64), b: (f64, f64)| {
-        b.0.total_cmp(&a.0)
-            .then(a.1.is_nan().cmp(&b.1.is_nan()))
-            .then(a.1.total_cmp(&b.1))
-    };
-    let mut best: BTreeMap<&str, (&str, f64, f64)> = BTreeMap::new();
-    for ((method, setting), views) in &groups {
-        let (m, c) = (mean(views), cost(views));
-        if best
-            .get(method)
-            .is_none_or(|b| order((m, c), (b.1, b.2)).is_lt())
-        {
-            best.insert(method, (setting, m, c));
-        }
-    }
-    let mut ranked: Vec<(&str, &str, f64, f64)> = best
-        .into_iter()
-        .map(|(m, (s, v, c))| (m, s, v, c))
-        .collect();
-    ranked.sort_by(|a, b| order((a.2, a.3), (b.2, b.3)).then(a.0.cmp(b.0)));
-    let &(wm, ws, wv, _) = ranked.first()?;
-    let winner = &groups[&(wm, ws)];
-    let values: Vec<f64> = winner.values().map(|x| x.0).collect();
-    let value = bootstrap_mean(&values, SEED)?;
-    debug_assert!((value.value - wv).abs() < 1e-9);
-    let runner_up = ranked.get(1).map(|&(rm, rs, rv, _)| {
-        let other = &groups[&(rm, rs)];
-        let diffs: Vec<f64> = winner
-            .iter()
-            .filter_map(|(k, a)| Some(a.0 - other.get(k)?.0))
-            .collect();
-        (
-            rm.to_owned(),
-            rs.to_owned(),
-            rv,
-            bootstrap_mean(&diffs, SEED),
-        )
-    });
-    let cheapest = groups
-        .iter()
-        .map(|((m, s), v)| (*m, *s, mean(v), cost(v)))
-        .filter(|c| c.2 >= wv - tolerance && !c.3.is_nan())
-        .min_by(|a, b| a.3.total_cmp(&b.3).then(b.2.total_cmp(&a.2)))
-        .map(|(m, s, v, c)| (m.to_owned(), s.to_owned(), v, c));
-    Some(Verdict {
-        method: wm.to_owned(),
-        setting: ws.to_owned(),
-        value,
-        cost: cost(winner),
-        runner_up,
-        cheapest,
-    })
-}
 
 /// One finding: a row of `findings.csv` and of the README's findings table.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -222,7 +57,8 @@ pub struct Finding {
     pub n_views: Option<usize>,
     /// A quick run's, or from fewer than 5 views: not a result to quote.
     pub indicative: bool,
-    /// `wins`, `no clear winner`, `tie`, `indicative`, `only method` ([`Verdict::word`]).
+    /// `wins`, `equivalent`, `no clear winner`, `indicative`, `only method`
+    /// ([`verdict::judge`]).
     pub verdict: String,
     /// The runner-up, with its setting.
     pub runner_up: String,
@@ -244,8 +80,21 @@ pub struct Finding {
     pub cheapest_value: Option<f64>,
     /// Its cost.
     pub cheapest_cost: Option<f64>,
-    /// The tolerance `cheapest` is chosen within, in `metric`'s unit.
-    pub tolerance: f64,
+    /// The tolerance `cheapest` is chosen within, in `metric`'s unit (empty: none sought).
+    pub tolerance: Option<f64>,
+    /// Methods (with their setting) whose answers equal the best's on every key: named, not
+    /// ranked (`; `-separated).
+    #[serde(default)]
+    pub identical: String,
+    /// Methods left out of the ranking and why: wrong answers (a failed exactness claim, with
+    /// the worst Jaccard), or fewer cells than the compared ones (with their count); `; `-
+    /// separated.
+    #[serde(default)]
+    pub not_ranked: String,
+    /// The practical margin the verdict is judged against, in `metric`'s unit (a ratio's: its
+    /// relative margin).
+    #[serde(default)]
+    pub margin: f64,
 }
 
 /// What a question asks, for [`finding`].
@@ -255,7 +104,7 @@ struct Ask<'a> {
     question: &'a str,
     metric: &'a str,
     cost_metric: &'a str,
-    tolerance: f64,
+    rules: Rules,
     quick: bool,
 }
 
@@ -273,10 +122,18 @@ fn with_setting(method: &str, setting: &str) -> String {
     }
 }
 
-fn finding(ask: Ask<'_>, v: Verdict) -> Finding {
+/// The finding of verdict `v` for `ask`; `wrong`: the notes of the methods left out for wrong
+/// answers (before those left apart for fewer cells).
+fn finding(ask: Ask<'_>, v: Verdict, wrong: Vec<String>) -> Finding {
     let (lo, hi) = v.value.interval.unzip();
-    let diff = v.runner_up.as_ref().and_then(|r| r.3);
+    let diff = v.runner_up.as_ref().and_then(|r| r.difference);
     let (dlo, dhi) = diff.and_then(|d| d.interval).unzip();
+    let mut not_ranked = wrong;
+    not_ranked.extend(
+        v.apart
+            .iter()
+            .map(|(m, n)| format!("{m}: {n} of {} cells", v.keys)),
+    );
     Finding {
         experiment: ask.experiment.to_owned(),
         condition: ask.condition,
@@ -284,8 +141,6 @@ fn finding(ask: Ask<'_>, v: Verdict) -> Finding {
         metric: ask.metric.to_owned(),
         indicative: ask.quick || v.value.n < MIN_VIEWS,
         verdict: v.word().to_owned(),
-        method: v.method,
-        setting: v.setting,
         value: v.value.value,
         low: lo,
         high: hi,
@@ -293,8 +148,8 @@ fn finding(ask: Ask<'_>, v: Verdict) -> Finding {
         runner_up: v
             .runner_up
             .as_ref()
-            .map_or(String::new(), |r| with_setting(&r.0, &r.1)),
-        runner_up_value: v.runner_up.as_ref().map(|r| r.2),
+            .map_or(String::new(), |r| with_setting(&r.method, &r.setting)),
+        runner_up_value: v.runner_up.as_ref().map(|r| r.value),
         difference: diff.map(|d| d.value),
         difference_low: dlo,
         difference_high: dhi,
@@ -306,7 +161,17 @@ fn finding(ask: Ask<'_>, v: Verdict) -> Finding {
             .map_or(String::new(), |c| with_setting(&c.0, &c.1)),
         cheapest_value: v.cheapest.as_ref().map(|c| c.2),
         cheapest_cost: v.cheapest.as_ref().map(|c| c.3),
-        tolerance: ask.tolerance,
+        tolerance: ask.rules.tolerance,
+        identical: v
+            .identical
+            .iter()
+            .map(|(m, s)| with_setting(m, s))
+            .collect::<Vec<_>>()
+            .join("; "),
+        not_ranked: not_ranked.join("; "),
+        margin: ask.rules.margin,
+        method: v.method,
+        setting: v.setting,
     }
 }
 
@@ -324,49 +189,13 @@ struct VisibilityRow {
     /// the methods made for points, [`pixels`] the others.
     #[serde(default = "points")]
     made_for: String,
+    /// The visible set's fingerprint (absent from older results: scores compare instead).
+    #[serde(default)]
+    visible_sha256: String,
 }
 
 fn points() -> String {
     "points".into()
-}
-
-/// The columns of the robustness results the findings read.
-#[derive(Deserialize)]
-struct RobustnessRow {
-    dataset: String,
-    degradation: String,
-    level: f64,
-    method: String,
-    setting: String,
-    view: usize,
-    f1: f64,
-    seconds: f64,
-    status: String,
-}
-
-/// The columns of the LOD results the findings read.
-#[derive(Deserialize)]
-struct LodRow {
-    dataset: String,
-    view: usize,
-    distance: f64,
-    method: String,
-    params: String,
-    points_rendered: f64,
-    psnr: f64,
-    status: String,
-}
-
-/// The columns of the hull results the findings read.
-#[derive(Deserialize)]
-struct HullRow {
-    dataset: String,
-    view: usize,
-    gamma: f64,
-    hull: String,
-    perturb: f64,
-    seconds: f64,
-    status: String,
 }
 
 /// The conditions of `rows` in the order they first appear, each with its cells.
@@ -452,6 +281,7 @@ fn tuned_condition(
 
 fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
+    let wrong = wrong::peers(dir)?;
     // Each family at its tuned setting (tuned on the run's tuning datasets alone), else every
     // setting (the verdict then takes the best on the condition itself: an oracle).
     let meta = RunMeta::read(dir).map(|m| m.parameters).unwrap_or_default();
@@ -476,18 +306,16 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         &rows,
         |r| (r.status == "ok" && r.made_for == "points" && stands(r)).then(|| r.dataset.clone()),
         |r| Cell {
-            method: r.family.clone(),
-            setting: r.params.clone(),
-            key: r.view.to_string(),
-            value: r.f1,
-            cost: r.seconds,
+            answer: (!r.visible_sha256.is_empty()).then(|| r.visible_sha256.clone()),
+            ..Cell::new(&r.family, &r.params, r.view.to_string(), r.f1, r.seconds)
         },
     );
     pool_evaluation(&mut conditions, &protocol);
     Ok(conditions
         .into_iter()
         .filter_map(|(dataset, cells)| {
-            let v = verdict(&cells, 0.01)?;
+            let (cells, notes) = without_wrong(cells, &wrong);
+            let v = verdict(&cells, Rules::F1)?;
             let condition = tuned_condition(
                 &protocol,
                 &dataset,
@@ -503,230 +331,24 @@ fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
                                points best (F1)?",
                     metric: "F1",
                     cost_metric: "seconds per view",
-                    tolerance: 0.01,
+                    rules: Rules::F1,
                     quick,
                 },
                 v,
+                notes,
             ))
         })
         .collect())
 }
 
-fn robustness(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
-    let rows: Vec<RobustnessRow> = read_csv(&dir.join("results.csv"))?;
-    let groups = level_groups(rows.iter().map(|r| (r.degradation.as_str(), r.level)));
-    let conditions = by_condition(
-        &rows,
-        |r| {
-            (r.status == "ok").then(|| {
-                groups
-                    .get(&(r.degradation.clone(), r.level.to_bits()))
-                    .cloned()
-                    .unwrap_or_else(|| r.degradation.clone())
-            })
-        },
-        |r| Cell {
-            method: r.method.clone(),
-            setting: r.setting.clone(),
-            key: format!("{} {} {}", r.dataset, r.level, r.view),
-            value: r.f1,
-            cost: r.seconds,
-        },
-    );
-    Ok(conditions
+/// `cells` without those of the methods in `wrong`, and a note for each method left out.
+fn without_wrong(cells: Vec<Cell>, wrong: &Wrong) -> (Vec<Cell>, Vec<String>) {
+    let notes = wrong.notes(cells.iter().map(|c| c.method.as_str()));
+    let kept = cells
         .into_iter()
-        .filter_map(|(condition, cells)| {
-            let v = verdict(&cells, 0.01)?;
-            Some(finding(
-                Ask {
-                    experiment: "robustness",
-                    condition,
-                    question: "Which method keeps the best F1 on degraded input?",
-                    metric: "F1",
-                    cost_metric: "seconds per view",
-                    tolerance: 0.01,
-                    quick,
-                },
-                v,
-            ))
-        })
-        .collect())
-}
-
-/// The condition of each (degradation, level): a degradation measured at one level is one
-/// condition; one at several is two, its milder half of the levels and its harsher half (the
-/// middle level of an odd count goes with the milder), named by their level ranges, so a
-/// winner that changes as the degradation grows shows as two rows.
-fn level_groups<'a>(rows: impl Iterator<Item = (&'a str, f64)>) -> BTreeMap<(String, u64), String> {
-    let mut levels: BTreeMap<&str, Vec<f64>> = BTreeMap::new();
-    for (d, l) in rows {
-        levels.entry(d).or_default().push(l);
-    }
-    let mut out = BTreeMap::new();
-    for (d, mut l) in levels {
-        l.sort_by(f64::total_cmp);
-        l.dedup();
-        if l.len() < 2 {
-            continue;
-        }
-        let split = l.len().div_ceil(2);
-        for (part, word) in [(&l[..split], "milder"), (&l[split..], "harsher")] {
-            let range = match part {
-                [one] => format!("level {one}"),
-                [first, .., last] => format!("levels {first} to {last}"),
-                [] => continue,
-            };
-            let name = format!("{d}, {word} {} of {}: {range}", part.len(), l.len());
-            for x in part {
-                out.insert((d.to_owned(), x.to_bits()), name.clone());
-            }
-        }
-    }
-    out
-}
-
-/// The point budgets of the LOD findings: fractions of the most points any setting renders on
-/// the dataset (about the whole cloud). Without a budget the finest setting, which renders
-/// the whole cloud, wins trivially.
-pub const LOD_BUDGETS: [f64; 2] = [0.1, 0.3];
-
-fn lod(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
-    let rows: Vec<LodRow> = read_csv(&dir.join("results.csv"))?;
-    let conditions = by_condition(
-        &rows,
-        |r| (r.status == "ok").then(|| r.dataset.clone()),
-        |r| Cell {
-            method: r.method.clone(),
-            setting: r.params.clone(),
-            key: format!("{} {}", r.view, r.distance),
-            value: r.psnr,
-            cost: r.points_rendered,
-        },
-    );
-    let mut out = Vec::new();
-    for (dataset, cells) in conditions {
-        // Each setting's mean points rendered.
-        let mut points: BTreeMap<(&str, &str), (f64, usize)> = BTreeMap::new();
-        for c in &cells {
-            let e = points.entry((&c.method, &c.setting)).or_insert((0.0, 0));
-            e.0 += c.cost;
-            e.1 += 1;
-        }
-        let mean_points = |c: &Cell| {
-            let (sum, n) = points[&(c.method.as_str(), c.setting.as_str())];
-            sum / n as f64
-        };
-        let most = cells.iter().map(mean_points).fold(0.0, f64::max);
-        for budget in LOD_BUDGETS {
-            let within: Vec<Cell> = cells
-                .iter()
-                .filter(|c| mean_points(c) <= budget * most)
-                .cloned()
-                .collect();
-            let Some(v) = verdict(&within, 1.0) else {
-                continue;
-            };
-            out.push(finding(
-                Ask {
-                    experiment: "lod",
-                    condition: format!("{dataset}, ≤ {:.0} % of the points", budget * 100.0),
-                    question: "Which LOD method renders closest to the full cloud (PSNR) within \
-                               a point budget?",
-                    metric: "PSNR (dB)",
-                    cost_metric: "points rendered",
-                    tolerance: 1.0,
-                    quick,
-                },
-                v,
-            ));
-        }
-    }
-    Ok(out)
-}
-
-/// A hull's seconds per (view, γ bits) cell.
-type Times = BTreeMap<(usize, u64), f64>;
-
-/// The fastest hull per dataset on unperturbed input: among the hulls that ran every (view,
-/// γ) the most complete hull ran (others, run on a few cells only, are counted out), the
-/// lowest geometric mean of seconds; the runner-up's time over the winner's, paired per cell,
-/// with its interval.
-fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
-    let rows: Vec<HullRow> = read_csv(&dir.join("results.csv"))?;
-    let mut out = Vec::new();
-    let ok: Vec<&HullRow> = rows
-        .iter()
-        .filter(|r| r.status == "ok" && r.perturb == 0.0 && r.seconds > 0.0)
+        .filter(|c| wrong.get(&c.method).is_none())
         .collect();
-    for dataset in distinct(ok.iter().map(|r| r.dataset.as_str())) {
-        let mut cells: BTreeMap<&str, Times> = BTreeMap::new();
-        for r in ok.iter().filter(|r| r.dataset == dataset) {
-            cells
-                .entry(&r.hull)
-                .or_default()
-                .insert((r.view, r.gamma.to_bits()), r.seconds);
-        }
-        let Some(most) = cells.values().max_by_key(|c| c.len()).cloned() else {
-            continue;
-        };
-        let complete: Vec<(&str, &Times)> = cells
-            .iter()
-            .filter(|(_, c)| most.keys().all(|k| c.contains_key(k)))
-            .map(|(h, c)| (*h, c))
-            .collect();
-        let geomean =
-            |c: &Times| (most.keys().map(|k| c[k].ln()).sum::<f64>() / most.len() as f64).exp();
-        let mut ranked: Vec<(&str, f64)> = complete.iter().map(|(h, c)| (*h, geomean(c))).collect();
-        ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
-        let Some(&(best, seconds)) = ranked.first() else {
-            continue;
-        };
-        let ratio = ranked.get(1).and_then(|&(runner, _)| {
-            let (r, w): (Vec<f64>, Vec<f64>) = most
-                .keys()
-                .map(|k| (cells[runner][k], cells[best][k]))
-                .unzip();
-            crate::stats::paired_ratio(&r, &w, SEED)
-        });
-        let verdict = match (ranked.len(), ratio.and_then(|e| e.holds(1.0))) {
-            (1, _) => "only method",
-            (_, None) => "indicative",
-            (_, Some(true)) => "no clear winner",
-            (_, Some(false)) => "fastest",
-        };
-        let (dlo, dhi) = ratio.and_then(|e| e.interval).unzip();
-        out.push(Finding {
-            experiment: "hull".into(),
-            condition: format!(
-                "{dataset}, {} of {} hulls on all {} (view, γ) cells",
-                complete.len(),
-                cells.len(),
-                most.len()
-            ),
-            question: "Which convex hull makes HPR fastest?".into(),
-            method: best.to_owned(),
-            setting: String::new(),
-            metric: "seconds (geometric mean)".into(),
-            value: seconds,
-            low: None,
-            high: None,
-            n_views: Some(most.len()),
-            indicative: quick || most.len() < MIN_VIEWS,
-            verdict: verdict.into(),
-            runner_up: ranked.get(1).map_or(String::new(), |r| r.0.to_owned()),
-            runner_up_value: ranked.get(1).map(|r| r.1),
-            difference: ratio.map(|e| e.value),
-            difference_low: dlo,
-            difference_high: dhi,
-            cost_metric: "seconds (geometric mean)".into(),
-            cost: seconds,
-            cheapest: String::new(),
-            cheapest_value: None,
-            cheapest_cost: None,
-            tolerance: 0.0,
-        });
-    }
-    Ok(out)
+    (kept, notes)
 }
 
 /// `10^k` for a power of ten, else the number.
@@ -759,10 +381,10 @@ pub fn findings_in(dir: &Path, name: &str) -> Result<Vec<Finding>> {
     let quick = RunMeta::read(dir).is_ok_and(|m| m.quick);
     Ok(match name {
         "visibility" => pixels::beside(visibility(dir, quick)?, pixels::visibility(dir, quick)?),
-        "robustness" => robustness(dir, quick)?,
-        "lod" => lod(dir, quick)?,
+        "robustness" => robustness::robustness(dir, quick)?,
+        "lod" => lod::lod(dir, quick)?,
         "scale" => scale::scale(dir, quick)?,
-        "hull" => hull(dir, quick)?,
+        "hull" => hull::hull(dir, quick)?,
         _ => Vec::new(),
     })
 }
@@ -772,17 +394,23 @@ pub fn write(reports_dir: &Path, findings: &[Finding]) -> Result<()> {
     if findings.is_empty() {
         return crate::output::write_atomic(
             &reports_dir.join(CSV),
-            b"experiment,condition,question,method,setting,metric,value,low,high,n_views,indicative,verdict,runner_up,runner_up_value,difference,difference_low,difference_high,cost_metric,cost,cheapest,cheapest_value,cheapest_cost,tolerance\n",
+            b"experiment,condition,question,method,setting,metric,value,low,high,n_views,indicative,verdict,runner_up,runner_up_value,difference,difference_low,difference_high,cost_metric,cost,cheapest,cheapest_value,cheapest_cost,tolerance,identical,not_ranked,margin\n",
         );
     }
     write_csv(&reports_dir.join(CSV), findings)
 }
 
+mod hull;
+mod lod;
 mod pixels;
+mod robustness;
 mod scale;
 mod table;
 
+use super::rules::{verdict, wrong};
 use table::{IN_SAMPLE, OUT_OF_SAMPLE};
 pub use table::{markdown, readme_markdown};
+pub use verdict::{Cell, Rules, Verdict, verdict};
+use wrong::Wrong;
 #[cfg(test)]
 mod tests;

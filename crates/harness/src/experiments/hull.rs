@@ -36,6 +36,8 @@ use serde::{Deserialize, Serialize};
 use truth::{Reference, ReferenceParams};
 
 use super::{Context, Experiment, markdown_table};
+
+mod peers;
 use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::{read_csv, write_atomic, write_csv};
 use crate::progress;
@@ -390,6 +392,22 @@ fn median_of(
     (!v.is_empty()).then(|| median(v))
 }
 
+/// The rows as the ratios read them (`rules::ratio`).
+fn cells(rows: &[Row]) -> Vec<super::rules::ratio::HullCell> {
+    rows.iter()
+        .map(|r| super::rules::ratio::HullCell {
+            dataset: r.dataset.clone(),
+            view: r.view,
+            gamma: r.gamma,
+            hull: r.hull.clone(),
+            perturb: r.perturb,
+            seconds: r.seconds,
+            jaccard_vs_exact: r.jaccard_vs_exact,
+            status: r.status.clone(),
+        })
+        .collect()
+}
+
 fn fmt_s(v: Option<f64>) -> String {
     v.map_or("—".into(), |s| {
         if s < 1.0 {
@@ -414,42 +432,18 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
         .filter(|k| rows.iter().any(|r| r.perturb == *k))
         .collect();
 
-    // Plot 1: seconds per implementation per dataset (k = 0, median over views and γ), a
-    // dot per implementation and dataset (quartiles over views and γ as bars).
-    let quartiles = |pick: &dyn Fn(&Row) -> bool| {
-        let mut v: Vec<f64> = rows
-            .iter()
-            .filter(|r| r.status == "ok" && pick(r))
-            .map(|r| r.seconds)
-            .collect();
-        v.sort_by(f64::total_cmp);
-        let at = |q: f64| v.get(((v.len() - 1) as f64 * q).round() as usize).copied();
-        (!v.is_empty()).then(|| (at(0.25).unwrap_or(f64::NAN), at(0.75).unwrap_or(f64::NAN)))
-    };
+    // Plot 1: seconds per implementation per dataset (k = 0), the median over the (view, γ)
+    // cells every compared hull ran (quartiles as bars); apart: fewer cells, wrong answers.
+    let wrong = super::rules::wrong::hulls(dir)?;
     let seconds = Figure::new(
         "seconds",
-        "HPR time per hull implementation (k = 0; median over views and gamma)",
+        "HPR time per hull implementation (k = 0; median over the (view, γ) cells every compared hull ran)",
         Axis::categories("dataset", datasets.clone()),
         Axis::log("seconds (flip + hull + mapping; bars: quartiles)"),
     )
-    .interval("first to third quartile over views and gamma")
+    .interval("first to third quartile over the cells")
     .series(
-        hulls
-            .iter()
-            .map(|h| {
-                let points = datasets
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, d)| {
-                        let pick = |r: &Row| r.dataset == *d && r.hull == *h && r.perturb == 0.0;
-                        let m = median_of(rows, pick, |r| r.seconds)?;
-                        let (lo, hi) = quartiles(&pick)?;
-                        Some(Point::new(k as f64, m).y_interval(lo, hi).seconds(m))
-                    })
-                    .collect();
-                Series::new(h, &format!("hull-{h}"), "", Draw::Points, points)
-            })
-            .collect(),
+        peers::seconds_series(rows, &datasets, &hulls, &wrong),
         Vec::new(),
     )
     .write(dir)?;
@@ -588,12 +582,16 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
                 if good.is_empty() {
                     "—".into()
                 } else {
-                    format!(
-                        "{:.4}",
-                        good.iter()
-                            .map(|r| r.jaccard_vs_exact)
-                            .fold(f64::INFINITY, f64::min)
-                    )
+                    let j = good
+                        .iter()
+                        .map(|r| r.jaccard_vs_exact)
+                        .fold(f64::INFINITY, f64::min);
+                    match wrong.get(h) {
+                        Some(_) if j < super::rules::wrong::JACCARD => {
+                            format!("{j:.4} (wrong answers)")
+                        }
+                        _ => format!("{j:.4}"),
+                    }
                 },
                 if good.is_empty() {
                     "—".into()
@@ -619,7 +617,7 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
 
     let table1 = table1(rows, &datasets);
     write_atomic(&dir.join("table1.md"), table1.as_bytes())?;
-    let cgal = cgal_table(rows, &datasets, not_run, repeats);
+    let cgal = peers::table(rows, not_run, repeats);
 
     let summary = format!(
         "HPR (linear kernel, R = max‖p − C‖·10^γ) with six convex hull implementations. \
@@ -651,87 +649,6 @@ fn render(dir: &Path, rows: &[Row], repeats: u64, not_run: &[String]) -> Result<
         table1,
     );
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
-}
-
-/// CGAL's HPR against ours (`own`, k = 0) paired per view and γ: time ratio with its
-/// bootstrap interval, identical sets.
-fn cgal_table(rows: &[Row], datasets: &[String], not_run: &[String], repeats: u64) -> String {
-    let at = |d: &str, h: &str| -> BTreeMap<(usize, u64), (f64, f64)> {
-        rows.iter()
-            .filter(|r| r.dataset == d && r.hull == h && r.perturb == 0.0 && r.status == "ok")
-            .map(|r| ((r.view, r.gamma.to_bits()), (r.seconds, r.jaccard_vs_exact)))
-            .collect()
-    };
-    let mut table = Vec::new();
-    for d in datasets {
-        let pairs = crate::stats::pair(&at(d, CGAL), &at(d, "own"));
-        if pairs.is_empty() {
-            continue;
-        }
-        let (c, o): (Vec<f64>, Vec<f64>) = pairs.iter().map(|(c, o)| (c.0, o.0)).unzip();
-        // The cells are (view, γ) pairs: the interval needs as many distinct views as any.
-        let (cgal, own) = (at(d, CGAL), at(d, "own"));
-        let views: std::collections::BTreeSet<usize> = cgal
-            .keys()
-            .filter(|k| own.contains_key(k))
-            .map(|k| k.0)
-            .collect();
-        let ratio = crate::stats::paired_ratio(&c, &o, SEED)
-            .map(|e| crate::stats::Estimate {
-                interval: e
-                    .interval
-                    .filter(|_| views.len() >= crate::stats::MIN_VIEWS),
-                n: views.len(),
-                ..e
-            })
-            .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
-        table.push(vec![
-            d.clone(),
-            pairs.len().to_string(),
-            fmt_s(median_of(
-                rows,
-                |r| r.dataset == *d && r.hull == CGAL,
-                |r| r.seconds,
-            )),
-            fmt_s(median_of(
-                rows,
-                |r| r.dataset == *d && r.hull == "own" && r.perturb == 0.0,
-                |r| r.seconds,
-            )),
-            ratio,
-            format!(
-                "{} of {}",
-                pairs.iter().filter(|(c, _)| c.1 == 1.0).count(),
-                pairs.len()
-            ),
-        ]);
-    }
-    let mut out = String::new();
-    if !table.is_empty() {
-        out.push_str(&format!(
-            "**CGAL (`convex_hull_3`, exact predicates) in the same HPR, against ours (`own`, \
-             k = 0)**, paired per view and γ: its own reported seconds of flip + hull + mapping \
-             (median of up to {repeats} runs, fewer under the time budget) over ours; identical: the visible sets equal.\n\n{}\n",
-            markdown_table(
-                &[
-                    "dataset",
-                    "pairs",
-                    "CGAL median s",
-                    "own median s",
-                    "CGAL ÷ own [95 % CI]",
-                    "identical sets"
-                ],
-                &table
-            )
-        ));
-    }
-    for n in not_run {
-        out.push_str(&format!("- not run: {n}\n"));
-    }
-    if !not_run.is_empty() {
-        out.push('\n');
-    }
-    out
 }
 
 /// Seed 000 Table 1 beside ours.
@@ -777,7 +694,11 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
                 crate::stats::paired_ratio(&xs, &ys, 2007)
             };
             let speed = paired(("qhull", 0.0), ("qhull", 1e-2));
-            let versus_own = paired(("qhull", 0.0), ("own", 0.0));
+            // Ours against Qhull is the ratios table's (every view and γ), one number.
+            let versus_own = super::rules::ratio::hull(&cells(rows))
+                .into_iter()
+                .find(|r| r.dataset == d && r.peer == "qhull")
+                .map_or("—".into(), |r| r.text());
             let ci = |r: Option<crate::stats::Estimate>| {
                 r.map_or("—".into(), |e| e.text(|x| format!("{x:.1}"), "×"))
             };
@@ -801,10 +722,10 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
                      Jaccard of {j1:.4} of the exact visible set: ±0.01·R on each coordinate, with R at 10^γ \
                      times the object's distance, is far larger than the object itself, so the speed-up \
                      comes from discarding the visible set, not from a better-conditioned hull. Our exact \
-                     hull needs {o0:.3} s with nothing discarded ({} faster than Qhull at k = 0).",
+                     hull needs {o0:.3} s with nothing discarded (Qhull's time over ours at k = 0, \
+                     over every view and γ: {versus_own}).",
                     ci(speed),
                     p0 / p1,
-                    ci(versus_own)
                 ));
             }
         }
@@ -821,76 +742,4 @@ fn table1(rows: &[Row], datasets: &[String]) -> String {
         out.push('\n');
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn row(hull: &str, view: usize, gamma: f64, seconds: f64, jaccard: f64) -> Row {
-        Row {
-            dataset: "d".into(),
-            n_points: 10,
-            view,
-            gamma,
-            hull: hull.into(),
-            perturb: 0.0,
-            seconds,
-            samples: 3,
-            n_visible: 5,
-            jaccard_vs_exact: jaccard,
-            f1_vs_reference: 0.9,
-            status: "ok".into(),
-            visible_sha256: String::new(),
-        }
-    }
-
-    #[test]
-    fn cgal_is_paired_with_own_per_view_and_gamma() {
-        let mut rows = Vec::new();
-        for view in 0..3 {
-            for gamma in [2.0, 3.0] {
-                rows.push(row("own", view, gamma, 0.1, 1.0));
-                rows.push(row(
-                    CGAL,
-                    view,
-                    gamma,
-                    0.5,
-                    if view == 2 { 0.99 } else { 1.0 },
-                ));
-            }
-        }
-        let t = cgal_table(&rows, &["d".into()], &[], 3);
-        let line = t.lines().find(|l| l.starts_with("| d |")).expect(&t);
-        // 6 cells but 3 views: no interval.
-        assert!(
-            line.contains("| 6 |") && line.contains("5.00× (indicative: 3 views)"),
-            "{line}"
-        );
-        assert!(line.contains("4 of 6"), "{line}");
-        // From 5 views, its interval.
-        let five: Vec<Row> = (0..5)
-            .flat_map(|view| {
-                [2.0, 3.0].into_iter().flat_map(move |gamma| {
-                    [
-                        row("own", view, gamma, 0.1, 1.0),
-                        row(CGAL, view, gamma, 0.5, 1.0),
-                    ]
-                })
-            })
-            .collect();
-        let t5 = cgal_table(&five, &["d".into()], &[], 3);
-        let line5 = t5.lines().find(|l| l.starts_with("| d |")).expect(&t5);
-        assert!(
-            line5.contains("| 10 |") && line5.contains("5.00× [5.00, 5.00]"),
-            "{line5}"
-        );
-        let missing = cgal_table(
-            &rows[..0],
-            &["d".into()],
-            &["cgal-hpr: not installed".into()],
-            3,
-        );
-        assert_eq!(missing, "- not run: cgal-hpr: not installed\n\n");
-    }
 }

@@ -10,8 +10,10 @@ pub mod findings;
 pub mod hull;
 pub(crate) mod lod;
 pub mod merge;
+pub mod ratios;
 mod reference;
 mod robustness;
+pub mod rules;
 pub mod scale;
 mod visibility;
 

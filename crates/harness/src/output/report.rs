@@ -104,17 +104,22 @@ pub fn assemble(
         title(quick)
     );
     page.push_str(findings);
-    // The machine and revision of the most recent run, for the reader who reads nothing else.
-    let latest = experiments
+    // The machine and revision of the run, for the reader who reads nothing else; when the
+    // sections come from different runs, which run each comes from.
+    let metas: Vec<(&str, RunMeta)> = experiments
         .iter()
-        .filter_map(|e| RunMeta::read(&reports_dir.join(e.name)).ok())
+        .filter_map(|e| Some((e.name, RunMeta::read(&reports_dir.join(e.name)).ok()?)))
+        .collect();
+    let latest = metas
+        .iter()
+        .map(|(_, m)| m)
         .max_by(|a, b| a.date_utc.cmp(&b.date_utc));
-    if let Some(m) = latest {
-        let total: f64 = experiments
-            .iter()
-            .filter_map(|e| RunMeta::read(&reports_dir.join(e.name)).ok())
-            .map(|m| m.seconds)
-            .sum();
+    let one_run = metas.windows(2).all(|w| {
+        (&w[0].1.git_revision, &w[0].1.cpu, &w[0].1.command)
+            == (&w[1].1.git_revision, &w[1].1.cpu, &w[1].1.command)
+    });
+    if let Some(m) = latest.filter(|_| one_run) {
+        let total: f64 = metas.iter().map(|(_, m)| m.seconds).sum();
         page.push_str(&format!(
             "## Run\n\n| | |\n|---|---|\n| date (UTC) | {} |\n| git revision | `{}`{} |\n\
              | rustc | {} |\n| CPU | {} |\n| cores | {} |\n| OS | {} |\n| mode | {} |\n\
@@ -132,6 +137,28 @@ pub fn assemble(
             m.os,
             if m.quick { "quick" } else { "full" },
             total
+        ));
+    } else if !metas.is_empty() {
+        let rows: String = metas
+            .iter()
+            .map(|(name, m)| {
+                format!(
+                    "| [{name}](#{name}) | {} | `{}`{} | {} ({} cores) | {} | {:.0} s | `{}` |\n",
+                    m.date_utc,
+                    &m.git_revision[..m.git_revision.len().min(10)],
+                    if m.git_dirty { " (dirty)" } else { "" },
+                    m.cpu,
+                    m.cores,
+                    if m.quick { "quick" } else { "full" },
+                    m.seconds,
+                    m.command
+                )
+            })
+            .collect();
+        page.push_str(&format!(
+            "## Run\n\nThe sections come from different runs; each from:\n\n\
+             | section | date (UTC) | git revision | machine | mode | measured time | command |\n\
+             |---|---|---|---|---|---|---|\n{rows}\n"
         ));
     }
     let mut contents = String::from("## Contents\n\n");

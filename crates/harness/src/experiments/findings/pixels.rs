@@ -4,7 +4,8 @@
 //! `registry::scoring::pixels::f1`), each method at its setting with the best mean over the
 //! views. The rules are the per-point row's ([`super::verdict`]: bootstrap interval over the
 //! views, none from fewer than [`crate::stats::MIN_VIEWS`], a quick run indicative; the
-//! cheapest within 0.01 by seconds per view from `results.csv`). Each dataset's row stands
+//! cheapest within 0.01 by seconds per view from `results.csv`; identical answers by equal
+//! scores, pixels having no fingerprint). Each dataset's row stands
 //! right after its per-point row ([`beside`]), which judges the methods made for points.
 //!
 //! The settings follow the per-point row's protocol (`visibility::tuning`), with the per-pixel
@@ -21,8 +22,8 @@ use registry::scoring::pixels::f1;
 use serde::Deserialize;
 
 use super::{
-    Ask, Cell, Finding, VisibilityRow, by_condition, finding, pool_evaluation, tuned_condition,
-    verdict,
+    Ask, Cell, Finding, Rules, VisibilityRow, by_condition, finding, pool_evaluation,
+    tuned_condition, verdict,
 };
 use crate::experiments::visibility::tuning::{Obs, Protocol, roles_of};
 use crate::output::meta::RunMeta;
@@ -52,6 +53,7 @@ pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         return Ok(Vec::new());
     }
     let rows: Vec<PixelCsvRow> = read_csv(&dir.join("pixels.csv"))?;
+    let wrong = super::wrong::peers(dir)?;
     let results: Vec<VisibilityRow> = read_csv(&dir.join("results.csv"))?;
     let seconds: BTreeMap<(&str, usize, &str, &str), f64> = results
         .iter()
@@ -91,27 +93,30 @@ pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let mut conditions = by_condition(
         &rows,
         |r| (r.made_for == "pixels" && stands(r)).then(|| r.dataset.clone()),
-        |r| Cell {
-            method: r.family.clone(),
-            setting: r.params.clone(),
-            key: r.view.to_string(),
-            value: f1(r.pixel_precision, r.mesh_coverage),
-            cost: seconds
-                .get(&(
-                    r.dataset.as_str(),
-                    r.view,
-                    r.family.as_str(),
-                    r.params.as_str(),
-                ))
-                .copied()
-                .unwrap_or(f64::NAN),
+        |r| {
+            Cell::new(
+                &r.family,
+                &r.params,
+                r.view.to_string(),
+                f1(r.pixel_precision, r.mesh_coverage),
+                seconds
+                    .get(&(
+                        r.dataset.as_str(),
+                        r.view,
+                        r.family.as_str(),
+                        r.params.as_str(),
+                    ))
+                    .copied()
+                    .unwrap_or(f64::NAN),
+            )
         },
     );
     pool_evaluation(&mut conditions, &protocol);
     Ok(conditions
         .into_iter()
         .filter_map(|(dataset, cells)| {
-            let v = verdict(&cells, 0.01)?;
+            let (cells, notes) = super::without_wrong(cells, &wrong);
+            let v = verdict(&cells, Rules::F1)?;
             let condition = tuned_condition(
                 &protocol,
                 &dataset,
@@ -127,10 +132,11 @@ pub(super) fn visibility(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
                                (pixel F1)?",
                     metric: "pixel F1",
                     cost_metric: "seconds per view",
-                    tolerance: 0.01,
+                    rules: Rules::F1,
                     quick,
                 },
                 v,
+                notes,
             ))
         })
         .collect())

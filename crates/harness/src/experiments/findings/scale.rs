@@ -1,12 +1,20 @@
 //! The scale findings: per group of cells (visibility methods, hulls, LOD builds in core, out of
 //! core), the fastest at 10^7 points and at the largest size any of the group finished, with
 //! the runner-up and the lightest in peak memory.
+//!
+//! A cell is one run (no views, no interval): the fastest `wins` when the runner-up took more
+//! than 1 + [`super::verdict::TIME_MARGIN`] times its time, else there is `no clear winner`.
+//! A method whose exactness claim failed in the sibling experiments' results
+//! ([`super::wrong::for_scale`]: a hull of the hull experiment, an HPR peer) is left out and
+//! named.
 
 use std::path::Path;
 
 use anyhow::Result;
 use serde::Deserialize;
 
+use super::verdict::TIME_MARGIN;
+use super::wrong;
 use super::{Finding, points_text};
 use crate::output::{distinct, read_csv};
 
@@ -22,6 +30,7 @@ struct ScaleRow {
 
 pub(super) fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     let rows: Vec<ScaleRow> = read_csv(&dir.join("results.csv"))?;
+    let wrong = wrong::for_scale(dir)?;
     // LOD selections answer another question than builds: the builds only, in core and out of
     // core apart (an out-of-core build is judged against the others within its memory limit).
     let ooc = |m: &str| m.ends_with(super::super::scale::plan::OOC_SUFFIX);
@@ -44,7 +53,12 @@ pub(super) fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
     for (g, name) in groups {
         let ok: Vec<&ScaleRow> = rows
             .iter()
-            .filter(|r| r.status == "ok" && r.seconds.is_finite() && in_group(r, g))
+            .filter(|r| {
+                r.status == "ok"
+                    && r.seconds.is_finite()
+                    && in_group(r, g)
+                    && wrong.get(&r.method).is_none()
+            })
             .collect();
         let Some(largest) = ok.iter().map(|r| r.n_points).max() else {
             continue;
@@ -60,8 +74,15 @@ pub(super) fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         if largest > SCALE_SIZE && ok.iter().any(|r| r.n_points == SCALE_SIZE) {
             sizes.insert(0, SCALE_SIZE);
         }
+        let notes = wrong.notes(
+            rows.iter()
+                .filter(|r| in_group(r, g))
+                .map(|r| r.method.as_str()),
+        );
         for n in sizes {
-            out.push(scale_finding(&ok, n, n == largest, name, tried, quick));
+            let mut f = scale_finding(&ok, n, n == largest, name, tried, quick);
+            f.not_ranked = notes.join("; ");
+            out.push(f);
         }
     }
     Ok(out)
@@ -97,7 +118,11 @@ fn scale_finding(
             .copied()
             .unwrap_or(best);
         let runner = at.get(1);
-        let only = at.len() == 1;
+        let verdict = match runner {
+            None => "only method",
+            Some(r) if r.seconds > best.seconds * (1.0 + TIME_MARGIN) => "wins",
+            Some(_) => "no clear winner",
+        };
         Finding {
             experiment: "scale".into(),
             condition: format!(
@@ -120,7 +145,7 @@ fn scale_finding(
             high: None,
             n_views: None,
             indicative: quick,
-            verdict: if only { "only method" } else { "fastest" }.into(),
+            verdict: verdict.into(),
             runner_up: runner.map_or(String::new(), |r| r.method.clone()),
             runner_up_value: runner.map(|r| r.seconds),
             difference: None,
@@ -131,7 +156,10 @@ fn scale_finding(
             cheapest: lightest.method.clone(),
             cheapest_value: Some(lightest.seconds),
             cheapest_cost: Some(lightest.peak_rss_bytes as f64 / 1048576.0),
-            tolerance: f64::INFINITY,
+            tolerance: None,
+            identical: String::new(),
+            not_ranked: String::new(),
+            margin: TIME_MARGIN,
         }
     }
 }

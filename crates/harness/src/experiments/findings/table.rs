@@ -20,7 +20,7 @@ fn num(x: f64, digits: usize) -> String {
 fn digits(metric: &str) -> usize {
     match metric {
         "F1" | "pixel F1" | "seconds (geometric mean)" => 3,
-        "seconds" => 2,
+        "seconds" | "PSNR (dB)" | "BD-PSNR (dB)" => 2,
         _ => 1,
     }
 }
@@ -29,7 +29,7 @@ fn digits(metric: &str) -> usize {
 fn cost_text(metric: &str, x: f64) -> String {
     match metric {
         "seconds per view" | "seconds (geometric mean)" => format!("{} s", num(x, 3)),
-        "points rendered" => format!("{} pts", num(x, 0)),
+        "points rendered" | "points (the budget)" => format!("{} pts", num(x, 0)),
         "peak memory (MiB)" => format!("{} MiB", num(x, 0)),
         _ => num(x, 3),
     }
@@ -85,19 +85,25 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
         }
     );
     s.push_str(
-        "The best method per condition (visibility, per point by F1 and per pixel by pixel \
-         F1: each method at its setting tuned on the tuning datasets, the condition saying \
-         whether it is evaluation data (the first rows pool the evaluation datasets: the \
-         out-of-sample answer), tuning data in-sample, or an oracle where the run had no \
-         tuning data; the other experiments: at its best setting on the condition), its mean \
-         with a 95 % bootstrap interval over the views (none from fewer than 5 views: \
-         indicative), the runner-up and the \
-         paired difference (no clear winner when its interval holds 0), its cost, and the \
-         cheapest choice within 0.01 F1 / 1 dB of the best (scale: the lightest in peak memory). \
-         Machine-readable: \
+        "The best method per condition, by the rules of `docs/verdicts.md` (recomputed from the \
+         results by `scripts/audit_findings.py`): the same cells for every method compared (a \
+         method with fewer is listed under *not ranked* with its count), each view (and LOD \
+         distance) on its own before the mean over them, one statistic (the best mean), the \
+         lead as the mean paired difference with its 95 % bootstrap interval (none from fewer \
+         than 5 views: indicative), judged against a practical margin (±0.005 F1, ±0.1 dB, ±5 % \
+         of the time): *wins* beyond it, *equivalent* within it, else *no clear winner*. A \
+         method whose answers equal the best's is named identical and the next distinct one is \
+         the runner-up; a method that claims exactness and returned other sets (Jaccard below \
+         0.999) is never ranked. Visibility: each method at its setting tuned on the tuning \
+         datasets (the first rows pool the evaluation datasets: the out-of-sample answer). \
+         Robustness: `best` tuned on the clean tuning datasets, and `auto`, the rule, on \
+         evaluation data, tuning data (in-sample) and simulated scans. LOD: each method's curve \
+         per (view, distance) read at a share of the points, interpolated in log points, never \
+         extrapolated, and BD-PSNR against the random subsample. The cheapest choice within \
+         0.01 F1 of the best (scale: the lightest in peak memory). Machine-readable: \
          [findings.csv](findings.csv).\n\n\
-         | experiment | condition | best | value | runner-up: difference | cost | cheapest near the best |\n\
-         |---|---|---|---|---|---|---|\n",
+         | experiment | condition | best | value | runner-up: difference | cost | cheapest near the best | not ranked |\n\
+         |---|---|---|---|---|---|---|---|\n",
     );
     for f in findings {
         let d = digits(&f.metric);
@@ -138,21 +144,36 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
             };
             format!("{}: {diff} ({})", f.runner_up, f.verdict)
         };
+        let runner = match (f.identical.is_empty(), f.runner_up.is_empty()) {
+            (true, _) => runner,
+            (false, true) => format!("identical answers: {}", f.identical),
+            (false, false) => format!("identical answers: {}; next: {runner}", f.identical),
+        };
+        let lightest = if f.cost_metric == "peak memory (MiB)" {
+            "lightest: "
+        } else {
+            ""
+        };
         let cheapest = if f.cheapest.is_empty() {
             "-".to_owned()
         } else if f.cheapest == with_setting(&f.method, &f.setting) {
-            "the best itself".to_owned()
+            format!("{lightest}the best itself")
         } else {
             format!(
-                "{} ({}, {})",
+                "{lightest}{} ({}, {})",
                 f.cheapest,
                 f.cheapest_value.map_or("-".into(), |v| num(v, d)),
                 f.cheapest_cost
                     .map_or("-".into(), |c| cost_text(&f.cost_metric, c))
             )
         };
+        let not_ranked = if f.not_ranked.is_empty() {
+            "-"
+        } else {
+            f.not_ranked.as_str()
+        };
         s.push_str(&format!(
-            "| [{}](#{}) | {} | {} | {} | {} | {} | {} |\n",
+            "| [{}](#{}) | {} | {} | {} | {} | {} | {} | {} |\n",
             f.experiment,
             f.experiment,
             f.condition,
@@ -160,7 +181,8 @@ pub fn markdown(findings: &[Finding], quick: bool) -> String {
             value,
             runner,
             cost_text(&f.cost_metric, f.cost),
-            cheapest
+            cheapest,
+            not_ranked
         ));
     }
     s.push('\n');

@@ -138,6 +138,7 @@ pub(super) fn measure(
             settings[k].label(),
             "ok".into(),
         );
+        row.n_points = ds.n_points as usize;
         match selection {
             Ok(s) => {
                 let img = score(&mut row, &s, &references[v], &views[v].camera);

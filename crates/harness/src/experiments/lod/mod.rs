@@ -44,8 +44,10 @@ use registry::{Card, Setting, kernel};
 use serde::{Deserialize, Serialize};
 use splat::render::{Image, RenderParams, render};
 
+use super::rules::curve::IDENTICAL_PSNR;
 use super::{Context, Experiment, markdown_table};
 
+mod budgets;
 mod from_file;
 pub mod noise;
 mod srn_table;
@@ -100,6 +102,9 @@ pub struct Row {
     /// `ok`, or `error: …` for a build or selection that failed (metrics NaN).
     #[serde(default = "ok_status")]
     pub status: String,
+    /// The dataset's points, which the findings' budgets are shares of (0 in older results).
+    #[serde(default)]
+    pub n_points: usize,
 }
 
 impl Row {
@@ -124,6 +129,7 @@ impl Row {
             ssim: f64::NAN,
             hole_fraction: f64::NAN,
             status,
+            n_points: 0,
         }
     }
 }
@@ -327,6 +333,7 @@ fn measure_dataset(
                 settings[k].label(),
                 "ok".into(),
             );
+            row.n_points = n;
             match selection {
                 Ok(s) => {
                     let img = score(&mut row, &s, &references[v], &views[v].camera);
@@ -380,17 +387,16 @@ fn measure_dataset(
                 eprintln!("lod: {} build: {e}", m.name);
                 for setting in settings {
                     for (v, &(view, distance)) in at.iter().enumerate() {
-                        ds_rows.push((
-                            v,
-                            Row::new(
-                                name.to_owned(),
-                                view,
-                                distance,
-                                m.name.to_owned(),
-                                setting.label(),
-                                format!("error: build: {e}"),
-                            ),
-                        ));
+                        let mut row = Row::new(
+                            name.to_owned(),
+                            view,
+                            distance,
+                            m.name.to_owned(),
+                            setting.label(),
+                            format!("error: build: {e}"),
+                        );
+                        row.n_points = n;
+                        ds_rows.push((v, row));
                     }
                 }
             }
@@ -534,12 +540,15 @@ impl Experiment for LodExperiment {
 }
 
 /// Means over views of (points, seconds, psnr, ssim, holes) per (dataset, distance, method,
-/// params), in the order the settings first appear.
-type Mean = (String, f64, f64, f64, f64, f64);
+/// params), in the order the settings first appear, and how many views gave an image identical
+/// to the reference (their PSNR, the scorer's cap, is left out of the PSNR mean: NaN when every
+/// view's was).
+type Mean = (String, f64, f64, f64, f64, f64, usize);
 
 fn means(rows: &[Row], dataset: &str, distance: f64, method: &str) -> Vec<Mean> {
     let mut order: Vec<String> = Vec::new();
-    let mut acc: BTreeMap<String, ([f64; 5], usize)> = BTreeMap::new();
+    // Sums of the five, the views, the PSNR's views (not identical).
+    let mut acc: BTreeMap<String, ([f64; 5], usize, usize)> = BTreeMap::new();
     for r in rows
         .iter()
         .filter(|r| r.dataset == dataset && r.distance == distance && r.method == method)
@@ -548,10 +557,11 @@ fn means(rows: &[Row], dataset: &str, distance: f64, method: &str) -> Vec<Mean> 
             order.push(r.params.clone());
         }
         let e = acc.entry(r.params.clone()).or_default();
+        let identical = r.psnr >= IDENTICAL_PSNR;
         for (k, v) in [
             r.points_rendered as f64,
             r.seconds,
-            r.psnr,
+            if identical { 0.0 } else { r.psnr },
             r.ssim,
             r.hole_fraction,
         ]
@@ -561,13 +571,27 @@ fn means(rows: &[Row], dataset: &str, distance: f64, method: &str) -> Vec<Mean> 
             e.0[k] += v;
         }
         e.1 += 1;
+        e.2 += usize::from(!identical);
     }
     order
         .into_iter()
         .filter_map(|p| {
-            let (s, n) = acc.get(&p)?;
-            let n = *n as f64;
-            Some((p, s[0] / n, s[1] / n, s[2] / n, s[3] / n, s[4] / n))
+            let (s, n, finite) = acc.get(&p)?;
+            let n_f = *n as f64;
+            let psnr = if *finite == 0 {
+                f64::NAN
+            } else {
+                s[2] / *finite as f64
+            };
+            Some((
+                p,
+                s[0] / n_f,
+                s[1] / n_f,
+                psnr,
+                s[3] / n_f,
+                s[4] / n_f,
+                n - finite,
+            ))
         })
         .collect()
 }
@@ -591,8 +615,10 @@ fn render_outputs(
         "Each method's splats rendered with `splat::render` and compared with the full-cloud \
          render of the same view (PSNR over covered pixels, SSIM on luma, holes = reference \
          pixels left empty); `seconds` is the selection alone (an external method's own \
-         reported seconds). Means over the views. Each method has its colour, each distance \
-         its marker; every figure's data is the JSON file of its name.\n\n",
+         reported seconds). Means over the views; an image identical to the reference (PSNR at \
+         the scorer's 100 dB cap) is said so in the tables, not drawn at 100 dB. Each method has \
+         its colour, each distance its marker; every figure's data is the JSON file of its \
+         name.\n\n",
     );
     for n in not_run {
         summary.push_str(&format!("- not run: {n}\n"));
@@ -607,6 +633,9 @@ fn render_outputs(
                 for &d in &distances {
                     let points: Vec<Point> = means(rows, ds, d, m)
                         .iter()
+                        // A setting with a view identical to the reference has no PSNR there:
+                        // left out of the figures (the tables say identical).
+                        .filter(|mean| mean.6 == 0)
                         .map(|mean| {
                             let (x, y) = f(mean);
                             Point::new(x, y).seconds(mean.2).setting(mean.0.clone())
@@ -641,17 +670,23 @@ fn render_outputs(
         summary.push_str(&psnr.write(dir)?);
         summary.push_str(&time.write(dir)?);
         summary.push_str(&format!("![renders](strip_{ds}.png)\n\n"));
+        summary.push_str(&budgets::tables(rows, ds));
         let mut table = Vec::new();
         for &d in &distances {
             for m in &methods {
-                for (p, pts, sec, ps, ss, holes) in means(rows, ds, d, m) {
+                for (p, pts, sec, ps, ss, holes, same) in means(rows, ds, d, m) {
+                    let psnr_text = match same {
+                        0 => format!("{ps:.2}"),
+                        _ if ps.is_nan() => "identical".into(),
+                        k => format!("{ps:.2} (identical on {k} views)"),
+                    };
                     table.push(vec![
                         format!("×{d}"),
                         m.clone(),
                         p,
                         format!("{pts:.0}"),
                         format!("{:.3}", sec * 1e3),
-                        format!("{ps:.2}"),
+                        psnr_text,
                         format!("{ss:.3}"),
                         format!("{:.2}", holes * 100.0),
                     ]);

@@ -1,9 +1,10 @@
 //! The robustness report's comparison tables, drawn from `results.csv` alone (so `pointsight
 //! tables` redraws them):
 //!
-//! - [`winners`]: per dataset, degradation and level, the best method (highest median F1 over
-//!   the views, either setting) against the best of every *other* method: the F1 difference
-//!   paired per view with its bootstrap 95 % interval (`crate::stats`), and what each costs;
+//! - [`winners`]: per dataset, degradation and level, the findings' verdict
+//!   (`crate::experiments::rules::verdict`: the best mean F1 over the views, either setting,
+//!   against the best distinct other method, the F1 difference paired per view with its
+//!   bootstrap 95 % interval and the practical margin), and what each costs;
 //! - [`mehra`]: the comparison of Mehra et al. 2010 (their project page's figure: HPR against
 //!   the robust operator on clouds perturbed uniformly along the normal, noise margins in
 //!   bounding-box diagonals, false positives and false negatives against a z-buffer of the
@@ -19,94 +20,109 @@ use registry::Comparison;
 
 use super::{Row, median};
 use crate::experiments::markdown_table;
-
-/// Seed of the bootstrap intervals.
-const SEED: u64 = 2010;
+use crate::experiments::rules::verdict::{Cell, Rules, verdict};
 
 /// A cell of the comparison: dataset, degradation, level (×10⁶, rounded).
-type Cell = (String, String, i64);
-/// Per view: (F1, seconds).
-type Views = BTreeMap<usize, (f64, f64)>;
-/// A method's best setting: median F1, the setting, its views.
-type Best<'a> = (f64, &'a str, &'a Views);
+type Key = (String, String, i64);
 
-/// Rows grouped by cell, then by (method, setting), then per view: (F1, seconds).
-fn grouped(rows: &[Row]) -> BTreeMap<Cell, BTreeMap<(String, String), Views>> {
-    let mut out: BTreeMap<Cell, BTreeMap<(String, String), Views>> = BTreeMap::new();
+/// Per cell (dataset, degradation, level): the findings' verdict ([`verdict`]: each method at
+/// the better of `best` and `auto` by its mean F1 over the views, the runner-up the best
+/// distinct other method, the paired difference against the F1 margin), and what each costs.
+pub fn winners(rows: &[Row]) -> String {
+    let mut cells: BTreeMap<Key, Vec<Cell>> = BTreeMap::new();
+    let mut seconds: BTreeMap<(Key, String, String), Vec<f64>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.status == "ok") {
-        out.entry((
+        let key = (
             r.dataset.clone(),
             r.degradation.clone(),
             (r.level * 1e6).round() as i64,
-        ))
-        .or_default()
-        .entry((r.method.clone(), r.setting.clone()))
-        .or_default()
-        .insert(r.view, (r.f1, r.seconds));
+        );
+        cells.entry(key.clone()).or_default().push(Cell::new(
+            &r.method,
+            &r.setting,
+            r.view.to_string(),
+            r.f1,
+            r.seconds,
+        ));
+        seconds
+            .entry((key, r.method.clone(), r.setting.clone()))
+            .or_default()
+            .push(r.seconds);
     }
-    out
-}
-
-/// Per cell: the winner and the runner-up (the best setting of another method), the paired F1
-/// difference with its interval, and each one's median seconds per view.
-pub fn winners(rows: &[Row]) -> String {
     let mut table = Vec::new();
-    for ((ds, deg, level), runs) in grouped(rows) {
-        // The best setting of each method, by median F1 (a method that failed on a view is
-        // ranked on the views it answered, and the pairing below uses the common views).
-        let mut best: BTreeMap<&str, Best> = BTreeMap::new();
-        for ((method, setting), views) in &runs {
-            let m = median(views.values().map(|v| v.0).collect());
-            if best.get(method.as_str()).is_none_or(|b| m > b.0) {
-                best.insert(method, (m, setting, views));
-            }
-        }
-        let mut ranked: Vec<(&str, Best)> =
-            best.into_iter().filter(|(_, b)| b.0.is_finite()).collect();
-        ranked.sort_by(|a, b| b.1.0.total_cmp(&a.1.0).then(a.0.cmp(b.0)));
-        let [(wm, (wf1, ws, wv)), (rm, (rf1, rs, rv)), ..] = ranked[..] else {
+    for (key, cells) in cells {
+        let Some(v) = verdict(&cells, Rules::F1) else {
             continue;
         };
-        let diffs: Vec<f64> = wv
+        let secs = |m: &str, s: &str| {
+            seconds
+                .get(&(key.clone(), m.to_owned(), s.to_owned()))
+                .map_or("-".into(), |x| format!("{:.3}", median(x.clone())))
+        };
+        let (runner, runner_f1, runner_s, diff) = match &v.runner_up {
+            Some(r) => (
+                format!("{} {}", r.method, r.setting),
+                format!("{:.3}", r.value),
+                secs(&r.method, &r.setting),
+                r.difference
+                    .map_or("-".into(), |e| e.text(|x| format!("{x:+.3}"), "")),
+            ),
+            None => ("-".into(), "-".into(), "-".into(), "-".into()),
+        };
+        let identical: Vec<String> = v
+            .identical
             .iter()
-            .filter_map(|(k, a)| Some(a.0 - rv.get(k)?.0))
+            .map(|(m, s)| format!("{m} {s}"))
             .collect();
-        let interval = crate::stats::bootstrap_mean(&diffs, SEED)
-            .map_or("-".into(), |e| e.text(|x| format!("{x:+.3}"), ""));
-        let secs = |v: &Views| median(v.values().map(|x| x.1).collect());
+        let apart: Vec<String> = v
+            .apart
+            .iter()
+            .map(|(m, n)| format!("{m}: {n} of {} views", v.keys))
+            .collect();
         table.push(vec![
-            ds,
-            deg,
-            format!("{}", level as f64 / 1e6),
-            format!("{wm} {ws}"),
-            format!("{wf1:.3}"),
-            format!("{:.3}", secs(wv)),
-            format!("{rm} {rs}"),
-            format!("{rf1:.3}"),
-            format!("{:.3}", secs(rv)),
-            interval,
+            key.0.clone(),
+            key.1.clone(),
+            format!("{}", key.2 as f64 / 1e6),
+            format!("{} {}", v.method, v.setting),
+            format!("{:.3}", v.value.value),
+            secs(&v.method, &v.setting),
+            runner,
+            runner_f1,
+            runner_s,
+            diff,
+            v.word().to_owned(),
+            [identical.join(", "), apart.join(", ")]
+                .into_iter()
+                .filter(|s| !s.is_empty())
+                .collect::<Vec<_>>()
+                .join("; "),
         ]);
     }
     if table.is_empty() {
         return String::new();
     }
     format!(
-        "Which method is best, per dataset and degradation: the method with the highest median F1 \
-         (at its better setting, `best` or `auto`) against the best other method; the F1 difference \
-         is the mean over the views of the paired differences, with its bootstrap 95 % interval \
-         (an interval that contains 0: no winner on these views). Seconds: median per view.\n\n{}\n",
+        "Which method is best, per dataset, degradation and level, by the findings' rules \
+         (`docs/verdicts.md`): each method at the better of `best` and `auto` by its mean F1 over \
+         the views; the runner-up is the best other method whose sets differ (one with the same \
+         F1 on every view is named identical); the F1 difference is the mean over the views of \
+         the paired differences, with its bootstrap 95 % interval, judged against ±0.005 F1 \
+         (*wins* above it, *equivalent* within it, else *no clear winner*). Seconds: median per \
+         view.\n\n{}\n",
         markdown_table(
             &[
                 "dataset",
                 "degradation",
                 "level",
                 "best",
-                "F1",
+                "mean F1",
                 "s",
                 "runner-up",
-                "F1",
+                "mean F1",
                 "s",
                 "F1 difference (95 % interval)",
+                "verdict",
+                "identical; not ranked",
             ],
             &table
         )

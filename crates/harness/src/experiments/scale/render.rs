@@ -10,40 +10,37 @@ use anyhow::Result;
 use super::plan::OOC_SUFFIX;
 use super::row::Row;
 use crate::experiments::markdown_table;
+use crate::experiments::rules::ratio;
 use crate::output::figure::{Axis, Draw, Figure, Point, Series};
 use crate::output::style;
 use crate::output::{read_csv, write_atomic};
 
-/// Per size where copc_converter's cell finished: each of our out-of-core builds' rate over
-/// its rate (points per second), from the same run.
+/// Per size where copc_converter's cell finished: its time over each of our out-of-core
+/// builds' (our rate over its rate), from the ratios table (`rules::ratio::scale`).
 fn rates_against_the_peer(rows: &[Row]) -> String {
-    let peer = format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER);
     let mut out = String::new();
-    for p in rows.iter().filter(|r| r.method == peer && r.status == "ok") {
-        let ours: Vec<String> = rows
+    let cells: Vec<ratio::ScaleCell> = rows
+        .iter()
+        .map(|r| ratio::ScaleCell {
+            method: r.method.clone(),
+            n_points: r.n_points,
+            seconds: r.seconds,
+            status: r.status.clone(),
+        })
+        .collect();
+    let peer = format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER);
+    let ratios = ratio::scale(&cells, &peer, OOC_SUFFIX);
+    for size in crate::output::distinct(ratios.iter().map(|r| r.dataset.as_str())) {
+        let ours: Vec<String> = ratios
             .iter()
-            .filter(|r| {
-                r.method.ends_with(OOC_SUFFIX)
-                    && r.method != peer
-                    && r.n_points == p.n_points
-                    && r.status == "ok"
-            })
-            .map(|r| {
-                format!(
-                    "`{}` {:.2}×",
-                    r.method,
-                    (r.n_points as f64 / r.seconds) / (p.n_points as f64 / p.seconds)
-                )
-            })
+            .filter(|r| r.dataset == size)
+            .map(|r| format!("`{}` {}", r.ours, r.text()))
             .collect();
-        if !ours.is_empty() {
-            out.push_str(&format!(
-                "\nAt {} points, our rate over copc_converter's ({:.2} M points/s): {}.\n",
-                p.n_points,
-                p.n_points as f64 / p.seconds / 1e6,
-                ours.join(", ")
-            ));
-        }
+        out.push_str(&format!(
+            "\nAt {size}, copc_converter's time over ours (our rate over its rate; \
+             `reports/ratios.csv`): {}.\n",
+            ours.join(", ")
+        ));
     }
     out
 }
@@ -103,6 +100,7 @@ pub fn group(m: &str) -> usize {
 /// Draws the plots and writes `summary.md` of the results in `dir`.
 pub fn render(dir: &Path) -> Result<()> {
     let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
+    let wrong = crate::experiments::rules::wrong::for_scale(dir)?;
     let mut methods: Vec<String> = rows.iter().map(|r| r.method.clone()).collect();
     methods.dedup();
     let mut table = Vec::new();
@@ -144,9 +142,11 @@ pub fn render(dir: &Path) -> Result<()> {
                 .map(|r| Point::new(r.n_points as f64, y(r)).seconds(r.seconds))
                 .collect()
         };
+        // A method whose exactness claim failed elsewhere in the reports: said in its label.
+        let mark = wrong.note(m).map_or(String::new(), |n| format!(" — {n}"));
         time_series[g].push(
             Series::new(m, &family, &variant, Draw::Line, points(&|r| r.seconds)).label(format!(
-                "{m} (slope {}, {} sizes)",
+                "{m} (slope {}, {} sizes){mark}",
                 slope(t_fit),
                 times.len()
             )),
@@ -160,7 +160,7 @@ pub fn render(dir: &Path) -> Result<()> {
                 points(&|r| r.peak_rss_bytes as f64),
             )
             .label(format!(
-                "{m} (slope {}, {} sizes)",
+                "{m} (slope {}, {} sizes){mark}",
                 slope(m_fit),
                 mems.len()
             )),
@@ -172,7 +172,7 @@ pub fn render(dir: &Path) -> Result<()> {
                 .map(|r| (r.n_points, r.status.as_str())),
         );
         table.push(vec![
-            m.clone(),
+            format!("{m}{mark}"),
             slope(t_fit),
             slope(m_fit),
             ok.len().to_string(),
@@ -449,8 +449,8 @@ mod tests {
         let text = rates_against_the_peer(&rows);
         assert_eq!(
             text,
-            "\nAt 1000000 points, our rate over copc_converter's (0.50 M points/s): \
-             `qsplat-build-ooc` 0.40×, `spt-build-ooc` 0.25×.\n"
+            "\nAt 1000000 points, copc_converter's time over ours (our rate over its rate; \
+             `reports/ratios.csv`): `qsplat-build-ooc` 0.40× (one run), `spt-build-ooc` 0.25× (one run).\n"
         );
     }
 

@@ -114,6 +114,18 @@ pub struct Row {
     /// or `pixels` (pixels.csv's per-pixel F1); the findings judge it by that one.
     #[serde(default = "points")]
     pub made_for: String,
+    /// SHA-256 of the visible set ([`set_digest`]): two methods with the same have the
+    /// same answer (the findings name such a runner-up identical); empty for a failed view.
+    #[serde(default)]
+    pub visible_sha256: String,
+}
+
+/// SHA-256 of the visible set, its indices sorted, as little-endian `u32`s.
+fn set_digest(visible: &[u32]) -> String {
+    let mut sorted = visible.to_vec();
+    sorted.sort_unstable();
+    let bytes: Vec<u8> = sorted.iter().flat_map(|i| i.to_le_bytes()).collect();
+    crate::fetch::sha256_hex(&bytes)
 }
 
 fn ok_status() -> String {
@@ -226,6 +238,28 @@ pub struct PeerRow {
     /// preparation).
     #[serde(default = "nan")]
     pub partner_build_seconds: f64,
+    /// Whether the peer's card claims exactness (`registry::Card::exact`): its sets must then
+    /// equal our partner's (the findings' wrong answers otherwise).
+    #[serde(default)]
+    pub claims_exact: bool,
+}
+
+impl PeerRow {
+    /// The row as the ratios read it (`rules::ratio`).
+    pub fn pair(&self) -> crate::experiments::rules::ratio::PeerPair {
+        crate::experiments::rules::ratio::PeerPair {
+            dataset: self.dataset.clone(),
+            view: self.view,
+            peer: self.peer.clone(),
+            peer_params: self.peer_params.clone(),
+            partner: self.partner.clone(),
+            partner_params: self.partner_params.clone(),
+            peer_seconds: self.peer_seconds,
+            partner_seconds: self.partner_seconds,
+            jaccard: self.jaccard,
+            claims_exact: self.claims_exact,
+        }
+    }
 }
 
 fn nan() -> f64 {
@@ -461,6 +495,7 @@ impl Experiment for VisibilityExperiment {
                             samples: 0,
                             status: ok_status(),
                             made_for: m.made_for.as_str().to_owned(),
+                            visible_sha256: String::new(),
                         };
                         match outcome {
                             Ok(kernel::Answer {
@@ -476,6 +511,7 @@ impl Experiment for VisibilityExperiment {
                                     out.visible.iter().filter(|&&i| f[i as usize]).count()
                                 });
                                 row.n_visible = out.visible.len();
+                                row.visible_sha256 = set_digest(&out.visible);
                                 row.rays = out.rays;
                                 (row.seconds, row.seconds_min, row.seconds_max, row.samples) =
                                     (t.median, t.min, t.max, t.samples);
@@ -793,6 +829,7 @@ fn peer_rows(
             }),
             peer_build_seconds: build(&peer.method, &peer.params, true),
             partner_build_seconds: ours.map_or(f64::NAN, |o| build(&o.method, &o.params, false)),
+            claims_exact: registry::card(&peer.method).is_ok_and(|m| m.exact),
         });
     }
     out

@@ -217,6 +217,7 @@ mod tests {
             samples: 1,
             status: "ok".into(),
             made_for: "points".into(),
+            visible_sha256: String::new(),
         }
     }
 

@@ -236,6 +236,7 @@ mod tests {
             jaccard,
             peer_build_seconds: f64::NAN,
             partner_build_seconds: 0.25 * (view + 1) as f64,
+            claims_exact: true,
         }
     }
 

@@ -17,6 +17,7 @@ use super::tuning::{Protocol, observations, roles_of};
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
 use crate::experiments::markdown_table;
+use crate::experiments::rules::ratio;
 use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::render::{classified_panel, compose, footprint};
 use crate::output::{distinct, write_atomic};
@@ -135,7 +136,15 @@ fn versus_table(
         };
         let by_view = |fam: &str, params: &str| super::papers::by_view(rows, d, fam, params);
         let ours = by_view(BASE, &base);
-        for fam in families.iter().filter(|f| *f != BASE) {
+        // A peer's time against ours is one number, at the same setting: the peers table
+        // (reports/ratios.csv), not here at each one's tuned setting.
+        let is_peer = |f: &str| {
+            rows.iter()
+                .find(|r| r.family == f)
+                .and_then(|r| registry::card(&r.method).ok())
+                .is_some_and(|c| c.peer_of.is_some())
+        };
+        for fam in families.iter().filter(|f| *f != BASE && !is_peer(f)) {
             let Some((best, _)) = chosen(rows, protocol, d, fam) else {
                 continue;
             };
@@ -170,7 +179,9 @@ Each method at its tuned setting against \
          `hpr-linear` at its tuned setting (same dataset, same views; see the table above). `time ratio`: the method's \
          seconds over HPR's, geometric mean of the per-view ratios (below 1: faster than HPR); \
          `F1 − HPR`: mean of the per-view differences; both with a bootstrap 95 % interval \
-         (views resampled, 10,000 times).\n\n{}\n",
+         (views resampled, 10,000 times). Peers are not in this table: their time against \
+         ours is measured at the same setting, in the peers table below and in \
+         `reports/ratios.csv`.\n\n{}\n",
         markdown_table(
             &[
                 "dataset",
@@ -359,7 +370,9 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
              measure of agreement). `time ratio`: the peer's seconds (its own reported compute \
              time) over ours, geometric mean over the views with its bootstrap 95 % interval \
              (views resampled, 10,000 times), then the lowest and highest view's; above 1 means \
-             ours is faster. `ΔF1`: the peer's F1 minus ours, mean over the views [95 % \
+             ours is faster (these ratios are `reports/ratios.csv`'s, the one table of ratios \
+             against peers). A peer claiming exactness whose sets missed ours (Jaccard below \
+             0.999) is marked `wrong answers`. `ΔF1`: the peer's F1 minus ours, mean over the views [95 % \
              interval]. `build s`: the per-cloud structure's build, once per setting, apart \
              from the per-view times (median over the views' cells): the peer's as its own \
              `built` line reports it (Embree's BVH, VTK's render window and first draw; `-`: it \
@@ -367,31 +380,35 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
              (the ray caster's k-d tree; else its whole preparation). A peer whose `peer_of` \
              names no visibility method of ours has its own figures only.\n\n",
         );
+        let pairs: Vec<ratio::PeerPair> = peers.iter().map(PeerRow::pair).collect();
+        let ratios: BTreeMap<(String, String, String), ratio::Ratio> = ratio::visibility(&pairs)
+            .into_iter()
+            .map(|r| {
+                (
+                    (r.dataset.clone(), r.peer.clone(), r.peer_setting.clone()),
+                    r,
+                )
+            })
+            .collect();
         let rows: Vec<Vec<String>> = groups
             .iter()
             .map(|((d, peer, setting), ps)| {
                 let first = ps[0];
+                let ratio =
+                    ratios.get(&((*d).to_owned(), (*peer).to_owned(), (*setting).to_owned()));
                 let partner = if first.partner.is_empty() {
                     format!("none (no method `{}` of ours)", first.peer_of)
                 } else {
                     format!("{} {}", first.partner, first.partner_params)
                 };
+                let partner = match ratio.filter(|r| !r.note.is_empty()) {
+                    Some(r) => format!("{partner} — {}", r.note),
+                    None => partner,
+                };
                 let peer_s: Vec<f64> = ps.iter().map(|p| p.peer_seconds).collect();
                 let ours_s: Vec<f64> = ps.iter().map(|p| p.partner_seconds).collect();
-                let ratio = crate::stats::paired_ratio(&peer_s, &ours_s, 2007)
-                    .map_or("-".to_owned(), |e| e.text(|x| format!("{x:.2}"), "×"));
-                let per_view: Vec<f64> = ps
-                    .iter()
-                    .map(|p| p.peer_seconds / p.partner_seconds)
-                    .filter(|r| r.is_finite() && *r > 0.0)
-                    .collect();
-                let spread = match (
-                    per_view.iter().copied().reduce(f64::min),
-                    per_view.iter().copied().reduce(f64::max),
-                ) {
-                    (Some(lo), Some(hi)) => format!("{lo:.2}–{hi:.2}"),
-                    _ => "-".into(),
-                };
+                let spread = ratio.map_or("-".into(), |r| format!("{:.2}–{:.2}", r.min, r.max));
+                let ratio = ratio.map_or("-".to_owned(), |r| r.text());
                 let mut jaccard: Vec<f64> = ps
                     .iter()
                     .map(|p| p.jaccard)
@@ -804,7 +821,17 @@ pub(super) fn render(
             ", [agreement.csv](agreement.csv)"
         },
     );
-    let mut summary = summary;
+    // A method whose exactness claim failed: said first, as every table below lists it.
+    let wrong = crate::experiments::rules::wrong::peers(dir)?;
+    let mut summary = match wrong.0.is_empty() {
+        true => summary,
+        false => format!(
+            "**Wrong answers** (a method that claims exactness and returned sets that differ from \
+             our hpr's at the same γ, Jaccard below 0.999 on an unperturbed cell; never ranked in \
+             the findings): {}.\n\n{summary}",
+            wrong.notes(wrong.0.keys().map(String::as_str)).join("; ")
+        ),
+    };
     for extra in ["builds.csv", "peers.csv"] {
         if dir.join(extra).exists() {
             summary = summary.replace(
