@@ -24,11 +24,14 @@ uninstall prefix="~/.local":
 fetch: setup
     cargo run -q -p harness -- fetch
 
-# Run every test, the real-data checks included, then the Python package's tests and the
-# browser tests of the viewer and the results pages in headless Chromium.
+# Run every test, the real-data checks included (the quick bench's findings audited by
+# scripts/audit_findings.py in tests/bench_quick.rs), then the Python package's tests, the audit
+# of the committed reports' findings, and the browser tests of the viewer and the results pages
+# in headless Chromium.
 test: fetch python web browser
     POINTSIGHT_REAL_DATA=1 cargo test --workspace
     .venv/bin/pytest -q crates/python/tests
+    .venv/bin/python scripts/audit_findings.py reports
     cargo build -q -p harness --bin pointsight
     cd web && node --test --test-concurrency=1 test/viewer.test.js test/results.test.js
 
@@ -51,7 +54,7 @@ test-browser: web browser
 # the workspace's target folder).
 python: setup
     test -x .venv/bin/python || python3 -m venv .venv
-    .venv/bin/pip install -q maturin numpy pytest
+    .venv/bin/pip install -q maturin numpy pytest pandas
     VIRTUAL_ENV="$PWD/.venv" .venv/bin/maturin develop -q --release -m crates/python/Cargo.toml
 
 # Install the peers measured beside our methods (methods/*/method.toml with peer_of): Open3D,

@@ -17,7 +17,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "visibility/results.csv",
-        "dataset,n_points,view,method,family,params,detail,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status,made_for",
+        "dataset,n_points,view,method,family,params,detail,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status,made_for,visible_sha256",
     ),
     (
         "robustness/results.csv",
@@ -29,7 +29,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "lod/results.csv",
-        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction,status",
+        "dataset,view,distance,method,params,points_rendered,seconds,psnr,ssim,hole_fraction,status,n_points",
     ),
 ];
 
@@ -106,9 +106,9 @@ fn quick_bench_writes_a_complete_report() {
     // Every built-in method ran at every setting of its sweep without an error.
     let vis = std::fs::read_to_string(reports.join("visibility/results.csv")).expect("results");
     for row in vis.lines().skip(1) {
-        // The last column says what the method was made for (points or pixels).
+        // The status, what the method was made for (points or pixels), its set's digest.
         assert!(
-            row.ends_with(",ok,points") || row.ends_with(",ok,pixels"),
+            row.contains(",ok,points,") || row.contains(",ok,pixels,"),
             "{row}"
         );
     }
@@ -198,6 +198,48 @@ fn quick_bench_writes_a_complete_report() {
     figures_have_twins_with_distinct_and_consistent_styles(&reports, &files);
     readme_keeps_its_structure(&readme);
     quick_findings_are_indicative(&reports, &readme);
+    the_audit_recomputes_every_finding(&reports);
+}
+
+/// The findings' second path, `scripts/audit_findings.py` (Python and pandas), recomputes every
+/// row of this run's `findings.csv` from its results. The interpreter: `POINTSIGHT_AUDIT_PYTHON`,
+/// else the clone's `.venv/bin/python` (`just python` installs pandas there). Under `just test`
+/// (`POINTSIGHT_REAL_DATA=1`) or CI one without pandas fails the test; elsewhere it is said and
+/// the audit left out.
+fn the_audit_recomputes_every_finding(reports: &Path) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let python = std::env::var_os("POINTSIGHT_AUDIT_PYTHON")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| root.join(".venv/bin/python"));
+    let has_pandas = Command::new(&python)
+        .args(["-c", "import pandas"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if !has_pandas {
+        let required = std::env::var("POINTSIGHT_REAL_DATA").as_deref() == Ok("1")
+            || std::env::var("CI").as_deref() == Ok("true");
+        assert!(
+            !required,
+            "{} has no pandas: run `just python` (the audit of the findings needs it)",
+            python.display()
+        );
+        eprintln!(
+            "{} has no pandas: the findings' audit is left out (run `just python`)",
+            python.display()
+        );
+        return;
+    }
+    let out = Command::new(&python)
+        .arg(root.join("scripts/audit_findings.py"))
+        .arg(reports)
+        .output()
+        .expect("the audit runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("identical"),
+        "the audit disagrees with findings.csv:\n{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// Issue 39: a quick run's report opens with its findings, says in both titles that they are
