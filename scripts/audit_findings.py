@@ -589,8 +589,10 @@ def scale_findings(folder: Path, quick: bool) -> list[dict]:
     rows = pd.read_csv(folder / "results.csv", keep_default_na=False, na_values=["NaN"])
     rows["seconds"] = rows["seconds"].astype(float)
     root = folder.parent
-    wrong = {f"hull-{h}": j for h, j in wrong_hulls(root / "hull").items()}
-    wrong.update(wrong_peers(root / "visibility"))
+    wrong = {}
+    if folder.name == "scale":  # a reports folder's: its siblings' wrong answers count
+        wrong = {f"hull-{h}": j for h, j in wrong_hulls(root / "hull").items()}
+        wrong.update(wrong_peers(root / "visibility"))
 
     def in_group(m: str, g: int) -> bool:
         ooc = m.endswith(OOC_SUFFIX)

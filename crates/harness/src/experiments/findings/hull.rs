@@ -61,10 +61,8 @@ pub(super) fn hull(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         }
         let geomean =
             |c: &Times| (keys.iter().map(|k| c[k].ln()).sum::<f64>() / keys.len() as f64).exp();
-        let mut ranked: Vec<(&str, f64)> = complete
-            .iter()
-            .map(|h| (h.as_str(), geomean(&cells[h.as_str()])))
-            .collect();
+        let mut ranked: Vec<(&str, f64)> =
+            complete.iter().map(|h| (*h, geomean(&cells[h]))).collect();
         ranked.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(b.0)));
         let (best, seconds) = ranked[0];
         // The ratios table's rule (`rules::ratio::paired`), over the compared cells.

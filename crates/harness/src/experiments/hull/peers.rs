@@ -3,7 +3,7 @@
 //! seconds figure's series, each a median over the cells every compared hull ran (a hull with
 //! fewer cells, or whose sets missed the exact one, drawn apart and labelled so).
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 use super::{CGAL, Row, cells as hull_cells, fmt_s, median_of};
 use crate::experiments::markdown_table;
@@ -91,14 +91,12 @@ pub(super) fn seconds_series(
 ) -> Vec<Series> {
     type Times = BTreeMap<(usize, u64), f64>;
     let ok = |r: &&Row| r.status == "ok" && r.perturb == 0.0;
-    let mut per: BTreeMap<
-        &str,
-        (
-            BTreeMap<&str, Times>,
-            Vec<String>,
-            std::collections::BTreeSet<(usize, u64)>,
-        ),
-    > = BTreeMap::new();
+    type Compared<'a> = (
+        BTreeMap<&'a str, Times>,
+        Vec<&'a str>,
+        BTreeSet<(usize, u64)>,
+    );
+    let mut per: BTreeMap<&str, Compared<'_>> = BTreeMap::new();
     for d in datasets {
         let mut cells: BTreeMap<&str, Times> = BTreeMap::new();
         for r in rows.iter().filter(ok).filter(|r| r.dataset == *d) {

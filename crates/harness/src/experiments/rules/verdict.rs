@@ -179,27 +179,12 @@ pub(super) fn median(mut v: Vec<f64>) -> f64 {
 /// Per key: the mean score, the mean cost and the first answer fingerprint.
 type Keyed<'a> = BTreeMap<&'a str, (f64, f64, Option<&'a str>)>;
 
-/// The keys every compared (method, setting) has (the module's rule 1).
-fn common_keys<'a>(groups: &BTreeMap<(&'a str, &'a str), Keyed<'a>>) -> BTreeSet<&'a str> {
-    let all: BTreeSet<&str> = groups.values().flat_map(|k| k.keys().copied()).collect();
-    if groups.values().any(|k| k.len() == all.len()) {
-        return all;
-    }
-    let most = groups
-        .values()
-        .fold(None::<&Keyed<'_>>, |best, k| match best {
-            Some(b) if b.len() >= k.len() => Some(b),
-            _ => Some(k),
-        });
-    most.map(|k| k.keys().copied().collect())
-        .unwrap_or_default()
-}
-
 /// Of `cells` (name → key → value), the names compared by rule 1 (those with every key any
-/// has; when none has, those with every key of the one with the most), and the keys they share.
-pub fn compared<K: Ord + Clone, V>(
-    cells: &BTreeMap<&str, BTreeMap<K, V>>,
-) -> (Vec<String>, BTreeSet<K>) {
+/// has; when none has, those with every key of the one with the most, the first of equals),
+/// and the keys they share.
+pub fn compared<N: Ord + Clone, K: Ord + Clone, V>(
+    cells: &BTreeMap<N, BTreeMap<K, V>>,
+) -> (Vec<N>, BTreeSet<K>) {
     let all: BTreeSet<K> = cells.values().flat_map(|c| c.keys().cloned()).collect();
     let keys: BTreeSet<K> = if cells.values().any(|c| c.len() == all.len()) {
         all
@@ -216,7 +201,7 @@ pub fn compared<K: Ord + Clone, V>(
     let names = cells
         .iter()
         .filter(|(_, c)| keys.iter().all(|k| c.contains_key(k)))
-        .map(|(h, _)| (*h).to_owned())
+        .map(|(n, _)| n.clone())
         .collect();
     (names, keys)
 }
@@ -246,12 +231,9 @@ pub fn verdict(cells: &[Cell], rules: Rules) -> Option<Verdict> {
             (k, v)
         })
         .collect();
-    let keys = common_keys(&groups);
-    let complete: BTreeMap<(&str, &str), &Keyed<'_>> = groups
-        .iter()
-        .filter(|(_, k)| keys.iter().all(|key| k.contains_key(key)))
-        .map(|(id, k)| (*id, k))
-        .collect();
+    let (ids, keys) = compared(&groups);
+    let complete: BTreeMap<(&str, &str), &Keyed<'_>> =
+        ids.into_iter().map(|id| (id, &groups[&id])).collect();
     let mut apart: BTreeMap<&str, usize> = BTreeMap::new();
     for ((m, _), k) in &groups {
         if !complete.keys().any(|(cm, _)| cm == m) {

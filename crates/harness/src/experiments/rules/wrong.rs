@@ -117,10 +117,12 @@ pub fn peers(dir: &Path) -> Result<Wrong> {
 
 /// The wrong answers the scale experiment in `dir` knows of, from its sibling experiments'
 /// results in the same reports folder: the hull experiment's hulls (as scale names them,
-/// `hull-NAME`) and the visibility experiment's peers.
+/// `hull-NAME`) and the visibility experiment's peers. Only a folder named `scale` (a reports
+/// folder's, as `bench` and `run` write it) has siblings: a `run scale --out DIR` has none.
 pub fn for_scale(dir: &Path) -> Result<Wrong> {
-    let Some(root) = dir.parent() else {
-        return Ok(Wrong::default());
+    let root = match (dir.file_name(), dir.parent()) {
+        (Some(name), Some(root)) if name == "scale" => root,
+        _ => return Ok(Wrong::default()),
     };
     let mut out: BTreeMap<String, f64> = hulls(&root.join("hull"))?
         .0
@@ -159,6 +161,7 @@ mod tests {
         // Scale names the hull `hull-quick`, from the sibling folder.
         std::fs::create_dir_all(dir.path().join("r/hull")).unwrap();
         std::fs::create_dir_all(dir.path().join("r/scale")).unwrap();
+        std::fs::create_dir_all(dir.path().join("r/elsewhere")).unwrap();
         std::fs::copy(
             dir.path().join("results.csv"),
             dir.path().join("r/hull/results.csv"),
@@ -166,6 +169,13 @@ mod tests {
         .unwrap();
         let s = for_scale(&dir.path().join("r/scale")).unwrap();
         assert!(s.get("hull-quick").is_some() && s.get("quick").is_none());
+        // A scale run into a folder of its own has no siblings to read.
+        assert!(
+            for_scale(&dir.path().join("r/elsewhere"))
+                .unwrap()
+                .0
+                .is_empty()
+        );
     }
 
     #[test]
