@@ -70,6 +70,7 @@ if (( install )); then
         exit 1
     fi
     name="$(basename "${files[0]}" .nvw)"
-    cp "$run/$name.nvw" "$run/$name.training.json" "$root/crates/neuralvis/weights/"
+    cp "$run/$name.nvw" "$root/crates/neuralvis/weights/neuralvis.nvw"
+    cp "$run/$name.training.json" "$root/crates/neuralvis/weights/neuralvis.training.json"
     echo "installed $name into crates/neuralvis/weights/"
 fi
