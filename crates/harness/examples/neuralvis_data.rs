@@ -159,7 +159,9 @@ fn main() -> Result<()> {
                     &reference,
                     None,
                 )?;
-                clouds.push(json!({"mesh": name, "split": "train", "degradation": label, "entry": entry}));
+                clouds.push(
+                    json!({"mesh": name, "split": "train", "degradation": label, "entry": entry}),
+                );
             }
         }
         eprintln!(
@@ -346,10 +348,28 @@ fn write_cloud(
         }
     }
     let flat: Vec<f64> = points.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-    let eyes: Vec<f64> = views.iter().flat_map(|c| [c.eye.x, c.eye.y, c.eye.z]).collect();
-    write_npy(&out.join(format!("{name}.points.npy")), "<f8", &[n, 3], &f64_bytes(&flat))?;
-    write_npy(&out.join(format!("{name}.eyes.npy")), "<f8", &[v, 3], &f64_bytes(&eyes))?;
-    write_npy(&out.join(format!("{name}.labels.npy")), "|u1", &[n, v], &labels)?;
+    let eyes: Vec<f64> = views
+        .iter()
+        .flat_map(|c| [c.eye.x, c.eye.y, c.eye.z])
+        .collect();
+    write_npy(
+        &out.join(format!("{name}.points.npy")),
+        "<f8",
+        &[n, 3],
+        &f64_bytes(&flat),
+    )?;
+    write_npy(
+        &out.join(format!("{name}.eyes.npy")),
+        "<f8",
+        &[v, 3],
+        &f64_bytes(&eyes),
+    )?;
+    write_npy(
+        &out.join(format!("{name}.labels.npy")),
+        "|u1",
+        &[n, v],
+        &labels,
+    )?;
     if let Some(flags) = &hpr_flags {
         write_npy(&out.join(format!("{name}.hpr.npy")), "|u1", &[n, v], flags)?;
     }
@@ -374,7 +394,11 @@ fn write_npy(path: &Path, dtype: &str, shape: &[usize], data: &[u8]) -> Result<(
         [n] => format!("({n},)"),
         _ => format!(
             "({})",
-            shape.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+            shape
+                .iter()
+                .map(usize::to_string)
+                .collect::<Vec<_>>()
+                .join(", ")
         ),
     };
     let mut header =

@@ -101,59 +101,59 @@ pub const MESH_FILES: &[MeshFile] = &[
     MANNEQUIN_MESH,
 ];
 
+/// A training mesh of `data/meshes/` in the package, by name and SHA-256.
+macro_rules! training {
+    ($name:literal, $sha256:literal) => {
+        MeshFile {
+            file: concat!($name, ".off"),
+            archive_path: concat!("data/meshes/", $name, ".off"),
+            sha256: $sha256,
+        }
+    };
+}
+
 /// The meshes a learned method may be trained on (the `neuralvis` training's): 36 further meshes
 /// of the same package, none of them a tuning or an evaluation dataset's. `fetch_training`
 /// puts them in `bench-data/training-meshes/`, apart from the benchmark's.
+#[rustfmt::skip]
 pub const TRAINING_MESH_FILES: &[MeshFile] = &[
-    training_mesh("anchor.off", "data/meshes/anchor.off", "5009b3400b73ef199b6ac9a24a27f4f76e1aa7b71d957a50cb6dcbe09868ff3b"),
-    training_mesh("bear.off", "data/meshes/bear.off", "058f6ce62635e5f86958adea9706a8dca3ebe4fae76a0d32b8318d107d40bda6"),
-    training_mesh("blobby.off", "data/meshes/blobby.off", "ab217f67fefdf8a8e01563d09135f05ab02330064a3c0180570546887d01b7f1"),
-    training_mesh("bones.off", "data/meshes/bones.off", "004bd26f0029910eb2e2fd38b7ca11ea05dd4182e247c0fb778533b860dd7ab2"),
-    training_mesh("cactus.off", "data/meshes/cactus.off", "333a41cbf5e30f2f675392adb7b0f7fb3f5919b39f15d2ae280830e662247925"),
-    training_mesh("couplingdown.off", "data/meshes/couplingdown.off", "01fc9017b44a803b1130f8f5d51f0c7d8bbfa27b908f5166c498fe21e57f2284"),
-    training_mesh("cross.off", "data/meshes/cross.off", "712151027be1e259be1a4049a383ad8884ced0282d4c64e75d0cc4d24e6005ab"),
-    training_mesh("diplodocus.off", "data/meshes/diplodocus.off", "661fdac29eca4b205e354da112b3cbfd08dcfae07df989234b71421e62521c96"),
-    training_mesh("dragknob.off", "data/meshes/dragknob.off", "4411436ff04757c16ad1c08d631c86ef7e968f1e026193e668c66a19951ca10c"),
-    training_mesh("eight.off", "data/meshes/eight.off", "58fa129fbd64d519034b12c73ecb463ae55832710aa34fddd0504debd044f71d"),
-    training_mesh("elk.off", "data/meshes/elk.off", "7f1229fd3de0b4fc0884bbbfbd056a57ff0cb0f7afd71b5168a84209cc585abb"),
-    training_mesh("fandisk.off", "data/meshes/fandisk.off", "edffb263f037b023757259befd5532fccb48bdc3c35a1da2e11e235a647bd050"),
-    training_mesh("femur.off", "data/meshes/femur.off", "75d208fabf7a7b134cfcf2171bad68c331e3bff55309ffe38a01a7b31352fbc6"),
-    training_mesh("hand.off", "data/meshes/hand.off", "cfcf1562726167ca704a091a8651bfd1d72f6eb96b4b2819321f0520721b35c7"),
-    training_mesh("handle.off", "data/meshes/handle.off", "df86377baeaa1ed1a437710e0364a72af06d3bca21b84a57cd1b46a64f67f054"),
-    training_mesh("head.off", "data/meshes/head.off", "75aecfdbf9c0386dd839f5bf0322fb5a889ed7efd31d040f125e383041b4b919"),
-    training_mesh("helmet.off", "data/meshes/helmet.off", "0669ab781a80570cfdd2932b06a7c33f89fd855a9ddb69dc45e50082253a5a32"),
-    training_mesh("horizons.off", "data/meshes/horizons.off", "d46d1272317bf7e1603b6bb42274f06e53c05f5421fc3e122a0e32fa1e11d43b"),
-    training_mesh("joint.off", "data/meshes/joint.off", "a412da1a4b90a1d018d44e0b06307ee692da4afd255975d2a93945e091098649"),
-    training_mesh("knot1.off", "data/meshes/knot1.off", "13d9d2f3459189630680dad6a3b5528d5cc794967b791580a0e1f6642903d030"),
-    training_mesh("knot2.off", "data/meshes/knot2.off", "6c90e93f1a966abd73847d40909a90c0b2067affdd471a27b50c2d4416142c06"),
-    training_mesh("mech-holes-shark.off", "data/meshes/mech-holes-shark.off", "2ad3d8fb970b319eb8a32040664c25d4e01370f20ad57f4fde5c63fef3b6cca9"),
-    training_mesh("mushroom.off", "data/meshes/mushroom.off", "03768b314714676d9305361c7c124be3b2c991c59fe8c752a49047115b4dfa00"),
-    training_mesh("nefertiti.off", "data/meshes/nefertiti.off", "d8b13239b988d0262fbc91e88da1d314eeb1b284c327a3fe76089c2b54886ccf"),
-    training_mesh("pinion.off", "data/meshes/pinion.off", "191a8cdfa3807e09d7dffb4bdc94dabe1231b4594001ca134100a9a32e996599"),
-    training_mesh("pipe.off", "data/meshes/pipe.off", "de951aa3c0c9f6617b422e833116a1523fd41abfb588444f71eeed42378ef9bf"),
-    training_mesh("rotor.off", "data/meshes/rotor.off", "8db85ca5041eef6d952e48f0553a25fddb42f237b80a37b7aff096b8df3aca32"),
-    training_mesh("spool.off", "data/meshes/spool.off", "84ec2367becf6994f96055fa88aaf3a00df1fdd84bd0fa615bdc043c9944b7b1"),
-    training_mesh("star.off", "data/meshes/star.off", "8a7a48b6641373552134c30cf9c36888ade73e9def5bafe100b7536b9740078f"),
-    training_mesh("tripod.off", "data/meshes/tripod.off", "f31df43fc9209d8863eb48b0bb1ca088169ffab52d5d93096e87d6bee26c982d"),
-    training_mesh("turbine.off", "data/meshes/turbine.off", "8ae52b6b325a05e0755983706ab55aba0f42d3ea0569dd29b33cdcb16c20f4c8"),
-    training_mesh("double-torus-3-holes.off", "data/meshes/double-torus-3-holes.off", "12243967111005f77d8b1bf8fa09df9984738f5ed85a20603eead8a2dc7e0055"),
-    training_mesh("blob.off", "data/meshes/blob.off", "01008093fb7b30be2865d579a018bc930e7462c08ffd42773f452e74a4347b0c"),
-    training_mesh("three_peaks.off", "data/meshes/three_peaks.off", "6b985fb7f6f2a6dc15dd311758aa1eeb0725cfb32bcacef8a767b910c9a2d8d4"),
-    training_mesh("retinal.off", "data/meshes/retinal.off", "02547bcd1f28149862ff28056614418c0fca73033dfec1a07e8e91e4c78544b7"),
-    training_mesh("boeing.off", "data/meshes/boeing.off", "a50af346f5fda821844907e2f020f27a9d399dc5c39f4fbb5344f13ca6002a7a"),
+    training!("anchor", "5009b3400b73ef199b6ac9a24a27f4f76e1aa7b71d957a50cb6dcbe09868ff3b"),
+    training!("bear", "058f6ce62635e5f86958adea9706a8dca3ebe4fae76a0d32b8318d107d40bda6"),
+    training!("blobby", "ab217f67fefdf8a8e01563d09135f05ab02330064a3c0180570546887d01b7f1"),
+    training!("bones", "004bd26f0029910eb2e2fd38b7ca11ea05dd4182e247c0fb778533b860dd7ab2"),
+    training!("cactus", "333a41cbf5e30f2f675392adb7b0f7fb3f5919b39f15d2ae280830e662247925"),
+    training!("couplingdown", "01fc9017b44a803b1130f8f5d51f0c7d8bbfa27b908f5166c498fe21e57f2284"),
+    training!("cross", "712151027be1e259be1a4049a383ad8884ced0282d4c64e75d0cc4d24e6005ab"),
+    training!("diplodocus", "661fdac29eca4b205e354da112b3cbfd08dcfae07df989234b71421e62521c96"),
+    training!("dragknob", "4411436ff04757c16ad1c08d631c86ef7e968f1e026193e668c66a19951ca10c"),
+    training!("eight", "58fa129fbd64d519034b12c73ecb463ae55832710aa34fddd0504debd044f71d"),
+    training!("elk", "7f1229fd3de0b4fc0884bbbfbd056a57ff0cb0f7afd71b5168a84209cc585abb"),
+    training!("fandisk", "edffb263f037b023757259befd5532fccb48bdc3c35a1da2e11e235a647bd050"),
+    training!("femur", "75d208fabf7a7b134cfcf2171bad68c331e3bff55309ffe38a01a7b31352fbc6"),
+    training!("hand", "cfcf1562726167ca704a091a8651bfd1d72f6eb96b4b2819321f0520721b35c7"),
+    training!("handle", "df86377baeaa1ed1a437710e0364a72af06d3bca21b84a57cd1b46a64f67f054"),
+    training!("head", "75aecfdbf9c0386dd839f5bf0322fb5a889ed7efd31d040f125e383041b4b919"),
+    training!("helmet", "0669ab781a80570cfdd2932b06a7c33f89fd855a9ddb69dc45e50082253a5a32"),
+    training!("horizons", "d46d1272317bf7e1603b6bb42274f06e53c05f5421fc3e122a0e32fa1e11d43b"),
+    training!("joint", "a412da1a4b90a1d018d44e0b06307ee692da4afd255975d2a93945e091098649"),
+    training!("knot1", "13d9d2f3459189630680dad6a3b5528d5cc794967b791580a0e1f6642903d030"),
+    training!("knot2", "6c90e93f1a966abd73847d40909a90c0b2067affdd471a27b50c2d4416142c06"),
+    training!("mech-holes-shark", "2ad3d8fb970b319eb8a32040664c25d4e01370f20ad57f4fde5c63fef3b6cca9"),
+    training!("mushroom", "03768b314714676d9305361c7c124be3b2c991c59fe8c752a49047115b4dfa00"),
+    training!("nefertiti", "d8b13239b988d0262fbc91e88da1d314eeb1b284c327a3fe76089c2b54886ccf"),
+    training!("pinion", "191a8cdfa3807e09d7dffb4bdc94dabe1231b4594001ca134100a9a32e996599"),
+    training!("pipe", "de951aa3c0c9f6617b422e833116a1523fd41abfb588444f71eeed42378ef9bf"),
+    training!("rotor", "8db85ca5041eef6d952e48f0553a25fddb42f237b80a37b7aff096b8df3aca32"),
+    training!("spool", "84ec2367becf6994f96055fa88aaf3a00df1fdd84bd0fa615bdc043c9944b7b1"),
+    training!("star", "8a7a48b6641373552134c30cf9c36888ade73e9def5bafe100b7536b9740078f"),
+    training!("tripod", "f31df43fc9209d8863eb48b0bb1ca088169ffab52d5d93096e87d6bee26c982d"),
+    training!("turbine", "8ae52b6b325a05e0755983706ab55aba0f42d3ea0569dd29b33cdcb16c20f4c8"),
+    training!("double-torus-3-holes", "12243967111005f77d8b1bf8fa09df9984738f5ed85a20603eead8a2dc7e0055"),
+    training!("blob", "01008093fb7b30be2865d579a018bc930e7462c08ffd42773f452e74a4347b0c"),
+    training!("three_peaks", "6b985fb7f6f2a6dc15dd311758aa1eeb0725cfb32bcacef8a767b910c9a2d8d4"),
+    training!("retinal", "02547bcd1f28149862ff28056614418c0fca73033dfec1a07e8e91e4c78544b7"),
+    training!("boeing", "a50af346f5fda821844907e2f020f27a9d399dc5c39f4fbb5344f13ca6002a7a"),
 ];
-
-const fn training_mesh(
-    file: &'static str,
-    archive_path: &'static str,
-    sha256: &'static str,
-) -> MeshFile {
-    MeshFile {
-        file,
-        archive_path,
-        sha256,
-    }
-}
 
 /// The folder under the data folder that [`fetch_training`] fills.
 pub const TRAINING_MESHES_DIR: &str = "training-meshes";
@@ -428,11 +428,17 @@ mod tests {
         assert_eq!(TRAINING_MESH_FILES.len(), 36);
         for (i, m) in TRAINING_MESH_FILES.iter().enumerate() {
             assert!(
-                TRAINING_MESH_FILES[i + 1..].iter().all(|o| o.file != m.file),
+                TRAINING_MESH_FILES[i + 1..]
+                    .iter()
+                    .all(|o| o.file != m.file),
                 "{} twice",
                 m.file
             );
-            assert!(MESH_FILES.iter().all(|b| b.file != m.file && b.sha256 != m.sha256));
+            assert!(
+                MESH_FILES
+                    .iter()
+                    .all(|b| b.file != m.file && b.sha256 != m.sha256)
+            );
             assert_eq!(m.archive_path, format!("data/meshes/{}", m.file));
             assert_eq!(m.sha256.len(), 64, "{}", m.file);
         }
