@@ -11,7 +11,7 @@
 use std::path::{Path, PathBuf};
 
 use cloud::glam::DVec3;
-use neuralvis::{Model, Weights, WeightsError};
+use neuralvis::{Features, Model, Weights, WeightsError};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -63,33 +63,40 @@ fn max_diff(a: impl Iterator<Item = (f64, f64)>) -> f64 {
     a.map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
+/// P(visible) of every golden point from eye `j`, checked against the golden's to 1e-4.
+fn checked_probabilities(model: &Model, features: &Features, g: &Golden, j: usize) -> Vec<f32> {
+    let eye = g.eyes[j];
+    let p = model
+        .probabilities_from(features, &g.points, |_| eye)
+        .expect("head");
+    let d = max_diff(
+        p.iter()
+            .zip(&g.probabilities)
+            .map(|(&a, row)| (f64::from(a), row[j])),
+    );
+    assert!(d <= 1e-4, "eye {j}: probabilities differ by {d}");
+    p
+}
+
 #[test]
 fn forward_pass_equals_the_training_frameworks_golden() {
     let model = Model::load(&data("tiny.nvw")).expect("tiny weights");
     let g = golden("tiny.golden.json");
     let features = model.features(&g.points).expect("feature pass");
-    let expected = g.features.expect("features in the golden");
+    let expected = g.features.as_ref().expect("features in the golden");
     assert_eq!(features.len(), expected.len());
     let d = max_diff(
         features
             .data
             .chunks(features.channels)
-            .zip(&expected)
+            .zip(expected)
             .flat_map(|(a, b)| a.iter().map(|&x| f64::from(x)).zip(b.iter().copied())),
     );
     assert!(d <= 1e-4, "features differ by {d}");
     let spread = expected.iter().flatten().fold(0f64, |m, x| m.max(x.abs()));
     assert!(spread > 1e-2, "a golden of zeros tests nothing: {spread}");
-    for (j, eye) in g.eyes.iter().enumerate() {
-        let p = model
-            .probabilities_from(&features, &g.points, |_| *eye)
-            .expect("head");
-        let d = max_diff(
-            p.iter()
-                .zip(&g.probabilities)
-                .map(|(&a, row)| (f64::from(a), row[j])),
-        );
-        assert!(d <= 1e-4, "eye {j}: probabilities differ by {d}");
+    for j in 0..g.eyes.len() {
+        checked_probabilities(&model, &features, &g, j);
     }
 }
 
@@ -103,16 +110,8 @@ fn committed_weights_on_a_synthetic_scene_equal_their_golden() {
         "the golden was made from other weights: run scripts/neuralvis/golden.py committed"
     );
     let features = model.features(&g.points).expect("feature pass");
-    for (j, eye) in g.eyes.iter().enumerate() {
-        let p = model
-            .probabilities_from(&features, &g.points, |_| *eye)
-            .expect("head");
-        let d = max_diff(
-            p.iter()
-                .zip(&g.probabilities)
-                .map(|(&a, row)| (f64::from(a), row[j])),
-        );
-        assert!(d <= 1e-4, "eye {j}: probabilities differ by {d}");
+    for j in 0..g.eyes.len() {
+        let p = checked_probabilities(&model, &features, &g, j);
         let ours = neuralvis::visible(&p, 0.5);
         let theirs: Vec<u32> = (0..g.points.len() as u32)
             .filter(|&i| g.probabilities[i as usize][j] >= 0.5)
