@@ -66,3 +66,14 @@ pub fn write(reports: &Path, ratios: &[Ratio]) -> Result<()> {
     }
     write_csv(&reports.join(CSV), ratios)
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_ratios_files_are_the_report_s_own() {
+        // A reports folder holding them is still pointsight's, so the next bench replaces it.
+        for f in [super::CSV, super::MD] {
+            assert!(crate::output::folder::REPORT_FILES.contains(&f), "{f}");
+        }
+    }
+}
