@@ -461,6 +461,43 @@ def bd(a, r):
     return (integral(a, lo, hi) - integral(r, lo, hi)) / (hi - lo)
 
 
+def lod_at_distance(dataset: str, dist: float, ok: pd.DataFrame, n: float, quick: bool) -> list:
+    """One dataset's findings at one distance: a row per budget, then BD-PSNR; each view a cell."""
+    out = []
+    where = f"{dataset} at distance \u00d7{repr_float(dist)}"
+    curves = {}
+    for (m, view), g in ok.groupby(["method", "view"]):
+        vals = [(float(p), math.nan if s >= IDENTICAL_PSNR else float(s))
+                for p, s in zip(g["points_rendered"], g["psnr"])]
+        curves.setdefault(m, {})[str(view)] = curve(vals)
+    for b in LOD_BUDGETS:
+        points = float(math.floor(b * n + 0.5))  # Rust's round: half away from zero
+        cells = [(m, k, at(c, points)) for m, by in curves.items() for k, c in by.items()]
+        cells = pd.DataFrame([(m, "", k, v, points, None) for m, k, v in cells if v is not None],
+                             columns=["method", "setting", "key", "value", "cost", "answer"])
+        v = verdict(cells, PSNR_MARGIN, None, True) if not cells.empty else None
+        if v:
+            missing = [f"{m}: not reached" for m in sorted(curves) if m not in set(cells["method"])]
+            pct = f"{b * 100:.6g}"
+            out.append(finding("lod", f"{where}, at {pct} % of the points ({points:.0f})",
+                               v, quick, missing))
+    anchor = curves.get(BD_ANCHOR)
+    if anchor is None:
+        return out
+    cells = [(m, k, bd(c, anchor.get(k, []))) for m, by in curves.items() if m != BD_ANCHOR
+             for k, c in by.items()]
+    cells = pd.DataFrame([(m, "", k, v, math.nan, None) for m, k, v in cells if v is not None],
+                         columns=["method", "setting", "key", "value", "cost", "answer"])
+    v = verdict(cells, PSNR_MARGIN, None, True) if not cells.empty else None
+    if v:
+        missing = [f"{m}: not comparable" for m in sorted(curves)
+                   if m != BD_ANCHOR and m not in set(cells["method"])]
+        out.append(finding(
+            "lod", f"{where}, BD-PSNR against {BD_ANCHOR} over each view's common range of log "
+                   "points", v, quick, missing))
+    return out
+
+
 def lod_findings(folder: Path, quick: bool) -> list[dict]:
     rows = pd.read_csv(folder / "results.csv", keep_default_na=False, na_values=["NaN"])
     if "n_points" not in rows:
@@ -471,36 +508,9 @@ def lod_findings(folder: Path, quick: bool) -> list[dict]:
         if ok.empty:
             continue
         n = float(ok["n_points"].max()) or float(ok["points_rendered"].max())
-        curves = {}
-        for (m, view, dist), g in ok.groupby(["method", "view", "distance"]):
-            vals = [(float(p), math.nan if s >= IDENTICAL_PSNR else float(s))
-                    for p, s in zip(g["points_rendered"], g["psnr"])]
-            curves.setdefault(m, {})[f"{view} {repr_float(dist)}"] = curve(vals)
-        for b in LOD_BUDGETS:
-            points = float(math.floor(b * n + 0.5))  # Rust's round: half away from zero
-            cells = [(m, k, at(c, points)) for m, by in curves.items() for k, c in by.items()]
-            cells = pd.DataFrame([(m, "", k, v, points, None) for m, k, v in cells if v is not None],
-                                 columns=["method", "setting", "key", "value", "cost", "answer"])
-            v = verdict(cells, PSNR_MARGIN, None, True) if not cells.empty else None
-            if v:
-                missing = [f"{m}: not reached" for m in sorted(curves) if m not in set(cells["method"])]
-                pct = f"{b * 100:.6g}"
-                out.append(finding("lod", f"{dataset}, at {pct} % of the points ({points:.0f})",
-                                   v, quick, missing))
-        anchor = curves.get(BD_ANCHOR)
-        if anchor is None:
-            continue
-        cells = [(m, k, bd(c, anchor.get(k, []))) for m, by in curves.items() if m != BD_ANCHOR
-                 for k, c in by.items()]
-        cells = pd.DataFrame([(m, "", k, v, math.nan, None) for m, k, v in cells if v is not None],
-                             columns=["method", "setting", "key", "value", "cost", "answer"])
-        v = verdict(cells, PSNR_MARGIN, None, True) if not cells.empty else None
-        if v:
-            missing = [f"{m}: not comparable" for m in sorted(curves)
-                       if m != BD_ANCHOR and m not in set(cells["method"])]
-            out.append(finding(
-                "lod", f"{dataset}, BD-PSNR against {BD_ANCHOR} over each (view, distance)'s "
-                       "common range of log points", v, quick, missing))
+        for dist in sorted(set(ok["distance"].astype(float))):
+            out.extend(lod_at_distance(dataset, dist, ok[ok["distance"].astype(float) == dist], n,
+                                       quick))
     return out
 
 

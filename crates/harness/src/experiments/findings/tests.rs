@@ -404,16 +404,17 @@ fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
             )
         })
         .collect();
-    let bd = "d, BD-PSNR against random over each (view, distance)'s common range of log points";
+    let bd = "d at distance ×1, BD-PSNR against random over each view's common range of log \
+              points";
     assert_eq!(
         rows,
         [
-            ("d, at 1 % of the points (10)", "random", ""),
-            ("d, at 2 % of the points (20)", "b", "random"),
-            ("d, at 5 % of the points (50)", "b", "a"),
-            ("d, at 10 % of the points (100)", "b", "a"),
-            ("d, at 20 % of the points (200)", "a", "random"),
-            ("d, at 30 % of the points (300)", "random", ""),
+            ("d at distance ×1, at 1 % of the points (10)", "random", ""),
+            ("d at distance ×1, at 2 % of the points (20)", "b", "random"),
+            ("d at distance ×1, at 5 % of the points (50)", "b", "a"),
+            ("d at distance ×1, at 10 % of the points (100)", "b", "a"),
+            ("d at distance ×1, at 20 % of the points (200)", "a", "random"),
+            ("d at distance ×1, at 30 % of the points (300)", "random", ""),
             (bd, "b", "a"),
         ]
     );
@@ -439,6 +440,50 @@ fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
     assert!((a_bd - (13.0 - random_mean)).abs() < 1e-9, "{a_bd}");
     assert_eq!(found[6].not_ranked, "full: not comparable");
     assert_eq!(found[6].metric, "BD-PSNR (dB)");
+}
+
+#[test]
+fn each_lod_distance_is_judged_on_its_own_at_equal_points() {
+    let dir = tempfile::tempdir().unwrap();
+    // Of 1000 points, at the 10 % budget: at distance 1 `a` leads `b` by 3 dB on every view, at
+    // distance 2 `b` leads `a` by 1 dB. Averaged over the distances `a` would lead by 1 dB;
+    // judged per distance each distance has its own winner.
+    let mut lod =
+        String::from("dataset,view,distance,method,params,points_rendered,psnr,status,n_points\n");
+    for view in 0..5 {
+        let v = view as f64 * 0.1;
+        for (d, m, p, pts, psnr) in [
+            (1, "a", "k=1", 50.0, 20.0 + v),
+            (1, "a", "k=2", 200.0, 26.0 + v),
+            (1, "b", "e=1", 50.0, 17.0 + v),
+            (1, "b", "e=2", 200.0, 23.0 + v),
+            (2, "a", "k=1", 50.0, 30.0 + v),
+            (2, "a", "k=2", 200.0, 34.0 + v),
+            (2, "b", "e=1", 50.0, 31.0 + v),
+            (2, "b", "e=2", 200.0, 35.0 + v),
+        ] {
+            lod.push_str(&format!("d,{view},{d},{m},{p},{pts},{psnr},ok,1000\n"));
+        }
+    }
+    std::fs::create_dir_all(dir.path().join("lod")).unwrap();
+    std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
+    let found = findings(dir.path(), &["lod"]).unwrap();
+    let at = |c: &str| found.iter().find(|f| f.condition == c).unwrap();
+    let (near, far) = (
+        at("d at distance ×1, at 10 % of the points (100)"),
+        at("d at distance ×2, at 10 % of the points (100)"),
+    );
+    assert_eq!((near.method.as_str(), near.runner_up.as_str()), ("a", "b"));
+    assert!((near.difference.unwrap() - 3.0).abs() < 1e-9);
+    assert_eq!((far.method.as_str(), far.runner_up.as_str()), ("b", "a"));
+    assert!((far.difference.unwrap() - 1.0).abs() < 1e-9);
+    assert_eq!((near.n_views, far.n_views), (Some(5), Some(5)));
+    // Distance ×1's rows (5, 10 and 20 %) come first, then ×2's.
+    assert_eq!(found.len(), 6);
+    let conditions: Vec<&str> = found.iter().map(|f| f.condition.as_str()).collect();
+    assert!(conditions[..found.len() / 2]
+        .iter()
+        .all(|c| c.starts_with("d at distance ×1,")));
 }
 
 #[test]

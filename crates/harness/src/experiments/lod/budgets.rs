@@ -1,8 +1,9 @@
 //! The LOD summary's rate-distortion tables, from the findings' curves
 //! ([`crate::experiments::rules::curve`]): each method's PSNR and SSIM read at the fixed point
-//! budgets, per (view, distance) on its own curve, and its BD-PSNR against the random
-//! subsample. The verdicts over them are the findings'; these tables show every method's
-//! numbers, with how many (view, distance) cells each one's mean is over.
+//! budgets, per view on its own curve, and its BD-PSNR against the random subsample, one pair
+//! of tables per distance (as the findings judge each distance on its own). The verdicts over
+//! them are the findings'; these tables show every method's numbers, with how many views each
+//! one's mean is over.
 
 use crate::experiments::markdown_table;
 use crate::experiments::rules::curve::{
@@ -46,7 +47,7 @@ fn means(curves: &Curves, points: f64) -> Vec<(String, Option<(f64, usize)>)> {
         .collect()
 }
 
-/// The tables of dataset `ds` (markdown), empty without ok rows.
+/// The tables of dataset `ds` (markdown), per distance; empty without ok rows.
 pub(super) fn tables(rows: &[Row], ds: &str) -> String {
     let own: Vec<LodRow> = rows
         .iter()
@@ -54,18 +55,29 @@ pub(super) fn tables(rows: &[Row], ds: &str) -> String {
         .map(as_findings_row)
         .collect();
     let refs: Vec<&LodRow> = own.iter().collect();
-    if refs.is_empty() {
-        return String::new();
-    }
-    let cells_total = {
-        let mut k: Vec<String> = refs.iter().map(|r| lod::key(r.view, r.distance)).collect();
-        k.sort();
-        k.dedup();
-        k.len()
-    };
     let n = lod::dataset_points(&refs);
-    let psnr = lod::curves(&refs, |r| r.psnr);
-    let ssim = lod::curves(&refs, |r| r.ssim);
+    let mut distances: Vec<f64> = refs.iter().map(|r| r.distance).collect();
+    distances.sort_by(f64::total_cmp);
+    distances.dedup();
+    distances
+        .into_iter()
+        .map(|d| {
+            let at: Vec<&LodRow> = refs.iter().copied().filter(|r| r.distance == d).collect();
+            format!("At distance ×{d}: {}", at_distance(&at, n))
+        })
+        .collect()
+}
+
+/// The tables of one dataset's ok rows at one distance, `n` its points.
+fn at_distance(refs: &[&LodRow], n: f64) -> String {
+    let cells_total = {
+        let mut views: Vec<usize> = refs.iter().map(|r| r.view).collect();
+        views.sort_unstable();
+        views.dedup();
+        views.len()
+    };
+    let psnr = lod::curves(refs, |r| r.psnr);
+    let ssim = lod::curves(refs, |r| r.ssim);
     let mut header = vec!["method".to_owned()];
     let mut table: Vec<Vec<String>> = psnr.keys().map(|m| vec![m.clone()]).collect();
     for b in LOD_BUDGETS {
@@ -93,9 +105,9 @@ pub(super) fn tables(rows: &[Row], ds: &str) -> String {
     let head: Vec<&str> = header.iter().map(String::as_str).collect();
     let mut out = format!(
         "PSNR (dB) / SSIM at fixed shares of the {n:.0} points, each method's curve read per \
-         (view, distance) by interpolation in log points, never extrapolated; the mean over \
-         the cells where the budget lies within the method's sweep, their count of \
-         {cells_total} in brackets (`not reached`: none). The verdicts, over the cells every \
+         view by interpolation in log points, never extrapolated; the mean over the views \
+         where the budget lies within the method's sweep, their count of {cells_total} in \
+         brackets (`not reached`: none). The verdicts, over the views every \
          compared method reached, are in [findings.md](findings.md).{}\n\n{}\n",
         if identical.is_empty() {
             String::new()
@@ -127,10 +139,10 @@ pub(super) fn tables(rows: &[Row], ds: &str) -> String {
             .collect();
         out.push_str(&format!(
             "BD-PSNR against `{BD_ANCHOR}` (ITU-T VCEG-M33's mean PSNR difference over the \
-             common range of log points, with piecewise-linear curves), per (view, distance), \
-             then the mean over the cells where the method has at least two points of its \
+             common range of log points, with piecewise-linear curves), per view, then the \
+             mean over the views where the method has at least two points of its \
              curve in the common range, with its bootstrap 95 % interval:\n\n{}\n",
-            markdown_table(&["method", "BD-PSNR", "comparable cells"], &table)
+            markdown_table(&["method", "BD-PSNR", "comparable views"], &table)
         ));
     }
     out
