@@ -47,6 +47,15 @@ pub const FRONT_COLOR: [u8; 3] = [0xee, 0x77, 0x33];
 /// The colour of context series (Tol's muted pale grey, darkened to show on white).
 pub const CONTEXT_COLOR: [u8; 3] = [0xbb, 0xbb, 0xbb];
 
+/// The variant of a series whose method failed its exactness claim (wrong answers): drawn in
+/// [`WRONG_COLOR`], hollow and dotted in every figure, whatever its family, so that it is never
+/// read as one of the ranked methods.
+pub const WRONG: &str = "wrong answers";
+
+/// The colour of wrong answers (a mid grey, darker than [`CONTEXT_COLOR`]): outside
+/// [`PALETTE`].
+pub const WRONG_COLOR: [u8; 3] = [0x77, 0x77, 0x77];
+
 /// A marker's shape.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -337,6 +346,15 @@ fn family_slot(family: &str) -> ([u8; 3], Dash, bool) {
 /// for a peer. A variant the table does not name takes a marker by a hash of its name: use
 /// [`ordinal`] for variants that are the values of a parameter.
 pub fn style(family: &str, variant: &str) -> Style {
+    if variant == WRONG {
+        // Two wrong methods in one panel still differ by marker (and by their labels).
+        return Style {
+            color: WRONG_COLOR,
+            marker: MARKERS[(hash(family) % MARKERS.len() as u64) as usize],
+            hollow: true,
+            dash: Dash::Dotted,
+        };
+    }
     let (mut color, dash, hollow) = family_slot(family);
     let marker = if family == "pareto-front" {
         color = FRONT_COLOR;
@@ -456,6 +474,19 @@ mod tests {
         // Every table row is unique by name.
         let names: BTreeSet<_> = TABLE.iter().map(|e| e.0).collect();
         assert_eq!(names.len(), TABLE.len());
+    }
+
+    #[test]
+    fn wrong_answers_are_grey_hollow_and_dotted_whatever_the_family() {
+        for family in ["hull-quickhull", "hull-own", "open3d-hpr", "hpr-linear"] {
+            let s = style(family, WRONG);
+            assert_eq!(
+                (s.color, s.hollow, s.dash),
+                (WRONG_COLOR, true, Dash::Dotted)
+            );
+            assert_ne!(style(family, "").color, WRONG_COLOR, "{family}");
+        }
+        assert!(!PALETTE.contains(&WRONG_COLOR) && WRONG_COLOR != CONTEXT_COLOR);
     }
 
     #[test]

@@ -413,8 +413,16 @@ fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
             ("d at distance ×1, at 2 % of the points (20)", "b", "random"),
             ("d at distance ×1, at 5 % of the points (50)", "b", "a"),
             ("d at distance ×1, at 10 % of the points (100)", "b", "a"),
-            ("d at distance ×1, at 20 % of the points (200)", "a", "random"),
-            ("d at distance ×1, at 30 % of the points (300)", "random", ""),
+            (
+                "d at distance ×1, at 20 % of the points (200)",
+                "a",
+                "random"
+            ),
+            (
+                "d at distance ×1, at 30 % of the points (300)",
+                "random",
+                ""
+            ),
             (bd, "b", "a"),
         ]
     );
@@ -481,9 +489,11 @@ fn each_lod_distance_is_judged_on_its_own_at_equal_points() {
     // Distance ×1's rows (5, 10 and 20 %) come first, then ×2's.
     assert_eq!(found.len(), 6);
     let conditions: Vec<&str> = found.iter().map(|f| f.condition.as_str()).collect();
-    assert!(conditions[..found.len() / 2]
-        .iter()
-        .all(|c| c.starts_with("d at distance ×1,")));
+    assert!(
+        conditions[..found.len() / 2]
+            .iter()
+            .all(|c| c.starts_with("d at distance ×1,"))
+    );
 }
 
 #[test]

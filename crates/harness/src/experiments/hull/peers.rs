@@ -11,6 +11,7 @@ use crate::experiments::rules::ratio;
 use crate::experiments::rules::verdict::compared;
 use crate::experiments::rules::wrong::{self, Wrong};
 use crate::output::figure::{Draw, Point, Series};
+use crate::output::style;
 
 /// Every hull against ours (`own`, k = 0), from the ratios table: time ratio with its interval,
 /// identical sets, wrong answers; then the hulls not run and why.
@@ -146,7 +147,7 @@ pub(super) fn seconds_series(
             let mut all = main;
             all.extend(apart);
             out.push(
-                Series::new(h, &family, "wrong answers", Draw::Points, all)
+                Series::new(h, &family, style::WRONG, Draw::Points, all)
                     .label(format!("{h} — {}", wrong::note(j))),
             );
             continue;
@@ -262,6 +263,13 @@ mod tests {
                 "chull, apart: d: 1 of 6 cells",
                 "quick — wrong answers (worst Jaccard 0.200)"
             ]
+        );
+        // The wrong hull in the wrong answers' own grey; the others in their families' colours.
+        assert_eq!(series[3].style.color, style::WRONG_COLOR);
+        assert!(
+            series[..3]
+                .iter()
+                .all(|s| s.style.color != style::WRONG_COLOR)
         );
     }
 }

@@ -142,8 +142,14 @@ pub fn render(dir: &Path) -> Result<()> {
                 .map(|r| Point::new(r.n_points as f64, y(r)).seconds(r.seconds))
                 .collect()
         };
-        // A method whose exactness claim failed elsewhere in the reports: said in its label.
+        // A method whose exactness claim failed elsewhere in the reports: said in its label
+        // and drawn in the wrong answers' own style.
         let mark = wrong.note(m).map_or(String::new(), |n| format!(" — {n}"));
+        let variant = if mark.is_empty() {
+            variant
+        } else {
+            style::WRONG.to_owned()
+        };
         time_series[g].push(
             Series::new(m, &family, &variant, Draw::Line, points(&|r| r.seconds)).label(format!(
                 "{m} (slope {}, {} sizes){mark}",
