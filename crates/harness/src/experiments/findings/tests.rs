@@ -369,31 +369,42 @@ fn the_fastest_hull_is_paired_per_cell_partial_hulls_stand_apart_and_wrong_ones_
     assert!(markdown(&found, false).contains("qhull: 2.00× the time [2.00, 2.00] (wins)"));
 }
 
-#[test]
-fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
+/// The LOD findings of dataset `d` (1000 points) over 5 views, each view's rows
+/// (distance, method, setting, points rendered, PSNR) given by `rows`.
+fn lod_findings(
+    rows: impl Fn(usize) -> Vec<(u32, &'static str, &'static str, f64, f64)>,
+) -> Vec<Finding> {
     let dir = tempfile::tempdir().unwrap();
-    // Of 1000 points: `a` drew 50 and 200 (its sweep ends exactly at the 20 % budget), `b` 20
-    // and 100, the random subsample 10 to 300; `full` only images identical to the reference.
     let mut lod =
         String::from("dataset,view,distance,method,params,points_rendered,psnr,status,n_points\n");
     for view in 0..5 {
-        for (m, p, pts, psnr) in [
-            ("full", "", 1000.0, 100.0),
-            ("a", "k=1", 50.0, 10.0),
-            ("a", "k=2", 200.0, 16.0),
-            ("b", "e=1", 20.0, 9.0),
-            ("b", "e=2", 100.0, 14.0),
-            ("random", "f=1", 10.0, 6.0),
-            ("random", "f=2", 50.0, 10.0),
-            ("random", "f=3", 100.0, 12.0),
-            ("random", "f=4", 300.0, 15.0),
-        ] {
-            lod.push_str(&format!("d,{view},1,{m},{p},{pts},{psnr},ok,1000\n"));
+        for (d, m, p, pts, psnr) in rows(view) {
+            lod.push_str(&format!("d,{view},{d},{m},{p},{pts},{psnr},ok,1000\n"));
         }
     }
     std::fs::create_dir_all(dir.path().join("lod")).unwrap();
     std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
-    let found = findings(dir.path(), &["lod"]).unwrap();
+    findings(dir.path(), &["lod"]).unwrap()
+}
+
+#[test]
+fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
+    // Of 1000 points: `a` drew 50 and 200 (its sweep ends exactly at the 20 % budget), `b` 20
+    // and 100, the random subsample 10 to 300; `full` only images identical to the reference.
+    let found = lod_findings(|_| {
+        [
+            (1, "full", "", 1000.0, 100.0),
+            (1, "a", "k=1", 50.0, 10.0),
+            (1, "a", "k=2", 200.0, 16.0),
+            (1, "b", "e=1", 20.0, 9.0),
+            (1, "b", "e=2", 100.0, 14.0),
+            (1, "random", "f=1", 10.0, 6.0),
+            (1, "random", "f=2", 50.0, 10.0),
+            (1, "random", "f=3", 100.0, 12.0),
+            (1, "random", "f=4", 300.0, 15.0),
+        ]
+        .to_vec()
+    });
     let rows: Vec<(&str, &str, &str)> = found
         .iter()
         .map(|f| {
@@ -452,15 +463,12 @@ fn lod_reads_each_curve_at_the_budgets_never_beyond_its_sweep() {
 
 #[test]
 fn each_lod_distance_is_judged_on_its_own_at_equal_points() {
-    let dir = tempfile::tempdir().unwrap();
     // Of 1000 points, at the 10 % budget: at distance 1 `a` leads `b` by 3 dB on every view, at
     // distance 2 `b` leads `a` by 1 dB. Averaged over the distances `a` would lead by 1 dB;
     // judged per distance each distance has its own winner.
-    let mut lod =
-        String::from("dataset,view,distance,method,params,points_rendered,psnr,status,n_points\n");
-    for view in 0..5 {
+    let found = lod_findings(|view| {
         let v = view as f64 * 0.1;
-        for (d, m, p, pts, psnr) in [
+        [
             (1, "a", "k=1", 50.0, 20.0 + v),
             (1, "a", "k=2", 200.0, 26.0 + v),
             (1, "b", "e=1", 50.0, 17.0 + v),
@@ -469,13 +477,9 @@ fn each_lod_distance_is_judged_on_its_own_at_equal_points() {
             (2, "a", "k=2", 200.0, 34.0 + v),
             (2, "b", "e=1", 50.0, 31.0 + v),
             (2, "b", "e=2", 200.0, 35.0 + v),
-        ] {
-            lod.push_str(&format!("d,{view},{d},{m},{p},{pts},{psnr},ok,1000\n"));
-        }
-    }
-    std::fs::create_dir_all(dir.path().join("lod")).unwrap();
-    std::fs::write(dir.path().join("lod/results.csv"), lod).unwrap();
-    let found = findings(dir.path(), &["lod"]).unwrap();
+        ]
+        .to_vec()
+    });
     let at = |c: &str| found.iter().find(|f| f.condition == c).unwrap();
     let (near, far) = (
         at("d at distance ×1, at 10 % of the points (100)"),
