@@ -2,8 +2,9 @@
 //! [`LEAF`] points, laid out for coherent rays.
 //!
 //! Built as a k-d tree is, top down: a node's points are split at their median on the longest
-//! axis of their bounding box (ties by index, so the tree is deterministic) until at most
-//! [`LEAF`] remain; each node keeps the bounding box of its points. Unlike the seed's tree
+//! side of the node's cell (the cloud's box cut by the splits above) until at most [`LEAF`]
+//! remain; each node keeps the bounding box of its
+//! points, the union of its children's. Unlike the seed's tree
 //! ([`crate::kdtree`]: a point in every node), the points live only in the leaves, several to a
 //! leaf, so a ray walks about an eighth as many nodes and tests a leaf's points together
 //! (bucketed leaves, as in Wald, Slusallek, Benthin and Wagner, "Interactive rendering with
@@ -117,7 +118,7 @@ pub struct Bvh {
     pub half_extent: f64,
 }
 
-/// Descendant nodes and quads of a subtree of `n` points.
+/// Pairs of descendant nodes and quads of a subtree of `n` points.
 fn shape(n: usize, memo: &mut HashMap<usize, (usize, usize)>) -> (usize, usize) {
     if n <= LEAF {
         return (0, n.div_ceil(LANES));
@@ -126,15 +127,15 @@ fn shape(n: usize, memo: &mut HashMap<usize, (usize, usize)>) -> (usize, usize) 
         return s;
     }
     let (l, r) = (shape(n / 2, memo), shape(n - n / 2, memo));
-    let s = (2 + l.0 + r.0, l.1 + r.1);
+    let s = (1 + l.0 + r.0, l.1 + r.1);
     memo.insert(n, s);
     s
 }
 
-/// Where a subtree goes: its descendants' nodes and its slots.
+/// Where a subtree goes: its descendants' node pairs and its slots.
 struct Out<'a> {
-    nodes: &'a mut [Node],
-    node_base: u32,
+    pairs: &'a mut [Pair],
+    pair_base: u32,
     quads: &'a mut [Quad],
     exact: &'a mut [[f64; 3]],
     index: &'a mut [u32],
@@ -158,7 +159,7 @@ impl Bvh {
         };
         let mut memo = HashMap::new();
         let (desc, quads) = shape(n, &mut memo);
-        let mut nodes = vec![EMPTY; 2 + desc];
+        let mut pairs = vec![Pair([EMPTY; 2]); 1 + desc];
         let mut quad_out = vec![NAN_QUAD; quads];
         let mut exact = vec![[f64::NAN; 3]; quads * LANES];
         let mut index = vec![NONE; quads * LANES];
@@ -168,18 +169,17 @@ impl Bvh {
                 .enumerate()
                 .map(|(i, &p)| (p, i as u32))
                 .collect();
-            let (root, rest) = nodes.split_at_mut(2);
+            let (root, rest) = pairs.split_at_mut(1);
             let out = Out {
-                nodes: rest,
-                node_base: 2,
+                pairs: rest,
+                pair_base: 1,
                 quads: &mut quad_out,
                 exact: &mut exact,
                 index: &mut index,
                 quad_base: 0,
             };
-            root[0] = build_into(&mut items, out, centre, &memo);
+            root[0].0[0] = build_into(&mut items, (lo, hi), out, centre, &memo);
         }
-        let pairs = nodes.chunks(2).map(|c| Pair([c[0], c[1]])).collect();
         Self {
             pairs,
             quads: quad_out,
@@ -233,27 +233,18 @@ impl Bvh {
     }
 }
 
-/// The box of `items`.
-fn bounds(items: &[(DVec3, u32)]) -> (DVec3, DVec3) {
-    items.iter().fold(
-        (DVec3::INFINITY, DVec3::NEG_INFINITY),
-        |(lo, hi), (p, _)| (lo.min(*p), hi.max(*p)),
-    )
-}
-
-/// Builds the subtree of `items` into `out`; returns its root node.
+/// Builds the subtree of `items` into `out`; returns its root node. `cell` is the box the
+/// splits above leave the subtree (its points lie in it): its longest side is the split axis.
 fn build_into(
     items: &mut [(DVec3, u32)],
+    cell: (DVec3, DVec3),
     out: Out<'_>,
     centre: DVec3,
     memo: &HashMap<usize, (usize, usize)>,
 ) -> Node {
     let n = items.len();
-    let (lo, hi) = bounds(items);
-    let rel =
-        |v: DVec3, f: fn(f64) -> f32| [f(v.x - centre.x), f(v.y - centre.y), f(v.z - centre.z)];
-    let (lo32, hi32) = (rel(lo, down), rel(hi, up));
     if n <= LEAF {
+        let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
         for (k, (p, i)) in items.iter().enumerate() {
             let q = &mut out.quads[k / LANES];
             let l = k % LANES;
@@ -262,39 +253,49 @@ fn build_into(
             q.z[l] = (p.z - centre.z) as f32;
             out.exact[k] = p.to_array();
             out.index[k] = *i;
+            for a in 0..3 {
+                lo[a] = lo[a].min(down(p[a] - centre[a]));
+                hi[a] = hi[a].max(up(p[a] - centre[a]));
+            }
         }
         return Node {
-            lo: lo32,
-            hi: hi32,
+            lo,
+            hi,
             first: out.quad_base * LANES as u32,
             meta: LEAF_FLAG | n as u32,
         };
     }
-    let axis = (hi - lo).max_position();
+    let axis = (cell.1 - cell.0).max_position();
     let m = n / 2;
-    items.select_nth_unstable_by(m, |a, b| {
-        a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1))
-    });
+    // The median; equal coordinates go either side (the selection is deterministic).
+    match axis {
+        0 => items.select_nth_unstable_by(m, |a, b| a.0.x.total_cmp(&b.0.x)),
+        1 => items.select_nth_unstable_by(m, |a, b| a.0.y.total_cmp(&b.0.y)),
+        _ => items.select_nth_unstable_by(m, |a, b| a.0.z.total_cmp(&b.0.z)),
+    };
+    let split = items[m].0[axis];
+    let (mut l_cell, mut r_cell) = (cell, cell);
+    l_cell.1[axis] = split;
+    r_cell.0[axis] = split;
     let (left, right) = items.split_at_mut(m);
-    let small = |k: usize| shape_of(k, memo);
-    let ((ld, lq), (rd, _)) = (small(left.len()), small(right.len()));
-    let (pair, rest) = out.nodes.split_at_mut(2);
-    let (l_nodes, r_nodes) = rest.split_at_mut(ld);
-    debug_assert_eq!(r_nodes.len(), rd);
+    let ((ld, lq), (rd, _)) = (shape_of(left.len(), memo), shape_of(right.len(), memo));
+    let (pair, rest) = out.pairs.split_at_mut(1);
+    let (l_pairs, r_pairs) = rest.split_at_mut(ld);
+    debug_assert_eq!(r_pairs.len(), rd);
     let (l_quads, r_quads) = out.quads.split_at_mut(lq);
     let (l_exact, r_exact) = out.exact.split_at_mut(lq * LANES);
     let (l_index, r_index) = out.index.split_at_mut(lq * LANES);
     let l_out = Out {
-        nodes: l_nodes,
-        node_base: out.node_base + 2,
+        pairs: l_pairs,
+        pair_base: out.pair_base + 1,
         quads: l_quads,
         exact: l_exact,
         index: l_index,
         quad_base: out.quad_base,
     };
     let r_out = Out {
-        nodes: r_nodes,
-        node_base: out.node_base + 2 + ld as u32,
+        pairs: r_pairs,
+        pair_base: out.pair_base + 1 + ld as u32,
         quads: r_quads,
         exact: r_exact,
         index: r_index,
@@ -302,21 +303,21 @@ fn build_into(
     };
     let (l, r) = if n > PARALLEL_BUILD {
         rayon::join(
-            || build_into(left, l_out, centre, memo),
-            || build_into(right, r_out, centre, memo),
+            || build_into(left, l_cell, l_out, centre, memo),
+            || build_into(right, r_cell, r_out, centre, memo),
         )
     } else {
         (
-            build_into(left, l_out, centre, memo),
-            build_into(right, r_out, centre, memo),
+            build_into(left, l_cell, l_out, centre, memo),
+            build_into(right, r_cell, r_out, centre, memo),
         )
     };
-    pair[0] = l;
-    pair[1] = r;
+    pair[0] = Pair([l, r]);
+    // The union of the children's boxes (rounding is monotone: the rounded union).
     Node {
-        lo: lo32,
-        hi: hi32,
-        first: out.node_base,
+        lo: std::array::from_fn(|a| l.lo[a].min(r.lo[a])),
+        hi: std::array::from_fn(|a| l.hi[a].max(r.hi[a])),
+        first: 2 * out.pair_base,
         meta: axis as u32,
     }
 }

@@ -34,6 +34,7 @@ pub mod hit;
 pub mod kdtree;
 pub mod packet;
 pub mod rays;
+mod simd;
 pub mod traverse;
 
 use std::sync::OnceLock;

@@ -27,6 +27,7 @@
 use crate::bvh::{Bvh, LANES, Node};
 use crate::hit::{disc_entry, entry};
 use crate::kdtree::NONE;
+use crate::simd::F4;
 
 /// Most rays in a packet.
 pub const MAX_RAYS: usize = 64;
@@ -59,38 +60,64 @@ impl SlotShape for Disc<'_> {
     }
 }
 
-/// A ray's `f32` form for culling, in scaled parameter units.
+/// Four lanes.
+type V = [f32; LANES];
+
+/// Groups of four rays in a packet.
+const GROUPS: usize = MAX_RAYS / LANES;
+
+/// 2^`e` (|`e`| < 1023).
+#[inline(always)]
+fn pow2(e: i64) -> f64 {
+    f64::from_bits(((1023 + e) as u64) << 52)
+}
+
+/// Rounding-up factor of the margins.
+const UP: f64 = 1.0 + 1.0 / (1u64 << 20) as f64;
+
+/// A ray's bounds for the point filter, in scaled units times |d|².
 #[derive(Debug, Clone, Copy, Default)]
-struct Cull {
-    /// Origin relative to the centre.
-    o: [f32; 3],
-    /// Scaled direction.
-    d: [f32; 3],
-    /// Its reciprocal (components clamped to ±1e30).
-    inv: [f32; 3],
-    /// Box enlargement: radius and margin.
-    pad: f32,
+struct Filter {
     /// (radius + filter margin)² · |d|².
     rr_dd: f32,
     /// Filter margin · |d|.
     eta_dn: f32,
     /// |d|².
     dd: f32,
-    /// The exact parameter's factor to scaled units (a power of two).
-    to_scaled: f64,
-    /// Best hit so far, scaled, rounded up: the box test's bound.
-    best_box: f32,
-    /// `best_box` · |d|², rounded up: the filter's bound.
+    /// The best hit so far (scaled, rounded up) · |d|², rounded up.
     best_dd: f32,
 }
 
 /// Rays of one packet with their best hits.
+///
+/// Each ray keeps its exact `f64` origin and direction, and for culling their `f32` forms in
+/// scaled parameter units: the origin relative to the cloud's centre, the scaled direction
+/// and its reciprocal, the box enlargement and the best hit as a box bound, four rays to a
+/// group (structure of arrays, so that four rays test a box at once). Lanes past the
+/// packet's rays and those of degenerate rays never enter a box. The point filter's bounds
+/// are made when the ray first reaches a leaf.
 #[derive(Debug, Clone)]
 pub struct Packet {
     len: usize,
     o: [[f64; 3]; MAX_RAYS],
     d: [[f64; 3]; MAX_RAYS],
-    cull: [Cull; MAX_RAYS],
+    /// Origins relative to the centre, by axis.
+    o32: [[V; GROUPS]; 3],
+    /// Reciprocal scaled directions (clamped to ±1e30), by axis.
+    inv: [[V; GROUPS]; 3],
+    /// Box enlargement: radius and margin.
+    pad: [V; GROUPS],
+    /// Best hit so far, scaled, rounded up: the box test's bound.
+    best_box: [V; GROUPS],
+    /// Scaled directions.
+    d32: [[f32; 3]; MAX_RAYS],
+    /// The filter margin, world units.
+    eta: [f64; MAX_RAYS],
+    /// The exact parameter's factor to scaled units (a power of two).
+    to_scaled: [f64; MAX_RAYS],
+    filter: [Filter; MAX_RAYS],
+    /// Rays whose filter bounds are made, a bit each.
+    ready: u64,
     best_t: [f64; MAX_RAYS],
     best: [u32; MAX_RAYS],
     /// Rays answered by the brute force (degenerate), a bit each.
@@ -99,11 +126,20 @@ pub struct Packet {
 
 impl Default for Packet {
     fn default() -> Self {
+        let zero = [[0.0; LANES]; GROUPS];
         Self {
             len: 0,
             o: [[0.0; 3]; MAX_RAYS],
             d: [[0.0; 3]; MAX_RAYS],
-            cull: [Cull::default(); MAX_RAYS],
+            o32: [zero; 3],
+            inv: [zero; 3],
+            pad: zero,
+            best_box: zero,
+            d32: [[0.0; 3]; MAX_RAYS],
+            eta: [0.0; MAX_RAYS],
+            to_scaled: [0.0; MAX_RAYS],
+            filter: [Filter::default(); MAX_RAYS],
+            ready: 0,
             best_t: [f64::INFINITY; MAX_RAYS],
             best: [NONE; MAX_RAYS],
             degenerate: 0,
@@ -115,7 +151,6 @@ impl Packet {
     /// Empties the packet.
     pub fn clear(&mut self) {
         self.len = 0;
-        self.degenerate = 0;
     }
 
     /// Number of rays.
@@ -144,84 +179,133 @@ impl Packet {
         (self.best[i] != NONE).then_some((self.best_t[i], self.best[i]))
     }
 
+    /// Lane `i` never enters a box: every entry parameter is at least 0, above its bound.
+    fn shut(&mut self, i: usize) {
+        let (g, j) = (i / LANES, i % LANES);
+        for k in 0..3 {
+            self.o32[k][g][j] = 0.0;
+            self.inv[k][g][j] = 0.0;
+        }
+        self.pad[g][j] = 0.0;
+        self.best_box[g][j] = f32::NEG_INFINITY;
+    }
+
     /// Prepares the `f32` forms for `bvh` and `radius`, resets the best hits.
     fn prepare(&mut self, bvh: &Bvh, radius: f64) {
         let c = bvh.centre;
+        self.ready = 0;
+        self.degenerate = 0;
+        // The origin's terms, made again only when the origin changes (a pinhole's rays
+        // share it).
+        let mut last = [f64::NAN; 3];
+        let (mut o32, mut om, mut pad, mut eta) = ([0.0f32; 3], 0.0, 0.0f32, 0.0);
         for i in 0..self.len {
             self.best_t[i] = f64::INFINITY;
             self.best[i] = NONE;
             let (o, d) = (self.o[i], self.d[i]);
-            let big = d.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            let rel = [o[0] - c[0], o[1] - c[1], o[2] - c[2]];
-            let om = rel.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            if o != last {
+                last = o;
+                let rel = [o[0] - c[0], o[1] - c[1], o[2] - c[2]];
+                om = rel[0].abs().max(rel[1].abs()).max(rel[2].abs()) + bvh.half_extent;
+                let size = om + radius;
+                pad = ((radius + size * pow2(-19)) * UP) as f32;
+                eta = size * pow2(-18);
+                o32 = rel.map(|v| v as f32);
+            }
             let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-            if !(1e-200..=1e200).contains(&dd) || !(om + bvh.half_extent <= 1e100) {
+            if !(1e-200..=1e200).contains(&dd) || !(om <= 1e100) {
                 self.degenerate |= 1 << i;
-                // Never enters a box: every entry parameter is 0, above this bound.
-                self.cull[i] = Cull {
-                    best_box: f32::NEG_INFINITY,
-                    best_dd: f32::NEG_INFINITY,
-                    ..Cull::default()
-                };
+                self.shut(i);
                 continue;
             }
-            let scale = 2f64.powi(-(big.log2().floor() as i32));
-            let ds = [d[0] * scale, d[1] * scale, d[2] * scale];
-            let inv = ds.map(|v| (1.0 / v).clamp(-1e30, 1e30) as f32);
-            let d32 = ds.map(|v| v as f32);
-            let size = om + bvh.half_extent + radius;
-            let delta = size * f64::powi(2.0, -19);
-            let eta = size * f64::powi(2.0, -18);
-            let dd32 = d32[0] * d32[0] + d32[1] * d32[1] + d32[2] * d32[2];
-            let up = 1.0 + f64::powi(2.0, -20);
-            let dd64 = dd32 as f64;
-            self.cull[i] = Cull {
-                o: rel.map(|v| v as f32),
-                d: d32,
-                inv,
-                pad: ((radius + delta) * up) as f32,
-                rr_dd: ((radius + eta) * (radius + eta) * dd64 * up * up) as f32,
-                eta_dn: (eta * dd64.sqrt() * up) as f32,
-                dd: dd32,
-                to_scaled: 1.0 / scale,
-                best_box: f32::INFINITY,
-                best_dd: f32::INFINITY,
-            };
+            // A power of two bringing the largest component into [1, 2) (the square's range
+            // keeps its exponent within ±340).
+            let big = d[0].abs().max(d[1].abs()).max(d[2].abs());
+            let e = ((big.to_bits() >> 52) & 0x7ff) as i64 - 1023;
+            let scale = pow2(-e);
+            let (g, j) = (i / LANES, i % LANES);
+            for k in 0..3 {
+                let d32 = (d[k] * scale) as f32;
+                self.o32[k][g][j] = o32[k];
+                self.inv[k][g][j] = (1.0 / d32).clamp(-1e30, 1e30);
+                self.d32[i][k] = d32;
+            }
+            self.pad[g][j] = pad;
+            self.best_box[g][j] = f32::INFINITY;
+            self.eta[i] = eta;
+            self.to_scaled[i] = pow2(e);
+        }
+        for i in self.len..self.len.next_multiple_of(LANES) {
+            self.shut(i);
         }
     }
 
-    /// Ray `i` takes the hit (`t`, `index`) if it is nearer than its best, or as near with a
-    /// lower index; returns whether it did.
+    /// Ray `i`'s filter bounds, made on first use.
+    #[inline(always)]
+    fn filter(&mut self, i: usize, radius: f64) -> Filter {
+        if self.ready & (1 << i) == 0 {
+            self.ready |= 1 << i;
+            let d = self.d32[i];
+            let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let (dd64, eta) = (dd as f64, self.eta[i]);
+            self.filter[i] = Filter {
+                rr_dd: ((radius + eta) * (radius + eta) * dd64 * UP * UP) as f32,
+                eta_dn: (eta * dd64.sqrt() * UP) as f32,
+                dd,
+                best_dd: f32::INFINITY,
+            };
+        }
+        self.filter[i]
+    }
+
+    /// Ray `i` (its filter made) takes the hit (`t`, `index`) if it is nearer than its best,
+    /// or as near with a lower index; returns whether it did.
     #[inline(always)]
     fn offer(&mut self, i: usize, t: f64, index: u32) -> bool {
         if t < self.best_t[i] || (t == self.best_t[i] && index < self.best[i]) {
             self.best_t[i] = t;
             self.best[i] = index;
-            let c = &mut self.cull[i];
-            let up = 1.0 + f64::powi(2.0, -20);
-            let scaled = t * c.to_scaled * up;
-            c.best_box = scaled as f32;
-            c.best_dd = (scaled * c.dd as f64 * up) as f32;
+            let scaled = t * self.to_scaled[i] * UP;
+            self.best_box[i / LANES][i % LANES] = scaled as f32;
+            let f = &mut self.filter[i];
+            f.best_dd = (scaled * f.dd as f64 * UP) as f32;
             true
         } else {
             false
         }
     }
-}
 
-/// Entry of ray `c` into box `n` enlarged by its pad, if before its best hit.
-#[inline(always)]
-fn enters(c: &Cull, n: &Node) -> bool {
-    let mut t0 = 0.0f32;
-    let mut t1 = f32::INFINITY;
-    for k in 0..3 {
-        let a = (n.lo[k] - c.pad - c.o[k]) * c.inv[k];
-        let b = (n.hi[k] + c.pad - c.o[k]) * c.inv[k];
-        let (near, far) = if a < b { (a, b) } else { (b, a) };
-        t0 = if near > t0 { near } else { t0 };
-        t1 = if far < t1 { far } else { t1 };
+    /// The rays of group `g` that enter box `n`, enlarged by their pads, before their best
+    /// hits: a bit each.
+    #[inline(always)]
+    fn enter(&self, g: usize, n: &Node) -> u32 {
+        let pad = F4::load(&self.pad[g]);
+        let mut t0 = F4::splat(0.0);
+        let mut t1 = F4::splat(f32::INFINITY);
+        for k in 0..3 {
+            let o = F4::load(&self.o32[k][g]);
+            let inv = F4::load(&self.inv[k][g]);
+            let a = F4::splat(n.lo[k]).sub(pad).sub(o).mul(inv);
+            let b = F4::splat(n.hi[k]).add(pad).sub(o).mul(inv);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+        t0.le_both(t1, F4::load(&self.best_box[g]))
     }
-    t0 <= t1 && t0 <= c.best_box
+
+    /// Degenerate ray `i`'s answer: the brute force over the slots.
+    fn brute<S: SlotShape>(&mut self, i: usize, bvh: &Bvh, r2: f64, shape: S) {
+        let (o, d) = (self.o[i], self.d[i]);
+        for (s, &index) in bvh.index.iter().enumerate() {
+            if index != NONE
+                && let Some(t) = shape.entry(bvh, &o, &d, s, r2)
+                && (t < self.best_t[i] || (t == self.best_t[i] && index < self.best[i]))
+            {
+                self.best_t[i] = t;
+                self.best[i] = index;
+            }
+        }
+    }
 }
 
 /// The packet as intervals: origins, reciprocal directions and pads.
@@ -252,14 +336,14 @@ impl Interval {
                 continue;
             }
             any = true;
-            let c = &p.cull[i];
+            let (g, j) = (i / LANES, i % LANES);
             for k in 0..3 {
-                iv.o_lo[k] = iv.o_lo[k].min(c.o[k]);
-                iv.o_hi[k] = iv.o_hi[k].max(c.o[k]);
-                iv.inv_lo[k] = iv.inv_lo[k].min(c.inv[k]);
-                iv.inv_hi[k] = iv.inv_hi[k].max(c.inv[k]);
+                iv.o_lo[k] = iv.o_lo[k].min(p.o32[k][g][j]);
+                iv.o_hi[k] = iv.o_hi[k].max(p.o32[k][g][j]);
+                iv.inv_lo[k] = iv.inv_lo[k].min(p.inv[k][g][j]);
+                iv.inv_hi[k] = iv.inv_hi[k].max(p.inv[k][g][j]);
             }
-            iv.pad = iv.pad.max(c.pad);
+            iv.pad = iv.pad.max(p.pad[g][j]);
         }
         any.then_some(iv)
     }
@@ -320,56 +404,63 @@ pub fn cast<S: SlotShape>(
     if packet.degenerate != 0 {
         for i in 0..m {
             if packet.degenerate & (1 << i) != 0 {
-                let (o, d) = (packet.o[i], packet.d[i]);
-                for s in 0..bvh.index.len() {
-                    if bvh.index[s] != NONE
-                        && let Some(t) = shape.entry(bvh, &o, &d, s, r2)
-                    {
-                        packet.offer(i, t, bvh.index[s]);
-                    }
-                }
+                packet.brute(i, bvh, r2, shape);
             }
         }
     }
     let Some(mut iv) = Interval::of(packet) else {
         return;
     };
+    let groups = m.div_ceil(LANES);
     let stack = &mut stack.0;
     stack.clear();
     stack.push((0, 0));
     while let Some((at, first)) = stack.pop() {
         let n = bvh.node(at);
-        let mut i = first as usize;
-        if !enters(&packet.cull[i], n) {
-            if i + 1 == m || iv.misses(n) {
+        // The first ray, from `first`, that enters the node.
+        let mut g = first as usize / LANES;
+        let mut mask = packet.enter(g, n) & (!0 << (first as usize % LANES));
+        if mask == 0 {
+            if g + 1 == groups || iv.misses(n) {
                 continue;
             }
-            i += 1;
-            while i < m && !enters(&packet.cull[i], n) {
-                i += 1;
+            while mask == 0 && g + 1 < groups {
+                g += 1;
+                mask = packet.enter(g, n);
             }
-            if i == m {
+            if mask == 0 {
                 continue;
             }
         }
+        let i = g * LANES + mask.trailing_zeros() as usize;
         if n.is_leaf() {
-            let mut changed = leaf(bvh, packet, i, n, r2, shape);
-            for j in i + 1..m {
-                if enters(&packet.cull[j], n) {
-                    changed |= leaf(bvh, packet, j, n, r2, shape);
+            // Every ray from there that enters it.
+            let mut changed = false;
+            loop {
+                while mask != 0 {
+                    let j = g * LANES + mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    changed |= leaf(bvh, packet, j, n, radius, shape);
                 }
+                g += 1;
+                if g == groups {
+                    break;
+                }
+                mask = packet.enter(g, n);
             }
             if changed {
-                iv.best = (0..m).fold(0.0f32, |b, j| b.max(packet.cull[j].best_box));
+                iv.best = packet.best_box[..groups]
+                    .iter()
+                    .flatten()
+                    .fold(0.0f32, |b, &v| b.max(v));
             }
             continue;
         }
         let [l, r] = bvh.children(n);
         let a = n.axis();
-        let c = &packet.cull[i];
+        let o = packet.o32[a][i / LANES][i % LANES];
         let mid = l.hi[a] + r.lo[a];
-        let o2 = 2.0 * c.o[a];
-        let left_first = o2 < mid || (o2 == mid && c.d[a] > 0.0);
+        let left_first = 2.0 * o < mid || (2.0 * o == mid && packet.d32[i][a] > 0.0);
         let (near, far) = if left_first {
             (n.first, n.first + 1)
         } else {
@@ -380,37 +471,49 @@ pub fn cast<S: SlotShape>(
     }
 }
 
-/// Ray `i` against leaf `n`'s points: the `f32` filter four at a time, the exact test for
-/// those that pass; returns whether its best hit changed.
+/// Ray `i` against leaf `n`'s points: the `f32` filter four at a time (the distance from the
+/// point to the line against the radius, and a lower bound of the entry parameter against
+/// the best hit), the exact test for those that pass; returns whether its best hit changed.
 #[inline(always)]
-fn leaf<S: SlotShape>(bvh: &Bvh, p: &mut Packet, i: usize, n: &Node, r2: f64, shape: S) -> bool {
+fn leaf<S: SlotShape>(
+    bvh: &Bvh,
+    p: &mut Packet,
+    i: usize,
+    n: &Node,
+    radius: f64,
+    shape: S,
+) -> bool {
+    let f = p.filter(i, radius);
+    let r2 = radius * radius;
     let first = n.first as usize;
-    let quads = n.count().div_ceil(LANES);
+    let (g, j) = (i / LANES, i % LANES);
+    let o = [p.o32[0][g][j], p.o32[1][g][j], p.o32[2][g][j]].map(F4::splat);
+    let d = p.d32[i].map(F4::splat);
+    let (rr_dd, eta_dn) = (F4::splat(f.rr_dd), F4::splat(f.eta_dn));
+    let mut best_dd = F4::splat(f.best_dd);
+    let zero = F4::splat(0.0);
     let mut changed = false;
-    for qi in 0..quads {
+    for qi in 0..n.count().div_ceil(LANES) {
         let q = &bvh.quads[first / LANES + qi];
-        let c = &p.cull[i];
-        let mut pass = [false; LANES];
-        for l in 0..LANES {
-            let ex = c.o[0] - q.x[l];
-            let ey = c.o[1] - q.y[l];
-            let ez = c.o[2] - q.z[l];
-            let cx = ey * c.d[2] - ez * c.d[1];
-            let cy = ez * c.d[0] - ex * c.d[2];
-            let cz = ex * c.d[1] - ey * c.d[0];
-            let cr2 = cx * cx + cy * cy + cz * cz;
-            let f = ex * c.d[0] + ey * c.d[1] + ez * c.d[2];
-            let room = c.rr_dd - cr2;
-            let h = if room > 0.0 { room } else { 0.0 }.sqrt();
-            let lower = -f - c.eta_dn - h;
-            pass[l] = cr2 <= c.rr_dd && lower <= c.best_dd;
-        }
-        for (l, &ok) in pass.iter().enumerate() {
-            if ok {
-                let s = first + qi * LANES + l;
-                if let Some(t) = shape.entry(bvh, &p.o[i], &p.d[i], s, r2) {
-                    changed |= p.offer(i, t, bvh.index[s]);
-                }
+        let ex = o[0].sub(F4::load(&q.x));
+        let ey = o[1].sub(F4::load(&q.y));
+        let ez = o[2].sub(F4::load(&q.z));
+        let cx = ey.mul(d[2]).sub(ez.mul(d[1]));
+        let cy = ez.mul(d[0]).sub(ex.mul(d[2]));
+        let cz = ex.mul(d[1]).sub(ey.mul(d[0]));
+        let cr2 = cx.mul(cx).add(cy.mul(cy)).add(cz.mul(cz));
+        let fd = ex.mul(d[0]).add(ey.mul(d[1])).add(ez.mul(d[2]));
+        let h = rr_dd.sub(cr2).max(zero).sqrt();
+        let lower = zero.sub(fd).sub(eta_dn).sub(h);
+        let mut pass = cr2.le(rr_dd) & lower.le(best_dd);
+        while pass != 0 {
+            let s = first + qi * LANES + pass.trailing_zeros() as usize;
+            pass &= pass - 1;
+            if let Some(t) = shape.entry(bvh, &p.o[i], &p.d[i], s, r2)
+                && p.offer(i, t, bvh.index[s])
+            {
+                changed = true;
+                best_dd = F4::splat(p.filter[i].best_dd);
             }
         }
     }
