@@ -203,25 +203,38 @@ impl RayCaster {
                 let rows = out.len() as u32 / w;
                 for x0 in (0..w).step_by(TILE as usize) {
                     let xs = x0..(x0 + TILE).min(w);
-                    let pixels = (0..rows).flat_map(|dy| xs.clone().map(move |x| (dy, x)));
                     if let Some(tree) = seed {
-                        for (dy, x) in pixels {
-                            let (o, d) = rays.aim(camera, ((y0 + dy) * w + x) as usize);
-                            out[(dy * w + x) as usize] =
-                                traverse::cast_seed(tree, &Ray::new(o, d), params.radius, scratch)
-                                    .unwrap_or(NONE);
+                        for dy in 0..rows {
+                            for x in xs.clone() {
+                                let (o, d) = rays.aim(camera, ((y0 + dy) * w + x) as usize);
+                                out[(dy * w + x) as usize] = traverse::cast_seed(
+                                    tree,
+                                    &Ray::new(o, d),
+                                    params.radius,
+                                    scratch,
+                                )
+                                .unwrap_or(NONE);
+                            }
                         }
                         continue;
                     }
                     let p = &mut scratch.packet;
                     p.clear();
-                    for (dy, x) in pixels.clone() {
-                        let (o, d) = rays.aim(camera, ((y0 + dy) * w + x) as usize);
-                        p.push(o, d);
+                    for dy in 0..rows {
+                        let row = ((y0 + dy) * w) as usize;
+                        for x in xs.clone() {
+                            let (o, d) = rays.aim(camera, row + x as usize);
+                            p.push(o, d);
+                        }
                     }
                     packet::cast(&self.bvh, p, params.radius, shape, &mut scratch.stack);
-                    for (i, (dy, x)) in pixels.enumerate() {
-                        out[(dy * w + x) as usize] = p.hit(i).map_or(NONE, |h| h.1);
+                    let mut i = 0;
+                    for dy in 0..rows {
+                        let row = (dy * w) as usize;
+                        for x in xs.clone() {
+                            out[row + x as usize] = p.index(i);
+                            i += 1;
+                        }
                     }
                 }
             });

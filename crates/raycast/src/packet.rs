@@ -28,6 +28,7 @@ use crate::bvh::{Bvh, LANES, Node};
 use crate::hit::{disc_entry, entry};
 use crate::kdtree::NONE;
 use crate::simd::F4;
+use wide::f64x4;
 
 /// Most rays in a packet.
 pub const MAX_RAYS: usize = 64;
@@ -99,8 +100,10 @@ struct Filter {
 #[derive(Debug, Clone)]
 pub struct Packet {
     len: usize,
-    o: [[f64; 3]; MAX_RAYS],
-    d: [[f64; 3]; MAX_RAYS],
+    /// Origins by axis (lanes past the rays: copies of the last ray).
+    o: [[f64; MAX_RAYS]; 3],
+    /// Directions by axis (likewise).
+    d: [[f64; MAX_RAYS]; 3],
     /// Origins relative to the centre, by axis.
     o32: [[V; GROUPS]; 3],
     /// Reciprocal scaled directions (clamped to ±1e30), by axis.
@@ -129,8 +132,8 @@ impl Default for Packet {
         let zero = [[0.0; LANES]; GROUPS];
         Self {
             len: 0,
-            o: [[0.0; 3]; MAX_RAYS],
-            d: [[0.0; 3]; MAX_RAYS],
+            o: [[0.0; MAX_RAYS]; 3],
+            d: [[0.0; MAX_RAYS]; 3],
             o32: [zero; 3],
             inv: [zero; 3],
             pad: zero,
@@ -168,9 +171,29 @@ impl Packet {
     pub fn push(&mut self, o: [f64; 3], d: [f64; 3]) {
         assert!(self.len < MAX_RAYS, "a packet holds {MAX_RAYS} rays");
         let i = self.len;
-        self.o[i] = o;
-        self.d[i] = d;
+        for k in 0..3 {
+            self.o[k][i] = o[k];
+            self.d[k][i] = d[k];
+        }
         self.len += 1;
+    }
+
+    /// The index of the point ray `i` hits first, or [`NONE`].
+    #[inline]
+    pub fn index(&self, i: usize) -> u32 {
+        self.best[i]
+    }
+
+    /// Ray `i`'s origin.
+    #[inline(always)]
+    fn ray_o(&self, i: usize) -> [f64; 3] {
+        [self.o[0][i], self.o[1][i], self.o[2][i]]
+    }
+
+    /// Ray `i`'s direction.
+    #[inline(always)]
+    fn ray_d(&self, i: usize) -> [f64; 3] {
+        [self.d[0][i], self.d[1][i], self.d[2][i]]
     }
 
     /// Ray `i`'s answer: (entry parameter, input index) of the point hit first.
@@ -202,7 +225,7 @@ impl Packet {
         for i in 0..self.len {
             self.best_t[i] = f64::INFINITY;
             self.best[i] = NONE;
-            let (o, d) = (self.o[i], self.d[i]);
+            let (o, d) = (self.ray_o(i), self.ray_d(i));
             if o != last {
                 last = o;
                 let rel = [o[0] - c[0], o[1] - c[1], o[2] - c[2]];
@@ -238,6 +261,81 @@ impl Packet {
         for i in self.len..self.len.next_multiple_of(LANES) {
             self.shut(i);
         }
+    }
+
+    /// True when no ray of the packet meets the root's box enlarged by more than `radius`:
+    /// the interval-arithmetic test of [`Interval::misses`] in `f64` on the rays as given,
+    /// before their `f32` forms are made (most packets of a view around an object miss it).
+    /// False when some ray is degenerate, or its direction's sign varies on every axis.
+    fn misses_root(&mut self, bvh: &Bvh, radius: f64) -> bool {
+        // The last group's spare lanes copy the last ray, which changes no bound.
+        let last = self.len - 1;
+        for i in self.len..self.len.next_multiple_of(LANES) {
+            for k in 0..3 {
+                self.o[k][i] = self.o[k][last];
+                self.d[k][i] = self.d[k][last];
+            }
+        }
+        let lanes = |a: &[f64; MAX_RAYS], g: usize| {
+            f64x4::new([a[4 * g], a[4 * g + 1], a[4 * g + 2], a[4 * g + 3]])
+        };
+        let (mut o_lo, mut o_hi) = (
+            [f64x4::splat(f64::INFINITY); 3],
+            [f64x4::splat(f64::NEG_INFINITY); 3],
+        );
+        let (mut d_lo, mut d_hi) = (o_lo, o_hi);
+        let mut fine = f64x4::splat(f64::from_bits(u64::MAX));
+        for g in 0..self.len.div_ceil(LANES) {
+            let d = [0, 1, 2].map(|k| lanes(&self.d[k], g));
+            let dd = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            fine &= dd.simd_ge(f64x4::splat(1e-200)) & dd.simd_le(f64x4::splat(1e200));
+            for k in 0..3 {
+                let o = lanes(&self.o[k], g);
+                o_lo[k] = o_lo[k].fast_min(o);
+                o_hi[k] = o_hi[k].fast_max(o);
+                d_lo[k] = d_lo[k].fast_min(d[k]);
+                d_hi[k] = d_hi[k].fast_max(d[k]);
+            }
+        }
+        let lo = |v: f64x4| v.to_array().into_iter().fold(f64::INFINITY, f64::min);
+        let hi = |v: f64x4| v.to_array().into_iter().fold(f64::NEG_INFINITY, f64::max);
+        let (o_lo, o_hi) = (o_lo.map(lo), o_hi.map(hi));
+        let (d_lo, d_hi) = (d_lo.map(lo), d_hi.map(hi));
+        if fine.to_bitmask() != 0b1111 || (o_lo.iter().chain(&o_hi).any(|v| v.is_nan())) {
+            return false;
+        }
+        let c = bvh.centre;
+        let om = (0..3).fold(0.0f64, |m, k| {
+            m.max((o_lo[k] - c[k]).abs()).max((o_hi[k] - c[k]).abs())
+        });
+        let size = om + bvh.half_extent + radius;
+        if !(size <= 1e100) {
+            return false;
+        }
+        let pad = radius + size * pow2(-19);
+        let root = bvh.node(0);
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for k in 0..3 {
+            // The reciprocals' interval, where every direction has the same sign.
+            let (i_lo, i_hi) = if d_lo[k] > 0.0 || d_hi[k] < 0.0 {
+                (1.0 / d_hi[k], 1.0 / d_lo[k])
+            } else {
+                continue;
+            };
+            let lo = root.lo[k] as f64 + bvh.centre[k] - pad;
+            let hi = root.hi[k] as f64 + bvh.centre[k] + pad;
+            let a = lo - o_hi[k];
+            let b = hi - o_lo[k];
+            let (near, far) = if i_lo > 0.0 {
+                ((a * i_lo).min(a * i_hi), (b * i_lo).max(b * i_hi))
+            } else {
+                let (a, b) = (hi - o_lo[k], lo - o_hi[k]);
+                ((a * i_lo).min(a * i_hi), (b * i_lo).max(b * i_hi))
+            };
+            t0 = t0.max(near);
+            t1 = t1.min(far);
+        }
+        t0 > t1 + t1.abs() * 1e-9
     }
 
     /// Ray `i`'s filter bounds, made on first use.
@@ -295,7 +393,7 @@ impl Packet {
 
     /// Degenerate ray `i`'s answer: the brute force over the slots.
     fn brute<S: SlotShape>(&mut self, i: usize, bvh: &Bvh, r2: f64, shape: S) {
-        let (o, d) = (self.o[i], self.d[i]);
+        let (o, d) = (self.ray_o(i), self.ray_d(i));
         for (s, &index) in bvh.index.iter().enumerate() {
             if index != NONE
                 && let Some(t) = shape.entry(bvh, &o, &d, s, r2)
@@ -365,22 +463,37 @@ impl Interval {
             let (i_lo, i_hi) = (self.inv_lo[k], self.inv_hi[k]);
             let (near, far) = if i_lo > 0.0 {
                 // Every ray enters through lo and leaves through hi.
-                ((a.0 * i_lo).min(a.0 * i_hi), (b.1 * i_lo).max(b.1 * i_hi))
+                (min(a.0 * i_lo, a.0 * i_hi), max(b.1 * i_lo, b.1 * i_hi))
             } else if i_hi < 0.0 {
-                ((b.1 * i_lo).min(b.1 * i_hi), (a.0 * i_lo).max(a.0 * i_hi))
+                (min(b.1 * i_lo, b.1 * i_hi), max(a.0 * i_lo, a.0 * i_hi))
             } else {
                 // Directions of both signs: the products' extremes.
                 let p = [a.0 * i_lo, a.0 * i_hi, a.1 * i_lo, a.1 * i_hi];
                 let q = [b.0 * i_lo, b.0 * i_hi, b.1 * i_lo, b.1 * i_hi];
-                let lo_all = p.iter().chain(&q).fold(f32::INFINITY, |m, &v| m.min(v));
-                let hi_all = p.iter().chain(&q).fold(f32::NEG_INFINITY, |m, &v| m.max(v));
+                let lo_all = p.iter().chain(&q).fold(f32::INFINITY, |m, &v| min(m, v));
+                let hi_all = p
+                    .iter()
+                    .chain(&q)
+                    .fold(f32::NEG_INFINITY, |m, &v| max(m, v));
                 (lo_all, hi_all)
             };
-            t0 = t0.max(near);
-            t1 = t1.min(far);
+            t0 = max(t0, near);
+            t1 = min(t1, far);
         }
         t0 > t1 + t1.abs() * eps || t0 > self.best + self.best * eps
     }
+}
+
+/// The smaller of `a` and `b` (`b` when they do not compare).
+#[inline(always)]
+fn min(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// The larger of `a` and `b` (`b` when they do not compare).
+#[inline(always)]
+fn max(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
 }
 
 /// Traversal stack, reused between packets.
@@ -395,12 +508,13 @@ pub fn cast<S: SlotShape>(
     shape: S,
     stack: &mut Stack,
 ) {
-    packet.prepare(bvh, radius);
-    let r2 = radius * radius;
     let m = packet.len;
-    if m == 0 || bvh.is_empty() {
+    if m == 0 || bvh.is_empty() || packet.misses_root(bvh, radius) {
+        packet.best[..m].fill(NONE);
         return;
     }
+    packet.prepare(bvh, radius);
+    let r2 = radius * radius;
     if packet.degenerate != 0 {
         for i in 0..m {
             if packet.degenerate & (1 << i) != 0 {
@@ -449,10 +563,13 @@ pub fn cast<S: SlotShape>(
                 mask = packet.enter(g, n);
             }
             if changed {
-                iv.best = packet.best_box[..groups]
+                let most = packet.best_box[..groups]
                     .iter()
-                    .flatten()
-                    .fold(0.0f32, |b, &v| b.max(v));
+                    .fold(F4::splat(0.0), |b, v| b.max(F4::load(v)));
+                iv.best = most
+                    .lanes()
+                    .into_iter()
+                    .fold(0.0f32, |b, v| if v > b { v } else { b });
             }
             continue;
         }
@@ -509,7 +626,7 @@ fn leaf<S: SlotShape>(
         while pass != 0 {
             let s = first + qi * LANES + pass.trailing_zeros() as usize;
             pass &= pass - 1;
-            if let Some(t) = shape.entry(bvh, &p.o[i], &p.d[i], s, r2)
+            if let Some(t) = shape.entry(bvh, &p.ray_o(i), &p.ray_d(i), s, r2)
                 && p.offer(i, t, bvh.index[s])
             {
                 changed = true;
