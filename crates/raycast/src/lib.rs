@@ -39,8 +39,8 @@ pub mod traverse;
 
 use std::sync::OnceLock;
 
-use cloud::Camera;
 use cloud::glam::DVec3;
+use cloud::{Camera, Model};
 use rayon::prelude::*;
 
 pub use bvh::Bvh;
@@ -194,6 +194,7 @@ impl RayCaster {
         let w = rays.width;
         let mut pixel_point = vec![NONE; rays.len()];
         let seed = (params.traversal == Traversal::Seed).then(|| self.tree());
+        let window = self.window(camera, params.radius);
         // Bands of tile rows in parallel; within a band, tile by tile.
         pixel_point
             .par_chunks_mut((w * TILE) as usize)
@@ -201,8 +202,14 @@ impl RayCaster {
             .for_each_init(Scratch::default, |scratch, (band, out)| {
                 let y0 = band as u32 * TILE;
                 let rows = out.len() as u32 / w;
+                if window.is_some_and(|win| !win.meets(0..w, y0..y0 + rows)) {
+                    return;
+                }
                 for x0 in (0..w).step_by(TILE as usize) {
                     let xs = x0..(x0 + TILE).min(w);
+                    if window.is_some_and(|win| !win.meets(xs.clone(), y0..y0 + rows)) {
+                        continue;
+                    }
                     if let Some(tree) = seed {
                         for dy in 0..rows {
                             for x in xs.clone() {
@@ -244,6 +251,55 @@ impl RayCaster {
             visible,
             rays: rays.len() as u64,
         }
+    }
+}
+
+impl RayCaster {
+    /// The pixels whose rays can meet the cloud's box enlarged by `radius`: the box's corners
+    /// projected, for a pinhole or orthographic camera with the box wholly in front of it (the
+    /// projection of a convex body in front of the eye is the convex hull of its corners'
+    /// projections); `None` otherwise. The box is enlarged by the traversal's margin too, and
+    /// the window by a pixel, beyond the rounding of rays and projections.
+    fn window(&self, camera: &Camera, radius: f64) -> Option<Window> {
+        if !matches!(
+            camera.model(),
+            Model::Pinhole { .. } | Model::Orthographic { .. }
+        ) {
+            return None;
+        }
+        let root = self.bvh.node(0);
+        let c = self.bvh.centre;
+        let pad = radius * 1.001 + (self.bvh.half_extent + radius) * 1e-5;
+        let lo: [f64; 3] = std::array::from_fn(|k| root.lo[k] as f64 + c[k] - pad);
+        let hi: [f64; 3] = std::array::from_fn(|k| root.hi[k] as f64 + c[k] + pad);
+        let mut win = Window {
+            x: (f64::INFINITY, f64::NEG_INFINITY),
+            y: (f64::INFINITY, f64::NEG_INFINITY),
+        };
+        for corner in 0..8 {
+            let pick = |k: usize| if corner >> k & 1 == 0 { lo[k] } else { hi[k] };
+            let q = camera.project(DVec3::new(pick(0), pick(1), pick(2)))?;
+            win.x = (win.x.0.min(q.x - 1.0), win.x.1.max(q.x + 1.0));
+            win.y = (win.y.0.min(q.y - 1.0), win.y.1.max(q.y + 1.0));
+        }
+        (win.x.0.is_finite() && win.x.1.is_finite() && win.y.0.is_finite() && win.y.1.is_finite())
+            .then_some(win)
+    }
+}
+
+/// A rectangle of the image, in pixel coordinates, outside which no ray meets the cloud.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    x: (f64, f64),
+    y: (f64, f64),
+}
+
+impl Window {
+    /// True when the centre of some pixel of `xs` × `ys` lies in the window.
+    fn meets(&self, xs: std::ops::Range<u32>, ys: std::ops::Range<u32>) -> bool {
+        let (x0, x1) = (xs.start as f64 + 0.5, xs.end as f64 - 0.5);
+        let (y0, y1) = (ys.start as f64 + 0.5, ys.end as f64 - 0.5);
+        x1 >= self.x.0 && x0 <= self.x.1 && y1 >= self.y.0 && y0 <= self.y.1
     }
 }
 

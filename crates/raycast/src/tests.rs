@@ -322,6 +322,58 @@ fn whole_frames_equal_brute_force_pixel_for_pixel() {
     }
 }
 
+/// Frames where the cloud covers a few tiles (pinhole and orthographic cameras far away, so
+/// that most tiles lie outside its box's window), fills the image, or surrounds the eye (no
+/// window), and a spherical camera: every pixel the brute force's.
+#[test]
+fn frames_of_every_camera_model_and_distance_equal_brute_force() {
+    let mut r = rng(77);
+    let points: Vec<DVec3> = (0..2_000)
+        .map(|_| DVec3::new(r() - 0.5, r() - 0.5, r() - 0.5) * DVec3::new(2.0, 1.0, 0.5))
+        .collect();
+    let caster = RayCaster::new(&points).unwrap();
+    let models = [
+        Model::pinhole_fov(50.0, 61, 45).unwrap(),
+        Model::Orthographic {
+            view_width: 6.0,
+            view_height: 4.5,
+        },
+        Model::Spherical,
+    ];
+    for (model, radius) in models.into_iter().flat_map(|m| [(m, 0.03), (m, 0.25)]) {
+        for eye in [
+            DVec3::new(0.3, 0.2, 12.0),
+            DVec3::new(-2.5, 1.0, 1.5),
+            DVec3::new(0.05, 0.0, 0.01),
+        ] {
+            let cam =
+                Camera::look_at(eye, DVec3::new(0.1, 0.0, 0.0), DVec3::Y, model, 61, 45).unwrap();
+            let rays = RayList::new(&cam).unwrap();
+            let params = CastParams {
+                radius,
+                traversal: Traversal::Exact,
+                primitive: Primitive::Sphere,
+            };
+            let frame = caster.cast(&rays, &cam, &params).unwrap();
+            let mut hit = 0;
+            for k in 0..rays.len() {
+                let (o, d) = rays.aim(&cam, k);
+                let expected = cast_brute(&points, o, d, radius).map_or(NONE, |h| h.1);
+                assert_eq!(
+                    frame.pixel_point[k], expected,
+                    "{model:?} from {eye}, radius {radius}, pixel {k}"
+                );
+                hit += usize::from(expected != NONE);
+            }
+            // (A spherical image from afar may miss a cloud of a few degrees.)
+            assert!(
+                hit > 0 || (model == Model::Spherical && eye.z > 10.0),
+                "{model:?} from {eye} sees the cloud"
+            );
+        }
+    }
+}
+
 #[test]
 fn visible_set_is_the_sorted_distinct_points() {
     let pixels = [5, NONE, 64, 5, 0, 127, NONE, 63, 200];
