@@ -147,6 +147,10 @@ impl Setup for Args {
         if let Some(normals) = &normals {
             caster = caster.with_normals(normals).map_err(Error::method)?;
         }
+        if self.traversal == Traversal::Seed {
+            // The seed traversal's k-d tree, otherwise built by the first view.
+            caster.tree();
+        }
         let build_seconds = start.elapsed().as_secs_f64();
         let radius = match self.radius {
             RadiusRule::Absolute(r) => r,
