@@ -954,8 +954,6 @@ fn signals_remove_scratch_and_exit_128_plus_the_signal() {
     // An experiment stopped in its staging folder: the folder gone, the previous results as
     // they were.
     let previous = d.join("r");
-    std::fs::create_dir(&previous).unwrap();
-    std::fs::write(previous.join("results.csv"), b"the previous results").unwrap();
     let run = [
         "run",
         "reference",
@@ -965,6 +963,11 @@ fn signals_remove_scratch_and_exit_128_plus_the_signal() {
         "--out",
         previous.to_str().unwrap(),
     ];
+    // The previous results: a run's own folder (one that is not pointsight's is refused).
+    let o = ps(&run);
+    assert!(o.status.success(), "{}", stderr_of(&o));
+    let before = names(&previous);
+    let results = std::fs::read(previous.join("results.csv")).unwrap();
     let child = started(&run, d, ".r.partial-");
     assert!(
         Command::new("kill")
@@ -976,10 +979,10 @@ fn signals_remove_scratch_and_exit_128_plus_the_signal() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(143), "{}", stderr_of(&o));
     holds_exactly(d, &["big.ply", "r"]);
-    holds_exactly(&previous, &["results.csv"]);
+    assert_eq!(names(&previous), before);
     assert_eq!(
         std::fs::read(previous.join("results.csv")).unwrap(),
-        b"the previous results"
+        results
     );
     std::fs::remove_dir_all(&previous).unwrap();
     // A second run into an output being written is refused, naming the first.

@@ -255,3 +255,173 @@ fn a_format_can_be_named_and_bad_files_are_named() {
         assert!(err.contains(&format!("empty.{ext}")), "{err}");
     }
 }
+
+/// The unit normals of make_formats.py's normals files.
+const NORMALS: [[f32; 3]; 5] = [
+    [0.0, 0.0, 1.0],
+    [1.0, 0.0, 0.0],
+    [0.6, 0.8, 0.0],
+    [0.0, -0.6, 0.8],
+    [-0.48, 0.6, 0.64],
+];
+
+/// Every normal of `got` within `tolerance` of [`NORMALS`] (0: the very f32 values).
+fn assert_normals(name: &str, got: &[cloud::glam::Vec3], tolerance: f32) {
+    assert_eq!(got.len(), NORMALS.len(), "{name}");
+    for (g, want) in got.iter().zip(NORMALS) {
+        let want = cloud::glam::Vec3::from_array(want);
+        assert!(
+            (*g - want).abs().max_element() <= tolerance,
+            "{name}: {g} vs {want}"
+        );
+    }
+}
+
+/// A 1 GiB limit: the build's reading of a small file in one batch.
+const LIMIT: u64 = 1 << 30;
+
+/// LAS and LAZ normals as laspy writes them under each naming convention (f32 `NormalX`..,
+/// f64 `normal x`.. after another field, i16 `nx`.. scaled by 1e-4): read whole, and streamed
+/// as `lod-build` reads them (`harness::lod_build::input`), equal to the file's.
+#[test]
+fn las_and_laz_extra_bytes_normals_under_each_name_streamed_and_whole() {
+    for (stem, names, tolerance) in [
+        (
+            "normals_pdal",
+            "NormalX,NormalY,NormalZ (LAS extra bytes, f32)",
+            0.0,
+        ),
+        (
+            "normals_spaced",
+            "normal x,normal y,normal z (LAS extra bytes, f64)",
+            0.0,
+        ),
+        (
+            "normals_nxyz",
+            "nx,ny,nz (LAS extra bytes, i16, scaled)",
+            1e-6,
+        ),
+    ] {
+        for ext in ["las", "laz"] {
+            let name = format!("{stem}.{ext}");
+            let whole = read(&data(&name)).unwrap();
+            assert_eq!(whole.cloud.positions, expected(), "{name}");
+            assert_eq!(whole.normal_fields.as_deref(), Some(names), "{name}");
+            assert_normals(&name, whole.cloud.normals.as_deref().unwrap(), tolerance);
+            let (info, points) = harness::lod_build::input::read_points(&data(&name), LIMIT)
+                .unwrap_or_else(|e| panic!("{name}: {e:#}"));
+            assert_eq!(info.normals.as_deref(), Some(names), "{name}");
+            let streamed: Vec<_> = points.iter().map(|p| p.normal).collect();
+            assert_eq!(
+                Some(&streamed),
+                whole.cloud.normals.as_ref(),
+                "{name}: streamed and whole"
+            );
+            let positions: Vec<DVec3> = points.iter().map(|p| p.position).collect();
+            assert_eq!(positions, expected(), "{name}");
+        }
+    }
+    // A file without normals: none, streamed or whole.
+    assert_eq!(read(&data("tiny.laz")).unwrap().normal_fields, None);
+    let (info, _) = harness::lod_build::input::read_points(&data("tiny.laz"), LIMIT).unwrap();
+    assert_eq!(info.normals, None);
+}
+
+/// PLY and PCD normals (written by hand, ASCII) equal the file's, read whole and as the
+/// build reads them.
+#[test]
+fn ply_and_pcd_normals_streamed_and_whole() {
+    for (name, fields) in [
+        ("tiny_normals.ply", "nx,ny,nz (PLY vertex properties)"),
+        (
+            "tiny_normals.pcd",
+            "normal_x,normal_y,normal_z (PCD fields)",
+        ),
+    ] {
+        let whole = read(&data(name)).unwrap();
+        assert_eq!(whole.normal_fields.as_deref(), Some(fields), "{name}");
+        assert_normals(name, whole.cloud.normals.as_deref().unwrap(), 0.0);
+        let (info, points) = harness::lod_build::input::read_points(&data(name), LIMIT).unwrap();
+        assert_eq!(info.normals.as_deref(), Some(fields), "{name}");
+        let streamed: Vec<_> = points.iter().map(|p| p.normal).collect();
+        assert_eq!(Some(&streamed), whole.cloud.normals.as_ref(), "{name}");
+    }
+}
+
+/// A LAZ file (written by the `las` crate with our Extra Bytes VLR) whose normal is NaN or of
+/// length zero is refused, naming the file and the point, read whole or streamed; so is one
+/// whose descriptors place the normals past the record.
+#[test]
+fn a_laz_whose_normal_is_nan_or_zero_is_refused_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bad) in [
+        ("nan.laz", [f32::NAN, 0.0, 1.0]),
+        ("zero.laz", [0.0, 0.0, 0.0]),
+        ("long.las", [0.0, 1.5, 0.0]),
+    ] {
+        let path = dir.path().join(name);
+        let mut header = las::Builder::from((1, 4));
+        header.point_format = las::point::Format::new(0).unwrap();
+        header.point_format.extra_bytes = cloud::io::las_extra::NORMAL_BYTES;
+        header.point_format.is_compressed = name.ends_with(".laz");
+        header.vlrs.push(cloud::io::las_extra::write_normals_vlr());
+        let mut w = las::Writer::from_path(&path, header.into_header().unwrap()).unwrap();
+        for i in 0..4 {
+            let n = if i == 2 { bad } else { [0.0, 0.0, 1.0] };
+            w.write_point(las::Point {
+                x: f64::from(i),
+                y: 0.0,
+                z: 0.0,
+                extra_bytes: cloud::io::las_extra::normal_bytes(n.into()),
+                ..las::Point::default()
+            })
+            .unwrap();
+        }
+        w.close().unwrap();
+        let err = read(&path).unwrap_err().to_string();
+        assert!(
+            err.contains(name) && err.contains("point 2 has the normal"),
+            "{err}"
+        );
+        let err = format!(
+            "{:#}",
+            harness::lod_build::input::read_points(&path, LIMIT).unwrap_err()
+        );
+        assert!(
+            err.contains(name) && err.contains("point 2 has the normal"),
+            "{err}"
+        );
+    }
+}
+
+/// What we write with normals reads back the same (LAS and LAZ: extra bytes; PLY: nx ny nz),
+/// and a normal that is not a unit vector is refused, no file left.
+#[test]
+fn normals_we_write_read_back_and_bad_ones_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cloud = read(&data("tiny_normals.ply")).unwrap().cloud;
+    for name in ["n.las", "n.laz", "n.ply"] {
+        let path = dir.path().join(name);
+        if name.ends_with(".ply") {
+            cloud::io::ply_write::write_ply(&path, &cloud).unwrap();
+        } else {
+            cloud::io::las::write_las(&path, &cloud).unwrap();
+        }
+        let back = read(&path).unwrap();
+        assert_eq!(back.cloud.normals, cloud.normals, "{name}");
+    }
+    let laz = read(&dir.path().join("n.laz")).unwrap();
+    assert_eq!(
+        laz.normal_fields.as_deref(),
+        Some("NormalX,NormalY,NormalZ (LAS extra bytes, f32)")
+    );
+    if let Some(n) = cloud.normals.as_mut() {
+        n[3] *= 2.0;
+    }
+    let path = dir.path().join("bad.laz");
+    let err = cloud::io::las::write_las(&path, &cloud)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("point 3 has the normal"), "{err}");
+    assert!(!path.exists());
+}

@@ -1,8 +1,9 @@
 //! `pointsight lod-build` in a child process: the out-of-core QSplat and sequential point tree
 //! files equal the in-memory ones byte for byte, the process's peak memory (VmHWM) stays within the limit, the
-//! scratch folder beside `--out` is gone afterwards, and bad input (a limit too small, a
-//! truncated LAZ, a LAS whose header lies about its point count) fails with a message naming
-//! the cause and leaves no output file.
+//! scratch folder beside `--out` is gone afterwards, normals a file gives (LAZ extra bytes) are
+//! used as they are with only the spacing sample searched, and bad input (a limit too small, a
+//! truncated LAZ, a LAS whose header lies about its point count, a NaN or zero-length normal)
+//! fails with a message naming the cause and leaves no output file.
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -28,6 +29,12 @@ fn field(stdout: &str, key: &str) -> f64 {
 
 /// A wavy sheet with colours, no normals (so the build estimates them through halos).
 fn write_cloud(path: &Path, n: usize) {
+    cloud::io::las::write_las(path, &sheet(n, false)).expect("the LAZ is written");
+}
+
+/// The wavy sheet of `n` points with colours, and with `normals` its unit normals (the
+/// gradient's, pointing up).
+fn sheet(n: usize, normals: bool) -> cloud::PointCloud {
     let mut rng = seeded(5, "lod-build-test");
     let positions: Vec<DVec3> = (0..n)
         .map(|_| {
@@ -38,12 +45,22 @@ fn write_cloud(path: &Path, n: usize) {
     let colors = (0..n)
         .map(|i| [(i % 251) as u8, (i % 127) as u8, 9])
         .collect();
-    let c = cloud::PointCloud {
+    let normals = normals.then(|| {
+        positions
+            .iter()
+            .map(|p| {
+                let dx = 0.3 * p.x.cos() * (0.7 * p.y).cos();
+                let dy = -0.21 * p.x.sin() * (0.7 * p.y).sin();
+                DVec3::new(-dx, -dy, 1.0).normalize().as_vec3()
+            })
+            .collect()
+    });
+    cloud::PointCloud {
         positions,
         colors: Some(colors),
+        normals,
         ..cloud::PointCloud::default()
-    };
-    cloud::io::las::write_las(path, &c).expect("the LAZ is written");
+    }
 }
 
 /// `lod-build` of `laz` by `method` within `limit` into `out`, which must succeed: its
@@ -144,6 +161,12 @@ fn equal_within_the_limit(method: &str) {
             })
             .collect();
         let keys: Vec<&str> = stages.iter().map(|e| e.0.as_str()).collect();
+        // Every point's normal estimated: each point searched at least once.
+        assert!(
+            stdout.contains(" normals=estimated ")
+                && field(&stdout, "neighbour_queries") >= 400_000.0,
+            "{method}: {stdout}"
+        );
         let prepare = ["read", "split", "guide", "normals", "halos"];
         let own: &[&str] = if method == "spt" {
             &["count", "distribute", "build", "merge"]
@@ -167,6 +190,105 @@ fn equal_within_the_limit(method: &str) {
     }
     // No scratch folder is left.
     assert_eq!(entries(dir.path()), ["mem.lod", "ooc80.lod", "sheet.laz"]);
+}
+
+/// A LAZ whose extra bytes give unit normals: built with them as they are, in memory and out
+/// of core the same bytes; no normal is estimated (no guide stage; only the spacing sample's
+/// points searched, at most twice each, in a build whose normals are estimated every point
+/// is); the file differs from the one built from the same points with estimated normals.
+#[test]
+#[allow(clippy::unwrap_used)] // a test: a failure is the test failing
+fn given_normals_are_used_in_memory_and_out_of_core_and_none_is_estimated() {
+    let dir = tempfile::tempdir().unwrap();
+    let n = 200_000;
+    let with = dir.path().join("given.laz");
+    cloud::io::las::write_las(&with, &sheet(n, true)).unwrap();
+    let without = dir.path().join("plain.laz");
+    cloud::io::las::write_las(&without, &sheet(n, false)).unwrap();
+    let sample = harness::lod_build::SPACING_SAMPLE as f64;
+    for method in ["qsplat", "spt"] {
+        let mem = dir.path().join(format!("{method}-mem.lod"));
+        let run = pointsight(&[
+            "lod-build",
+            "--cloud",
+            with.to_str().unwrap(),
+            "--method",
+            method,
+            "--in-memory",
+            "--out",
+            mem.to_str().unwrap(),
+        ]);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        assert!(stdout.contains(" normals=given "), "{stdout}");
+        let ooc = dir.path().join(format!("{method}-ooc.lod"));
+        let stdout = build_ooc(&with, method, "80MiB", &ooc);
+        assert!(field(&stdout, "chunks") >= 4.0, "{method}: {stdout}");
+        assert!(stdout.contains(" normals=given "), "{method}: {stdout}");
+        let queries = field(&stdout, "neighbour_queries");
+        assert!(
+            queries >= sample / 2.0 && queries <= 2.0 * sample,
+            "{method}: {queries} searches: {stdout}"
+        );
+        assert!(!stdout.contains("guide:"), "{method}: {stdout}");
+        assert!(
+            std::fs::read(&ooc).unwrap() == std::fs::read(&mem).unwrap(),
+            "{method}: the bytes differ"
+        );
+        let estimated = dir.path().join(format!("{method}-estimated.lod"));
+        let stdout = build_ooc(&without, method, "80MiB", &estimated);
+        assert!(
+            field(&stdout, "neighbour_queries") >= n as f64,
+            "{method}: {stdout}"
+        );
+        assert!(
+            std::fs::read(&estimated).unwrap() != std::fs::read(&mem).unwrap(),
+            "{method}: the given normals made no difference"
+        );
+    }
+    // A normal of NaN or of length zero in the file: refused, naming the file and the point.
+    let mut bad = sheet(20_000, true);
+    let path = dir.path().join("bad-normal.las");
+    for value in [cloud::glam::Vec3::NAN, cloud::glam::Vec3::ZERO] {
+        // Written with a unit normal, then the one of point 7 replaced in the records.
+        if let Some(n) = bad.normals.as_mut() {
+            n[7] = cloud::glam::Vec3::Z;
+        }
+        cloud::io::las::write_las(&dir.path().join("bad.las"), &bad).unwrap();
+        let mut bytes = std::fs::read(dir.path().join("bad.las")).unwrap();
+        let start = u32::from_le_bytes(bytes[96..100].try_into().unwrap()) as usize;
+        let record = u16::from_le_bytes(bytes[105..107].try_into().unwrap()) as usize;
+        let at = start + 7 * record + record - 12;
+        for (k, v) in value.to_array().iter().enumerate() {
+            bytes[at + 4 * k..at + 4 * k + 4].copy_from_slice(&v.to_le_bytes());
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        for method in ["qsplat", "spt"] {
+            let out = dir.path().join("bad.lod");
+            let run = pointsight(&[
+                "lod-build",
+                "--cloud",
+                path.to_str().unwrap(),
+                "--method",
+                method,
+                "--memory-limit",
+                "64MiB",
+                "--out",
+                out.to_str().unwrap(),
+            ]);
+            let err = String::from_utf8_lossy(&run.stderr);
+            assert!(!run.status.success(), "{method}: {value}");
+            assert!(
+                err.contains("bad-normal.las") && err.contains("point 7 has the normal"),
+                "{method}: {err}"
+            );
+            assert!(!out.exists());
+        }
+    }
 }
 
 /// A cloud larger than memory holds at once (at 80 MiB, sets of about 930,000 of these

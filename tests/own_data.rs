@@ -537,6 +537,59 @@ fn a_sampled_dataset_is_exported_as_it_is_drawn_into_the_whole_exports_bytes() {
     assert_ne!(moved.positions, plain.positions);
 }
 
+/// `export --normals`: a sampled dataset's normals (its triangles') as extra bytes in LAS and
+/// LAZ, streamed, and as `nx ny nz` in PLY from the whole dataset; `inspect` names them.
+#[test]
+fn a_sampled_datasets_normals_are_exported_as_extra_bytes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    sampled_manifest(d, 20_000);
+    ok(
+        d,
+        &[
+            "export",
+            "--dataset",
+            "plain",
+            "--out",
+            "n.ply",
+            "--normals",
+        ],
+    );
+    let whole = cloud::io::read(&d.join("n.ply")).unwrap().cloud;
+    let want = whole.normals.expect("normals in the PLY");
+    for file in ["n.laz", "n.las"] {
+        ok(
+            d,
+            &["export", "--dataset", "plain", "--out", file, "--normals"],
+        );
+        let back = cloud::io::read(&d.join(file)).unwrap();
+        let got = back.cloud.normals.expect("normals in the LAS");
+        assert_eq!(got.len(), want.len());
+        // The streamed export's from the mesh file's coordinates, the PLY's from the
+        // dataset's recentred ones: the same triangles' normals within rounding.
+        let worst = got
+            .iter()
+            .zip(&want)
+            .map(|(a, b)| (*a - *b).length())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-5, "{file}: {worst}");
+        let inspect = ok(d, &["inspect", file]);
+        assert!(
+            inspect.contains("normals=NormalX,NormalY,NormalZ (LAS extra bytes, f32)"),
+            "{inspect}"
+        );
+    }
+    // Without the flag, none.
+    ok(d, &["export", "--dataset", "plain", "--out", "p.laz"]);
+    assert!(
+        cloud::io::read(&d.join("p.laz"))
+            .unwrap()
+            .cloud
+            .normals
+            .is_none()
+    );
+}
+
 #[cfg(unix)]
 #[test]
 fn a_sample_larger_than_memory_is_exported_as_las_within_it() {

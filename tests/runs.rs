@@ -160,6 +160,12 @@ fn a_failed_run_leaves_no_staging_folder_and_the_previous_report() {
     let out = root.join("visibility");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("results.csv"), "previous results\n").unwrap();
+    // The previous report is pointsight's: its metadata lists what it wrote.
+    let meta = r#"{"experiment": "visibility", "date_utc": "2026-01-01T00:00:00Z",
+        "git_revision": "unknown", "git_dirty": false, "rustc": "rustc", "cpu": "cpu",
+        "cores": 2, "os": "linux", "command": "pointsight", "quick": true, "datasets": [],
+        "parameters": null, "seconds": 1.0, "files": ["results.csv"]}"#;
+    std::fs::write(out.join("metadata.json"), meta).unwrap();
     let run = pointsight(&[
         "run",
         "visibility",
@@ -173,7 +179,7 @@ fn a_failed_run_leaves_no_staging_folder_and_the_previous_report() {
     assert_eq!(run.status.code(), Some(1), "{err}");
     assert!(err.contains("pointsight fetch"), "{err}");
     assert_eq!(names_in(&root), vec!["visibility".to_owned()]);
-    assert_eq!(names_in(&out), vec!["results.csv".to_owned()]);
+    assert_eq!(names_in(&out), vec!["metadata.json", "results.csv"]);
     assert_eq!(
         std::fs::read_to_string(out.join("results.csv")).unwrap(),
         "previous results\n"

@@ -136,6 +136,24 @@ pub fn no_surface(n: u64, at: DVec3) -> Error {
     }
 }
 
+/// How far from 1 the length of a normal a file gives may be: a given normal is used as it
+/// is, so one that is not a unit vector (NaN, zero, or not normalised) is refused.
+pub const GIVEN_LENGTH_TOLERANCE: f32 = 1e-3;
+
+/// Whether `n` may be used as a given normal: finite, of length 1 within
+/// [`GIVEN_LENGTH_TOLERANCE`].
+pub fn is_given_normal(n: Vec3) -> bool {
+    n.is_finite() && (n.length() - 1.0).abs() <= GIVEN_LENGTH_TOLERANCE
+}
+
+/// The first of `normals` that [`is_given_normal`] refuses, with its index.
+pub fn first_bad_normal(normals: &[Vec3]) -> Option<(usize, Vec3)> {
+    normals
+        .iter()
+        .position(|&n| !is_given_normal(n))
+        .map(|i| (i, normals[i]))
+}
+
 /// The cloud's centroid as [`Orientation::AwayFromCentroid`] uses it: the positions summed in
 /// order, divided by their count.
 pub fn centroid(positions: &[DVec3]) -> DVec3 {

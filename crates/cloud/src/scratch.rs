@@ -233,6 +233,12 @@ fn parse(file_name: &str) -> Option<(&str, &'static str, &str, u32)> {
     })
 }
 
+/// True when `file_name` is a scratch or staging path's (`.NAME.KIND-HOST-PID-K`): a running
+/// or dead process's, nobody's results.
+pub fn is_scratch_name(file_name: &str) -> bool {
+    parse(file_name).is_some()
+}
+
 /// The scratch and staging paths in `dir` (not below it).
 pub fn leftovers_in(dir: &Path) -> Vec<Leftover> {
     let Ok(entries) = std::fs::read_dir(dir) else {

@@ -63,6 +63,11 @@ pub enum Command {
         /// Output file.
         #[arg(long)]
         out: PathBuf,
+        /// Also write the dataset's normals (a sampled mesh's: each point's triangle's normal):
+        /// in LAS/LAZ as extra bytes `NormalX`, `NormalY`, `NormalZ` (f32, the names PDAL and
+        /// CloudCompare read), in PLY as `nx ny nz`. An error when the dataset has none.
+        #[arg(long)]
+        normals: bool,
     },
     /// A dataset's views: CSV (view,eye_x,eye_y,eye_z,target_x,target_y,target_z,up_x,up_y,up_z,
     /// fov_y_deg,width,height; look-at pinhole views) or JSON lines (one camera per line, any
@@ -168,10 +173,14 @@ pub enum Command {
     /// --out, removed after, also on failure), the same bytes as the in-memory build. Prints
     /// one line: `points=N seconds=T points_per_second=R peak_rss_bytes=B chunks=C
     /// top_levels=L leaf_radius=X file_bytes=F scratch_bytes=S scratch_peak_bytes=P
-    /// stage_seconds=read:T1,split:T2,...` (S: written to scratch in all; P: the most on disk at
-    /// once; the wall-clock seconds of each stage: read, split, guide, normals (within chunks),
-    /// halos (across their borders), then roots, encode, write for QSplat or count,
-    /// distribute, build, merge for SPT; read, build in memory).
+    /// normals=given|estimated neighbour_queries=Q stage_seconds=read:T1,split:T2,...` (S:
+    /// written to scratch in all; P: the most on disk at once; normals: the file's (PLY, PCD,
+    /// XYZ, E57, LAS/LAZ extra bytes `NormalX`.. or `nx`..: each a unit vector, else an error)
+    /// or estimated from 16 neighbours; Q: points whose neighbours were searched, the spacing
+    /// sample's alone when the normals are given; the wall-clock seconds of each stage: read,
+    /// split, guide, normals (within chunks), halos (across their borders), then roots,
+    /// encode, write for QSplat or count, distribute, build, merge for SPT; read, build in
+    /// memory).
     LodBuild {
         /// The point file.
         #[arg(long)]
@@ -190,8 +199,10 @@ pub enum Command {
         in_memory: bool,
     },
     /// Read a point or mesh file and describe it: points, faces, attributes, bounding box,
-    /// scanners, coincident points (`distinct_positions=M duplicates=D most_copies=C`), and
-    /// the read time (`points=N ... read_seconds=T points_per_second=R`).
+    /// scanners, which normals it gives (`normals=FIELDS (WHERE)`, such as
+    /// `normals=NormalX,NormalY,NormalZ (LAS extra bytes, f32)`, or `normals=- ...` when
+    /// none), coincident points (`distinct_positions=M duplicates=D most_copies=C`), and the
+    /// read time (`points=N ... read_seconds=T points_per_second=R`).
     Inspect {
         /// The file.
         file: PathBuf,

@@ -5,10 +5,11 @@
 //!   `export`, `views`, `view` and its `--png`, `lod-build`) may replace only a regular file
 //!   (`cloud::io::atomic::target`: a directory, FIFO, socket or device is refused; a symbolic
 //!   link is written through); a folder output (`run --out`, `bench --reports`, `merge --out`,
-//!   `report` and `tables`' `--reports`, `visible --out` for many views) must be a directory or
-//!   nothing; no output may be one of the command's input files (the same file by device and
-//!   inode: `lod-build --cloud x.laz --out x.laz` is refused, and `cloud::io::atomic` refuses
-//!   to replace any file the process has read).
+//!   `report` and `tables`' `--reports`, `visible --out` for many views) must be missing,
+//!   empty, or a folder pointsight wrote holding nothing else, and hold no input and not the
+//!   working folder (`crate::output::folder`); no output may be one of the command's input
+//!   files (the same file by device and inode: `lod-build --cloud x.laz --out x.laz` is
+//!   refused, and `cloud::io::atomic` refuses to replace any file the process has read).
 //! - **A lock per output**: an advisory lock (`flock`) on `.NAME.lock` beside each output, held
 //!   for the whole command; the file names its holder (host and process id), so a second
 //!   command into the same output is refused with a message naming the running one. The lock
@@ -32,14 +33,15 @@ use anyhow::{Context, Result, bail};
 use nix::fcntl::{Flock, FlockArg};
 
 use crate::cli::Command;
+use crate::output::folder::Role;
 
 /// Whether an output is a file or a folder.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     /// A file, written whole through `cloud::io::atomic`.
     File,
-    /// A folder of files.
-    Folder,
+    /// A folder of files, holding what `Role` says.
+    Folder(Role),
 }
 
 /// One output of a command.
@@ -61,9 +63,9 @@ pub fn outputs_and_inputs(
         path: p.to_owned(),
         kind: Kind::File,
     };
-    let folder = |p: &Path| Output {
+    let folder = |p: &Path, role: Role| Output {
         path: p.to_owned(),
-        kind: Kind::Folder,
+        kind: Kind::Folder(role),
     };
     let source_inputs = |s: &crate::cli::SourceArgs| -> Vec<PathBuf> {
         [&s.files.cloud, &s.files.mesh, &s.camera.views]
@@ -82,7 +84,11 @@ pub fn outputs_and_inputs(
             let many = source.camera.views.is_some()
                 || view.as_deref().is_some_and(|v| v.parse::<usize>().is_err());
             (
-                vec![if many { folder(out) } else { file(out) }],
+                vec![if many {
+                    folder(out, Role::Views)
+                } else {
+                    file(out)
+                }],
                 source_inputs(source),
             )
         }
@@ -110,7 +116,7 @@ pub fn outputs_and_inputs(
                 .into_iter()
                 .flatten()
                 .cloned();
-            (vec![folder(&out)], inputs.collect())
+            (vec![folder(&out, Role::Experiment)], inputs.collect())
         }
         Command::Bench {
             reports: given,
@@ -119,18 +125,19 @@ pub fn outputs_and_inputs(
             ..
         } => {
             let reports = reports(given.clone(), *quick);
-            let mut outs = vec![folder(&reports)];
+            let mut outs = vec![folder(&reports, Role::Reports)];
             outs.extend(
                 crate::experiments::EXPERIMENTS
                     .iter()
-                    .map(|e| folder(&reports.join(e.name()))),
+                    .map(|e| folder(&reports.join(e.name()), Role::Experiment)),
             );
             (outs, sweep.config.iter().cloned().collect())
         }
-        Command::Merge { out, shards } => (vec![folder(out)], shards.clone()),
-        Command::Report { reports: given } | Command::Tables { reports: given } => {
-            (vec![folder(&reports(given.clone(), false))], Vec::new())
-        }
+        Command::Merge { out, shards } => (vec![folder(out, Role::Reports)], shards.clone()),
+        Command::Report { reports: given } | Command::Tables { reports: given } => (
+            vec![folder(&reports(given.clone(), false), Role::Reports)],
+            Vec::new(),
+        ),
         Command::Fetch
         | Command::Paths
         | Command::Datasets
@@ -175,13 +182,15 @@ pub fn begin(
 }
 
 /// Fails unless `out` may be written ([`Kind::File`]: nothing, a regular file, or a link to
-/// one; [`Kind::Folder`]: nothing or a directory) and is none of `inputs`.
+/// one; [`Kind::Folder`]: nothing, an empty folder or one pointsight wrote in that role,
+/// `crate::output::folder::check`) and is none of `inputs` nor holds one.
 pub fn check_output(out: &Output, inputs: &[&Path]) -> Result<()> {
     match out.kind {
         Kind::File => cloud::io::atomic::check_output(&out.path, inputs)?,
-        Kind::Folder => {
-            cloud::io::atomic::folder_target(&out.path)?;
+        Kind::Folder(role) => {
+            let target = cloud::io::atomic::folder_target(&out.path)?;
             cloud::io::atomic::check_not_input(&out.path, inputs)?;
+            crate::output::folder::check(&target, role, inputs)?;
         }
     }
     Ok(())

@@ -74,7 +74,11 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Methods => commands::catalogue::list_methods()?,
         Command::Sweeps => commands::catalogue::sweeps(),
         Command::Clean { folders, remove } => guard::clean_command(folders, remove)?,
-        Command::Export { dataset, out } => commands::data::export(&dataset, &out, &data_dir)?,
+        Command::Export {
+            dataset,
+            out,
+            normals,
+        } => commands::data::export(&dataset, &out, normals, &data_dir)?,
         Command::Inspect {
             file,
             format,

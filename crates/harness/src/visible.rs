@@ -408,13 +408,31 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
     );
     // The views' wall time, the per-dataset preparation excluded.
     let wall = start.elapsed().as_secs_f64() - prepare_seconds;
-    std::fs::create_dir_all(&req.out)
-        .with_context(|| format!("cannot create {}", req.out.display()))?;
+    // The folder is written whole, replacing only a views folder of pointsight's
+    // (`output::folder`): the answers, and the metadata that lists them.
+    output::folder::replace(&req.out, output::folder::Role::Views, |staging| {
+        for (k, output, _) in &results {
+            output::write_atomic(
+                &staging.join(format!("view-{k}.txt")),
+                indices_text(&output.visible).as_bytes(),
+            )?;
+        }
+        let parameters = serde_json::json!({
+            "method": method.name,
+            "setting": preparation.setting.label(),
+            "views": results.iter().map(|(k, _, _)| k).collect::<Vec<_>>(),
+            "views_failed": &failed,
+        });
+        output::meta::RunMeta::now(
+            output::folder::Role::VIEWS,
+            false,
+            std::slice::from_ref(&ds.name),
+            parameters,
+        )
+        .write(staging)?;
+        output::folder::seal(staging)
+    })?;
     for (k, output, seconds) in &results {
-        output::write_atomic(
-            &req.out.join(format!("view-{k}.txt")),
-            indices_text(&output.visible).as_bytes(),
-        )?;
         if let Some(r) = &reference {
             println!(
                 "view={k} {}",

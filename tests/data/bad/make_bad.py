@@ -63,6 +63,13 @@ text(
     "ply_huge_count.ply",
     PLY_HEAD.format(n=10**18) + "end_header\n" + TRI,
 )
+NORMALS_HEAD = "property float nx\nproperty float ny\nproperty float nz\nend_header\n"
+text("ply_normal_zero.ply", PLY_HEAD.format(n=3) + NORMALS_HEAD + "0 0 0 0 0 1\n1 0 0 0 0 0\n0 1 0 0 0 1\n")
+binary(
+    "ply_normal_nan.ply",
+    (PLY_HEAD.format(n=3).replace("ascii", "binary_little_endian") + NORMALS_HEAD).encode()
+    + struct.pack("<18f", 0, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 1, 0, 1, 0, float("nan"), 0, 1),
+)
 head = PLY_HEAD.format(n=4).replace("ascii", "binary_little_endian") + "end_header\n"
 binary("ply_binary_truncated.ply", head.encode() + struct.pack("<9f", *range(9)) + b"\x00\x00")
 
@@ -94,6 +101,7 @@ text("xyz_nan.xyz", "0 0 0\nnan 0 0\n")
 text("xyz_inf.xyz", "0 0 0\n1 -inf 0\n")
 text("xyz_short_line.xyz", "0 0 0\n1 0\n")
 text("xyz_comments_only.xyz", "# no points\n\n")
+text("xyz_normal_long.xyz", "0 0 0 0 0 1\n1 0 0 0 0 2\n")
 
 # ---- PCD
 PCD_HEAD = (
@@ -111,6 +119,15 @@ binary(
     PCD_HEAD.format(n=4, data="binary").encode() + struct.pack("<9f", *range(9)) + b"\x00",
 )
 text("pcd_unknown_data.pcd", PCD_HEAD.format(n=3, data="zipped") + TRI)
+text(
+    "pcd_normal_nan.pcd",
+    PCD_HEAD.format(n=3, data="ascii")
+    .replace("FIELDS x y z", "FIELDS x y z normal_x normal_y normal_z")
+    .replace("SIZE 4 4 4", "SIZE 4 4 4 4 4 4")
+    .replace("TYPE F F F", "TYPE F F F F F F")
+    .replace("COUNT 1 1 1", "COUNT 1 1 1 1 1 1")
+    + "0 0 0 0 0 1\n1 0 0 nan nan nan\n0 1 0 0 0 1\n",
+)
 
 # ---- LAS / LAZ (from laspy's tiny.las and lazrs's tiny.laz: LAS 1.4, point format 3, 5 points)
 binary("empty.las", b"")
@@ -159,6 +176,14 @@ binary("las_count_too_low.las", too_few)
 disagree = bytearray(las)
 struct.pack_into("<I", disagree, 107, 3)  # legacy 3, 64-bit 5
 binary("las_count_mismatch.las", disagree)
+
+# A normal of NaN in laspy's normals_pdal.las (point format 0 and 12 extra bytes, f32
+# NormalX, NormalY, NormalZ): point 2's NormalX.
+normals = valid("normals_pdal.las")
+start = struct.unpack_from("<I", normals, 96)[0]
+record = struct.unpack_from("<H", normals, 105)[0]
+struct.pack_into("<f", normals, start + 2 * record + 20, float("nan"))
+binary("las_normal_nan.las", normals)
 
 # ---- E57 (from pye57's tiny.e57: 1024-byte pages, each ending in the CRC-32C of its 1020)
 e57 = valid("tiny.e57")

@@ -66,6 +66,11 @@ pub fn note_input(path: &Path) {
     }
 }
 
+/// True when `path` is a file this process has read ([`note_input`]; links followed).
+pub fn was_read(path: &Path) -> bool {
+    identity(path).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id)))
+}
+
 fn kind_of(file_type: std::fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
@@ -120,7 +125,7 @@ pub fn target(path: &Path) -> io::Result<PathBuf> {
                 ),
             ));
         }
-        if identity(&at).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id))) {
+        if was_read(&at) {
             return Err(io::Error::new(
                 io::ErrorKind::InvalidInput,
                 format!(

@@ -3,33 +3,38 @@
 //! its chunk table passes [`parallel_safe`]'s checks, else on one thread as before.
 //!
 //! Reading keeps the scaled coordinates (integer × scale + offset, as the header says), RGB
-//! (16-bit channels, kept as their high bytes), intensity and classification. Points are read
+//! (16-bit channels, kept as their high bytes), intensity, classification, and the normals
+//! where the Extra Bytes VLR names them ([`super::las_extra`]; each checked to be a unit
+//! vector, [`crate::normals::is_given_normal`], else an error naming the point). Points are read
 //! in chunks of [`CHUNK`] into the cloud's own arrays, so the memory held while reading is the
 //! cloud plus one chunk (the `las` crate's whole-file `read_all` would hold the raw records
 //! too). [`LasOptions::classes`] keeps only the listed classifications (for example 2 for
 //! ground, 6 for buildings).
 //!
 //! Writing ([`write_las`]): LAS 1.4 point format 2 (with colour) or 0, LAZ-compressed when
-//! the path ends in `.laz`. Coordinates are quantised: the offset is the bounding box's centre
+//! the path ends in `.laz`, the normals (when the cloud has them) as extra bytes `NormalX`,
+//! `NormalY`, `NormalZ` (f32). Coordinates are quantised: the offset is the bounding box's centre
 //! and the scale the smallest power of ten that keeps the box inside the 32-bit integer range
 //! (at least 1e-9), so a round trip moves a point by at most half the scale; the scale is
 //! reported.
 
 use std::path::Path;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use las::{Builder, Color, Point, PointDataBuilder, Reader, Transform, Vector, Writer};
 
 use super::Loaded;
+use super::las_extra::ExtraNormals;
 use super::las_header::{RawHeader, check_counts_and_scale, check_laz, parallel_safe, raw_header};
 use crate::error::{Error, Location, ReadError, ReadErrorKind};
 use crate::points::PointCloud;
 
 /// Points decoded per chunk.
 pub const CHUNK: u64 = 1 << 20;
-/// Bytes a [`LasStream`] holds per point of its chunk, at most: the decoded records (up to 67
-/// bytes in LAS 1.4's formats without extra bytes) and the compressed ones (a LAZ point takes
-/// about 11).
+/// Bytes a [`LasStream`] holds per point of its chunk, at most, beside a record's extra bytes:
+/// the decoded records (up to 67 bytes in LAS 1.4's formats without extra bytes) and the
+/// compressed ones (a LAZ point takes about 11). [`LasStream::bytes_per_point`] adds the extra
+/// bytes.
 pub const STREAM_BYTES_PER_POINT: u64 = 80;
 
 /// Options of the LAS reader.
@@ -51,9 +56,11 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     let keep_all = options.classes.is_none();
     let reserve = if keep_all { n } else { 0 };
     // A LAZ header may claim as many points as its file has bytes: check the arrays (position,
-    // intensity, classification, colour: 30 bytes a point) against memory before reserving.
+    // intensity, classification, colour: 30 bytes a point; normal: 12) against memory before
+    // reserving.
+    let with_normals = stream.normals.is_some();
     crate::memory::ensure(
-        30 * reserve as u128,
+        (30 + if with_normals { 12 } else { 0 }) * reserve as u128,
         &format!("the {n} points {} announces", path.display()),
     )
     .map_err(|e| {
@@ -68,8 +75,10 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
         intensity: Some(Vec::with_capacity(reserve)),
         classification: Some(Vec::with_capacity(reserve)),
         colors: stream.with_color.then(|| Vec::with_capacity(reserve)),
+        normals: with_normals.then(|| Vec::with_capacity(reserve)),
         ..PointCloud::default()
     };
+    let normal_fields = stream.normals.as_ref().map(ExtraNormals::describe);
     while stream.next_into(&mut cloud)? {}
     let path = stream.path.as_path();
     if cloud.positions.is_empty() {
@@ -89,6 +98,7 @@ pub fn read_las(path: &Path, options: &LasOptions) -> Result<Loaded, ReadError> 
     cloud.positions.shrink_to_fit();
     Ok(Loaded {
         cloud,
+        normal_fields,
         ..Loaded::default()
     })
 }
@@ -110,6 +120,8 @@ pub struct LasStream {
     pub with_color: bool,
     /// Whether LAZ is decoded on every core ([`parallel_safe`]).
     pub parallel: bool,
+    /// The normals the extra bytes give, if they name them ([`super::las_extra`]).
+    pub normals: Option<ExtraNormals>,
     classes: Option<Vec<u8>>,
 }
 
@@ -208,6 +220,14 @@ impl LasStream {
                 },
             ));
         }
+        let format = header.point_format();
+        let record_len = usize::from(format.len());
+        let normals = super::las_extra::find_normals(
+            header.all_vlrs(),
+            record_len - usize::from(format.extra_bytes),
+            record_len,
+        )
+        .map_err(|e| ReadError::new(path, Location::File, ReadErrorKind::BadHeader(e)))?;
         let chunk = PointDataBuilder::new().for_header(&header).build();
         Ok(Self {
             path: path.to_owned(),
@@ -220,8 +240,15 @@ impl LasStream {
             read: 0,
             with_color: header.point_format().has_color,
             parallel,
+            normals,
             classes: options.classes.clone(),
         })
+    }
+
+    /// Bytes the stream holds per point of its chunk, at most: [`STREAM_BYTES_PER_POINT`] and
+    /// the records' extra bytes.
+    pub fn bytes_per_point(&self) -> u64 {
+        STREAM_BYTES_PER_POINT + u64::from(self.reader.header().point_format().extra_bytes)
     }
 
     /// Decodes `points` points per call of [`LasStream::next_into`] (at least one) instead of
@@ -250,9 +277,10 @@ impl LasStream {
     }
 
     /// Appends the next chunk's points (those of the kept classes) to `cloud`'s positions,
-    /// intensity, classification and colours (each where `cloud` has the array); `false` once
-    /// every point was read. A file with fewer points than announced is
-    /// [`ReadErrorKind::Truncated`].
+    /// intensity, classification, colours and normals (each where `cloud` has the array; the
+    /// normals where the file has them too); `false` once every point was read. A file with
+    /// fewer points than announced is [`ReadErrorKind::Truncated`], a normal that is not a
+    /// unit vector [`ReadErrorKind::BadNormal`].
     pub fn next_into(&mut self, cloud: &mut PointCloud) -> Result<bool, ReadError> {
         let (path, raw, announced, record) = (
             self.path.as_path(),
@@ -308,6 +336,8 @@ impl LasStream {
         let data = &self.chunk;
         let mut intensity = data.intensity();
         let mut rgb = data.rgb();
+        let mut records = data.raw_bytes().chunks_exact(data.record_len());
+        let normals = self.normals.as_ref().filter(|_| cloud.normals.is_some());
         let xyz_columns = data.x().zip(data.y()).zip(data.z());
         for (k, (((x, y), z), class)) in xyz_columns.zip(data.classification()).enumerate() {
             let index = (read + k as u64) as usize;
@@ -318,6 +348,7 @@ impl LasStream {
             };
             let intensity = intensity.next().unwrap_or(0);
             let color = rgb.as_mut().and_then(Iterator::next);
+            let record = records.next().unwrap_or_default();
             let xyz = [x, y, z];
             if let Some(&value) = xyz.iter().find(|v| !v.is_finite()) {
                 return Err(ReadError::new(
@@ -367,6 +398,20 @@ impl LasStream {
                 let (red, green, blue) = color.unwrap_or((0, 0, 0));
                 colors.push([(red >> 8) as u8, (green >> 8) as u8, (blue >> 8) as u8]);
             }
+            if let (Some(fields), Some(out)) = (normals, cloud.normals.as_mut()) {
+                let n: Vec3 = fields.of(record);
+                if !crate::normals::is_given_normal(n) {
+                    return Err(ReadError::new(
+                        path,
+                        at,
+                        ReadErrorKind::BadNormal {
+                            index,
+                            normal: n.to_array(),
+                        },
+                    ));
+                }
+                out.push(n);
+            }
         }
         self.read += got;
         Ok(true)
@@ -394,7 +439,8 @@ pub fn las_scale(min: DVec3, max: DVec3) -> f64 {
 }
 
 /// Writes `cloud` as LAS (or LAZ, by the extension), whole or not at all
-/// ([`super::atomic`]); returns the scale used.
+/// ([`super::atomic`]), its normals (where it has them; each a unit vector, else an error) as
+/// extra bytes; returns the scale used.
 pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
     let compress = is_laz(path);
     super::atomic::write_via(
@@ -407,12 +453,14 @@ pub fn write_las(path: &Path, cloud: &PointCloud) -> Result<f64, Error> {
     )
 }
 
-/// A LAS 1.4 header for points in `min..=max` (point format 0, or 2 with colours), and its
+/// A LAS 1.4 header for points in `min..=max` (point format 0, or 2 with colours; with
+/// `normals`, their extra bytes and the VLR that names them, [`super::las_extra`]), and its
 /// scale: the coordinates on an integer grid of [`las_scale`] around the box's centre.
 fn las_header(
     min: DVec3,
     max: DVec3,
     colors: bool,
+    normals: bool,
     compress: bool,
 ) -> Result<(las::Header, f64), las::Error> {
     let scale = las_scale(min, max);
@@ -436,18 +484,63 @@ fn las_header(
         },
     };
     builder.point_format.is_compressed = compress;
+    if normals {
+        builder.point_format.extra_bytes = super::las_extra::NORMAL_BYTES;
+        builder.vlrs.push(super::las_extra::write_normals_vlr());
+    }
     Ok((builder.into_header()?, scale))
 }
 
-/// Writes positions as LAS (or LAZ, by the extension) without holding them: `next` appends
-/// the next batch to the vector it is given and says whether more follow. Every point must
-/// lie in `min..=max` (the header's grid is sized from them; a point outside, or one that is
-/// not finite, is an error). Whole or not at all; returns the scale and the points written.
+/// The error of a normal that is not a unit vector, where a writer was given it.
+fn bad_normal(path: &Path, index: u64, n: Vec3) -> Error {
+    Error::Write {
+        path: path.to_owned(),
+        source: std::io::Error::other(format!(
+            "point {index} has the normal {n} of length {}, not a unit vector (within {})",
+            n.length(),
+            crate::normals::GIVEN_LENGTH_TOLERANCE
+        )),
+    }
+}
+
+/// The extra bytes of a point with normal `n` (none without normals), or the error of a
+/// normal that is not a unit vector.
+fn extra_bytes(path: &Path, index: u64, n: Option<Vec3>) -> Result<Vec<u8>, Error> {
+    match n {
+        None => Ok(Vec::new()),
+        Some(n) if crate::normals::is_given_normal(n) => Ok(super::las_extra::normal_bytes(n)),
+        Some(n) => Err(bad_normal(path, index, n)),
+    }
+}
+
+/// A batch of points for [`write_las_streamed`]: positions, and as many normals when the file
+/// has them.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Batch {
+    /// Positions.
+    pub positions: Vec<DVec3>,
+    /// Unit normals, one a position (empty when the file has none).
+    pub normals: Vec<Vec3>,
+}
+
+impl Batch {
+    fn clear(&mut self) {
+        self.positions.clear();
+        self.normals.clear();
+    }
+}
+
+/// Writes positions (and with `normals` their normals, as extra bytes) as LAS (or LAZ, by the
+/// extension) without holding them: `next` appends the next batch to the one it is given
+/// (cleared) and says whether more follow. Every point must lie in `min..=max` (the header's
+/// grid is sized from them; a point outside, or one that is not finite, is an error), and with
+/// `normals` have a unit normal. Whole or not at all; returns the scale and the points written.
 pub fn write_las_streamed(
     path: &Path,
     min: DVec3,
     max: DVec3,
-    mut next: impl FnMut(&mut Vec<DVec3>) -> bool,
+    normals: bool,
+    mut next: impl FnMut(&mut Batch) -> bool,
 ) -> Result<(f64, u64), Error> {
     let compress = is_laz(path);
     let werr = |e: las::Error| Error::Write {
@@ -463,19 +556,29 @@ pub fn write_las_streamed(
     super::atomic::write_via(
         path,
         |partial| {
-            let (header, scale) = las_header(min, max, false, compress).map_err(werr)?;
+            let (header, scale) = las_header(min, max, false, normals, compress).map_err(werr)?;
             let file = std::fs::File::create(partial).map_err(|source| Error::Write {
                 path: path.to_owned(),
                 source,
             })?;
             let mut writer = Writer::new(std::io::BufWriter::with_capacity(1 << 20, file), header)
                 .map_err(werr)?;
-            let mut batch = Vec::new();
+            let mut batch = Batch::default();
             let mut count = 0u64;
             loop {
                 batch.clear();
                 let more = next(&mut batch);
-                for p in &batch {
+                if normals && batch.normals.len() != batch.positions.len() {
+                    return Err(Error::Write {
+                        path: path.to_owned(),
+                        source: std::io::Error::other(format!(
+                            "a batch of {} points came with {} normals",
+                            batch.positions.len(),
+                            batch.normals.len()
+                        )),
+                    });
+                }
+                for (k, p) in batch.positions.iter().enumerate() {
                     if !(p.is_finite() && p.cmpge(min).all() && p.cmple(max).all()) {
                         return Err(Error::Write {
                             path: path.to_owned(),
@@ -485,11 +588,13 @@ pub fn write_las_streamed(
                             )),
                         });
                     }
+                    let n = normals.then(|| batch.normals[k]);
                     writer
                         .write_point(Point {
                             x: p.x,
                             y: p.y,
                             z: p.z,
+                            extra_bytes: extra_bytes(path, count, n)?,
                             ..Point::default()
                         })
                         .map_err(werr)?;
@@ -520,8 +625,15 @@ fn write_las_to(
         source: std::io::Error::other(e.to_string()),
     };
     let bbox = cloud.bbox().ok_or(Error::EmptyCloud)?;
-    let (header, scale) =
-        las_header(bbox.min, bbox.max, cloud.colors.is_some(), compress).map_err(werr)?;
+    cloud.validate()?;
+    let (header, scale) = las_header(
+        bbox.min,
+        bbox.max,
+        cloud.colors.is_some(),
+        cloud.normals.is_some(),
+        compress,
+    )
+    .map_err(werr)?;
     let file = std::fs::File::create(partial).map_err(|source| Error::Write {
         path: path.to_owned(),
         source,
@@ -533,6 +645,7 @@ fn write_las_to(
             x: p.x,
             y: p.y,
             z: p.z,
+            extra_bytes: extra_bytes(path, i as u64, cloud.normals.as_ref().map(|n| n[i]))?,
             ..Point::default()
         };
         if let Some(v) = &cloud.intensity {
@@ -578,9 +691,9 @@ mod tests {
             let streamed = dir.path().join(name);
             write_las(&whole, &cloud).unwrap();
             let mut at = 0;
-            let (_, count) = write_las_streamed(&streamed, bbox.min, bbox.max, |batch| {
+            let (_, count) = write_las_streamed(&streamed, bbox.min, bbox.max, false, |batch| {
                 let end = (at + 1000).min(positions.len());
-                batch.extend_from_slice(&positions[at..end]);
+                batch.positions.extend_from_slice(&positions[at..end]);
                 at = end;
                 at < positions.len()
             })
@@ -746,9 +859,9 @@ mod tests {
     fn a_point_outside_the_box_fails_and_leaves_no_file() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("bad.laz");
-        let err = write_las_streamed(&path, DVec3::ZERO, DVec3::ONE, |batch| {
-            batch.push(DVec3::splat(0.5));
-            batch.push(DVec3::new(0.5, 2.0, 0.5));
+        let err = write_las_streamed(&path, DVec3::ZERO, DVec3::ONE, false, |batch| {
+            batch.positions.push(DVec3::splat(0.5));
+            batch.positions.push(DVec3::new(0.5, 2.0, 0.5));
             false
         })
         .unwrap_err();
@@ -758,7 +871,7 @@ mod tests {
         );
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
         assert!(
-            write_las_streamed(&path, DVec3::ONE, DVec3::ZERO, |_| false).is_err(),
+            write_las_streamed(&path, DVec3::ONE, DVec3::ZERO, false, |_| false).is_err(),
             "an inverted box"
         );
     }

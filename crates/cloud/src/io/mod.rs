@@ -5,8 +5,8 @@
 //! - OFF, the format of the CGAL data set ([`off`]); OBJ, vertices and faces ([`obj`]);
 //! - XYZ, whitespace-separated `x y z [nx ny nz]` lines ([`xyz`]);
 //! - with the cargo feature `formats` (on for the harness, off for the method crates): LAS and
-//!   LAZ (`las`, reader and writer), E57 (`e57`, every scan with its pose) and PCD (`pcd`,
-//!   ascii, binary and binary_compressed);
+//!   LAZ (`las`, reader and writer; `las_extra`, the extra bytes that carry normals), E57
+//!   (`e57`, every scan with its pose) and PCD (`pcd`, ascii, binary and binary_compressed);
 //! - a binary little-endian PLY writer ([`ply_write`]); every writer goes through [`atomic`]
 //!   (whole file or none);
 //! - block checksums (CRC-32) for the built LOD files ([`checksum`]);
@@ -15,7 +15,9 @@
 //! Every reader returns a [`ReadError`](crate::ReadError) that names the file and the line
 //! (text) or byte offset (binary) of the problem: empty files, truncated data (a header count
 //! larger than the data), non-numeric fields, NaN or infinite coordinates, faces that index
-//! missing vertices.
+//! missing vertices, normals that are not unit vectors (a file's normals are used as given:
+//! each must be finite and of length 1 within `normals::GIVEN_LENGTH_TOLERANCE`, whatever
+//! the format).
 
 pub mod atomic;
 pub mod checksum;
@@ -24,6 +26,8 @@ pub mod colmap;
 pub mod e57;
 #[cfg(feature = "formats")]
 pub mod las;
+#[cfg(feature = "formats")]
+pub mod las_extra;
 #[cfg(feature = "formats")]
 mod las_header;
 pub mod obj;
@@ -80,6 +84,10 @@ pub struct Loaded {
     pub triangles: Vec<[u32; 3]>,
     /// Scanner poses the file records (E57), in scan order.
     pub scanners: Vec<Scanner>,
+    /// The fields the normals were read from, as the file names them, and where they are
+    /// (`NormalX,NormalY,NormalZ (LAS extra bytes, f32)`, `nx,ny,nz (PLY float)`); `None`
+    /// when the file gives no normals.
+    pub normal_fields: Option<String>,
 }
 
 impl Loaded {
@@ -204,6 +212,10 @@ fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadErro
         Format::Off => off::read_off(path),
         Format::Obj => obj::read_obj(path),
         Format::Xyz => xyz::read_xyz(path).map(|cloud| Loaded {
+            normal_fields: cloud
+                .normals
+                .as_ref()
+                .map(|_| "columns 4 to 6 (XYZ nx ny nz)".to_owned()),
             cloud,
             ..Loaded::default()
         }),

@@ -1,7 +1,8 @@
 //! PCD reader (the Point Cloud Library's format) over the `pcd-rs` crate: `ascii`, `binary` and
 //! `binary_compressed` data (cargo feature `formats`).
 //!
-//! Fields read: `x y z` (required, float or double), `normal_x normal_y normal_z`, `rgb` or
+//! Fields read: `x y z` (required, float or double), `normal_x normal_y normal_z` (each a
+//! unit vector, else [`ReadErrorKind::BadNormal`]), `rgb` or
 //! `rgba` (PCL's packed 0x00RRGGBB, stored as a float or an unsigned integer) and `intensity`
 //! (scaled to 16 bits when it is a float in [0, 1], else clamped). Other fields are skipped.
 //!
@@ -248,8 +249,18 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
         }
         cloud.positions.push(DVec3::new(x, y, z));
         if let Some([a, b, c]) = normal {
-            let v = |i| get(i).unwrap_or(0.0) as f32;
-            normals.push(Vec3::new(v(a), v(b), v(c)));
+            let v = |i| get(i).map_or(f32::NAN, |v| v as f32);
+            let n = Vec3::new(v(a), v(b), v(c));
+            if !crate::normals::is_given_normal(n) {
+                return Err(err(
+                    here,
+                    ReadErrorKind::BadNormal {
+                        index,
+                        normal: n.to_array(),
+                    },
+                ));
+            }
+            normals.push(n);
         }
         if let Some(i) = rgb {
             colors.push(fields.get(i).and_then(packed_rgb).unwrap_or([0; 3]));
@@ -282,6 +293,7 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
     cloud.intensity = intensity.map(|_| intensities);
     Ok(Loaded {
         cloud,
+        normal_fields: normal.map(|_| "normal_x,normal_y,normal_z (PCD fields)".to_owned()),
         ..Loaded::default()
     })
 }

@@ -6,8 +6,9 @@
 //! how many elements were complete, and (c) each error carries the line (ASCII) or the byte
 //! offset of the element (binary).
 //!
-//! Vertex properties read: `x y z` (required), `nx ny nz`, `red green blue`, texture
-//! coordinates as `u v`, `s t` or `texture_u texture_v`. Faces: `vertex_indices` or
+//! Vertex properties read: `x y z` (required), `nx ny nz` (each a unit vector, else
+//! [`ReadErrorKind::BadNormal`]), `red green blue`, texture coordinates as `u v`, `s t` or
+//! `texture_u texture_v`. Faces: `vertex_indices` or
 //! `vertex_index` lists, split into triangle fans. Other elements are read and skipped.
 
 use std::io::BufRead;
@@ -233,6 +234,7 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     let mut cloud = PointCloud::default();
     let mut triangles = Vec::new();
     let mut n_vertices = None;
+    let mut normal_fields = None;
     for (name, def) in &header.elements {
         match name.as_str() {
             "vertex" => {
@@ -263,7 +265,17 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
                         }
                         positions.push(DVec3::from_array(r.xyz));
                         if with_normals {
-                            normals.push(Vec3::from_array(r.normal));
+                            let n = Vec3::from_array(r.normal);
+                            if !crate::normals::is_given_normal(n) {
+                                return Err((
+                                    here,
+                                    ReadErrorKind::BadNormal {
+                                        index,
+                                        normal: r.normal,
+                                    },
+                                ));
+                            }
+                            normals.push(n);
                         }
                         if with_colors {
                             colors.push(r.rgb);
@@ -275,6 +287,9 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
                     },
                 )?;
                 n_vertices = Some(positions.len());
+                if with_normals {
+                    normal_fields = Some("nx,ny,nz (PLY vertex properties)".to_owned());
+                }
                 cloud = PointCloud {
                     positions,
                     normals: with_normals.then_some(normals),
@@ -344,6 +359,7 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
     Ok(Loaded {
         cloud,
         triangles,
+        normal_fields,
         ..Loaded::default()
     })
 }

@@ -1,5 +1,6 @@
-//! XYZ reader: one point per line, `x y z` or `x y z nx ny nz`, whitespace- or comma-separated.
-//! Blank lines and `#` comments are skipped; errors carry the 1-based line number.
+//! XYZ reader: one point per line, `x y z` or `x y z nx ny nz` (the normal a unit vector,
+//! else [`ReadErrorKind::BadNormal`]), whitespace- or comma-separated. Blank lines and `#`
+//! comments are skipped; errors carry the 1-based line number.
 
 use std::io::BufRead;
 use std::path::Path;
@@ -66,11 +67,17 @@ fn parse_xyz<R: BufRead>(mut reader: R) -> Result<PointCloud, (Location, ReadErr
         }
         positions.push(DVec3::new(values[0], values[1], values[2]));
         if expected == 6 {
-            normals.push(Vec3::new(
-                values[3] as f32,
-                values[4] as f32,
-                values[5] as f32,
-            ));
+            let n = Vec3::new(values[3] as f32, values[4] as f32, values[5] as f32);
+            if !crate::normals::is_given_normal(n) {
+                return Err((
+                    here,
+                    ReadErrorKind::BadNormal {
+                        index,
+                        normal: n.to_array(),
+                    },
+                ));
+            }
+            normals.push(n);
         }
     }
     if positions.is_empty() {

@@ -24,6 +24,8 @@
 //!    neighbourhoods are completed by a halo ([`neighbours`]) and its normals and the spacing
 //!    sample's distances computed; each normal takes its sign from the guide (Hoppe's tree
 //!    over it, built once between steps 2 and 3), so it is the in-memory normal, bit for bit.
+//!    Given normals (each a unit vector, else an error naming the point) are kept as they are:
+//!    then only the spacing sample's points are searched.
 //!
 //! A cloud that fits one chunk is prepared in memory instead ([`Prepared::Whole`]).
 //!
@@ -152,6 +154,10 @@ pub struct Summary {
     pub scratch_bytes: u64,
     /// The most bytes the scratch files held at once ([`Scratch::peak_bytes`]).
     pub scratch_peak_bytes: u64,
+    /// Points whose k nearest neighbours were searched, each search counted (the normals'
+    /// and the spacing sample's): at least one a point where the normals are estimated, only
+    /// the spacing sample's (at most twice each) where they are given.
+    pub neighbour_queries: u64,
 }
 
 /// The preparation's stages, for progress reports (each with a count of points).
@@ -222,7 +228,20 @@ pub fn prepare_in_memory(
     }
     crate::points::check_finite(positions)?;
     let normals = match opts.normals {
-        Normals::Given => normals.ok_or(Error::MissingNormals)?,
+        Normals::Given => {
+            let normals = normals.ok_or(Error::MissingNormals)?;
+            if normals.len() != positions.len() {
+                return Err(Error::Cloud(crate::Error::AttributeLength {
+                    name: "normals",
+                    expected: positions.len(),
+                    found: normals.len(),
+                }));
+            }
+            if let Some((i, n)) = crate::normals::first_bad_normal(&normals) {
+                return Err(bad_given_normal(i as u64, n));
+            }
+            normals
+        }
         Normals::Estimate { k } => crate::normals::estimate_normals(
             positions,
             k.min(positions.len()),
@@ -241,6 +260,33 @@ pub fn prepare_in_memory(
     Ok((normals, radius))
 }
 
+/// The error of a given normal that is not a unit vector ([`crate::normals::is_given_normal`]).
+fn bad_given_normal(index: u64, n: Vec3) -> Error {
+    Error::InvalidParameter {
+        name: "normals",
+        reason: format!(
+            "point {index} has the normal {n} of length {}: a given normal must be finite and of \
+             length 1 (within {})",
+            n.length(),
+            crate::normals::GIVEN_LENGTH_TOLERANCE
+        ),
+    }
+}
+
+/// Neighbour searches of [`prepare_in_memory`] for `n` points by `opts`: one a point for
+/// estimated normals, and the spacing sample's.
+pub fn in_memory_queries(n: u64, opts: &Options) -> u64 {
+    let normals = match opts.normals {
+        Normals::Estimate { .. } => n,
+        Normals::Given => 0,
+    };
+    let spacing = match opts.radius {
+        Radius::DensitySpacing { sample, .. } => n.min(sample as u64),
+        Radius::Fixed(_) => 0,
+    };
+    normals + spacing
+}
+
 /// The error of a cloud of `n` points, more than the trees' 32-bit leaf counts (and the scratch
 /// records' 32-bit indices) hold.
 fn too_many(n: u64) -> Error {
@@ -256,6 +302,8 @@ struct Preparer<'a> {
     cap: u64,
     opts: &'a Options,
     done: u64,
+    /// Neighbour searches made ([`Summary::neighbour_queries`]).
+    queries: u64,
     progress: &'a mut dyn FnMut(Stage, u64),
 }
 
@@ -299,6 +347,7 @@ pub fn prepare<E: From<Error>>(
         cap,
         opts,
         done: 0,
+        queries: 0,
         progress,
     };
     // 1. The input, in order, to scratch files of `partition::SEGMENT` records each.
@@ -320,12 +369,8 @@ pub fn prepare<E: From<Error>>(
             if !p.position.is_finite() {
                 return Err(Error::Cloud(crate::Error::NonFinite { index: n as usize }).into());
             }
-            if opts.normals == Normals::Given && !p.normal.is_finite() {
-                return Err(Error::InvalidParameter {
-                    name: "normals",
-                    reason: format!("point {n} has a non-finite normal"),
-                }
-                .into());
+            if opts.normals == Normals::Given && !crate::normals::is_given_normal(p.normal) {
+                return Err(bad_given_normal(n, p.normal).into());
             }
             bbox = (bbox.0.min(p.position), bbox.1.max(p.position));
             if let Some(g) = guide.as_mut() {
@@ -398,6 +443,7 @@ pub fn prepare<E: From<Error>>(
         summary.chunks = 1;
         summary.largest_chunk = n;
         summary.leaf_radius = radius;
+        summary.neighbour_queries = in_memory_queries(n, opts);
         summary.scratch_bytes = b.store.scratch.bytes_written();
         summary.scratch_peak_bytes = b.store.scratch.peak_bytes();
         return Ok((Prepared::Whole(whole), summary));
@@ -501,5 +547,6 @@ pub fn prepare<E: From<Error>>(
     summary.largest_chunk = b.store.chunks.iter().map(|c| c.count).max().unwrap_or(0);
     summary.scratch_bytes = b.store.scratch.bytes_written();
     summary.scratch_peak_bytes = b.store.scratch.peak_bytes();
+    summary.neighbour_queries = b.queries;
     Ok((Prepared::Chunked(b.store), summary))
 }

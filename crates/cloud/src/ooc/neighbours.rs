@@ -16,6 +16,11 @@
 //! sample's distances of the points whose ball lies inside; the halo pass then searches only
 //! the points near the borders, from a grid over the halo and the chunk's points within twice
 //! the halo radius of its box's faces (all a border point's neighbours lie there).
+//!
+//! Where the normals are given, only the spacing sample needs neighbours: the first pass
+//! searches only its points, a chunk's halo radius is the largest bound of those whose ball
+//! leaves its box, and a chunk none of whose sample points is left for the halo pass gets no
+//! halo and is not loaded again ([`Preparer::queries`] counts the searches).
 
 use std::collections::HashMap;
 use std::num::NonZero;
@@ -60,6 +65,8 @@ impl Preparer<'_> {
         // which then searches only the points near the borders).
         let single = estimate == Some(kk.get());
         let mut halo2 = vec![0.0f64; self.store.chunks.len()];
+        // Per chunk: whether (c) has any search to make there (always, for estimated normals).
+        let mut needed = vec![estimate.is_some(); self.store.chunks.len()];
         let mut early: Vec<Option<SpillFile>> =
             (0..self.store.chunks.len()).map(|_| None).collect();
         // Per chunk: whether (c) may search only the points near its box's faces (every query
@@ -86,6 +93,53 @@ impl Preparer<'_> {
             let inside = |p: DVec3, d: f64| {
                 !overlap && (0..3).all(|a| p[a] - bbox.0[a] > d && bbox.1[a] - p[a] > d)
             };
+            if estimate.is_none() {
+                // Given normals: only the spacing picks are searched.
+                *r2 = 0.0;
+                if let Some((picks, _)) = picks {
+                    let times = pick_times(picks, &l.index);
+                    let picked = |i: usize| times.get(i).is_some_and(|&t| t > 0);
+                    self.queries += times.iter().filter(|&&t| t > 0).count() as u64;
+                    let d2: Vec<f64> = match own.as_ref() {
+                        Some(grid) => grid.for_each_point(kk, picked, |_, nb| {
+                            nb.last().map_or(f64::INFINITY, |x| x.0)
+                        })?,
+                        None => (0..l.positions.len())
+                            .map(|i| {
+                                if !picked(i) {
+                                    return 0.0;
+                                }
+                                sample_tree
+                                    .query(&l.positions[i].to_array())
+                                    .nearest_n::<SquaredEuclidean<f64>>(kk)
+                                    .execute()
+                                    .last()
+                                    .map_or(f64::INFINITY, |x| x.distance)
+                            })
+                            .collect(),
+                    };
+                    for (i, &t) in times.iter().enumerate() {
+                        if t == 0 {
+                            continue;
+                        }
+                        let d = d2[i].sqrt();
+                        if own.is_some() && inside(l.positions[i], d) {
+                            spacing_d.extend(std::iter::repeat_n(d, t as usize));
+                            resolved[c].push(i as u32);
+                        } else {
+                            needed[c] = true;
+                            if !inside(l.positions[i], d) {
+                                *r2 = r2.max(d2[i]);
+                            }
+                        }
+                    }
+                }
+                border_only[c] = own.is_some() && !overlap;
+                self.done += set.count;
+                (self.progress)(Stage::Neighbours, self.done);
+                continue;
+            }
+            self.queries += l.positions.len() as u64;
             let per_point: Vec<(f64, Option<Vec3>)> = match own.as_ref() {
                 Some(grid) => grid.for_each_point(
                     kk,
@@ -127,6 +181,7 @@ impl Preparer<'_> {
             {
                 let times = pick_times(picks, &l.index);
                 let k1 = NonZero::new(ks + 1).unwrap_or(kk);
+                self.queries += times.iter().filter(|&&t| t > 0).count() as u64;
                 let d2 = grid.for_each_point(
                     k1,
                     |i| times.get(i).is_some_and(|&t| t > 0),
@@ -161,6 +216,8 @@ impl Preparer<'_> {
         let slack = |r2: f64| r2 * (1.0 + 1e-9) + f64::MIN_POSITIVE;
         for t in 0..self.store.parts.len() {
             self.store.parts[t].halo2 = match &self.store.parts[t].kind {
+                // No search left there: no halo (no distance is below -1).
+                PartKind::Chunk(c) if !needed[*c] => -1.0,
                 PartKind::Chunk(c) => slack(halo2[*c]),
                 PartKind::Inner(kids) => kids
                     .iter()
@@ -177,7 +234,13 @@ impl Preparer<'_> {
         let mut buffered: HashMap<usize, Vec<u8>> = HashMap::new();
         let mut buffered_bytes = 0usize;
         let mut stack = Vec::new();
-        for d in 0..self.store.chunks.len() {
+        // No chunk wants a halo: no pass.
+        let chunks_for_halos = if needed.iter().any(|&x| x) {
+            self.store.chunks.len()
+        } else {
+            0
+        };
+        for d in 0..chunks_for_halos {
             let set = self.store.chunks[d].clone();
             self.store.for_each(&set, |r| {
                 let p = self.store.layout.position_of(r);
@@ -211,6 +274,12 @@ impl Preparer<'_> {
         self.done = 0;
         for (c, halo) in halos.into_iter().enumerate() {
             let set = self.store.chunks[c].clone();
+            if !needed[c] {
+                // Given normals and every spacing pick answered by (a): nothing to search.
+                self.done += set.count;
+                (self.progress)(Stage::Halos, self.done);
+                continue;
+            }
             let l = self.store.load_set(&set)?;
             let m = l.positions.len();
             let halo = match halo {
@@ -280,6 +349,7 @@ impl Preparer<'_> {
                 // By the grid's index (`sel` maps the chunk's part of it to the chunk's).
                 let missing =
                     |j: usize| j < mz && !known.get(sel[j] as usize).copied().unwrap_or(false);
+                self.queries += (0..positions.len()).filter(|&j| missing(j)).count() as u64;
                 let found = grid.for_each_point(k, missing, |i, nb| {
                     let n = crate::normals::covariance_normal(
                         nb.iter().map(|x| positions[x.1 as usize]),
@@ -330,6 +400,7 @@ impl Preparer<'_> {
                     times[i as usize] = 0;
                 }
                 let times: Vec<u32> = sel.iter().map(|&i| times[i as usize]).collect();
+                self.queries += times.iter().filter(|&&t| t > 0).count() as u64;
                 let d2 = grid.for_each_point(
                     k1,
                     |j| times.get(j).is_some_and(|&t| t > 0),

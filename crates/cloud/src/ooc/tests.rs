@@ -148,20 +148,90 @@ fn bad_inputs_and_limits_are_errors() {
         normals: Normals::Given,
         ..options(1 << 30)
     };
-    let mut pts = cloud(100, 1);
-    pts[5].normal = Vec3::NAN;
-    let e = run(&pts, &given, &out).unwrap_err();
-    assert!(
-        matches!(
-            e,
-            Error::InvalidParameter {
-                name: "normals",
-                ..
-            }
-        ),
-        "{e}"
-    );
+    // A given normal that is NaN, zero or not normalised: refused, naming the point.
+    for bad in [Vec3::NAN, Vec3::ZERO, Vec3::new(0.0, 0.0, 1.01)] {
+        let mut pts = cloud(100, 1);
+        pts[5].normal = bad;
+        let e = run(&pts, &given, &out).unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                Error::InvalidParameter {
+                    name: "normals",
+                    reason,
+                } if reason.starts_with("point 5 has the normal")
+            ),
+            "{e}"
+        );
+        let positions: Vec<DVec3> = pts.iter().map(|p| p.position).collect();
+        let normals = pts.iter().map(|p| p.normal).collect();
+        let e = prepare_in_memory(&positions, Some(normals), &given).unwrap_err();
+        assert!(e.to_string().contains("point 5 has the normal"), "{e}");
+    }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+/// Given normals are kept bit for bit, the leaf radius is the in-memory one, and only the
+/// spacing sample's points are searched (at most twice each: within their chunk, then with
+/// its halo), where estimated normals search every point at least once.
+#[test]
+fn given_normals_search_only_the_spacing_sample() {
+    let mut pts = cloud(30_000, 9);
+    let mut rng = seeded(3, "given-normals");
+    for p in &mut pts {
+        let v = Vec3::new(
+            rng.random::<f32>() - 0.5,
+            rng.random::<f32>() - 0.5,
+            rng.random::<f32>() + 0.1,
+        );
+        p.normal = v.normalize();
+    }
+    let positions: Vec<DVec3> = pts.iter().map(|p| p.position).collect();
+    let given_normals: Vec<Vec3> = pts.iter().map(|p| p.normal).collect();
+    let given = |limit| Options {
+        normals: Normals::Given,
+        ..options(limit)
+    };
+    let (_, want_radius) =
+        prepare_in_memory(&positions, Some(given_normals.clone()), &given(u64::MAX)).unwrap();
+    let Radius::DensitySpacing { sample, .. } = options(0).radius else {
+        unreachable!("the tests' options use the density spacing")
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.lod");
+    for limit in [RESERVE + MIN_CHUNK * 640, RESERVE + 9_000 * 640, 1 << 30] {
+        let (prepared, summary) = run(&pts, &given(limit), &out).unwrap();
+        assert_eq!(
+            summary.leaf_radius.to_bits(),
+            want_radius.to_bits(),
+            "{limit}"
+        );
+        assert!(
+            summary.neighbour_queries >= sample.min(pts.len()) as u64 / 2
+                && summary.neighbour_queries <= 2 * sample as u64,
+            "{limit}: {summary:?}"
+        );
+        if limit < 1 << 30 {
+            assert!(summary.chunks >= 3, "{summary:?}");
+        }
+        prepared
+            .for_each_chunk(|c| -> Result<()> {
+                for (i, &g) in c.index.iter().enumerate() {
+                    assert_eq!(
+                        c.normals[i].to_array(),
+                        given_normals[g as usize].to_array()
+                    );
+                }
+                Ok(())
+            })
+            .unwrap();
+        // The same cloud with its normals estimated: every point searched.
+        let (_, estimated) = run(&pts, &options(limit), &out).unwrap();
+        assert!(
+            estimated.neighbour_queries >= pts.len() as u64,
+            "{limit}: {estimated:?}"
+        );
+    }
 }
 
 /// What a preparation's split made: each chunk's input indices (in its order) and box, and the

@@ -107,14 +107,15 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
     Ok(())
 }
 
-/// `pointsight export`. A manifest's plain sample of a mesh written as LAS or LAZ is streamed
+/// `pointsight export`, with the dataset's normals when `normals` (as extra bytes in LAS and
+/// LAZ). A manifest's plain sample of a mesh written as LAS or LAZ is streamed
 /// ([`export_sample`]: memory for the mesh and a batch, whatever the sample's size; the
 /// dataset's views, which `export` does not use, are not read then); any other dataset is
 /// loaded whole first.
-pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
+pub fn export(dataset: &str, out: &Path, normals: bool, data_dir: &Path) -> Result<()> {
     let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
     if is_las && let Some((mesh, n, seed)) = datasets::plain_sample(dataset)? {
-        let scale = export_sample(&mesh, n, seed, out)
+        let scale = export_sample(&mesh, n, seed, normals, out)
             .with_context(|| format!("exporting dataset {dataset}"))?;
         println!(
             "dataset={dataset} points={n} file={} scale={scale:e}",
@@ -126,9 +127,19 @@ pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
     // In world coordinates (the recentring and rescaling undone: exact).
     let positions = ds.world_positions();
     let n = positions.len();
+    // Directions: the recentring and the power-of-two rescaling leave them as they are.
+    let normals =
+        if normals {
+            Some(ds.cloud.normals.clone().with_context(|| {
+                format!("--normals: dataset {dataset} has no normals to export")
+            })?)
+        } else {
+            None
+        };
     if is_las {
         let with_attributes = cloud::PointCloud {
             positions,
+            normals,
             colors: ds.cloud.colors,
             intensity: ds.cloud.intensity,
             classification: ds.cloud.classification,
@@ -143,6 +154,7 @@ pub fn export(dataset: &str, out: &Path, data_dir: &Path) -> Result<()> {
     } else {
         let positions_only = cloud::PointCloud {
             positions,
+            normals,
             ..Default::default()
         };
         cloud::io::ply_write::write_ply(out, &positions_only)?;
@@ -159,9 +171,17 @@ const EXPORT_BATCH: usize = 1 << 16;
 /// export writes, byte for byte. The sampler runs twice: first for the samples' bounding box,
 /// which fixes the file's grid as `cloud::io::las::write_las` fixes it from a whole cloud, then
 /// to write them. Each coordinate goes through `+ 0.0` as the whole dataset's does (its
-/// recentring undone), which turns `-0.0` into `0.0` and keeps every other value. Returns the
+/// recentring undone), which turns `-0.0` into `0.0` and keeps every other value. With
+/// `normals`, each point's triangle's normal as extra bytes (computed from the mesh file's own
+/// coordinates, so within a few units in the last place of the whole dataset's). Returns the
 /// grid's scale.
-fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> Result<f64> {
+fn export_sample(
+    mesh: &cloud::TriMesh,
+    n: usize,
+    seed: u64,
+    normals: bool,
+    out: &Path,
+) -> Result<f64> {
     let bar = crate::progress::bar((n as u64).saturating_mul(2), "export: box, then points");
     let mut sampler = cloud::sample::SurfaceSampler::new(mesh, seed)?;
     let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -181,11 +201,18 @@ fn export_sample(mesh: &cloud::TriMesh, n: usize, seed: u64, out: &Path) -> Resu
     }
     let mut sampler = cloud::sample::SurfaceSampler::new(mesh, seed)?;
     let mut left = n;
-    let (scale, written) = cloud::io::las::write_las_streamed(out, lo, hi, |batch| {
+    let (scale, written) = cloud::io::las::write_las_streamed(out, lo, hi, normals, |batch| {
         let k = left.min(EXPORT_BATCH);
-        sampler.positions_into(k, batch);
-        for p in batch.iter_mut() {
-            *p += DVec3::ZERO;
+        for _ in 0..k {
+            let sample = sampler.draw();
+            batch
+                .positions
+                .push(cloud::sample::sample_position(mesh, &sample) + DVec3::ZERO);
+            if normals {
+                batch
+                    .normals
+                    .push(mesh.face_normal(sample.triangle as usize).as_vec3());
+            }
         }
         left -= k;
         bar.inc(k as u64);
@@ -237,6 +264,14 @@ pub fn inspect(
             s.position.x, s.position.y, s.position.z
         );
     }
+    // Which normals the file gives (their fields), if any.
+    println!(
+        "normals={}",
+        loaded
+            .normal_fields
+            .as_deref()
+            .unwrap_or("- (none: estimated where needed)")
+    );
     // Coincident points (real scans have them; normals and spacings take them in bounded work).
     let (distinct, duplicates, most) = cloud::knn::coincidence(&c.positions);
     println!("distinct_positions={distinct} duplicates={duplicates} most_copies={most}");

@@ -74,11 +74,10 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
         return Ok(());
     }
+    // A run into its own folder (a user's data) has its findings beside its results
+    // already (`experiments::run`); one into the reports folder also updates the report.
     if default_out && sweep.shard.is_none() {
         assemble_report(&req.reports)?;
-    } else if sweep.shard.is_none() {
-        // A run into its own folder (a user's data) gets its own findings.
-        write_findings_in(&out_dir, exp.name(), req.quick)?;
     }
     println!("{}: results in {}", exp.name(), out_dir.display());
     Ok(())
@@ -211,24 +210,9 @@ fn previous_seconds(dir: &Path, quick: bool, datasets: &[String]) -> Option<f64>
 /// `pointsight merge`: the shards' results merged into `out`, then its report page.
 pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<()> {
     for name in experiments::merge::merge(out, shards)? {
-        let dir = out.join(&name);
-        let quick = output::meta::RunMeta::read(&dir).is_ok_and(|m| m.quick);
-        // As an unsharded `run --out` of it: its findings beside its summary.
-        write_findings_in(&dir, &name, quick)?;
-        println!("{name}: merged into {}", dir.display());
+        println!("{name}: merged into {}", out.join(&name).display());
     }
     assemble_report(out)
-}
-
-/// The findings of experiment `name` whose results are in `dir`, beside them:
-/// `findings.csv` and `findings.md` (a run into a folder of its own, a merged one).
-fn write_findings_in(dir: &Path, name: &str, quick: bool) -> Result<()> {
-    let found = experiments::findings::findings_in(dir, name)?;
-    experiments::findings::write(dir, &found)?;
-    output::write_atomic(
-        &dir.join("findings.md"),
-        experiments::findings::markdown(&found, quick).as_bytes(),
-    )
 }
 
 /// `pointsight report`: the viewer pages and the report page of `reports`.
@@ -247,6 +231,7 @@ pub fn tables(reports: &Path) -> Result<()> {
         if dir.join("metadata.json").exists() {
             exp.render(&dir)
                 .with_context(|| format!("redrawing {}", dir.display()))?;
+            output::folder::seal(&dir)?;
             rendered += 1;
         }
     }
@@ -329,7 +314,15 @@ fn assemble_report(reports: &Path) -> Result<()> {
         &experiments::findings::readme_markdown(&findings, quick),
         quick,
         &view::report::section(reports)?,
-    )
+    )?;
+    // Each experiment's folder lists what the assembly added (its findings, its results page).
+    for name in &names {
+        let dir = reports.join(name);
+        if dir.join("metadata.json").is_file() {
+            output::folder::seal(&dir)?;
+        }
+    }
+    Ok(())
 }
 
 /// `k/n`, or `-` without a shard.

@@ -26,7 +26,7 @@ pub fn lod_build(
     println!(
         "points={} seconds={:.3} points_per_second={:.0} peak_rss_bytes={} chunks={} \
          top_levels={} leaf_radius={:e} file_bytes={} scratch_bytes={} \
-         scratch_peak_bytes={} stage_seconds={}",
+         scratch_peak_bytes={} normals={} neighbour_queries={} stage_seconds={}",
         built.points,
         built.seconds,
         built.points as f64 / built.seconds.max(1e-9),
@@ -37,6 +37,12 @@ pub fn lod_build(
         built.file_bytes,
         built.scratch_bytes,
         built.scratch_peak_bytes,
+        if built.given_normals.is_some() {
+            "given"
+        } else {
+            "estimated"
+        },
+        built.neighbour_queries,
         lod_build::stages_text(&built.stages)
     );
     Ok(())

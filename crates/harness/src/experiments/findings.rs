@@ -767,6 +767,16 @@ pub fn findings_in(dir: &Path, name: &str) -> Result<Vec<Finding>> {
     })
 }
 
+/// Writes experiment `name`'s findings beside its results in `dir` (any folder: a run's own,
+/// a staging or a merged one): `findings.csv` (a header alone without findings) and
+/// `findings.md`.
+pub fn write_in(dir: &Path, name: &str) -> Result<()> {
+    let found = findings_in(dir, name)?;
+    write(dir, &found)?;
+    let quick = RunMeta::read(dir).is_ok_and(|m| m.quick);
+    crate::output::write_atomic(&dir.join("findings.md"), markdown(&found, quick).as_bytes())
+}
+
 /// Writes `findings.csv` into `reports_dir` (a header alone without findings).
 pub fn write(reports_dir: &Path, findings: &[Finding]) -> Result<()> {
     if findings.is_empty() {

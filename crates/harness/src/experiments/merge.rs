@@ -140,32 +140,15 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
         );
     }
 
-    // This process's own staging folder (`cloud::scratch`: removed on a signal, reclaimed
-    // after a crash).
-    let staging = cloud::scratch::beside(out, "partial");
-    let registered = cloud::scratch::register(&staging);
-    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("cannot create {}", parent.display()))?;
-    }
-    std::fs::create_dir(&staging)
-        .with_context(|| format!("cannot create {}", staging.display()))?;
-    let result = fill(exp, parts, &staging, out);
-    if result.is_err() {
-        // Best effort: the error that stopped the merge is the one to report.
-        let _ = std::fs::remove_dir_all(&staging);
-    }
-    drop(registered);
-    result
+    // Written whole, replacing only a folder of pointsight's (`output::folder`).
+    crate::output::folder::replace(out, crate::output::folder::Role::Experiment, |staging| {
+        fill(exp, parts, staging)
+    })
 }
 
-/// Writes the merged experiment into `staging`, renders it and moves it to `out`.
-fn fill(
-    exp: &dyn Experiment,
-    parts: &[(PathBuf, RunMeta)],
-    staging: &Path,
-    out: &Path,
-) -> Result<()> {
+/// Writes the merged experiment into `staging`, renders it and writes its findings beside it,
+/// as an unsharded run of it would have.
+fn fill(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], staging: &Path) -> Result<()> {
     let first = &parts[0].1;
     // Every file of every part: CSVs concatenated, others copied from the part that has them.
     let mut files: BTreeSet<String> = BTreeSet::new();
@@ -202,18 +185,11 @@ fn fill(
             }
         }
     }
+    meta.files = None;
     meta.write(staging)?;
     exp.render(staging)?;
-    if out.exists() {
-        std::fs::remove_dir_all(out)
-            .with_context(|| format!("cannot replace {}", out.display()))?;
-    }
-    if let Some(parent) = out.parent() {
-        std::fs::create_dir_all(parent)?;
-    }
-    std::fs::rename(staging, out)
-        .with_context(|| format!("cannot move {} into place", out.display()))?;
-    Ok(())
+    super::findings::write_in(staging, exp.name())?;
+    crate::output::folder::seal(staging)
 }
 
 /// `a` ∪ `b`: objects key by key, lists without repeats; elsewhere `a` stays.

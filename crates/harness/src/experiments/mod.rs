@@ -210,16 +210,18 @@ pub fn experiment(name: &str) -> Result<&'static dyn Experiment> {
         })
 }
 
-/// Runs `exp`: measure, write metadata, render. Returns false (and does nothing) when a
-/// sharded run gives this experiment to another shard: an experiment that does not split its
-/// cells ([`Experiment::shardable`]) is one cell, dealt by its position in [`EXPERIMENTS`].
+/// Runs `exp`: measure, write metadata, render, and (unsharded) its findings beside them.
+/// Returns false (and does nothing) when a sharded run gives this experiment to another shard:
+/// an experiment that does not split its cells ([`Experiment::shardable`]) is one cell, dealt
+/// by its position in [`EXPERIMENTS`].
 ///
-/// Everything is written into a staging folder beside the output folder
-/// (`.NAME.partial-HOST-PID-K`, this process's own), which replaces the output folder only
-/// when the experiment has finished: an interrupted run leaves the previous results as they
-/// were, and a run that fails (an error anywhere after the staging folder was made) removes
-/// its staging folder too; a signal removes it through `cloud::scratch`'s registry, and a
-/// run killed outright leaves it to the next run beside the same output, which reclaims it.
+/// The output folder is written whole ([`crate::output::folder::replace`]): everything goes
+/// into a staging folder beside it (`.NAME.partial-HOST-PID-K`, this process's own), which
+/// replaces the output folder only when the experiment has finished and the folder holds
+/// nothing pointsight did not write. An interrupted run leaves the previous results as they
+/// were, and a run that fails removes its staging folder too; a signal removes it through
+/// `cloud::scratch`'s registry, and a run killed outright leaves it to the next run beside the
+/// same output, which reclaims it.
 pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     if let Some(shard) = ctx.shard
         && !exp.shardable()
@@ -239,32 +241,12 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
         &ctx.datasets,
         serde_json::Value::Null,
     );
-    // A link to a folder is written through (the folder it names is replaced).
-    let out = &cloud::io::atomic::folder_target(&ctx.out_dir)?;
-    out.file_name()
-        .with_context(|| format!("{} has no folder name", out.display()))?;
-    // This process's own staging and aside folders (`.NAME.partial-HOST-PID-K`): never
-    // another run's; those of dead runs on this host are reclaimed first (`cloud::scratch`).
-    let out_dir = out.parent().filter(|p| !p.as_os_str().is_empty());
-    if let Some(parent) = out_dir {
-        std::fs::create_dir_all(parent)
-            .with_context(|| format!("cannot create {}", parent.display()))?;
-    }
-    cloud::scratch::remove_stale_in(out_dir.unwrap_or(Path::new(".")));
-    let staging = cloud::scratch::beside(out, "partial");
-    let previous = cloud::scratch::beside(out, "previous");
-    let registered = cloud::scratch::register(&staging);
-    std::fs::create_dir(&staging)
-        .with_context(|| format!("cannot create {}", staging.display()))?;
-    let result =
-        stage(exp, ctx, meta, start, &staging).and_then(|()| swap_in(&staging, out, &previous));
-    if result.is_err() {
-        // A failed run leaves nothing behind: the previous results stay as they were. (Best
-        // effort: the error that stopped the run is the one to report.)
-        let _ = std::fs::remove_dir_all(&staging);
-    }
-    drop(registered);
-    result.map(|()| true)
+    crate::output::folder::replace(
+        &ctx.out_dir,
+        crate::output::folder::Role::Experiment,
+        |staging| stage(exp, ctx, meta, start, staging),
+    )?;
+    Ok(true)
 }
 
 /// Every registered peer, visibility and LOD (a method whose `peer_of` names one of ours), with
@@ -319,27 +301,9 @@ fn stage(
     // few cells for some plots.
     if ctx.shard.is_none() {
         exp.render(staging)?;
+        findings::write_in(staging, exp.name())?;
     }
-    Ok(())
-}
-
-/// Replaces `out` by `staging`, through `previous`; puts `out` back if the swap fails.
-fn swap_in(staging: &Path, out: &Path, previous: &Path) -> Result<()> {
-    if out.exists() {
-        std::fs::rename(out, previous)
-            .with_context(|| format!("cannot move {} aside", out.display()))?;
-    }
-    if let Err(e) = std::fs::rename(staging, out) {
-        if previous.exists() {
-            let _ = std::fs::rename(previous, out);
-        }
-        return Err(e).with_context(|| format!("cannot move {} into place", out.display()));
-    }
-    if previous.exists() {
-        std::fs::remove_dir_all(previous)
-            .with_context(|| format!("cannot remove {}", previous.display()))?;
-    }
-    Ok(())
+    crate::output::folder::seal(staging)
 }
 
 /// Markdown table from a header and rows.

@@ -3,27 +3,29 @@
 //! `cloud::ooc::prepare`; `spt::ooc` fed by `cloud::ooc::prepare`), the same bytes as the
 //! in-memory build when it does.
 //!
-//! The cloud is prepared by the `lod` experiment's rules: normals from the file, or 16-nearest-
+//! The cloud is prepared by the `lod` experiment's rules: normals from the file (PLY, PCD, XYZ,
+//! E57, or LAS and LAZ extra bytes; each a unit vector, else an error naming the file and the
+//! point; then no normal is estimated and only the spacing sample is searched), or 16-nearest-
 //! neighbour estimates oriented by Hoppe's spanning tree (`cloud::orient`) when it has none; the leaf radius
 //! [`LEAF_RADIUS_SPACINGS`] density spacings (the `lod` experiment's `REF_RADIUS` is this)
 //! (`cloud::spacing::density_spacing`, k = 8, 20,000 points, seed 1); the file's colours when
 //! it has them (the experiment paints its own texture instead, which a file build cannot know).
 //!
-//! Input: LAS and LAZ are streamed chunk by chunk (`cloud::io::las::LasStream`), the next batch
-//! decoded on a thread of its own while the preparation writes the current one
-//! (`read_ahead`); PLY, E57 and
-//! the other formats are read whole first (their readers are not streamed), so for those the
-//! memory limit covers the build but not the reading.
+//! Input ([`input`]): LAS and LAZ are streamed chunk by chunk (`cloud::io::las::LasStream`), the
+//! next batch decoded on a thread of its own while the preparation writes the current one
+//! (`read_ahead`); PLY, E57 and the other formats are read whole first (their readers are not
+//! streamed), so for those the memory limit covers the build but not the reading.
 
 use std::path::Path;
 use std::time::Instant;
 
 use anyhow::{Context, Result, bail};
-use cloud::glam::{DVec3, Vec3};
+use cloud::glam::DVec3;
 use cloud::ooc::{Normals, Point, Radius};
 
 use crate::rss::peak_rss;
 
+pub mod input;
 mod read_ahead;
 
 /// The density-spacing rule of the `lod` experiment.
@@ -70,6 +72,12 @@ pub struct Built {
     pub scratch_peak_bytes: u64,
     /// Wall-clock seconds of each stage, in the order they began ([`Stages`]' keys).
     pub stages: Vec<(&'static str, f64)>,
+    /// Where the normals came from: the file's fields (`cloud::io::Loaded::normal_fields`), or
+    /// `None` when they were estimated.
+    pub given_normals: Option<String>,
+    /// Points whose neighbours were searched (`cloud::ooc::Summary::neighbour_queries`): the
+    /// normals' and the spacing sample's.
+    pub neighbour_queries: u64,
 }
 
 /// The wall-clock time of a build's stages, as its progress reports them: a stage runs from
@@ -174,16 +182,17 @@ pub fn parse_size(text: &str) -> Result<u64> {
     Ok(bytes as u64)
 }
 
-/// Bytes per point read at once from a LAS or LAZ file: the stream's, the decoded positions
-/// and colours, and two batches (the one being prepared and the one read ahead,
-/// `read_ahead`).
-const READ_BYTES_PER_POINT: u64 =
-    cloud::io::las::STREAM_BYTES_PER_POINT + 27 + 2 * size_of::<Point>() as u64;
+/// Bytes per point read at once from a LAS or LAZ file beside the stream's own
+/// (`LasStream::bytes_per_point`): the decoded positions, colours and normals, and two batches
+/// (the one being prepared and the one read ahead, `read_ahead`).
+const READ_BYTES_PER_POINT: u64 = 27 + 12 + 2 * size_of::<Point>() as u64;
 
-/// Points read at once under `memory_limit`: an eighth of the limit (the reading buffers are
-/// gone before the first chunk is loaded), at most [`cloud::io::las::CHUNK`].
-fn read_chunk(memory_limit: u64) -> u64 {
-    (memory_limit / 8 / READ_BYTES_PER_POINT).clamp(1 << 14, cloud::io::las::CHUNK)
+/// Points read at once under `memory_limit` from a stream of `stream_bytes_per_point`: an
+/// eighth of the limit (the reading buffers are gone before the first chunk is loaded), at
+/// most [`cloud::io::las::CHUNK`].
+fn read_chunk(memory_limit: u64, stream_bytes_per_point: u64) -> u64 {
+    (memory_limit / 8 / (READ_BYTES_PER_POINT + stream_bytes_per_point))
+        .clamp(1 << 14, cloud::io::las::CHUNK)
 }
 
 /// The options of the `lod` experiment's preparation for a cloud with or without normals,
@@ -282,7 +291,6 @@ fn build_unnamed(
         );
     }
     let start = Instant::now();
-    let is_las = cloud::io::Format::of_path(cloud_path) == Some(cloud::io::Format::Las);
     let bar = progress.then(|| crate::progress::bar(0, "reading"));
     let clock = std::cell::RefCell::new(Stages::start("read"));
     let set = |(key, msg): (&'static str, &'static str), count: u64| {
@@ -296,47 +304,17 @@ fn build_unnamed(
     };
     // LAS and LAZ are decoded on a thread of their own, a batch ahead of the preparation.
     let built = std::thread::scope(|scope| -> Result<Built> {
-        let mut ahead = None;
-        let mut loaded = None;
-        let (has_normals, colors, grid) = if is_las {
-            let (a, info) =
-                read_ahead::ReadAhead::open(scope, cloud_path, read_chunk(memory_limit))?;
-            if let Some(b) = &bar {
-                b.set_length(info.announced);
-            }
-            ahead = Some(a);
-            // A LAS file's positions are integers of its grid: the scratch keeps those.
-            (false, info.with_color, Some(info.grid))
-        } else {
-            let c = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?.cloud;
-            if let Some(b) = &bar {
-                b.set_length(c.len() as u64);
-            }
-            let flags = (c.normals.is_some(), c.colors.is_some(), None);
-            loaded = Some(c);
-            flags
+        let (mut input, info) = input::Input::open(scope, cloud_path, memory_limit)?;
+        if let Some(b) = &bar {
+            b.set_length(info.points);
+        }
+        let (has_normals, colors) = (info.normals.is_some(), info.colors);
+        let records = cloud::ooc::Records {
+            grid: info.grid,
+            colors,
         };
-        let records = cloud::ooc::Records { grid, colors };
-        let mut at = 0usize;
         let mut source = |batch: &mut Vec<Point>| -> Result<bool, cloud::ooc::error::Error> {
-            if let Some(a) = ahead.as_mut() {
-                a.next(batch)
-            } else if let Some(c) = loaded.as_ref() {
-                let end = (at + (1 << 16)).min(c.len());
-                batch.extend((at..end).map(|i| Point {
-                    position: c.positions[i],
-                    normal: c.normals.as_ref().map_or(Vec3::ZERO, |n| n[i]),
-                    color: c.colors.as_ref().map_or([0; 3], |k| k[i]),
-                }));
-                at = end;
-                let more = at < c.len();
-                if !more {
-                    loaded = None;
-                }
-                Ok(more)
-            } else {
-                Ok(false)
-            }
+            input.next(batch)
         };
         let built = if method == "spt" {
             let opts = prepare_options(
@@ -348,7 +326,6 @@ fn build_unnamed(
             let (prepared, summary) = cloud::ooc::prepare(&mut source, &opts, out, &mut |s, n| {
                 set(prepare_stage(s), n)
             })?;
-            drop(loaded.take());
             // A whole cloud's preparation left no scratch files: its numbers add to the build's;
             // a chunked one's count with the build's own (`spt::ooc::build_prepared`).
             let (prepared_bytes, prepared_peak) = match &prepared {
@@ -391,6 +368,8 @@ fn build_unnamed(
                 scratch_bytes: built.scratch_bytes + prepared_bytes,
                 scratch_peak_bytes: built.scratch_peak_bytes.max(prepared_peak),
                 stages: Vec::new(),
+                given_normals: info.normals.clone(),
+                neighbour_queries: summary.neighbour_queries,
             }
         } else {
             let opts = qsplat_options(
@@ -428,6 +407,8 @@ fn build_unnamed(
                 scratch_bytes: summary.scratch_bytes,
                 scratch_peak_bytes: summary.scratch_peak_bytes,
                 stages: Vec::new(),
+                given_normals: info.normals.clone(),
+                neighbour_queries: summary.neighbour_queries,
             }
         };
         Ok(built)
@@ -460,27 +441,27 @@ fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Resul
     let mut clock = Stages::start("read");
     let loaded = cloud::io::read_with(cloud_path, &cloud::io::ReadOptions::default())?;
     clock.at("build");
+    let given_normals = loaded.normal_fields;
     let c = loaded.cloud;
     let n = c.len() as u64;
     let positions: Vec<DVec3> = c.positions;
+    let prepare = prepare_options(
+        u64::MAX,
+        c.normals.is_some(),
+        if method == "spt" {
+            spt::ooc::PREPARE_BYTES_PER_POINT
+        } else {
+            qsplat::ooc::BYTES_PER_POINT
+        },
+        cloud::ooc::Records::default(),
+    );
+    let neighbour_queries = cloud::ooc::in_memory_queries(n, &prepare);
     let radius = if method == "spt" {
-        let opts = prepare_options(
-            u64::MAX,
-            c.normals.is_some(),
-            spt::ooc::PREPARE_BYTES_PER_POINT,
-            cloud::ooc::Records::default(),
-        );
-        let (normals, radius) = cloud::ooc::prepare_in_memory(&positions, c.normals, &opts)?;
+        let (normals, radius) = cloud::ooc::prepare_in_memory(&positions, c.normals, &prepare)?;
         let spt = spt::ooc::in_memory(positions, normals, c.colors, 2.0 * radius)?;
         spt::file::write(&spt, out)?;
         radius
     } else {
-        let prepare = prepare_options(
-            u64::MAX,
-            c.normals.is_some(),
-            qsplat::ooc::BYTES_PER_POINT,
-            cloud::ooc::Records::default(),
-        );
         let opts = qsplat_options(&prepare, c.colors.is_some());
         let (tree, radius) = qsplat::ooc::in_memory(positions, c.normals, c.colors, &opts)?;
         qsplat::file::write(&tree, out)?;
@@ -503,6 +484,8 @@ fn build_in_memory_unnamed(cloud_path: &Path, method: &str, out: &Path) -> Resul
         scratch_bytes: 0,
         scratch_peak_bytes: 0,
         stages: clock.finish(),
+        given_normals,
+        neighbour_queries,
     })
 }
 

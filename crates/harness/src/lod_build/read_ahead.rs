@@ -7,8 +7,11 @@
 //! the points [`cloud::io::las::LasStream::next_into`] gives, so the preparation sees the very
 //! same points in the same batches as without reading ahead.
 //!
+//! The points carry the file's normals where its extra bytes give them (`LasStream::normals`,
+//! each checked to be a unit vector as it is decoded), else none.
+//!
 //! Memory: two batches of points (the one being prepared and the one being decoded) besides
-//! the stream's buffers; the consumer hands each batch back once done so the two are reused.
+//! the stream's buffers (its records' extra bytes counted, `LasStream::bytes_per_point`); the consumer hands each batch back once done so the two are reused.
 //! After the last batch the reading thread is joined, so its buffers are gone before the
 //! preparation loads its first chunk.
 
@@ -18,6 +21,7 @@ use std::thread::{Scope, ScopedJoinHandle};
 
 use cloud::glam::Vec3;
 use cloud::io::las::{LasOptions, LasStream};
+use cloud::io::las_extra::ExtraNormals;
 use cloud::ooc::Point;
 use cloud::ooc::error::Error;
 
@@ -32,6 +36,8 @@ pub(super) struct Info {
     pub with_color: bool,
     /// The grid every position lies on (`LasStream::grid`).
     pub grid: cloud::ooc::Grid,
+    /// The normals the file's extra bytes give, if any (`LasStream::normals`).
+    pub normals: Option<ExtraNormals>,
 }
 
 /// The consumer's end of a stream read ahead on a scoped thread.
@@ -43,12 +49,13 @@ pub(super) struct ReadAhead<'scope> {
 
 impl<'scope> ReadAhead<'scope> {
     /// Opens `path` on a thread of `scope` (the `las` crate's reader stays on the thread that
-    /// opened it) and decodes it there `chunk` points a batch, colours kept where the file
-    /// has them; returns once the file's header and chunk table are checked.
+    /// opened it) and decodes it there in batches that `memory_limit` allows
+    /// (`super::read_chunk`), colours and normals kept where the file has them; returns once
+    /// the file's header and chunk table are checked.
     pub(super) fn open<'env>(
         scope: &'scope Scope<'scope, 'env>,
         path: &'env Path,
-        chunk: u64,
+        memory_limit: u64,
     ) -> Result<(Self, Info), cloud::ReadError> {
         let (info_tx, info_rx) = sync_channel(1);
         // A rendezvous: the thread holds at most the one batch it has decoded.
@@ -56,7 +63,10 @@ impl<'scope> ReadAhead<'scope> {
         let (spent, spent_rx) = channel();
         let thread = scope.spawn(move || {
             let stream = match LasStream::open(path, &LasOptions::default()) {
-                Ok(s) => s.with_chunk(chunk),
+                Ok(s) => {
+                    let chunk = super::read_chunk(memory_limit, s.bytes_per_point());
+                    s.with_chunk(chunk)
+                }
                 Err(e) => {
                     let _ = info_tx.send(Err(e));
                     return;
@@ -66,10 +76,11 @@ impl<'scope> ReadAhead<'scope> {
                 announced: stream.announced,
                 with_color: stream.with_color,
                 grid: stream.grid(),
+                normals: stream.normals.clone(),
             };
-            let colors = info.with_color;
+            let (colors, normals) = (info.with_color, info.normals.is_some());
             if info_tx.send(Ok(info)).is_ok() {
-                produce(stream, colors, &tx, &spent_rx);
+                produce(stream, colors, normals, &tx, &spent_rx);
             }
         });
         let mut ahead = ReadAhead {
@@ -137,11 +148,13 @@ impl<'scope> ReadAhead<'scope> {
 fn produce(
     mut stream: LasStream,
     colors: bool,
+    normals: bool,
     tx: &SyncSender<Batch>,
     spent: &Receiver<Vec<Point>>,
 ) {
     let mut chunk = cloud::PointCloud {
         colors: colors.then(Vec::new),
+        normals: normals.then(Vec::new),
         ..cloud::PointCloud::default()
     };
     let mut batch = Vec::new();
@@ -150,11 +163,14 @@ fn produce(
         if let Some(c) = chunk.colors.as_mut() {
             c.clear();
         }
+        if let Some(n) = chunk.normals.as_mut() {
+            n.clear();
+        }
         let got = stream.next_into(&mut chunk).map(|more| {
             batch.clear();
             batch.extend(chunk.positions.iter().enumerate().map(|(i, &p)| Point {
                 position: p,
-                normal: Vec3::ZERO,
+                normal: chunk.normals.as_ref().map_or(Vec3::ZERO, |n| n[i]),
                 color: chunk.colors.as_ref().map_or([0; 3], |c| c[i]),
             }));
             (std::mem::take(&mut batch), more)

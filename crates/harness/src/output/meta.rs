@@ -51,6 +51,12 @@ pub struct RunMeta {
     /// date and seconds).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub shards: Vec<RunMeta>,
+    /// Every file the run wrote into its folder (relative, `/`-separated), `metadata.json`
+    /// aside: what marks them as pointsight's, so that a folder holding anything else is never
+    /// replaced (`output::folder`). Written last ([`super::folder::seal`]); absent in the
+    /// metadata of a run that has not finished writing, and of older versions.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub files: Option<Vec<String>>,
 }
 
 impl RunMeta {
@@ -80,6 +86,7 @@ impl RunMeta {
             seconds: 0.0,
             shard: None,
             shards: Vec::new(),
+            files: None,
         }
     }
 

@@ -5,6 +5,7 @@
 //! interrupted run leaves the previous version or the new one, never half a file.
 
 pub mod figure;
+pub mod folder;
 pub mod meta;
 pub mod render;
 pub mod report;

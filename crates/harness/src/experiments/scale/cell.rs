@@ -148,12 +148,18 @@ fn ooc_cell(
         // A sample's weights sum to 1 only up to rounding: pad the box by a few ulps of its size.
         let pad = cloud::glam::DVec3::splat((bbox.max - bbox.min).max_element() * 1e-9 + 1e-12);
         let mut left = n;
-        cloud::io::las::write_las_streamed(&input, bbox.min - pad, bbox.max + pad, |batch| {
-            let k = left.min(1 << 16);
-            sampler.positions_into(k as usize, batch);
-            left -= k;
-            left > 0
-        })?;
+        cloud::io::las::write_las_streamed(
+            &input,
+            bbox.min - pad,
+            bbox.max + pad,
+            false,
+            |batch| {
+                let k = left.min(1 << 16);
+                sampler.positions_into(k as usize, &mut batch.positions);
+                left -= k;
+                left > 0
+            },
+        )?;
         let prepare_seconds = ready();
         if method == super::copc::COPC_CONVERTER {
             return super::copc::build_cell(&input, &dir, n, prepare_seconds, OOC_LIMIT);
