@@ -619,4 +619,56 @@ proptest! {
             check_packets("drawn spheres", &points, None, &rays, radius);
         }
     }
+
+    /// Whole frames of the caster (tiles, the cloud's window, normals in slot order) on drawn
+    /// clouds of every kind, from a pinhole or orthographic camera near or far: every pixel
+    /// the brute force's, spheres and discs.
+    #[test]
+    fn drawn_cloud_frames_equal_brute_force(
+        kind in 0u8..5,
+        n in 1usize..3000,
+        seed in 0u64..1000,
+        scale in prop_oneof![Just(1.0), 1e-2f64..1e2],
+        shift in proptest::array::uniform3(prop_oneof![Just(0.0), -1e3f64..1e3]),
+        radius_frac in 1e-3f64..0.1,
+        distance in 1.5f64..20.0,
+        orthographic in any::<bool>(),
+        discs in any::<bool>(),
+    ) {
+        let points = drawn_cloud(kind, n, seed, scale, shift);
+        let (lo, hi) = bounds(&points);
+        let centre = (lo + hi) * 0.5;
+        let size = (hi - lo).max_element().max(1e-3 * scale);
+        let mut r = rng(seed + 7);
+        let towards = DVec3::new(r() - 0.5, r() - 0.5, r() - 0.5).normalize_or(DVec3::Z);
+        let eye = centre + towards * distance * size;
+        let model = if orthographic {
+            Model::Orthographic { view_width: 2.0 * size, view_height: 1.5 * size }
+        } else {
+            Model::pinhole_fov(40.0, 29, 22).unwrap()
+        };
+        let up = if towards.cross(DVec3::Z).length() > 0.1 { DVec3::Z } else { DVec3::X };
+        let cam = Camera::look_at(eye, centre, up, model, 29, 22).unwrap();
+        let list = RayList::new(&cam).unwrap();
+        let radius = radius_frac * size;
+        let unit = random_normals(points.len(), &mut r);
+        let caster = RayCaster::new(&points).unwrap().with_normals(&unit.iter().map(|v| DVec3::from_array(*v)).collect::<Vec<_>>()).unwrap();
+        let params = CastParams {
+            radius,
+            traversal: Traversal::Exact,
+            primitive: if discs { Primitive::Disc } else { Primitive::Sphere },
+        };
+        let frame = caster.cast(&list, &cam, &params).unwrap();
+        for k in 0..list.len() {
+            let (o, d) = list.aim(&cam, k);
+            let expected = if discs {
+                cast_brute_disc(&points, &unit, o, d, radius)
+            } else {
+                cast_brute(&points, o, d, radius)
+            }
+            .map_or(NONE, |h| h.1);
+            prop_assert_eq!(frame.pixel_point[k], expected, "pixel {}", k);
+        }
+        prop_assert_eq!(&frame.visible, &visible_set(&frame.pixel_point, points.len()));
+    }
 }
