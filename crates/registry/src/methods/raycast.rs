@@ -173,7 +173,8 @@ struct Prep<'a> {
     radius: f64,
     args: &'a Args,
     rays: Mutex<Option<RayList>>,
-    /// The k-d tree's build (with the normals attached), seconds.
+    /// The caster's build (its hierarchy with the normals attached; with `traversal=seed`, the
+    /// seed's k-d tree too), seconds.
     build_seconds: f64,
 }
 
