@@ -21,7 +21,7 @@ use crate::visibility::{
 /// The card.
 pub static CARD: Card = Card {
     name: "raycast",
-    summary: "ray-cast point filtering (Jensen 2012): one ray per pixel through a point k-d tree (seed 001)",
+    summary: "ray-cast point filtering (Jensen 2012): one ray per pixel through a point hierarchy (a bucketed BVH cast in 8x8 packets, or the seed's k-d tree; seed 001)",
     params: &[RADIUS, RADIUS_FACTOR, WIDTH, HEIGHT, TRAVERSAL, PRIMITIVE],
     family: Family::Name,
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
