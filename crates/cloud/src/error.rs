@@ -74,7 +74,7 @@ pub enum ReadErrorKind {
         value: f64,
     },
     /// A normal the file gives is not a unit vector (NaN, infinite, zero or not normalised:
-    /// [`crate::normals::is_given_normal`]).
+    /// `normals::is_given_normal`).
     #[error(
         "point {index} has the normal ({}, {}, {}) of length {}: a normal a file gives must be \
          finite and of length 1 (within {})",
@@ -82,13 +82,15 @@ pub enum ReadErrorKind {
         normal[1],
         normal[2],
         glam::Vec3::from_array(*normal).length(),
-        crate::normals::GIVEN_LENGTH_TOLERANCE
+        tolerance
     )]
     BadNormal {
         /// 0-based index of the point.
         index: usize,
         /// The normal.
         normal: [f32; 3],
+        /// How far from 1 its length may be (`normals::GIVEN_LENGTH_TOLERANCE`).
+        tolerance: f32,
     },
     /// A face refers to a vertex that does not exist.
     #[error("face {face} refers to vertex {vertex} but there are only {n_vertices} vertices")]

@@ -74,6 +74,7 @@ fn parse_xyz<R: BufRead>(mut reader: R) -> Result<PointCloud, (Location, ReadErr
                     ReadErrorKind::BadNormal {
                         index,
                         normal: n.to_array(),
+                        tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
                     },
                 ));
             }
