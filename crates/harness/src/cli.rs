@@ -215,6 +215,12 @@ pub enum Command {
         /// E57: read only this scan.
         #[arg(long)]
         scan: Option<usize>,
+        /// XYZ: what each column holds, e.g. `x,y,z,r,g,b` or `x,y,z,nx,ny,nz` (`_` for a
+        /// column not read). Without it, a header line (`# x y z nx ny nz`, `//X,Y,Z,R,G,B`)
+        /// decides; else six columns are normals only when every triple has unit length, colours
+        /// only when all are integers 0-255, and refused otherwise.
+        #[arg(long, value_parser = parse_columns)]
+        columns: Option<cloud::io::xyz::Columns>,
     },
     /// Run an experiment: results.csv, plots and tables into its output folder.
     ///
@@ -342,6 +348,12 @@ pub struct FileArgs {
     /// E57: merge every scan into one cloud (each point keeps its scan).
     #[arg(long)]
     pub merge_scans: bool,
+    /// XYZ: what each column holds, e.g. `x,y,z,r,g,b` or `x,y,z,nx,ny,nz` (`_` for a
+    /// column not read). Without it, a header line (`# x y z nx ny nz`, `//X,Y,Z,R,G,B`)
+    /// decides; else six columns are normals only when every triple has unit length, colours
+    /// only when all are integers 0-255, and refused otherwise.
+    #[arg(long, value_parser = parse_columns)]
+    pub columns: Option<cloud::io::xyz::Columns>,
     /// Off-surface tolerance for scoring (world units; default: one density spacing).
     #[arg(long)]
     pub surface_tolerance: Option<f64>,
@@ -372,6 +384,11 @@ pub struct CameraArgs {
     /// of the dataset's own views.
     #[arg(long)]
     pub views: Option<PathBuf>,
+}
+
+/// `--columns`: XYZ column names (`cloud::io::xyz::Columns`).
+fn parse_columns(text: &str) -> Result<cloud::io::xyz::Columns, String> {
+    text.parse()
 }
 
 /// Output format of `views`.

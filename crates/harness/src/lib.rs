@@ -84,7 +84,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             format,
             classes,
             scan,
-        } => commands::data::inspect(&file, format, classes, scan)?,
+            columns,
+        } => commands::data::inspect(&file, format, classes, scan, columns)?,
         Command::Views {
             dataset,
             out,

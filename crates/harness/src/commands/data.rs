@@ -229,11 +229,13 @@ pub fn inspect(
     format: Option<String>,
     classes: Option<Vec<u8>>,
     scan: Option<usize>,
+    columns: Option<cloud::io::xyz::Columns>,
 ) -> Result<()> {
     let options = cloud::io::ReadOptions {
         format: super::parse_format(format)?,
         classes,
         scan,
+        columns,
     };
     let start = std::time::Instant::now();
     let loaded = cloud::io::read_with(file, &options)?;

@@ -61,6 +61,7 @@ pub fn source_from(
             format: super::parse_format(f.format)?,
             classes: f.classes,
             scan: f.scan,
+            columns: f.columns,
         },
         merge_scans: f.merge_scans,
         surface_tolerance: f.surface_tolerance,
