@@ -123,6 +123,11 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "off-surface points: distances to the mesh",
     ),
     (
+        "datasets/fit.rs",
+        "truth",
+        "the mesh check: each point's distance to a user's mesh",
+    ),
+    (
         "datasets/builtin.rs",
         "truth",
         "the scanned datasets: truth::scan's simulated scanners",

@@ -224,6 +224,7 @@ fn visible(root: &Path, method: &str) -> usize {
             read: cloud::io::ReadOptions::default(),
             merge_scans: false,
             surface_tolerance: None,
+            allow_off_surface: false,
             camera: harness::visible::CameraFlags::default(),
             views: None,
         },

@@ -357,6 +357,12 @@ pub struct FileArgs {
     /// Off-surface tolerance for scoring (world units; default: one density spacing).
     #[arg(long)]
     pub surface_tolerance: Option<f64>,
+    /// Score against a mesh that does not fit the points anyway: without it, a dataset whose
+    /// points lie more than 1 % farther than 3 density spacings from its mesh is refused
+    /// (scale, offset, units, another mesh); with it, its rows are marked
+    /// `mesh_fit=off-surface`.
+    #[arg(long)]
+    pub allow_off_surface: bool,
 }
 
 /// The cameras (`visible`, `view`, `run`): one from flags, or a views file.

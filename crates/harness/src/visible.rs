@@ -113,6 +113,9 @@ pub struct Source {
     pub merge_scans: bool,
     /// Off-surface tolerance for scoring.
     pub surface_tolerance: Option<f64>,
+    /// Score against a mesh that does not fit the points anyway (`datasets::fit`), whatever
+    /// dataset this source names.
+    pub allow_off_surface: bool,
     /// A camera from flags.
     pub camera: CameraFlags,
     /// A views file replacing the dataset's views.
@@ -134,6 +137,7 @@ impl Source {
             dataset: Some(name.to_owned()),
             camera: self.camera.clone(),
             views: self.views.clone(),
+            allow_off_surface: self.allow_off_surface,
             ..Self::default()
         }
     }
@@ -209,7 +213,8 @@ fn indices_text(visible: &[u32]) -> String {
 }
 
 /// The score line: the reference's count, precision, recall, F1 (off-surface points left out
-/// and counted).
+/// and counted), and whether the mesh fits the points (`mesh_fit=ok`, or `off-surface` when
+/// `--allow-off-surface` let a mesh that does not fit be used: `datasets::fit`).
 fn score_line(
     reference: &truth::Reference,
     ds: &Dataset,
@@ -235,7 +240,7 @@ fn score_line(
     });
     Ok(format!(
         "reference_visible={} off_surface={off} off_surface_visible={off_visible} \
-         surface_tolerance={tolerance:.6} precision={:.4} recall={:.4} f1={:.4}",
+         surface_tolerance={tolerance:.6} precision={:.4} recall={:.4} f1={:.4} mesh_fit={}",
         truth
             .iter()
             .enumerate()
@@ -243,7 +248,8 @@ fn score_line(
             .count(),
         s.precision(),
         s.recall(),
-        s.f1()
+        s.f1(),
+        ds.mesh_fit_mark()
     ))
 }
 
@@ -275,6 +281,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
                 views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
                 surface_tolerance: src.surface_tolerance,
                 degrade: (Vec::new(), 1),
+                allow_off_surface: src.allow_off_surface,
             })?
         }
         (None, Some(name)) => {
@@ -299,6 +306,24 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
         );
     }
     ds.check_views()?;
+    if !ds.files.is_empty() {
+        // A user's mesh, checked before it becomes a ground truth; built-in datasets are
+        // samples of their own meshes.
+        let allow = src.allow_off_surface || ds.allow_off_surface;
+        let mesh = src
+            .mesh
+            .clone()
+            .or_else(|| datasets::manifest_mesh(&ds.name));
+        datasets::fit::check(&mut ds, allow, mesh.as_deref())?;
+        if let Some(fit) = ds.mesh_fit.as_ref().filter(|f| f.allowed) {
+            crate::progress::warn_once(format!(
+                "warning: dataset {}: the mesh does not fit the points: {}; scored against it \
+                 anyway (--allow-off-surface): rows marked mesh_fit=off-surface",
+                ds.name,
+                fit.text()
+            ));
+        }
+    }
     Ok(ds)
 }
 

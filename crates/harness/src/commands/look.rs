@@ -65,6 +65,7 @@ pub fn source_from(
         },
         merge_scans: f.merge_scans,
         surface_tolerance: f.surface_tolerance,
+        allow_off_surface: f.allow_off_surface,
         camera: visible::CameraFlags {
             eye: c.eye,
             target: c.target,

@@ -14,6 +14,8 @@
 //! columns = "x,y,z,r,g,b"           # optional, XYZ: what each column holds (cloud::io::xyz)
 //! views = "views.jsonl"             # optional: a views file, a COLMAP model, or "scanners"
 //! surface_tolerance = 0.002         # optional: off-surface distance (default: 1 spacing)
+//! allow_off_surface = true          # optional: score against a mesh that does not fit the
+//!                                   # points (refused by default: datasets::fit)
 //!
 //! [datasets.my-bunny-50000]
 //! mesh = "bunny.obj"
@@ -133,6 +135,9 @@ pub struct Entry {
     pub degrade: Vec<String>,
     /// Seed of the degradations (default 1).
     pub degrade_seed: Option<u64>,
+    /// Score against a mesh that does not fit the points anyway (`super::fit`).
+    #[serde(default)]
+    pub allow_off_surface: bool,
 }
 
 impl Manifest {
@@ -341,6 +346,7 @@ pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDatas
         views,
         surface_tolerance: e.surface_tolerance,
         degrade,
+        allow_off_surface: e.allow_off_surface,
     })
 }
 

@@ -217,6 +217,7 @@ mod tests {
             samples: 1,
             status: "ok".into(),
             made_for: "points".into(),
+            mesh_fit: String::new(),
         }
     }
 

@@ -538,7 +538,19 @@ pub(super) fn render(
         ));
     }
     let mut off_surface = String::new();
+    let mut mesh_warning = String::new();
     for d in &datasets {
+        if rows
+            .iter()
+            .any(|r| r.dataset == *d && r.mesh_fit == "off-surface")
+        {
+            mesh_warning.push_str(&format!(
+                "- **{d}: scored against a mesh that does not fit its points** \
+                 (`--allow-off-surface`; the share far from it, the median distance and the \
+                 likely cause are in metadata.json's `off_surface`): its rows are marked \
+                 `mesh_fit=off-surface`, and their scores are not a ground truth's.\n\n"
+            ));
+        }
         let flagged: usize = rows
             .iter()
             .filter(|r| r.dataset == *d)
@@ -742,7 +754,7 @@ pub(super) fn render(
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
-         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{renders}### Tuned setting per method\n\n{protocol_md}{}\n\
+         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{mesh_warning}{renders}### Tuned setting per method\n\n{protocol_md}{}\n\
          {versus}### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the oracle's F1, the best fixed \
