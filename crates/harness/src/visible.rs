@@ -306,6 +306,10 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
         );
     }
     ds.check_views()?;
+    // Views most methods were not made for, said once (a dataset loaded again warns no more).
+    for line in datasets::eyes::find(&ds)?.lines(&ds.name, ds.views.len()) {
+        crate::progress::warn_once(line);
+    }
     if !ds.files.is_empty() {
         // A user's mesh, checked before it becomes a ground truth; built-in datasets are
         // samples of their own meshes.

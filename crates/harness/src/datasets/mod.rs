@@ -16,6 +16,7 @@
 
 pub mod builtin;
 pub mod degraded;
+pub mod eyes;
 pub mod files;
 pub mod fit;
 pub mod lod_file;
