@@ -87,7 +87,8 @@ pub enum Command {
     ///
     /// One view (`--view K`, the dataset's views): write the visible indices, ascending, one per
     /// line, to the file `--out`; the last line on stdout is `method=M points=N visible=K
-    /// seconds=T` (T: the method's compute time).
+    /// seconds=T` (T: the method's compute time). With `--out -` the indices are standard
+    /// output and those lines go to standard error.
     ///
     /// Many views (`--views FILE`, or `--view all` or a list `K1,K2,...`): `--out` is a folder
     /// that gets `view-K.txt` per view; one line `view=K method=M points=N visible=V
@@ -107,7 +108,8 @@ pub enum Command {
         /// Method parameter, KEY=VALUE (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
-        /// Output file for the indices (one view) or folder (many views).
+        /// Output file for the indices (one view) or folder (many views). `-`: the indices on
+        /// standard output (one view), the other lines on standard error.
         #[arg(long)]
         out: PathBuf,
         /// Also score the visible set against the reference (printed before each contract line).

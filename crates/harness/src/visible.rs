@@ -203,6 +203,11 @@ pub fn parse_views(spec: &str, n: usize) -> Result<Vec<usize>> {
     Ok(out)
 }
 
+/// `--out -`: standard output.
+fn to_stdout(out: &Path) -> bool {
+    out.as_os_str() == "-"
+}
+
 fn indices_text(visible: &[u32]) -> String {
     let mut text = String::with_capacity(visible.len() * 8);
     for i in visible {
@@ -370,27 +375,49 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             .map_err(anyhow::Error::msg)?;
         // An external program's timing is its own reported compute time (`registry::kernel`).
         let seconds = timing.median;
-        output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
-        println!(
+        let mut lines = vec![format!(
             "prepare_seconds={:.6}{} rays={}",
             preparation.seconds,
             build_text(&preparation),
             output.rays
-        );
+        )];
         if let Some(r) = &reference {
-            println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
+            lines.push(score_line(r, &ds, &camera, &output, off_flags)?);
         }
-        println!("{}", timing_line(&timing));
-        println!("setting={}", preparation.setting.label());
-        println!(
+        lines.push(timing_line(&timing));
+        lines.push(format!("setting={}", preparation.setting.label()));
+        lines.push(format!(
             "method={} points={} visible={} seconds={seconds:.6}",
             method.name,
             ds.cloud.len(),
             output.visible.len()
-        );
+        ));
+        if to_stdout(&req.out) {
+            // The indices are standard output; the lines that describe them go to standard
+            // error, so that a pipe reads indices alone.
+            use std::io::Write as _;
+            std::io::stdout()
+                .lock()
+                .write_all(indices_text(&output.visible).as_bytes())
+                .context("cannot write the indices to standard output")?;
+            for line in lines {
+                eprintln!("{line}");
+            }
+        } else {
+            output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
+            for line in lines {
+                println!("{line}");
+            }
+        }
         return Ok(());
     }
 
+    if to_stdout(&req.out) {
+        bail!(
+            "--out - writes one view's indices to standard output; many views need a folder \
+             (--out DIR: view-K.txt each)"
+        );
+    }
     let chosen = parse_views(&req.view, ds.views.len())?;
     let views: Vec<kernel::View> = chosen
         .iter()
