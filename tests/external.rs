@@ -144,6 +144,13 @@ fn broken_programs_are_errors_not_crashes() {
         &ANSWER.replace("ANSWER", "{'error': 'no GPU here'}"),
         "",
     );
+    // A check that leaves a mark: whether a command ran it.
+    method(
+        d,
+        "marked",
+        "",
+        "check = [\"sh\", \"-c\", \"touch checked\"]\n",
+    );
     method(
         d,
         "missing",
@@ -201,9 +208,21 @@ fn broken_programs_are_errors_not_crashes() {
         ],
     );
     assert!(String::from_utf8_lossy(&run.stderr).contains("boom: segfault"));
-    // The listing says what is not installed and how to install it.
+    // The listing runs no check (it takes no time); `--check` says what is not installed and
+    // how to install it.
     let listing = String::from_utf8_lossy(&pointsight(d, &["methods"]).stdout).into_owned();
+    assert!(
+        !listing.contains("not installed") && listing.contains("methods --check"),
+        "{listing}"
+    );
+    assert!(
+        !d.join("marked/checked").exists(),
+        "the listing ran a check"
+    );
+    let listing =
+        String::from_utf8_lossy(&pointsight(d, &["methods", "--check"]).stdout).into_owned();
     assert!(listing.contains("not installed") && listing.contains("pip install nothing"));
+    assert!(d.join("marked/checked").exists());
     // A good answer: sorted, and the program's own seconds are the reported time.
     let run = pointsight(
         d,

@@ -52,8 +52,15 @@ pub enum Command {
     /// One line per dataset: name, number of points, availability, role (tuning: settings are
     /// chosen on it; evaluation: never; own: a manifest's), description.
     Datasets,
-    /// The visibility methods and their --set parameters.
-    Methods,
+    /// The visibility and LOD methods and their --set parameters. An external method's
+    /// program is checked (is it installed here?) only with `--check`, which runs every
+    /// method's `check` command at once; without it the listing takes no time.
+    Methods {
+        /// Run every external method's check and say which are not installed, and how to
+        /// install them.
+        #[arg(long)]
+        check: bool,
+    },
     /// Write a dataset's points: binary little-endian PLY (x y z, double), or LAS/LAZ when the
     /// output ends in .las or .laz (coordinates quantised; the scale is printed).
     Export {

@@ -140,7 +140,7 @@ pub fn outputs_and_inputs(
         Command::Fetch
         | Command::Paths
         | Command::Datasets
-        | Command::Methods
+        | Command::Methods { .. }
         | Command::ScaleCell { .. }
         | Command::Inspect { .. }
         | Command::Sweeps

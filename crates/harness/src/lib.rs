@@ -71,7 +71,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Fetch => commands::data::fetch(&data_dir)?,
         Command::Paths => commands::data::paths(&data, &methods, clone.as_deref()),
         Command::Datasets => commands::data::list_datasets(&data_dir, cli.manifest.as_deref())?,
-        Command::Methods => commands::catalogue::list_methods()?,
+        Command::Methods { check } => commands::catalogue::list_methods(check)?,
         Command::Sweeps => commands::catalogue::sweeps(),
         Command::Clean { folders, remove } => guard::clean_command(folders, remove)?,
         Command::Export {
@@ -192,7 +192,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
 fn uses_methods(command: &Command) -> bool {
     matches!(
         command,
-        Command::Methods
+        Command::Methods { .. }
             | Command::Visible { .. }
             | Command::View { .. }
             | Command::Run { .. }
