@@ -49,6 +49,15 @@ pub fn paths(data: &paths::Place, methods: &paths::Place, clone: Option<&Path>) 
         "clone={}",
         clone.map_or("-".into(), |c| c.display().to_string())
     );
+    // The docs' example files: the clone's, else the copy installed beside the binary.
+    let examples = clone
+        .map(|c| c.join("examples"))
+        .or_else(|| paths::installed_share().map(|s| s.join("examples")))
+        .filter(|e| e.is_dir());
+    println!(
+        "examples={}",
+        examples.map_or("-".into(), |e| e.display().to_string())
+    );
     for (file, var) in [
         ("viewer.js", crate::view::page::BUNDLE_VAR),
         ("results.js", "POINTSIGHT_RESULTS_JS"),
