@@ -53,6 +53,7 @@ use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
 use super::{Context, Experiment};
 
+mod auto_rules;
 mod papers;
 mod peers;
 mod pixel_table;
