@@ -8,6 +8,11 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
+/// How far from 1 the length of a normal a file gives may be: a given normal is used as it
+/// is, so one that is not a unit vector (NaN, zero, or not normalised) is refused
+/// ([`crate::normals::is_given_normal`]).
+pub const GIVEN_LENGTH_TOLERANCE: f32 = 1e-3;
+
 /// Where in a file a problem was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Location {
@@ -82,7 +87,7 @@ pub enum ReadErrorKind {
         normal[1],
         normal[2],
         glam::Vec3::from_array(*normal).length(),
-        crate::normals::GIVEN_LENGTH_TOLERANCE
+        GIVEN_LENGTH_TOLERANCE
     )]
     BadNormal {
         /// 0-based index of the point.

@@ -102,26 +102,6 @@ impl TriMesh {
     pub fn bbox(&self) -> Option<Aabb> {
         Aabb::from_points(&self.vertices)
     }
-
-    /// The generalised winding number of the surface around `p` (Jacobson et al. 2013): the
-    /// signed solid angle of every triangle seen from `p` (Van Oosterom and Strackee's formula)
-    /// over 4π. For a closed, consistently oriented mesh it is 1 inside and 0 outside (−1
-    /// inside when the triangles face in); an open mesh gives values between, a plane seen
-    /// from one side at most 1/2. A point on the surface gives an undefined value.
-    pub fn winding_number(&self, p: DVec3) -> f64 {
-        use rayon::prelude::*;
-        let sum: f64 = (0..self.triangles.len())
-            .into_par_iter()
-            .map(|t| {
-                let [a, b, c] = self.corners(t).map(|v| v - p);
-                let (la, lb, lc) = (a.length(), b.length(), c.length());
-                let numerator = a.dot(b.cross(c));
-                let denominator = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
-                2.0 * numerator.atan2(denominator)
-            })
-            .sum();
-        sum / (4.0 * std::f64::consts::PI)
-    }
 }
 
 #[cfg(test)]
@@ -139,20 +119,6 @@ mod tests {
             vec![[0, 1, 2], [0, 2, 3]],
         )
         .unwrap()
-    }
-
-    #[test]
-    fn the_winding_number_is_one_inside_a_closed_mesh_and_zero_outside() {
-        // A tetrahedron, faces counter-clockwise seen from outside.
-        let v = vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z];
-        let tet = TriMesh::new(v, vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]).unwrap();
-        let inside = tet.winding_number(DVec3::splat(0.1));
-        let outside = tet.winding_number(DVec3::new(2.0, -1.0, 0.5));
-        assert!((inside - 1.0).abs() < 1e-12, "{inside}");
-        assert!(outside.abs() < 1e-12, "{outside}");
-        // An open square seen from one side: under a half.
-        let w = unit_square().winding_number(DVec3::new(0.5, 0.5, 0.01));
-        assert!(w.abs() < 0.5 && w.abs() > 0.45, "{w}");
     }
 
     #[test]

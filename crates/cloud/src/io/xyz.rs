@@ -28,7 +28,6 @@ use super::{open, parse_f64};
 use crate::error::{Location, ReadError, ReadErrorKind};
 use crate::points::PointCloud;
 
-
 /// What one column of an XYZ file holds.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Column {
@@ -268,13 +267,7 @@ fn parse_xyz<R: BufRead>(
                 if cols.has(Column::Normal(0)) {
                     let n = Vec3::from_array(nrm);
                     if !crate::normals::is_given_normal(n) {
-                        return Err((
-                            here,
-                            ReadErrorKind::BadNormal {
-                                index,
-                                normal: nrm,
-                            },
-                        ));
+                        return Err((here, ReadErrorKind::BadNormal { index, normal: nrm }));
                     }
                     normals.push(n);
                 }

@@ -4,10 +4,11 @@
 //!
 //! Two cases, for pinhole cameras (a spherical scanner inside a room is what it is for, and an
 //! orthographic camera has no eye):
-//! - the eye **inside the mesh**: its generalised winding number (`cloud::TriMesh::winding_number`)
-//!   is above [`INSIDE_WINDING`] (1 inside a closed mesh, 0 outside, at most ½ beside an open
-//!   surface). The ground truth then sees the surface from inside; HPR and the robust operator,
-//!   made for an object seen from outside, answer poorly or refuse;
+//! - the eye **inside the mesh**: most of seven rays from it cross the mesh an odd number of
+//!   times (`truth::ExactVisibility::is_inside`: each ray of a closed mesh does; an open surface,
+//!   such as a floor under a ball, leaves most rays even). The ground truth then sees the surface
+//!   from inside; HPR and the robust operator, made for an object seen from outside, answer
+//!   poorly or refuse;
 //! - the eye **among the points**: nearer a point than [`registry::scoring::pixels`]'s footprint
 //!   radius (the ray cast's automatic radius, 1.5 density spacings), the splat a point is drawn
 //!   as. That point then covers the whole image, which a pinhole view of a sampled surface
@@ -17,10 +18,6 @@ use anyhow::Result;
 use cloud::Model;
 
 use super::Dataset;
-
-/// The winding number above which an eye counts as inside the mesh: between the ½ an open
-/// surface can give from one side and the 1 of a closed mesh's inside.
-pub const INSIDE_WINDING: f64 = 0.75;
 
 /// What [`find`] found: the views whose eye is inside the mesh, and those whose eye is among
 /// the points with the nearest point's distance.
@@ -97,10 +94,11 @@ pub fn find(ds: &Dataset) -> Result<Eyes> {
         return Ok(eyes);
     }
     if let Some(mesh) = &ds.mesh {
+        let exact = truth::ExactVisibility::new(mesh)?;
         eyes.inside = pinhole
             .iter()
             .copied()
-            .filter(|&k| mesh.winding_number(ds.views[k].eye).abs() > INSIDE_WINDING)
+            .filter(|&k| exact.is_inside(ds.views[k].eye))
             .collect();
     }
     use rayon::prelude::*;
