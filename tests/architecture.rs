@@ -53,6 +53,7 @@ const LOCAL: &[&str] = &[
     "spt",
     "srn",
     "screenspace",
+    "neuralvis",
     "registry",
     "harness",
     "python",
@@ -68,7 +69,15 @@ fn the_dependency_graph_points_one_way() {
             .cloned()
             .collect()
     };
-    for method in ["raycast", "qsplat", "spt", "srn", "splat", "screenspace"] {
+    for method in [
+        "raycast",
+        "qsplat",
+        "spt",
+        "srn",
+        "splat",
+        "screenspace",
+        "neuralvis",
+    ] {
         assert_eq!(local(method), vec!["cloud".to_owned()], "{method}");
     }
     // The two exceptions: HPR and the robust operator of Mehra et al. both need an exact
@@ -109,7 +118,15 @@ fn the_dependency_graph_points_one_way() {
 /// except where a module measures a crate itself (the paper replications) or needs a crate's
 /// tool that is not a method (exact rescaling, simulated scans, a rendering).
 const METHOD_CRATES: &[&str] = &[
-    "hpr", "hull", "raycast", "qsplat", "spt", "srn", "splat", "truth",
+    "hpr",
+    "hull",
+    "raycast",
+    "qsplat",
+    "spt",
+    "srn",
+    "splat",
+    "truth",
+    "neuralvis",
 ];
 
 /// Every harness module (file under `crates/harness/src/`) that names a method crate, the crate,

@@ -566,9 +566,16 @@ for line in sys.stdin:
         err.contains("9 of the ") && err.contains("views were answered and written to"),
         "{err}"
     );
-    let n = std::fs::read_dir(&out).map_or(0, Iterator::count);
+    let n = std::fs::read_dir(&out).map_or(0, |entries| {
+        entries
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with("view-"))
+            .count()
+    });
     assert!(err.contains("views 9, 10"), "{err}");
     assert_eq!(n, 9, "the answered views are written: {err}");
+    // With the metadata that lists them (the folder is pointsight's).
+    assert!(out.join("metadata.json").is_file());
     for k in 0..9 {
         assert_eq!(
             std::fs::read_to_string(out.join(format!("view-{k}.txt"))).unwrap(),

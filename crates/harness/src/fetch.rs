@@ -1,6 +1,7 @@
 //! `pointsight fetch`: the real meshes, from Debian's `libcgal-demo` package, checksummed.
 //!
-//! The catalogue of those meshes ([`MESH_FILES`]: file, path in the package, SHA-256) is here;
+//! The catalogue of those meshes ([`MESH_FILES`]: file, path in the package, SHA-256) is here,
+//! with the meshes a learned method is trained on ([`TRAINING_MESH_FILES`], fetched apart);
 //! the built-in datasets made of them are [`crate::datasets::builtin`]'s.
 //!
 //! Steps, each skipped when its result is already there (the command is idempotent):
@@ -100,6 +101,63 @@ pub const MESH_FILES: &[MeshFile] = &[
     MANNEQUIN_MESH,
 ];
 
+/// A training mesh of `data/meshes/` in the package, by name and SHA-256.
+macro_rules! training {
+    ($name:literal, $sha256:literal) => {
+        MeshFile {
+            file: concat!($name, ".off"),
+            archive_path: concat!("data/meshes/", $name, ".off"),
+            sha256: $sha256,
+        }
+    };
+}
+
+/// The meshes a learned method may be trained on (the `neuralvis` training's): 36 further meshes
+/// of the same package, none of them a tuning or an evaluation dataset's. `fetch_training`
+/// puts them in `bench-data/training-meshes/`, apart from the benchmark's.
+#[rustfmt::skip]
+pub const TRAINING_MESH_FILES: &[MeshFile] = &[
+    training!("anchor", "5009b3400b73ef199b6ac9a24a27f4f76e1aa7b71d957a50cb6dcbe09868ff3b"),
+    training!("bear", "058f6ce62635e5f86958adea9706a8dca3ebe4fae76a0d32b8318d107d40bda6"),
+    training!("blobby", "ab217f67fefdf8a8e01563d09135f05ab02330064a3c0180570546887d01b7f1"),
+    training!("bones", "004bd26f0029910eb2e2fd38b7ca11ea05dd4182e247c0fb778533b860dd7ab2"),
+    training!("cactus", "333a41cbf5e30f2f675392adb7b0f7fb3f5919b39f15d2ae280830e662247925"),
+    training!("couplingdown", "01fc9017b44a803b1130f8f5d51f0c7d8bbfa27b908f5166c498fe21e57f2284"),
+    training!("cross", "712151027be1e259be1a4049a383ad8884ced0282d4c64e75d0cc4d24e6005ab"),
+    training!("diplodocus", "661fdac29eca4b205e354da112b3cbfd08dcfae07df989234b71421e62521c96"),
+    training!("dragknob", "4411436ff04757c16ad1c08d631c86ef7e968f1e026193e668c66a19951ca10c"),
+    training!("eight", "58fa129fbd64d519034b12c73ecb463ae55832710aa34fddd0504debd044f71d"),
+    training!("elk", "7f1229fd3de0b4fc0884bbbfbd056a57ff0cb0f7afd71b5168a84209cc585abb"),
+    training!("fandisk", "edffb263f037b023757259befd5532fccb48bdc3c35a1da2e11e235a647bd050"),
+    training!("femur", "75d208fabf7a7b134cfcf2171bad68c331e3bff55309ffe38a01a7b31352fbc6"),
+    training!("hand", "cfcf1562726167ca704a091a8651bfd1d72f6eb96b4b2819321f0520721b35c7"),
+    training!("handle", "df86377baeaa1ed1a437710e0364a72af06d3bca21b84a57cd1b46a64f67f054"),
+    training!("head", "75aecfdbf9c0386dd839f5bf0322fb5a889ed7efd31d040f125e383041b4b919"),
+    training!("helmet", "0669ab781a80570cfdd2932b06a7c33f89fd855a9ddb69dc45e50082253a5a32"),
+    training!("horizons", "d46d1272317bf7e1603b6bb42274f06e53c05f5421fc3e122a0e32fa1e11d43b"),
+    training!("joint", "a412da1a4b90a1d018d44e0b06307ee692da4afd255975d2a93945e091098649"),
+    training!("knot1", "13d9d2f3459189630680dad6a3b5528d5cc794967b791580a0e1f6642903d030"),
+    training!("knot2", "6c90e93f1a966abd73847d40909a90c0b2067affdd471a27b50c2d4416142c06"),
+    training!("mech-holes-shark", "2ad3d8fb970b319eb8a32040664c25d4e01370f20ad57f4fde5c63fef3b6cca9"),
+    training!("mushroom", "03768b314714676d9305361c7c124be3b2c991c59fe8c752a49047115b4dfa00"),
+    training!("nefertiti", "d8b13239b988d0262fbc91e88da1d314eeb1b284c327a3fe76089c2b54886ccf"),
+    training!("pinion", "191a8cdfa3807e09d7dffb4bdc94dabe1231b4594001ca134100a9a32e996599"),
+    training!("pipe", "de951aa3c0c9f6617b422e833116a1523fd41abfb588444f71eeed42378ef9bf"),
+    training!("rotor", "8db85ca5041eef6d952e48f0553a25fddb42f237b80a37b7aff096b8df3aca32"),
+    training!("spool", "84ec2367becf6994f96055fa88aaf3a00df1fdd84bd0fa615bdc043c9944b7b1"),
+    training!("star", "8a7a48b6641373552134c30cf9c36888ade73e9def5bafe100b7536b9740078f"),
+    training!("tripod", "f31df43fc9209d8863eb48b0bb1ca088169ffab52d5d93096e87d6bee26c982d"),
+    training!("turbine", "8ae52b6b325a05e0755983706ab55aba0f42d3ea0569dd29b33cdcb16c20f4c8"),
+    training!("double-torus-3-holes", "12243967111005f77d8b1bf8fa09df9984738f5ed85a20603eead8a2dc7e0055"),
+    training!("blob", "01008093fb7b30be2865d579a018bc930e7462c08ffd42773f452e74a4347b0c"),
+    training!("three_peaks", "6b985fb7f6f2a6dc15dd311758aa1eeb0725cfb32bcacef8a767b910c9a2d8d4"),
+    training!("retinal", "02547bcd1f28149862ff28056614418c0fca73033dfec1a07e8e91e4c78544b7"),
+    training!("boeing", "a50af346f5fda821844907e2f020f27a9d399dc5c39f4fbb5344f13ca6002a7a"),
+];
+
+/// The folder under the data folder that [`fetch_training`] fills.
+pub const TRAINING_MESHES_DIR: &str = "training-meshes";
+
 /// Path of a fetched mesh under `data_dir`.
 pub fn mesh_path(data_dir: &Path, mesh: &MeshFile) -> PathBuf {
     data_dir.join("meshes").join(mesh.file)
@@ -156,10 +214,31 @@ pub struct FetchReport {
 
 /// Makes sure every mesh is in `data_dir/meshes`, downloading the package if needed.
 pub fn fetch(data_dir: &Path) -> Result<FetchReport> {
+    fetch_into(data_dir, "meshes", MESH_FILES)
+}
+
+/// Makes sure every training mesh ([`TRAINING_MESH_FILES`]) is in
+/// `data_dir/training-meshes`, from the same package.
+pub fn fetch_training(data_dir: &Path) -> Result<FetchReport> {
+    fetch_into(data_dir, TRAINING_MESHES_DIR, TRAINING_MESH_FILES)
+}
+
+/// Path of a fetched training mesh under `data_dir`.
+pub fn training_mesh_path(data_dir: &Path, mesh: &MeshFile) -> PathBuf {
+    data_dir.join(TRAINING_MESHES_DIR).join(mesh.file)
+}
+
+/// Makes sure every mesh of `catalogue` is in `data_dir/folder`.
+fn fetch_into(
+    data_dir: &Path,
+    folder: &str,
+    catalogue: &'static [MeshFile],
+) -> Result<FetchReport> {
+    let path_of = |mesh: &MeshFile| data_dir.join(folder).join(mesh.file);
     let mut report = FetchReport::default();
     let mut missing = Vec::new();
-    for mesh in MESH_FILES {
-        if is_valid(&mesh_path(data_dir, mesh), mesh)? {
+    for mesh in catalogue {
+        if is_valid(&path_of(mesh), mesh)? {
             report.present.push(mesh.file);
         } else {
             missing.push(*mesh);
@@ -175,7 +254,7 @@ pub fn fetch(data_dir: &Path) -> Result<FetchReport> {
         None => download_deb(&cache)?,
     };
     let archive = data_archive_from_deb(&deb)?;
-    let meshes_dir = data_dir.join("meshes");
+    let meshes_dir = data_dir.join(folder);
     fs::create_dir_all(&meshes_dir)
         .with_context(|| format!("cannot create {}", meshes_dir.display()))?;
     let mut tar = tar::Archive::new(flate2::read::GzDecoder::new(&archive[..]));
@@ -204,7 +283,7 @@ pub fn fetch(data_dir: &Path) -> Result<FetchReport> {
                 mesh.sha256
             );
         }
-        let target = mesh_path(data_dir, mesh);
+        let target = path_of(mesh);
         let tmp = target.with_extension("off.part");
         fs::write(&tmp, &bytes).with_context(|| format!("cannot write {}", tmp.display()))?;
         fs::rename(&tmp, &target).with_context(|| format!("cannot write {}", target.display()))?;
@@ -341,6 +420,27 @@ mod tests {
                 assert_eq!(sum, m.sha256, "{}", path.display());
                 assert!(is_valid(&path, m).unwrap());
             }
+        }
+    }
+
+    #[test]
+    fn the_training_catalogue_is_checksummed_and_shares_no_mesh_with_the_benchmark() {
+        assert_eq!(TRAINING_MESH_FILES.len(), 36);
+        for (i, m) in TRAINING_MESH_FILES.iter().enumerate() {
+            assert!(
+                TRAINING_MESH_FILES[i + 1..]
+                    .iter()
+                    .all(|o| o.file != m.file),
+                "{} twice",
+                m.file
+            );
+            assert!(
+                MESH_FILES
+                    .iter()
+                    .all(|b| b.file != m.file && b.sha256 != m.sha256)
+            );
+            assert_eq!(m.archive_path, format!("data/meshes/{}", m.file));
+            assert_eq!(m.sha256.len(), 64, "{}", m.file);
         }
     }
 

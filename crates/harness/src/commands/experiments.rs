@@ -307,7 +307,6 @@ fn assemble_report(reports: &Path) -> Result<()> {
             &dir.join("findings.md"),
             experiments::findings::markdown(&own, own_quick).as_bytes(),
         )?;
-        output::folder::seal(&dir)?;
     }
     output::report::assemble(
         reports,
@@ -315,7 +314,15 @@ fn assemble_report(reports: &Path) -> Result<()> {
         &experiments::findings::readme_markdown(&findings, quick),
         quick,
         &view::report::section(reports)?,
-    )
+    )?;
+    // Each experiment's folder lists what the assembly added (its findings, its results page).
+    for name in &names {
+        let dir = reports.join(name);
+        if dir.join("metadata.json").is_file() {
+            output::folder::seal(&dir)?;
+        }
+    }
+    Ok(())
 }
 
 /// `k/n`, or `-` without a shard.

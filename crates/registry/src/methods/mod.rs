@@ -14,6 +14,7 @@ pub mod external;
 mod hpr;
 mod hpr_approx;
 mod hpr_confidence;
+mod neuralvis;
 pub(crate) mod qsplat;
 mod random;
 mod raycast;
@@ -47,6 +48,7 @@ pub static BUILT_IN: &[&Card] = &[
     &splat::CARD,
     &screenspace::CARD,
     &vardensity::CARD,
+    &neuralvis::CARD,
     &qsplat::CARD,
     &spt::CARD,
     &srn::CARD,
