@@ -111,7 +111,7 @@ fn footprint(camera: &Camera, c: DVec3, r: f64) -> Option<Footprint> {
                 0.5 * h as f64 + to_centre.dot(camera.down()) * sy,
             );
             let (hx, hy) = (r * sx + 1.0, r * sy + 1.0);
-            return rect(px, py, hx, hy, w, h);
+            rect(px, py, hx, hy, w, h)
         }
         cloud::Model::Pinhole { .. } => {
             if camera.depth(c) <= -r {
