@@ -584,3 +584,48 @@ for line in sys.stdin:
     }
     assert!(!out.join("view-9.txt").exists());
 }
+
+/// `--methods-dir DIR` adds DIR's methods to the installed ones (`POINTSIGHT_METHODS` here),
+/// `--no-installed-methods` leaves those out, and a name both folders use is an error naming
+/// both.
+#[test]
+fn methods_dir_adds_to_the_installed_methods() {
+    let installed = tempfile::tempdir().unwrap();
+    let mine = tempfile::tempdir().unwrap();
+    let answer = ANSWER.replace("ANSWER", "{'visible': [0], 'seconds': 0}");
+    method(installed.path(), "installed-one", &answer, "");
+    method(mine.path(), "my-own", &answer, "");
+    let mine_dir = mine.path().to_str().unwrap();
+    let listing = |extra: &[&str]| {
+        let mut args = vec!["methods", "--methods-dir", mine_dir];
+        args.extend(extra);
+        let out = pointsight(installed.path(), &args);
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (ok, text, err) = listing(&[]);
+    assert!(ok, "{err}");
+    assert!(
+        text.contains("installed-one") && text.contains("my-own") && text.contains("hpr"),
+        "{text}"
+    );
+    let (ok, text, err) = listing(&["--no-installed-methods"]);
+    assert!(ok, "{err}");
+    assert!(
+        !text.contains("installed-one") && text.contains("my-own") && text.contains("hpr"),
+        "{text}"
+    );
+    method(mine.path(), "installed-one", &answer, "");
+    let (ok, _, err) = listing(&[]);
+    assert!(!ok);
+    assert!(
+        err.contains("method installed-one of")
+            && err.contains(mine_dir)
+            && err.contains(installed.path().to_str().unwrap())
+            && err.contains("--no-installed-methods"),
+        "{err}"
+    );
+}

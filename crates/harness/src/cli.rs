@@ -21,10 +21,15 @@ pub struct Cli {
     /// `pointsight.toml` in the working directory when it exists.
     #[arg(long, global = true, env = "POINTSIGHT_MANIFEST")]
     pub manifest: Option<PathBuf>,
-    /// Folder of external methods (`NAME/method.toml` each; see methods/README.md); default:
-    /// the clone's `methods/`, else `PREFIX/share/pointsight/methods` beside the binary.
-    #[arg(long, global = true, env = "POINTSIGHT_METHODS")]
-    pub methods_dir: Option<PathBuf>,
+    /// A folder of external methods (`NAME/method.toml` each; see methods/README.md) added to
+    /// the installed ones (repeatable; a name already taken is an error). The installed methods
+    /// are `POINTSIGHT_METHODS` (folders joined as PATH joins them), else the clone's
+    /// `methods/`, else `PREFIX/share/pointsight/methods` beside the binary.
+    #[arg(long, global = true)]
+    pub methods_dir: Vec<PathBuf>,
+    /// Leave the installed methods out: only `--methods-dir`'s (and the built-in ones) run.
+    #[arg(long, global = true)]
+    pub no_installed_methods: bool,
     /// Folder of fetched data; default: the clone's `bench-data/`, else
     /// `$XDG_DATA_HOME/pointsight` (or `~/.local/share/pointsight`).
     #[arg(long, global = true, env = "POINTSIGHT_DATA")]

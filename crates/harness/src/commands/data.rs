@@ -26,18 +26,23 @@ pub fn fetch(data_dir: &Path) -> Result<()> {
 }
 
 /// `pointsight paths`: each folder and page script with the step of the rule that chose it.
-pub fn paths(data: &paths::Place, methods: &paths::Place, clone: Option<&Path>) {
+pub fn paths(data: &paths::Place, methods: &[paths::Place], clone: Option<&Path>) {
     println!("data={} ({})", data.path.display(), data.why());
-    let readable = if methods.warning().is_some() {
-        ", cannot be read"
-    } else {
-        ""
-    };
-    println!(
-        "methods={} ({}{readable})",
-        methods.path.display(),
-        methods.why()
-    );
+    if methods.is_empty() {
+        println!("methods=- (--no-installed-methods)");
+    }
+    for folder in methods {
+        let readable = if folder.warning().is_some() {
+            ", cannot be read"
+        } else {
+            ""
+        };
+        println!(
+            "methods={} ({}{readable})",
+            folder.path.display(),
+            folder.why()
+        );
+    }
     for quick in [false, true] {
         println!(
             "{}={}",
