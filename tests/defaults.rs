@@ -70,6 +70,27 @@ fn cli_visible_with(method: &str, set: &[&str], methods: Option<&Path>) -> (Vec<
     (visible, Setting::parse(setting))
 }
 
+/// The visible set of `card` at `setting` on the first of `views`, through one kernel cell as
+/// the experiments run it.
+fn kernel_visible(
+    card: &registry::Card,
+    setting: &Setting,
+    views: &[kernel::View],
+    ds: &datasets::Dataset,
+) -> Vec<u32> {
+    let (prepared, answers) =
+        kernel::collect(&kernel::Cell::new(card, setting, views, 1), ds.input());
+    prepared.expect("prepared");
+    answers
+        .into_iter()
+        .next()
+        .expect("one view")
+        .1
+        .expect("an answer")
+        .output
+        .visible
+}
+
 #[test]
 fn visible_view_and_the_experiments_run_the_same_default() {
     let ds = datasets::load(DATASET, Path::new("/nonexistent")).expect("a synthetic dataset");
@@ -107,17 +128,7 @@ fn visible_view_and_the_experiments_run_the_same_default() {
         let (page, _) = harness::view::run_method(chosen[0].0, &ds, &chosen[0].1, 0, &camera)
             .expect("view's run");
         // The experiments: one kernel cell at the default setting.
-        let (prepared, answers) =
-            kernel::collect(&kernel::Cell::new(card, &setting, &views, 1), ds.input());
-        prepared.expect("prepared");
-        let experiment = answers
-            .into_iter()
-            .next()
-            .expect("one view")
-            .1
-            .expect("an answer")
-            .output
-            .visible;
+        let experiment = kernel_visible(card, &setting, &views, &ds);
         assert_eq!(cli, page.visible, "{}: visible and view", card.name);
         assert_eq!(
             cli, experiment,
@@ -246,17 +257,7 @@ fn an_external_method_runs_its_params_default_everywhere() {
         harness::view::run_method(chosen[0].0, &ds, &chosen[0].1, 0, &camera).expect("view");
     assert_eq!(page.visible, cli, "visible and view");
     let views = [kernel::View { index: 0, camera }];
-    let (prepared, answers) =
-        kernel::collect(&kernel::Cell::new(card, &setting, &views, 1), ds.input());
-    prepared.expect("prepared");
-    let experiment = answers
-        .into_iter()
-        .next()
-        .expect("one view")
-        .1
-        .expect("an answer")
-        .output
-        .visible;
+    let experiment = kernel_visible(card, &setting, &views, &ds);
     assert_eq!(experiment, cli, "visible and the experiments");
 
     // The installed peers: loaded, not run (their programs need `just peers`).
