@@ -59,6 +59,10 @@ python: setup
 peers: python
     scripts/peers.sh
 
+# Time raycast's cast against point-cloud-utils' on the same rays, alternated (peer: `just peers`).
+raycast-vs-pcu *args:
+    .venv/bin/python scripts/raycast-vs-pcu.py {{args}}
+
 # Build the release binary.
 build: setup
     cargo build --release -p harness

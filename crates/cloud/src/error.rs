@@ -8,11 +8,6 @@ use std::fmt;
 use std::io;
 use std::path::PathBuf;
 
-/// How far from 1 the length of a normal a file gives may be: a given normal is used as it
-/// is, so one that is not a unit vector (NaN, zero, or not normalised) is refused
-/// ([`crate::normals::is_given_normal`]).
-pub const GIVEN_LENGTH_TOLERANCE: f32 = 1e-3;
-
 /// Where in a file a problem was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Location {
@@ -79,7 +74,7 @@ pub enum ReadErrorKind {
         value: f64,
     },
     /// A normal the file gives is not a unit vector (NaN, infinite, zero or not normalised:
-    /// [`crate::normals::is_given_normal`]).
+    /// `normals::is_given_normal`).
     #[error(
         "point {index} has the normal ({}, {}, {}) of length {}: a normal a file gives must be \
          finite and of length 1 (within {})",
@@ -87,13 +82,15 @@ pub enum ReadErrorKind {
         normal[1],
         normal[2],
         glam::Vec3::from_array(*normal).length(),
-        GIVEN_LENGTH_TOLERANCE
+        tolerance
     )]
     BadNormal {
         /// 0-based index of the point.
         index: usize,
         /// The normal.
         normal: [f32; 3],
+        /// How far from 1 its length may be (`normals::GIVEN_LENGTH_TOLERANCE`).
+        tolerance: f32,
     },
     /// A face refers to a vertex that does not exist.
     #[error("face {face} refers to vertex {vertex} but there are only {n_vertices} vertices")]

@@ -136,9 +136,9 @@ pub fn no_surface(n: u64, at: DVec3) -> Error {
     }
 }
 
-/// How far from 1 the length of a normal a file gives may be (defined beside the error that
-/// names it, so that the error module imports nothing of this one).
-pub use crate::error::GIVEN_LENGTH_TOLERANCE;
+/// How far from 1 the length of a normal a file gives may be: a given normal is used as it
+/// is, so one that is not a unit vector (NaN, zero, or not normalised) is refused.
+pub const GIVEN_LENGTH_TOLERANCE: f32 = 1e-3;
 
 /// Whether `n` may be used as a given normal: finite, of length 1 within
 /// [`GIVEN_LENGTH_TOLERANCE`].

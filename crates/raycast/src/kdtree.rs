@@ -135,12 +135,14 @@ impl KdTree {
     }
 }
 
-fn down(v: f64) -> f32 {
+/// `v` as `f32`, rounded down.
+pub(crate) fn down(v: f64) -> f32 {
     let f = v as f32;
     if f as f64 > v { f.next_down() } else { f }
 }
 
-fn up(v: f64) -> f32 {
+/// `v` as `f32`, rounded up.
+pub(crate) fn up(v: f64) -> f32 {
     let f = v as f32;
     if (f as f64) < v { f.next_up() } else { f }
 }

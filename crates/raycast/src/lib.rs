@@ -1,37 +1,49 @@
 //! `raycast`: point cloud filtering by ray casting (Eric Jensen, "Point Cloud Filtering using
 //! Ray Casting", 2012; seed 001).
 //!
-//! One ray per pixel ([`rays::RayList`]: built once, re-aimed when the camera moves) is cast
-//! through a point k-d tree ([`kdtree`]: one point per node, axes cycling X, Y, Z, bounds per
-//! node, equal-plane flags, median split) with the seed's traversal S1–S9 ([`traverse`]) and
-//! its circular-prism / sphere hit test ([`hit`]). The result per ray is the index of the point
-//! it hits; a frame's visible set is the set of points hit by some ray. Seed 001's concurrent
-//! update and render is [`concurrent`], on `cloud::double_buffer`.
+//! One ray per pixel ([`rays::RayList`]: built once, re-aimed when the camera moves) finds the
+//! point it hits; a frame's visible set is the set of points hit by some ray. Two traversals
+//! ([`Traversal`]):
+//! - [`Traversal::Seed`]: the seed's, as printed: a point k-d tree ([`kdtree`]: one point per
+//!   node, axes cycling X, Y, Z, bounds per node, equal-plane flags, median split) walked by
+//!   the steps S1–S9 ([`traverse`]) with its circular-prism / sphere hit test ([`hit`]); the
+//!   first hit ends the search, so a ray gets *a* hit, not always the nearest.
+//! - [`Traversal::Exact`] (default, beyond the seed): the nearest hit (smallest entry parameter,
+//!   ties by lowest index), equal to the brute force of [`brute`] ray for ray, from a bounding
+//!   volume hierarchy over buckets of points ([`bvh`]) cast an 8 × 8 pixel tile at a time,
+//!   with `f32` culling and `f64` decisions ([`packet`]).
+//!
+//! Seed 001's concurrent update and render is [`concurrent`], on `cloud::double_buffer`.
 //!
 //! Points are spheres of radius R (world units), given or derived from the cloud's density
 //! ([`auto::auto_radius`]); beyond the seed, they can be oriented discs of radius R instead
 //! ([`Primitive::Disc`], with the cloud's normals: the surfels of splatting and of
 //! point-cloud-utils' `RaySurfelIntersector`, so that the peer can be compared primitive for
-//! primitive). The default traversal is exact (the nearest hit, equal to
-//! the brute force of [`brute`] ray for ray); the seed's first-hit traversal is available as
-//! [`Traversal::Seed`].
+//! primitive), with the exact traversal.
 //!
-//! PERF: rays are cast in parallel (rayon) in 8 × 8 pixel tiles, so neighbouring rays reuse
-//! the same nodes; the tree is 64 bytes a node in preorder.
+//! PERF: tiles are cast in parallel (rayon), a band of tile rows per task. The seed's tree is
+//! built when the seed traversal first needs it ([`RayCaster::tree`]), from the hierarchy's
+//! points.
 
 pub mod auto;
 pub mod brute;
+pub mod bvh;
 pub mod concurrent;
 pub mod error;
 pub mod hit;
 pub mod kdtree;
+pub mod packet;
 pub mod rays;
+mod simd;
 pub mod traverse;
 
-use cloud::Camera;
+use std::sync::OnceLock;
+
 use cloud::glam::DVec3;
+use cloud::{Camera, Model};
 use rayon::prelude::*;
 
+pub use bvh::Bvh;
 pub use error::{Error, Result};
 pub use kdtree::{KdTree, NONE};
 pub use rays::{RayList, memory_estimate};
@@ -73,16 +85,18 @@ pub struct Frame {
 /// A cloud prepared for casting.
 #[derive(Debug, Clone)]
 pub struct RayCaster {
-    tree: KdTree,
+    bvh: Bvh,
+    /// The seed traversal's tree, built on first use.
+    seed: OnceLock<KdTree>,
     n_points: usize,
-    /// Unit normals in the tree's node order, for [`Primitive::Disc`].
+    /// Unit normals by slot of the hierarchy, for [`Primitive::Disc`].
     normals: Option<Vec<[f64; 3]>>,
 }
 
 const TILE: u32 = 8;
 
 impl RayCaster {
-    /// Builds the k-d tree of `points`.
+    /// Builds the hierarchy of `points` for the exact traversal.
     pub fn new(points: &[DVec3]) -> Result<Self> {
         if points.is_empty() {
             return Err(Error::EmptyCloud);
@@ -97,7 +111,8 @@ impl RayCaster {
             return Err(Error::NonFinite(i));
         }
         Ok(Self {
-            tree: KdTree::build(points),
+            bvh: Bvh::build(points),
+            seed: OnceLock::new(),
             n_points: points.len(),
             normals: None,
         })
@@ -124,13 +139,18 @@ impl RayCaster {
             }
             unit.push((nrm / len).to_array());
         }
-        self.normals = Some(self.tree.in_node_order(&unit));
+        self.normals = Some(self.bvh.in_slot_order(&unit, [f64::NAN; 3]));
         Ok(self)
     }
 
-    /// The tree.
+    /// The exact traversal's hierarchy.
+    pub fn bvh(&self) -> &Bvh {
+        &self.bvh
+    }
+
+    /// The seed traversal's k-d tree, built from the points on the first call.
     pub fn tree(&self) -> &KdTree {
-        &self.tree
+        self.seed.get_or_init(|| KdTree::build(&self.bvh.points()))
     }
 
     /// Casts every ray of `rays`, aimed for `camera`.
@@ -143,7 +163,7 @@ impl RayCaster {
             });
         }
         match params.primitive {
-            Primitive::Sphere => self.cast_with(rays, camera, params, traverse::Sphere),
+            Primitive::Sphere => Ok(self.cast_with(rays, camera, params, packet::Sphere)),
             Primitive::Disc => {
                 let Some(normals) = &self.normals else {
                     return Err(Error::InvalidParameter {
@@ -158,7 +178,7 @@ impl RayCaster {
                             .into(),
                     });
                 }
-                self.cast_with(rays, camera, params, traverse::Disc(normals))
+                Ok(self.cast_with(rays, camera, params, packet::Disc(normals)))
             }
         }
     }
@@ -169,107 +189,138 @@ impl RayCaster {
         rays: &RayList,
         camera: &Camera,
         params: &CastParams,
-        shape: impl traverse::PointShape + Sync,
-    ) -> Result<Frame> {
-        let (w, h) = (rays.width, rays.height);
+        shape: impl packet::SlotShape + Sync,
+    ) -> Frame {
+        let w = rays.width;
         let mut pixel_point = vec![NONE; rays.len()];
-        // Rows of tiles in parallel; within a band, tile by tile.
+        let seed = (params.traversal == Traversal::Seed).then(|| self.tree());
+        let window = self.window(camera, params.radius);
+        // Bands of tile rows in parallel; within a band, tile by tile.
         pixel_point
             .par_chunks_mut((w * TILE) as usize)
             .enumerate()
             .for_each_init(Scratch::default, |scratch, (band, out)| {
                 let y0 = band as u32 * TILE;
                 let rows = out.len() as u32 / w;
+                if window.is_some_and(|win| !win.meets(0..w, y0..y0 + rows)) {
+                    return;
+                }
                 for x0 in (0..w).step_by(TILE as usize) {
-                    if params.traversal == Traversal::Exact {
-                        let xs = x0..(x0 + TILE).min(w);
-                        self.cast_packets(
-                            rays,
-                            camera,
-                            (params.radius, shape),
-                            (xs, y0, rows),
-                            out,
-                            scratch,
-                        );
+                    let xs = x0..(x0 + TILE).min(w);
+                    if window.is_some_and(|win| !win.meets(xs.clone(), y0..y0 + rows)) {
                         continue;
                     }
+                    if let Some(tree) = seed {
+                        for dy in 0..rows {
+                            for x in xs.clone() {
+                                let (o, d) = rays.aim(camera, ((y0 + dy) * w + x) as usize);
+                                out[(dy * w + x) as usize] = traverse::cast_seed(
+                                    tree,
+                                    &Ray::new(o, d),
+                                    params.radius,
+                                    scratch,
+                                )
+                                .unwrap_or(NONE);
+                            }
+                        }
+                        continue;
+                    }
+                    let p = &mut scratch.packet;
+                    p.clear();
                     for dy in 0..rows {
-                        for x in x0..(x0 + TILE).min(w) {
-                            let k = ((y0 + dy) * w + x) as usize;
-                            let (o, d) = rays.aim(camera, k);
-                            let ray = Ray::new(o, d);
-                            out[(dy * w + x) as usize] = traverse::cast(
-                                &self.tree,
-                                &ray,
-                                params.radius,
-                                params.traversal,
-                                scratch,
-                            )
-                            .unwrap_or(NONE);
+                        let row = ((y0 + dy) * w) as usize;
+                        for x in xs.clone() {
+                            let (o, d) = rays.aim(camera, row + x as usize);
+                            p.push(o, d);
+                        }
+                    }
+                    packet::cast(&self.bvh, p, params.radius, shape, &mut scratch.stack);
+                    let mut i = 0;
+                    for dy in 0..rows {
+                        let row = (dy * w) as usize;
+                        for x in xs.clone() {
+                            out[row + x as usize] = p.index(i);
+                            i += 1;
                         }
                     }
                 }
             });
-        let _ = h;
         let visible = visible_set(&pixel_point, self.n_points);
-        Ok(Frame {
+        Frame {
             pixel_point,
             visible,
             rays: rays.len() as u64,
-        })
+        }
     }
 }
 
 impl RayCaster {
-    /// The exact traversal over the pixels `xs` × `y0..y0 + rows` in 2 × 2 pixel packets
-    /// ([`traverse::cast_exact_packet`]); `out` holds the band's rows from `y0`.
-    fn cast_packets(
-        &self,
-        rays: &RayList,
-        camera: &Camera,
-        (radius, shape): (f64, impl traverse::PointShape),
-        (xs, y0, rows): (std::ops::Range<u32>, u32, u32),
-        out: &mut [u32],
-        scratch: &mut Scratch,
-    ) {
-        let w = rays.width;
-        for dy in (0..rows).step_by(2) {
-            for x in xs.clone().step_by(2) {
-                let mut at = [0usize; traverse::PACKET];
-                let mut packet = [Ray::new([0.0; 3], [1.0; 3]); traverse::PACKET];
-                let mut m = 0;
-                for (ddy, ddx) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
-                    if dy + ddy >= rows || x + ddx >= xs.end {
-                        continue;
-                    }
-                    let k = ((y0 + dy + ddy) * w + x + ddx) as usize;
-                    let (o, d) = rays.aim(camera, k);
-                    packet[m] = Ray::new(o, d);
-                    at[m] = ((dy + ddy) * w + x + ddx) as usize;
-                    m += 1;
-                }
-                let hits =
-                    traverse::cast_exact_packet(&self.tree, &packet[..m], radius, shape, scratch);
-                for i in 0..m {
-                    out[at[i]] = hits[i].map_or(NONE, |h| h.1);
-                }
-            }
+    /// The pixels whose rays can meet the cloud's box enlarged by `radius`: the box's corners
+    /// projected, for a pinhole or orthographic camera with the box wholly in front of it (the
+    /// projection of a convex body in front of the eye is the convex hull of its corners'
+    /// projections); `None` otherwise. The box is enlarged by the traversal's margin too, and
+    /// the window by a pixel, beyond the rounding of rays and projections.
+    fn window(&self, camera: &Camera, radius: f64) -> Option<Window> {
+        if !matches!(
+            camera.model(),
+            Model::Pinhole { .. } | Model::Orthographic { .. }
+        ) {
+            return None;
         }
+        let root = self.bvh.node(0);
+        let c = self.bvh.centre;
+        let pad = radius * 1.001 + (self.bvh.half_extent + radius) * 1e-5;
+        let lo: [f64; 3] = std::array::from_fn(|k| root.lo[k] as f64 + c[k] - pad);
+        let hi: [f64; 3] = std::array::from_fn(|k| root.hi[k] as f64 + c[k] + pad);
+        let mut win = Window {
+            x: (f64::INFINITY, f64::NEG_INFINITY),
+            y: (f64::INFINITY, f64::NEG_INFINITY),
+        };
+        for corner in 0..8 {
+            let pick = |k: usize| if corner >> k & 1 == 0 { lo[k] } else { hi[k] };
+            let q = camera.project(DVec3::new(pick(0), pick(1), pick(2)))?;
+            win.x = (win.x.0.min(q.x - 1.0), win.x.1.max(q.x + 1.0));
+            win.y = (win.y.0.min(q.y - 1.0), win.y.1.max(q.y + 1.0));
+        }
+        (win.x.0.is_finite() && win.x.1.is_finite() && win.y.0.is_finite() && win.y.1.is_finite())
+            .then_some(win)
+    }
+}
+
+/// A rectangle of the image, in pixel coordinates, outside which no ray meets the cloud.
+#[derive(Debug, Clone, Copy)]
+struct Window {
+    x: (f64, f64),
+    y: (f64, f64),
+}
+
+impl Window {
+    /// True when the centre of some pixel of `xs` × `ys` lies in the window.
+    fn meets(&self, xs: std::ops::Range<u32>, ys: std::ops::Range<u32>) -> bool {
+        let (x0, x1) = (xs.start as f64 + 0.5, xs.end as f64 - 0.5);
+        let (y0, y1) = (ys.start as f64 + 0.5, ys.end as f64 - 0.5);
+        x1 >= self.x.0 && x0 <= self.x.1 && y1 >= self.y.0 && y0 <= self.y.1
     }
 }
 
 /// The points named by some pixel, ascending.
 pub fn visible_set(pixel_point: &[u32], n_points: usize) -> Vec<u32> {
-    let mut hit = vec![false; n_points];
+    let mut bits = vec![0u64; n_points.div_ceil(64)];
     for &p in pixel_point {
         if p != NONE {
-            hit[p as usize] = true;
+            bits[(p >> 6) as usize] |= 1 << (p & 63);
         }
     }
-    hit.iter()
-        .enumerate()
-        .filter_map(|(i, &h)| h.then_some(i as u32))
-        .collect()
+    let count = bits.iter().map(|b| b.count_ones() as usize).sum();
+    let mut out = Vec::with_capacity(count);
+    for (w, &b) in bits.iter().enumerate() {
+        let mut b = b;
+        while b != 0 {
+            out.push((w * 64) as u32 + b.trailing_zeros());
+            b &= b - 1;
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -103,7 +103,7 @@ pub struct Preparation {
     /// reads.
     pub seconds: f64,
     /// The structure's build alone ([`Prepared::reported_build_seconds`]: an external
-    /// program's `built` line, its BVH or render window; the ray caster's k-d tree), when the
+    /// program's `built` line, its BVH or render window; the ray caster's point hierarchy), when the
     /// method accounts for it.
     pub reported_seconds: Option<f64>,
     /// The setting as it ran: every key the method read, with the value given or its default.

@@ -225,6 +225,7 @@ pub fn read_e57(path: &Path) -> Result<E57Scans, ReadError> {
                     let bad = ReadErrorKind::BadNormal {
                         index,
                         normal: n.as_vec3().to_array(),
+                        tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
                     };
                     return Err(err(ReadErrorKind::Malformed(format!("scan {k}: {bad}"))));
                 }

@@ -407,6 +407,7 @@ impl LasStream {
                         ReadErrorKind::BadNormal {
                             index,
                             normal: n.to_array(),
+                            tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
                         },
                     ));
                 }

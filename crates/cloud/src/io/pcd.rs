@@ -257,6 +257,7 @@ pub fn read_pcd(path: &Path) -> Result<Loaded, ReadError> {
                     ReadErrorKind::BadNormal {
                         index,
                         normal: n.to_array(),
+                        tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
                     },
                 ));
             }

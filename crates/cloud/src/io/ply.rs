@@ -272,6 +272,7 @@ fn parse_ply<R: BufRead>(reader: R) -> ParseResult<Loaded> {
                                     ReadErrorKind::BadNormal {
                                         index,
                                         normal: r.normal,
+                                        tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
                                     },
                                 ));
                             }

@@ -267,7 +267,14 @@ fn parse_xyz<R: BufRead>(
                 if cols.has(Column::Normal(0)) {
                     let n = Vec3::from_array(nrm);
                     if !crate::normals::is_given_normal(n) {
-                        return Err((here, ReadErrorKind::BadNormal { index, normal: nrm }));
+                        return Err((
+                            here,
+                            ReadErrorKind::BadNormal {
+                                index,
+                                normal: nrm,
+                                tolerance: crate::normals::GIVEN_LENGTH_TOLERANCE,
+                            },
+                        ));
                     }
                     normals.push(n);
                 }

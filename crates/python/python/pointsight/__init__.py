@@ -242,7 +242,7 @@ def raycast(
 ) -> np.ndarray:
     """Ray-cast point filtering (Jensen 2012): one ray per pixel of a `width` x `height` image
     (default 1280 x 720, the registry's; a camera of another size is resampled, its vertical
-    field kept) through a point k-d tree, points as spheres of `radius` (default "auto":
+    field kept) through a point hierarchy (a bucketed BVH, or the seed's k-d tree), points as spheres of `radius` (default "auto":
     1.5 density spacings; `radius_factor` gives the spacings). Any camera model. `traversal`:
     "exact" (nearest hit, default) or "seed" (S1-S9)."""
     p = _points(points)

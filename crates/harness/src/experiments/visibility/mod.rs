@@ -232,7 +232,7 @@ pub struct PeerRow {
     /// reported none).
     #[serde(default = "nan")]
     pub peer_build_seconds: f64,
-    /// The partner's structure build, seconds (the ray caster's k-d tree; else its whole
+    /// The partner's structure build, seconds (the ray caster's point hierarchy; else its whole
     /// preparation).
     #[serde(default = "nan")]
     pub partner_build_seconds: f64,
@@ -258,7 +258,7 @@ pub struct BuildRow {
     /// external method, writing the points file it reads (normals and spacing included).
     pub prepare_seconds: f64,
     /// The structure's build alone as the method accounts for it (an external program's
-    /// `built` line, the ray caster's k-d tree); NaN when it gives none.
+    /// `built` line, the ray caster's point hierarchy); NaN when it gives none.
     pub build_seconds: f64,
 }
 

@@ -356,7 +356,7 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
              from the per-view times (median over the views' cells): the peer's as its own \
              `built` line reports it (Embree's BVH, VTK's render window and first draw; `-`: it \
              builds nothing per cloud, or does not say), ours as our method accounts for it \
-             (the ray caster's k-d tree; else its whole preparation). A peer whose `peer_of` \
+             (the ray caster's point hierarchy; else its whole preparation). A peer whose `peer_of` \
              names no visibility method of ours has its own figures only.\n\n",
         );
         let rows: Vec<Vec<String>> = groups
