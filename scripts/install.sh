@@ -5,6 +5,8 @@
 #              programs `just peers` built in their folders);
 #   web/       the page scripts web/dist/*.js (`just web`: viewer.js, and results.js where it
 #              is built), which `pointsight view` and the report's pages embed;
+#   examples/  a copy of this clone's examples/ (the small files the docs' examples use:
+#              `cp -r PREFIX/share/pointsight/examples .` and they run as written);
 #   .venv      a symbolic link to this clone's .venv when there is one (the Python peers'
 #              method.toml name ../../.venv/bin/python, relative to their folder).
 # The data folder is not installed: `pointsight fetch` fills $XDG_DATA_HOME/pointsight (or
@@ -14,7 +16,7 @@
 #   --prefix PREFIX  default ~/.local (then ~/.local/bin must be on PATH)
 #   --bin FILE       install this built binary instead of `cargo install --path crates/harness`
 #   --web-dist DIR   the built page scripts (default web/dist)
-# Re-running replaces the installed files (methods/ and web/ whole). Uninstall:
+# Re-running replaces the installed files (methods/, web/ and examples/ whole). Uninstall:
 #   rm -rf PREFIX/bin/pointsight PREFIX/share/pointsight
 # (and PREFIX/.crates.toml, PREFIX/.crates2.json if nothing else was installed there by cargo).
 set -euo pipefail
@@ -66,6 +68,7 @@ replace() { # replace NAME SOURCE_DIR [FILES...]: share/NAME becomes a copy
   mv "$share/.$name.partial" "$share/$name"
 }
 replace methods "$clone/methods"
+replace examples "$clone/examples"
 shopt -s nullglob
 scripts=("$web_dist"/*.js)
 shopt -u nullglob
@@ -83,7 +86,7 @@ else
 fi
 
 version="$("$prefix/bin/pointsight" --version)"
-echo "installed $version: $prefix/bin/pointsight, $share/{methods,web}"
+echo "installed $version: $prefix/bin/pointsight, $share/{methods,web,examples}"
 case ":$PATH:" in
   *":$prefix/bin:"*) ;;
   *) echo "note: $prefix/bin is not on PATH; add it (e.g. export PATH=\"$prefix/bin:\$PATH\")" ;;

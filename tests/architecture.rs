@@ -140,6 +140,16 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "off-surface points: distances to the mesh",
     ),
     (
+        "datasets/eyes.rs",
+        "truth",
+        "an eye inside a user's mesh: rays from it crossing the mesh",
+    ),
+    (
+        "datasets/fit.rs",
+        "truth",
+        "the mesh check: each point's distance to a user's mesh",
+    ),
+    (
         "datasets/builtin.rs",
         "truth",
         "the scanned datasets: truth::scan's simulated scanners",

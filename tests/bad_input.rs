@@ -1064,3 +1064,89 @@ fn stale_scratch_of_dead_runs_is_reclaimed_and_other_hosts_left() {
     want.sort();
     assert_eq!(names(d), want);
 }
+
+/// An eye inside the object or among its points: said once, in plain words; HPR's `gamma=auto`
+/// says what its rule needs; the robust operator refuses without sending the user to HPR.
+#[test]
+fn an_eye_inside_the_object_or_among_its_points_is_said_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.txt");
+    let o_str = out.to_str().unwrap();
+    // Inside the ball of the sphere-and-square scene, near the middle of its bounding box.
+    let inside = |method: &str| {
+        ps(&[
+            "visible",
+            "--dataset",
+            "sphere-plane-24000",
+            "--eye",
+            "0,0.05,0.9",
+            "--method",
+            method,
+            "--out",
+            o_str,
+        ])
+    };
+    let o = inside("raycast");
+    let err = stderr_of(&o);
+    assert!(o.status.success(), "{err}");
+    assert_eq!(err.matches("inside the mesh").count(), 1, "{err}");
+    assert!(
+        err.contains("note: dataset sphere-plane-24000: the eye is inside the mesh"),
+        "{err}"
+    );
+    let o = inside("hpr");
+    let err = stderr_of(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("gamma=auto chooses how far HPR flips the points from how far the eye is")
+            && err.contains("move the eye at least about")
+            && err.contains("or radius=R with R >"),
+        "{err}"
+    );
+    let o = inside("robust");
+    let err = stderr_of(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("inside the cloud's convex hull")
+            && err.contains("raycast or splat")
+            && !err.contains("use hpr"),
+        "{err}"
+    );
+    // Among the points: a sheet 0.01 apart, the eye 0.003 above one of them.
+    let sheet: Vec<[f64; 3]> = (0..100)
+        .flat_map(|i| (0..100).map(move |j| [i as f64 * 0.01, j as f64 * 0.01, 0.0]))
+        .collect();
+    let cloud = xyz_file(dir.path(), "sheet.xyz", &sheet);
+    let o = ps(&[
+        "visible",
+        "--cloud",
+        cloud.to_str().unwrap(),
+        "--eye",
+        "0.5,0.5,0.003",
+        "--target",
+        "0.5,0.5,-1",
+        "--method",
+        "raycast",
+        "--out",
+        o_str,
+    ]);
+    let err = stderr_of(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("the eye is among the points (0.0030 from the nearest")
+            && err.contains("move the eye away from the points"),
+        "{err}"
+    );
+    // From outside, nothing is said.
+    let o = ps(&[
+        "visible",
+        "--dataset",
+        "sphere-plane-24000",
+        "--method",
+        "raycast",
+        "--out",
+        o_str,
+    ]);
+    assert!(o.status.success());
+    assert_eq!(stderr_of(&o), "");
+}

@@ -146,6 +146,54 @@ fn visible_follows_the_contract_and_is_right_on_the_sphere() {
         .filter(|&(&p, &f)| sphere_point_visible(DVec3::ZERO, p, eye) == f)
         .count();
     assert!(agree as f64 / 20_000.0 > 0.995, "{agree}");
+
+    // `--out -`: the same indices on standard output, the contract lines on standard error,
+    // and no file named `-`.
+    let piped = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+        .args([
+            "visible",
+            "--dataset",
+            "sphere-20000",
+            "--view",
+            "3",
+            "--method",
+            "reference",
+            "--out",
+            "-",
+        ])
+        .current_dir(dir.path())
+        .env("POINTSIGHT_DATA", "/nonexistent/pointsight-data")
+        .output()
+        .unwrap();
+    assert!(piped.status.success());
+    assert_eq!(
+        String::from_utf8(piped.stdout).unwrap(),
+        std::fs::read_to_string(&out).unwrap()
+    );
+    let stderr = String::from_utf8(piped.stderr).unwrap();
+    assert!(
+        stderr
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("method=reference points=20000 visible="),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("-").exists());
+    fails_with(
+        &[
+            "visible",
+            "--dataset",
+            "sphere-20000",
+            "--view",
+            "all",
+            "--method",
+            "reference",
+            "--out",
+            "-",
+        ],
+        "many views need a folder",
+    );
 }
 
 #[test]

@@ -144,6 +144,13 @@ fn broken_programs_are_errors_not_crashes() {
         &ANSWER.replace("ANSWER", "{'error': 'no GPU here'}"),
         "",
     );
+    // A check that leaves a mark: whether a command ran it.
+    method(
+        d,
+        "marked",
+        "",
+        "check = [\"sh\", \"-c\", \"touch checked\"]\n",
+    );
     method(
         d,
         "missing",
@@ -201,9 +208,21 @@ fn broken_programs_are_errors_not_crashes() {
         ],
     );
     assert!(String::from_utf8_lossy(&run.stderr).contains("boom: segfault"));
-    // The listing says what is not installed and how to install it.
+    // The listing runs no check (it takes no time); `--check` says what is not installed and
+    // how to install it.
     let listing = String::from_utf8_lossy(&pointsight(d, &["methods"]).stdout).into_owned();
+    assert!(
+        !listing.contains("not installed") && listing.contains("methods --check"),
+        "{listing}"
+    );
+    assert!(
+        !d.join("marked/checked").exists(),
+        "the listing ran a check"
+    );
+    let listing =
+        String::from_utf8_lossy(&pointsight(d, &["methods", "--check"]).stdout).into_owned();
     assert!(listing.contains("not installed") && listing.contains("pip install nothing"));
+    assert!(d.join("marked/checked").exists());
     // A good answer: sorted, and the program's own seconds are the reported time.
     let run = pointsight(
         d,
@@ -564,4 +583,49 @@ for line in sys.stdin:
         );
     }
     assert!(!out.join("view-9.txt").exists());
+}
+
+/// `--methods-dir DIR` adds DIR's methods to the installed ones (`POINTSIGHT_METHODS` here),
+/// `--no-installed-methods` leaves those out, and a name both folders use is an error naming
+/// both.
+#[test]
+fn methods_dir_adds_to_the_installed_methods() {
+    let installed = tempfile::tempdir().unwrap();
+    let mine = tempfile::tempdir().unwrap();
+    let answer = ANSWER.replace("ANSWER", "{'visible': [0], 'seconds': 0}");
+    method(installed.path(), "installed-one", &answer, "");
+    method(mine.path(), "my-own", &answer, "");
+    let mine_dir = mine.path().to_str().unwrap();
+    let listing = |extra: &[&str]| {
+        let mut args = vec!["methods", "--methods-dir", mine_dir];
+        args.extend(extra);
+        let out = pointsight(installed.path(), &args);
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned(),
+            String::from_utf8_lossy(&out.stderr).into_owned(),
+        )
+    };
+    let (ok, text, err) = listing(&[]);
+    assert!(ok, "{err}");
+    assert!(
+        text.contains("installed-one") && text.contains("my-own") && text.contains("hpr"),
+        "{text}"
+    );
+    let (ok, text, err) = listing(&["--no-installed-methods"]);
+    assert!(ok, "{err}");
+    assert!(
+        !text.contains("installed-one") && text.contains("my-own") && text.contains("hpr"),
+        "{text}"
+    );
+    method(mine.path(), "installed-one", &answer, "");
+    let (ok, _, err) = listing(&[]);
+    assert!(!ok);
+    assert!(
+        err.contains("method installed-one of")
+            && err.contains(mine_dir)
+            && err.contains(installed.path().to_str().unwrap())
+            && err.contains("--no-installed-methods"),
+        "{err}"
+    );
 }

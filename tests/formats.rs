@@ -425,3 +425,87 @@ fn normals_we_write_read_back_and_bad_ones_are_refused() {
     assert!(err.contains("point 3 has the normal"), "{err}");
     assert!(!path.exists());
 }
+
+/// `pointsight inspect FILE [ARGS]`: exit code, standard output, standard error.
+fn inspect(file: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_pointsight"))
+        .arg("inspect")
+        .arg(file)
+        .args(args)
+        .output()
+        .expect("the pointsight binary runs");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn xyz_columns_are_read_by_the_documented_rule() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // Six unnamed columns: integers 0-255 are colours (they were read as normals), unit
+    // triples are normals.
+    let colours = file(
+        "rgb.xyz",
+        "0 0 0 200 100 50\n1 0 0 10 20 30\n0 1 0 255 0 0\n",
+    );
+    let (code, stdout, _) = inspect(&colours, &[]);
+    assert_eq!(code, 0);
+    assert!(stdout.contains("attributes=colors"), "{stdout}");
+    let c = read(&colours).unwrap().cloud;
+    assert_eq!(
+        c.colors,
+        Some(vec![[200, 100, 50], [10, 20, 30], [255, 0, 0]])
+    );
+    assert_eq!(c.normals, None);
+    let normals = file("n.xyz", "0 0 0 0 0 1\n1 0 0 0.6 0 -0.8\n0 1 0 1 0 0\n");
+    assert!(inspect(&normals, &[]).1.contains("attributes=normals"));
+    // Neither, and both: refused, naming both readings and how to say which.
+    let neither = file("neither.xyz", "0 0 0 200 100 50\n1 0 0 0.5 0.5 0.5\n");
+    let (code, _, stderr) = inspect(&neither, &[]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("neither.xyz: file: six columns without a header")
+            && stderr.contains("neither normals (line 1:")
+            && stderr.contains("nor colours (line 2: 0.5 is not an integer from 0 to 255)")
+            && stderr.contains("--columns x,y,z,nx,ny,nz or --columns x,y,z,r,g,b"),
+        "{stderr}"
+    );
+    let both = file("both.xyz", "0 0 0 0 0 1\n1 0 0 1 0 0\n");
+    let (code, _, stderr) = inspect(&both, &[]);
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("read both as unit normals and as colours"),
+        "{stderr}"
+    );
+    // The flag decides; so does a header, ours or CloudCompare's.
+    assert!(
+        inspect(&both, &["--columns", "x,y,z,r,g,b"])
+            .1
+            .contains("attributes=colors")
+    );
+    assert!(
+        inspect(&both, &["--columns", "x,y,z,nx,ny,nz"])
+            .1
+            .contains("attributes=normals")
+    );
+    let headed = file("h.xyz", "# x y z nx ny nz\n0 0 0 0 0 1\n1 0 0 1 0 0\n");
+    assert!(inspect(&headed, &[]).1.contains("attributes=normals"));
+    let cc = file(
+        "cc.txt",
+        "//X,Y,Z,R,G,B\n0.5,0.25,1,0,0,1\n1.5,0.25,1,1,0,0\n",
+    );
+    let c = read(&cc).unwrap().cloud;
+    assert_eq!(c.colors, Some(vec![[0, 0, 1], [1, 0, 0]]));
+    assert_eq!(c.positions[1], DVec3::new(1.5, 0.25, 1.0));
+    // A bad flag is a usage error naming the names.
+    let (code, _, stderr) = inspect(&both, &["--columns", "x,y,q"]);
+    assert_eq!(code, 2);
+    assert!(stderr.contains("unknown column \"q\""), "{stderr}");
+}

@@ -89,7 +89,11 @@ fn seeds(ext: &str) -> Vec<Vec<u8>> {
         "obj" => vec![
             b"# a tetrahedron\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvt 0 0\nv 0.5 0.5 1\nf 1/1/1 2 3\nf 1 2 4\nf -1 -2 -3\n".to_vec(),
         ],
-        "xyz" => vec![tri.as_bytes().to_vec(), b"0 0 0 0 0 1\n1 0 0 0 0 1\n".to_vec()],
+        "xyz" => vec![
+            tri.as_bytes().to_vec(),
+            b"0 0 0 0 0 1\n1 0 0 0 0.6 0.8\n".to_vec(),
+            b"# x y z r g b\n0 0 0 0 0 1\n1 0 0 255 10 0\n".to_vec(),
+        ],
         "pcd" => vec![
             file("formats/tiny_ascii.pcd"),
             file("formats/tiny_binary.pcd"),

@@ -225,6 +225,7 @@ fn visible(root: &Path, method: &str) -> usize {
             read: cloud::io::ReadOptions::default(),
             merge_scans: false,
             surface_tolerance: None,
+            allow_off_surface: false,
             camera: harness::visible::CameraFlags::default(),
             views: None,
         },
@@ -272,10 +273,11 @@ fn every_experiment(root: &Path) {
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
         assert_eq!(rows.len(), 2, "visibility: {m} on 2 views: {rows:?}");
-        // The last column says what the method was made for (points or pixels).
+        // The last columns say what the method was made for (points or pixels) and that the
+        // mesh fits the points (`mesh_fit`).
         assert!(
             rows.iter()
-                .all(|r| r.ends_with(",ok,points") || r.ends_with(",ok,pixels")),
+                .all(|r| r.ends_with(",ok,points,ok") || r.ends_with(",ok,pixels,ok")),
             "{rows:?}"
         );
     }

@@ -111,6 +111,9 @@ fn a_scan_and_its_mesh_from_files_scored_with_off_surface_points_apart() {
             // Katz's γ (its default is hpr::auto's rule): the figures below are for it.
             "--set",
             "gamma=3",
+            // 3 % outliers 0.2 to 0.4 off the surface, beyond the mesh check's 1 % past 3
+            // spacings: the user says so.
+            "--allow-off-surface",
             "--out",
             out.to_str().unwrap(),
         ],
@@ -181,7 +184,8 @@ fn a_manifest_runs_the_visibility_experiment_with_and_without_a_mesh() {
     std::fs::write(
         dir.path().join("pointsight.toml"),
         format!(
-            "[datasets.my-scan]\ncloud = {:?}\nmesh = {:?}\nview_spec = {{ count = 2 }}\n\n\
+            "[datasets.my-scan]\ncloud = {:?}\nmesh = {:?}\nview_spec = {{ count = 2 }}\n\
+             allow_off_surface = true\n\n\
              [datasets.bare-scan]\ncloud = {:?}\ndescription = \"the scan alone\"\n",
             scan.file_name().unwrap(),
             mesh.file_name().unwrap(),
@@ -238,6 +242,215 @@ fn a_manifest_runs_the_visibility_experiment_with_and_without_a_mesh() {
     assert!(
         meta.contains("scan.ply") && meta.contains("sha256"),
         "{meta}"
+    );
+}
+
+/// Runs `pointsight` in `dir`: exit code, standard output, standard error.
+fn run_in(dir: &Path, args: &[&str]) -> (i32, String, String) {
+    let out = pointsight(dir, args);
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn a_mesh_that_does_not_fit_the_points_is_refused_or_marked() {
+    // The clean scene's points against its mesh scaled ten times, shifted, and another
+    // surface (a ball alone): each refused by `visible --score` and `run` with the share far
+    // from the mesh, the median distance and the likely cause; `--allow-off-surface` goes on
+    // with the rows marked. The right mesh passes, marked ok.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (scene, _) = sphere_plane_scene(1_500, 3_000, 11);
+    write_ply(&d.join("scan.ply"), &scene.cloud.positions);
+    write_off(&d.join("scene.off"), &scene.mesh, DVec3::ZERO);
+    // Ten times as large about the ball's centre (about the origin, the square would stay
+    // under its points).
+    let c = DVec3::new(0.0, 0.0, 1.0);
+    let tenfold = TriMesh {
+        vertices: scene
+            .mesh
+            .vertices
+            .iter()
+            .map(|v| c + (*v - c) * 10.0)
+            .collect(),
+        ..scene.mesh.clone()
+    };
+    write_off(&d.join("tenfold.off"), &tenfold, DVec3::ZERO);
+    // Shifted up by 1 (sideways, most of the square would stay under its points).
+    write_off(
+        &d.join("shifted.off"),
+        &scene.mesh,
+        DVec3::new(0.0, 0.0, 1.0),
+    );
+    // Another surface in the same box: the scene upside down (the square on top).
+    let (lo, hi) = {
+        let b = scene.mesh.bbox().unwrap();
+        (b.min.z, b.max.z)
+    };
+    let flipped = TriMesh {
+        vertices: scene
+            .mesh
+            .vertices
+            .iter()
+            .map(|v| DVec3::new(v.x, v.y, lo + hi - v.z))
+            .collect(),
+        ..scene.mesh.clone()
+    };
+    write_off(&d.join("flipped.off"), &flipped, DVec3::ZERO);
+    let visible = |mesh: &str, extra: &[&str]| {
+        let mut args = vec![
+            "visible", "--cloud", "scan.ply", "--mesh", mesh, "--score", "--eye", "0.5,-3,4",
+            "--method", "hpr", "--set", "gamma=3", "--out", "v.txt",
+        ];
+        args.extend_from_slice(extra);
+        run_in(d, &args)
+    };
+    for (mesh, share, cause) in [
+        (
+            "tenfold.off",
+            "100.0 %",
+            "(a factor of 10: units, millimetres against centimetres?)",
+        ),
+        (
+            "shifted.off",
+            "",
+            "offset: the points' bounding box is shifted by (",
+        ),
+        ("flipped.off", "", "another mesh: the bounding boxes agree"),
+    ] {
+        let (code, stdout, stderr) = visible(mesh, &[]);
+        assert_eq!(code, 1, "{mesh}: {stdout}");
+        assert!(
+            stderr.contains(&format!(
+                "dataset scan: the mesh {mesh} does not fit the points"
+            )) && stderr.contains(share)
+                && stderr.contains("of the points lie farther than")
+                && stderr.contains("median distance")
+                && stderr.contains(cause)
+                && stderr.contains("--allow-off-surface"),
+            "{mesh}: {stderr}"
+        );
+        assert!(!d.join("v.txt").exists(), "{mesh}: nothing written");
+    }
+    // Told to go on: the score is marked, and the warning says why, once.
+    let (code, stdout, stderr) = visible("tenfold.off", &["--allow-off-surface"]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("mesh_fit=off-surface"), "{stdout}");
+    assert_eq!(
+        stderr.matches("the mesh does not fit the points").count(),
+        1,
+        "{stderr}"
+    );
+    // The right mesh: no warning, marked ok.
+    let (code, stdout, stderr) = visible("scene.off", &[]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("mesh_fit=ok"), "{stdout}");
+    assert!(!stderr.contains("does not fit"), "{stderr}");
+    // `run` on the same pair: refused before measuring, then marked rows when allowed.
+    let run = |extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            "visibility",
+            "--quick",
+            "--cloud",
+            "scan.ply",
+            "--mesh",
+            "tenfold.off",
+            "--eye",
+            "0.5,-3,4",
+            "--out",
+            "vis",
+        ];
+        args.extend_from_slice(extra);
+        run_in(d, &args)
+    };
+    let (code, _, stderr) = run(&[]);
+    assert_eq!(code, 1);
+    assert!(stderr.contains("does not fit the points"), "{stderr}");
+    assert!(!d.join("vis").exists());
+    let (code, _, stderr) = run(&["--allow-off-surface"]);
+    assert_eq!(code, 0, "{stderr}");
+    let results = std::fs::read_to_string(d.join("vis/results.csv")).unwrap();
+    let header: Vec<&str> = results.lines().next().unwrap().split(',').collect();
+    let fit = header.iter().position(|h| *h == "mesh_fit").unwrap();
+    assert!(
+        results
+            .lines()
+            .skip(1)
+            .all(|l| l.split(',').nth(fit) == Some("off-surface"))
+    );
+    let summary = std::fs::read_to_string(d.join("vis/summary.md")).unwrap();
+    assert!(
+        summary.contains("scan: scored against a mesh that does not fit its points"),
+        "{summary}"
+    );
+    let meta = std::fs::read_to_string(d.join("vis/metadata.json")).unwrap();
+    assert!(
+        meta.contains("far_share") && meta.contains("likely_cause"),
+        "{meta}"
+    );
+    // A dataset with a mesh has no agreement rows: the table is its header (it was 0 bytes).
+    assert_eq!(
+        std::fs::read_to_string(d.join("vis/agreement.csv")).unwrap(),
+        "dataset,view,a,b,jaccard\n"
+    );
+    assert!(
+        std::fs::read_to_string(d.join("vis/peers.csv"))
+            .unwrap()
+            .starts_with("dataset,view,peer,")
+    );
+}
+
+#[test]
+fn a_degraded_manifest_dataset_is_checked_at_its_clean_points() {
+    // Noise and 5 % outliers on purpose: the check measures the clean source positions and
+    // leaves the outliers out, so the dataset passes; the same mesh scaled does not.
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ball = cloud::synth::sphere_scene(200).mesh;
+    write_off(&d.join("ball.off"), &ball, DVec3::ZERO);
+    let big = TriMesh {
+        vertices: ball.vertices.iter().map(|v| *v * 3.0).collect(),
+        ..ball.clone()
+    };
+    write_off(&d.join("big.off"), &big, DVec3::ZERO);
+    std::fs::write(
+        d.join("pointsight.toml"),
+        "[datasets.noisy]\ncloud = \"ball.ply\"\nmesh = \"ball.off\"\n\
+         degrade = [\"noise:sigma=2\", \"outliers:fraction=0.05\"]\n\
+         [datasets.wrong]\ncloud = \"ball.ply\"\nmesh = \"big.off\"\n",
+    )
+    .unwrap();
+    let samples = cloud::sample::sample_surface(&ball, 3_000, 4).unwrap();
+    write_ply(&d.join("ball.ply"), &samples.positions);
+    let score = |dataset: &str| {
+        run_in(
+            d,
+            &[
+                "visible",
+                "--dataset",
+                dataset,
+                "--score",
+                "--method",
+                "hpr",
+                "--out",
+                "v.txt",
+            ],
+        )
+    };
+    let (code, stdout, stderr) = score("noisy");
+    assert_eq!(code, 0, "{stderr}");
+    assert!(stdout.contains("mesh_fit=ok"), "{stdout}");
+    let (code, _, stderr) = score("wrong");
+    assert_eq!(code, 1);
+    assert!(
+        stderr.contains("dataset wrong:")
+            && stderr.contains("big.off does not fit")
+            && stderr.contains("scale: the mesh is 3.0"),
+        "{stderr}"
     );
 }
 

@@ -119,6 +119,10 @@ pub enum ReadErrorKind {
     /// The payload does not follow the header (PLY parser message).
     #[error("malformed payload: {0}")]
     Malformed(String),
+    /// A text file's columns cannot be told apart, or a column holds what its name forbids
+    /// (XYZ: `io::xyz`'s rule).
+    #[error("{0}")]
+    Columns(String),
 }
 
 /// An error from a file reader: the file, where in it, and what.

@@ -39,6 +39,8 @@ fn dragon() -> (String, PointCloud, Vec<Camera>) {
             surface_tolerance: None,
             truth_positions: None,
             outliers: None,
+            mesh_fit: None,
+            allow_off_surface: false,
         })
     });
     let ds = ds.expect("dataset");

@@ -21,10 +21,15 @@ pub struct Cli {
     /// `pointsight.toml` in the working directory when it exists.
     #[arg(long, global = true, env = "POINTSIGHT_MANIFEST")]
     pub manifest: Option<PathBuf>,
-    /// Folder of external methods (`NAME/method.toml` each; see methods/README.md); default:
-    /// the clone's `methods/`, else `PREFIX/share/pointsight/methods` beside the binary.
-    #[arg(long, global = true, env = "POINTSIGHT_METHODS")]
-    pub methods_dir: Option<PathBuf>,
+    /// A folder of external methods (`NAME/method.toml` each; see methods/README.md) added to
+    /// the installed ones (repeatable; a name already taken is an error). The installed methods
+    /// are `POINTSIGHT_METHODS` (folders joined as PATH joins them), else the clone's
+    /// `methods/`, else `PREFIX/share/pointsight/methods` beside the binary.
+    #[arg(long, global = true)]
+    pub methods_dir: Vec<PathBuf>,
+    /// Leave the installed methods out: only `--methods-dir`'s (and the built-in ones) run.
+    #[arg(long, global = true)]
+    pub no_installed_methods: bool,
     /// Folder of fetched data; default: the clone's `bench-data/`, else
     /// `$XDG_DATA_HOME/pointsight` (or `~/.local/share/pointsight`).
     #[arg(long, global = true, env = "POINTSIGHT_DATA")]
@@ -52,8 +57,15 @@ pub enum Command {
     /// One line per dataset: name, number of points, availability, role (tuning: settings are
     /// chosen on it; evaluation: never; own: a manifest's), description.
     Datasets,
-    /// The visibility methods and their --set parameters.
-    Methods,
+    /// The visibility and LOD methods and their --set parameters. An external method's
+    /// program is checked (is it installed here?) only with `--check`, which runs every
+    /// method's `check` command at once; without it the listing takes no time.
+    Methods {
+        /// Run every external method's check and say which are not installed, and how to
+        /// install them.
+        #[arg(long)]
+        check: bool,
+    },
     /// Write a dataset's points: binary little-endian PLY (x y z, double), or LAS/LAZ when the
     /// output ends in .las or .laz (coordinates quantised; the scale is printed).
     Export {
@@ -87,7 +99,8 @@ pub enum Command {
     ///
     /// One view (`--view K`, the dataset's views): write the visible indices, ascending, one per
     /// line, to the file `--out`; the last line on stdout is `method=M points=N visible=K
-    /// seconds=T` (T: the method's compute time).
+    /// seconds=T` (T: the method's compute time). With `--out -` the indices are standard
+    /// output and those lines go to standard error.
     ///
     /// Many views (`--views FILE`, or `--view all` or a list `K1,K2,...`): `--out` is a folder
     /// that gets `view-K.txt` per view; one line `view=K method=M points=N visible=V
@@ -107,7 +120,8 @@ pub enum Command {
         /// Method parameter, KEY=VALUE (repeatable).
         #[arg(long = "set", value_name = "KEY=VALUE")]
         set: Vec<String>,
-        /// Output file for the indices (one view) or folder (many views).
+        /// Output file for the indices (one view) or folder (many views). `-`: the indices on
+        /// standard output (one view), the other lines on standard error.
         #[arg(long)]
         out: PathBuf,
         /// Also score the visible set against the reference (printed before each contract line).
@@ -215,6 +229,12 @@ pub enum Command {
         /// E57: read only this scan.
         #[arg(long)]
         scan: Option<usize>,
+        /// XYZ: what each column holds, e.g. `x,y,z,r,g,b` or `x,y,z,nx,ny,nz` (`_` for a
+        /// column not read). Without it, a header line (`# x y z nx ny nz`, `//X,Y,Z,R,G,B`)
+        /// decides; else six columns are normals only when every triple has unit length, colours
+        /// only when all are integers 0-255, and refused otherwise.
+        #[arg(long, value_parser = parse_columns)]
+        columns: Option<cloud::io::xyz::Columns>,
     },
     /// Run an experiment: results.csv, plots and tables into its output folder.
     ///
@@ -342,9 +362,21 @@ pub struct FileArgs {
     /// E57: merge every scan into one cloud (each point keeps its scan).
     #[arg(long)]
     pub merge_scans: bool,
+    /// XYZ: what each column holds, e.g. `x,y,z,r,g,b` or `x,y,z,nx,ny,nz` (`_` for a
+    /// column not read). Without it, a header line (`# x y z nx ny nz`, `//X,Y,Z,R,G,B`)
+    /// decides; else six columns are normals only when every triple has unit length, colours
+    /// only when all are integers 0-255, and refused otherwise.
+    #[arg(long, value_parser = parse_columns)]
+    pub columns: Option<cloud::io::xyz::Columns>,
     /// Off-surface tolerance for scoring (world units; default: one density spacing).
     #[arg(long)]
     pub surface_tolerance: Option<f64>,
+    /// Score against a mesh that does not fit the points anyway: without it, a dataset whose
+    /// points lie more than 1 % farther than 3 density spacings from its mesh is refused
+    /// (scale, offset, units, another mesh); with it, its rows are marked
+    /// `mesh_fit=off-surface`.
+    #[arg(long)]
+    pub allow_off_surface: bool,
 }
 
 /// The cameras (`visible`, `view`, `run`): one from flags, or a views file.
@@ -372,6 +404,11 @@ pub struct CameraArgs {
     /// of the dataset's own views.
     #[arg(long)]
     pub views: Option<PathBuf>,
+}
+
+/// `--columns`: XYZ column names (`cloud::io::xyz::Columns`).
+fn parse_columns(text: &str) -> Result<cloud::io::xyz::Columns, String> {
+    text.parse()
 }
 
 /// Output format of `views`.

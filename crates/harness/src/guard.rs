@@ -83,14 +83,13 @@ pub fn outputs_and_inputs(
             // As `visible` decides: a views file, `all` or a list make a folder.
             let many = source.camera.views.is_some()
                 || view.as_deref().is_some_and(|v| v.parse::<usize>().is_err());
-            (
-                vec![if many {
-                    folder(out, Role::Views)
-                } else {
-                    file(out)
-                }],
-                source_inputs(source),
-            )
+            // `--out -`: one view's indices on standard output, no file.
+            let outs = match (many, out.as_os_str() == "-") {
+                (false, true) => Vec::new(),
+                (true, _) => vec![folder(out, Role::Views)],
+                (false, false) => vec![file(out)],
+            };
+            (outs, source_inputs(source))
         }
         Command::View {
             source, out, png, ..
@@ -141,7 +140,7 @@ pub fn outputs_and_inputs(
         Command::Fetch
         | Command::Paths
         | Command::Datasets
-        | Command::Methods
+        | Command::Methods { .. }
         | Command::ScaleCell { .. }
         | Command::Inspect { .. }
         | Command::Sweeps

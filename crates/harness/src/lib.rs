@@ -50,17 +50,24 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     datasets::use_manifest(datasets::manifest::Manifest::discover(
         cli.manifest.as_deref(),
     )?);
-    let methods = paths::methods_dir(cli.methods_dir, clone.as_deref());
-    paths::use_methods_dir(methods.path.clone());
-    match methods.warning() {
-        // Said where methods matter; the scale experiment's cells are its children, which
-        // the parent has warned for.
-        Some(warning) => {
-            if uses_methods(&cli.command) {
-                eprintln!("{warning}");
+    let methods = paths::methods_folders(
+        std::env::var_os("POINTSIGHT_METHODS").as_deref(),
+        clone.as_deref(),
+        cli.no_installed_methods,
+        &cli.methods_dir,
+    );
+    paths::use_methods_dirs(methods.iter().map(|m| m.path.clone()).collect());
+    for folder in &methods {
+        match folder.warning() {
+            // Said where methods matter; the scale experiment's cells are its children, which
+            // the parent has warned for.
+            Some(warning) => {
+                if uses_methods(&cli.command) {
+                    eprintln!("{warning}");
+                }
             }
+            None => register_methods(folder)?,
         }
-        None => registry::register_external(&methods.path)?,
     }
     let reports = |given: Option<std::path::PathBuf>, quick: bool| {
         given.unwrap_or_else(|| paths::reports_dir(quick, clone.as_deref()))
@@ -71,7 +78,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
         Command::Fetch => commands::data::fetch(&data_dir)?,
         Command::Paths => commands::data::paths(&data, &methods, clone.as_deref()),
         Command::Datasets => commands::data::list_datasets(&data_dir, cli.manifest.as_deref())?,
-        Command::Methods => commands::catalogue::list_methods()?,
+        Command::Methods { check } => commands::catalogue::list_methods(check)?,
         Command::Sweeps => commands::catalogue::sweeps(),
         Command::Clean { folders, remove } => guard::clean_command(folders, remove)?,
         Command::Export {
@@ -84,7 +91,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             format,
             classes,
             scan,
-        } => commands::data::inspect(&file, format, classes, scan)?,
+            columns,
+        } => commands::data::inspect(&file, format, classes, scan, columns)?,
         Command::Views {
             dataset,
             out,
@@ -188,10 +196,37 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
 
 /// True for the commands that run or list external methods, which say when the methods folder
 /// cannot be read.
+/// Registers the external methods of `folder`; one whose name an earlier folder's method took
+/// is an error naming both folders (a built-in name is refused by the registry).
+fn register_methods(folder: &paths::Place) -> Result<()> {
+    use registry::methods::external::manifest::ExternalMethod;
+    for m in ExternalMethod::load_dir(&folder.path)? {
+        if let Some(taken) = registry::card_named(m.name()).filter(|c| c.is_external()) {
+            let earlier = paths::methods_in_use()
+                .unwrap_or_default()
+                .iter()
+                .find(|p| p.join(taken.name).join("method.toml").is_file() && **p != folder.path)
+                .map_or_else(
+                    || "an earlier methods folder".to_owned(),
+                    |p| p.display().to_string(),
+                );
+            anyhow::bail!(
+                "method {} of {} ({}) is also in {earlier}: rename one folder's, or leave the \
+                 installed methods out with --no-installed-methods",
+                m.name(),
+                folder.path.display(),
+                folder.why()
+            );
+        }
+    }
+    registry::register_external(&folder.path)?;
+    Ok(())
+}
+
 fn uses_methods(command: &Command) -> bool {
     matches!(
         command,
-        Command::Methods
+        Command::Methods { .. }
             | Command::Visible { .. }
             | Command::View { .. }
             | Command::Run { .. }

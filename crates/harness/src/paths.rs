@@ -14,11 +14,14 @@
 //!    absolute path, as the XDG Base Directory specification requires), else
 //!    `~/.local/share/pointsight`.
 //!
-//! **The methods folder** (external methods and peers, `NAME/method.toml` each):
-//! 1. `--methods-dir DIR` or `POINTSIGHT_METHODS=DIR`;
+//! **The installed methods** (external methods and peers, `NAME/method.toml` each):
+//! 1. `POINTSIGHT_METHODS=DIR` (several folders joined as `PATH` joins them);
 //! 2. the clone's `methods/` when the working directory is inside a clone;
 //! 3. the methods installed beside the binary: `PREFIX/share/pointsight/methods` for a binary in
 //!    `PREFIX/bin/` (`just install`).
+//!
+//! `--methods-dir DIR` adds DIR's methods to those (a name already taken is an error) and
+//! `--no-installed-methods` leaves the installed ones out ([`methods_folders`]).
 //!
 //! A methods folder that cannot be read is said on standard error ([`Place::warning`]), never
 //! taken silently for an empty one.
@@ -76,6 +79,8 @@ pub enum Origin {
     User,
     /// Installed beside the binary.
     Installed,
+    /// Added to the installed methods (`--methods-dir`).
+    Added,
 }
 
 /// A resolved folder and why it was chosen.
@@ -95,6 +100,7 @@ impl Place {
             Origin::Clone(root) => format!("the clone at {}", root.display()),
             Origin::User => "the per-user data folder".into(),
             Origin::Installed => "installed beside the binary".into(),
+            Origin::Added => "added by --methods-dir".into(),
         }
     }
 
@@ -109,9 +115,9 @@ impl Place {
                 self.path.display(),
                 self.why(),
                 match self.origin {
-                    Origin::Given => "",
+                    Origin::Given | Origin::Added => "",
                     _ => {
-                        "; set POINTSIGHT_METHODS or --methods-dir, run from inside a pointsight \
+                        "; set POINTSIGHT_METHODS, add --methods-dir, run from inside a pointsight \
                          clone, or install with `just install` from one"
                     }
                 }
@@ -208,18 +214,53 @@ pub fn methods_dir(given: Option<PathBuf>, clone: Option<&Path>) -> Place {
     }
 }
 
-/// The methods folder this process resolved ([`methods_dir`]), set once at start.
-static METHODS_IN_USE: OnceLock<PathBuf> = OnceLock::new();
-
-/// Records `path` as this process's methods folder (a second call keeps the first).
-pub fn use_methods_dir(path: PathBuf) {
-    let _ = METHODS_IN_USE.set(path);
+/// The methods folders of a command, in order: the installed ones by the rule above
+/// (`installed`: `POINTSIGHT_METHODS`'s folders, if set), unless `no_installed`, then each of
+/// `added` (`--methods-dir`).
+pub fn methods_folders(
+    installed: Option<&std::ffi::OsStr>,
+    clone: Option<&Path>,
+    no_installed: bool,
+    added: &[PathBuf],
+) -> Vec<Place> {
+    let mut out = Vec::new();
+    if !no_installed {
+        match installed.filter(|v| !v.is_empty()) {
+            Some(v) => out.extend(std::env::split_paths(v).map(|path| Place {
+                path,
+                origin: Origin::Given,
+            })),
+            None => out.push(methods_dir(None, clone)),
+        }
+    }
+    // A folder named twice (the installed one given again) is read once.
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => a == b,
+    };
+    for path in added {
+        if !out.iter().any(|p| same(&p.path, path)) {
+            out.push(Place {
+                path: path.clone(),
+                origin: Origin::Added,
+            });
+        }
+    }
+    out
 }
 
-/// The methods folder this process resolved, when [`use_methods_dir`] was called: what a
+/// The methods folders this process resolved ([`methods_folders`]), set once at start.
+static METHODS_IN_USE: OnceLock<Vec<PathBuf>> = OnceLock::new();
+
+/// Records `paths` as this process's methods folders (a second call keeps the first).
+pub fn use_methods_dirs(paths: Vec<PathBuf>) {
+    let _ = METHODS_IN_USE.set(paths);
+}
+
+/// The methods folders this process resolved, when [`use_methods_dirs`] was called: what a
 /// child process of the same run must use too (the `scale` experiment's cells).
-pub fn methods_in_use() -> Option<&'static Path> {
-    METHODS_IN_USE.get().map(PathBuf::as_path)
+pub fn methods_in_use() -> Option<&'static [PathBuf]> {
+    METHODS_IN_USE.get().map(Vec::as_slice)
 }
 
 /// The reports folder of a run without `--out`/`--reports`: `reports/` (`reports-quick/` for
@@ -349,6 +390,32 @@ mod tests {
             methods_dir(Some("/m".into()), Some(clone)).origin,
             Origin::Given
         );
+        // --methods-dir adds to the installed folders; --no-installed-methods drops them; the
+        // installed folder named again is read once.
+        let folders = |env: Option<&str>, no: bool, added: &[&str]| {
+            let added: Vec<PathBuf> = added.iter().map(PathBuf::from).collect();
+            methods_folders(env.map(std::ffi::OsStr::new), Some(clone), no, &added)
+                .into_iter()
+                .map(|p| (p.path.display().to_string(), p.origin))
+                .collect::<Vec<_>>()
+        };
+        let mine = ("/mine".to_owned(), Origin::Added);
+        let cloned = ("/c/methods".to_owned(), Origin::Clone(clone.to_owned()));
+        assert_eq!(
+            folders(None, false, &["/mine"]),
+            [cloned.clone(), mine.clone()]
+        );
+        assert_eq!(folders(None, true, &["/mine"]), std::slice::from_ref(&mine));
+        assert_eq!(folders(None, false, &["/c/methods"]), [cloned]);
+        assert_eq!(
+            folders(Some("/a:/b"), false, &["/mine"]),
+            [
+                ("/a".to_owned(), Origin::Given),
+                ("/b".to_owned(), Origin::Given),
+                mine
+            ]
+        );
+        assert!(folders(Some("/a"), true, &[]).is_empty());
         let installed = methods_dir(None, None);
         assert_eq!(installed.origin, Origin::Installed);
         assert!(installed.path.ends_with("share/pointsight/methods"));

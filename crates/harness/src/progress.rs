@@ -4,7 +4,7 @@
 //!
 //! Nothing is drawn or written (bars, the run's line, [`note`]s) when standard error is not a
 //! terminal or with `--quiet` ([`set_quiet`]): a script that reads standard error sees only
-//! warnings and errors. Standard output is never touched here.
+//! warnings ([`warn_once`]) and errors. Standard output is never touched here.
 //!
 //! The time left: when the previous run left metadata for every experiment still to come (its
 //! `seconds`, same mode and datasets), the sum of those, with the current experiment's share
@@ -183,6 +183,30 @@ pub fn note(line: impl AsRef<str>) {
             let _ = m.println(line.as_ref());
         }
         None => eprintln!("{}", line.as_ref()),
+    }
+}
+
+/// A warning on standard error, once per process however often it is raised (a dataset
+/// loaded by several experiments warns once); shown with `--quiet` too, above the bars when
+/// they are drawn.
+pub fn warn_once(line: impl AsRef<str>) {
+    static SAID: Mutex<Vec<String>> = Mutex::new(Vec::new());
+    let line = line.as_ref();
+    if let Ok(mut said) = SAID.lock() {
+        if said.iter().any(|s| s == line) {
+            return;
+        }
+        said.push(line.to_owned());
+    }
+    let multi = ACTIVE
+        .lock()
+        .ok()
+        .and_then(|a| a.as_ref().map(|a| a.multi.clone()));
+    match multi.filter(|_| enabled()) {
+        Some(m) => {
+            let _ = m.println(line);
+        }
+        None => eprintln!("{line}"),
     }
 }
 

@@ -113,6 +113,9 @@ pub struct Source {
     pub merge_scans: bool,
     /// Off-surface tolerance for scoring.
     pub surface_tolerance: Option<f64>,
+    /// Score against a mesh that does not fit the points anyway (`datasets::fit`), whatever
+    /// dataset this source names.
+    pub allow_off_surface: bool,
     /// A camera from flags.
     pub camera: CameraFlags,
     /// A views file replacing the dataset's views.
@@ -134,6 +137,7 @@ impl Source {
             dataset: Some(name.to_owned()),
             camera: self.camera.clone(),
             views: self.views.clone(),
+            allow_off_surface: self.allow_off_surface,
             ..Self::default()
         }
     }
@@ -199,6 +203,11 @@ pub fn parse_views(spec: &str, n: usize) -> Result<Vec<usize>> {
     Ok(out)
 }
 
+/// `--out -`: standard output.
+fn to_stdout(out: &Path) -> bool {
+    out.as_os_str() == "-"
+}
+
 fn indices_text(visible: &[u32]) -> String {
     let mut text = String::with_capacity(visible.len() * 8);
     for i in visible {
@@ -209,7 +218,8 @@ fn indices_text(visible: &[u32]) -> String {
 }
 
 /// The score line: the reference's count, precision, recall, F1 (off-surface points left out
-/// and counted).
+/// and counted), and whether the mesh fits the points (`mesh_fit=ok`, or `off-surface` when
+/// `--allow-off-surface` let a mesh that does not fit be used: `datasets::fit`).
 fn score_line(
     reference: &truth::Reference,
     ds: &Dataset,
@@ -235,7 +245,7 @@ fn score_line(
     });
     Ok(format!(
         "reference_visible={} off_surface={off} off_surface_visible={off_visible} \
-         surface_tolerance={tolerance:.6} precision={:.4} recall={:.4} f1={:.4}",
+         surface_tolerance={tolerance:.6} precision={:.4} recall={:.4} f1={:.4} mesh_fit={}",
         truth
             .iter()
             .enumerate()
@@ -243,7 +253,8 @@ fn score_line(
             .count(),
         s.precision(),
         s.recall(),
-        s.f1()
+        s.f1(),
+        ds.mesh_fit_mark()
     ))
 }
 
@@ -275,6 +286,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
                 views: datasets::ViewsFrom::Spec(cloud::ViewSpec::default()),
                 surface_tolerance: src.surface_tolerance,
                 degrade: (Vec::new(), 1),
+                allow_off_surface: src.allow_off_surface,
             })?
         }
         (None, Some(name)) => {
@@ -299,6 +311,28 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
         );
     }
     ds.check_views()?;
+    // Views most methods were not made for, said once (a dataset loaded again warns no more).
+    for line in datasets::eyes::find(&ds)?.lines(&ds.name, ds.views.len()) {
+        crate::progress::warn_once(line);
+    }
+    if !ds.files.is_empty() {
+        // A user's mesh, checked before it becomes a ground truth; built-in datasets are
+        // samples of their own meshes.
+        let allow = src.allow_off_surface || ds.allow_off_surface;
+        let mesh = src
+            .mesh
+            .clone()
+            .or_else(|| datasets::manifest_mesh(&ds.name));
+        datasets::fit::check(&mut ds, allow, mesh.as_deref())?;
+        if let Some(fit) = ds.mesh_fit.as_ref().filter(|f| f.allowed) {
+            crate::progress::warn_once(format!(
+                "warning: dataset {}: the mesh does not fit the points: {}; scored against it \
+                 anyway (--allow-off-surface): rows marked mesh_fit=off-surface",
+                ds.name,
+                fit.text()
+            ));
+        }
+    }
     Ok(ds)
 }
 
@@ -341,27 +375,49 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
             .map_err(anyhow::Error::msg)?;
         // An external program's timing is its own reported compute time (`registry::kernel`).
         let seconds = timing.median;
-        output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
-        println!(
+        let mut lines = vec![format!(
             "prepare_seconds={:.6}{} rays={}",
             preparation.seconds,
             build_text(&preparation),
             output.rays
-        );
+        )];
         if let Some(r) = &reference {
-            println!("{}", score_line(r, &ds, &camera, &output, off_flags)?);
+            lines.push(score_line(r, &ds, &camera, &output, off_flags)?);
         }
-        println!("{}", timing_line(&timing));
-        println!("setting={}", preparation.setting.label());
-        println!(
+        lines.push(timing_line(&timing));
+        lines.push(format!("setting={}", preparation.setting.label()));
+        lines.push(format!(
             "method={} points={} visible={} seconds={seconds:.6}",
             method.name,
             ds.cloud.len(),
             output.visible.len()
-        );
+        ));
+        if to_stdout(&req.out) {
+            // The indices are standard output; the lines that describe them go to standard
+            // error, so that a pipe reads indices alone.
+            use std::io::Write as _;
+            std::io::stdout()
+                .lock()
+                .write_all(indices_text(&output.visible).as_bytes())
+                .context("cannot write the indices to standard output")?;
+            for line in lines {
+                eprintln!("{line}");
+            }
+        } else {
+            output::write_atomic(&req.out, indices_text(&output.visible).as_bytes())?;
+            for line in lines {
+                println!("{line}");
+            }
+        }
         return Ok(());
     }
 
+    if to_stdout(&req.out) {
+        bail!(
+            "--out - writes one view's indices to standard output; many views need a folder \
+             (--out DIR: view-K.txt each)"
+        );
+    }
     let chosen = parse_views(&req.view, ds.views.len())?;
     let views: Vec<kernel::View> = chosen
         .iter()

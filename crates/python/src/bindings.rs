@@ -406,6 +406,7 @@ fn read<'py>(
                 format,
                 classes,
                 scan,
+                ..Default::default()
             },
         )
         .map_err(err)

@@ -65,7 +65,7 @@ pub enum RobustError {
     /// The viewpoint is inside the cloud's convex hull.
     #[error(
         "the viewpoint is inside the cloud's convex hull: the robust operator measures depths \
-         behind a front surface seen from outside (move the eye out of the cloud, or use hpr)"
+         behind a front surface seen from outside (move the eye out of the cloud's convex hull)"
     )]
     EyeInsideCloud,
     /// The flipping sphere does not contain every point.

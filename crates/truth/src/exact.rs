@@ -69,6 +69,47 @@ impl ExactVisibility {
             .map(|hit| (hit.time_of_impact, hit.normal))
     }
 
+    /// How many times the ray from `origin` in direction `dir` crosses the surface: every hit
+    /// along it, each next one searched from just past the last (a hit within 10^-9 of the
+    /// mesh's extent of the last is the same crossing, as through an edge two triangles share).
+    /// At most 100,000 crossings are counted.
+    pub fn crossings(&self, origin: DVec3, dir: DVec3) -> usize {
+        let dir = dir.normalize_or_zero();
+        if dir == DVec3::ZERO {
+            return 0;
+        }
+        let aabb = self.mesh.local_aabb();
+        let extent = (aabb.maxs - aabb.mins).length();
+        let step = 1e-9 * extent.max(f64::MIN_POSITIVE);
+        let mut from = origin;
+        let mut n = 0;
+        while n < 100_000 {
+            match self
+                .mesh
+                .cast_local_ray(&Ray::new(from, dir), f64::MAX, false)
+            {
+                Some(t) => {
+                    n += 1;
+                    from += dir * (t + step);
+                }
+                None => break,
+            }
+        }
+        n
+    }
+
+    /// Is `p` inside the surface? The majority of seven rays in fixed, irregular directions
+    /// cross it an odd number of times (a closed mesh: each ray alone; an open surface, such as
+    /// a floor, leaves most rays even).
+    pub fn is_inside(&self, p: DVec3) -> bool {
+        let odd = cloud::synth::fibonacci_sphere(7)
+            .iter()
+            .map(|&d| self.crossings(p, d + DVec3::new(0.0123, -0.0271, 0.0077)))
+            .filter(|n| n % 2 == 1)
+            .count();
+        odd >= 4
+    }
+
     /// Distance from `p` to the surface (the nearest point of any triangle).
     pub fn distance(&self, p: DVec3) -> f64 {
         (self.mesh.project_local_point(p, false).point - p).length()
@@ -150,6 +191,20 @@ mod tests {
             (d[1] - 1.0).abs() < 1e-3 && (d[2] - 0.5).abs() < 1e-3,
             "{d:?}"
         );
+    }
+
+    #[test]
+    fn a_point_is_inside_a_closed_mesh_and_not_beside_an_open_floor() {
+        let scene = sphere_scene(500);
+        let exact = ExactVisibility::new(&scene.mesh).unwrap();
+        assert!(exact.is_inside(DVec3::new(0.1, -0.2, 0.3)));
+        assert!(!exact.is_inside(DVec3::new(0.0, 0.0, 1.5)));
+        assert_eq!(exact.crossings(DVec3::new(0.0, 0.0, 3.0), -DVec3::Z), 2);
+        // The ball over its square (open): inside the ball still inside, above the square not.
+        let (scene, _) = sphere_plane_scene(200, 200, 1);
+        let exact = ExactVisibility::new(&scene.mesh).unwrap();
+        assert!(exact.is_inside(DVec3::new(0.0, 0.05, 0.9)));
+        assert!(!exact.is_inside(DVec3::new(1.5, 1.5, 0.5)));
     }
 
     #[test]

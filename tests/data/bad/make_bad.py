@@ -101,7 +101,9 @@ text("xyz_nan.xyz", "0 0 0\nnan 0 0\n")
 text("xyz_inf.xyz", "0 0 0\n1 -inf 0\n")
 text("xyz_short_line.xyz", "0 0 0\n1 0\n")
 text("xyz_comments_only.xyz", "# no points\n\n")
-text("xyz_normal_long.xyz", "0 0 0 0 0 1\n1 0 0 0 0 2\n")
+text("xyz_normal_long.xyz", "# x y z nx ny nz\n0 0 0 0 0 1\n1 0 0 0 0 2\n")
+text("xyz_six_columns_neither.xyz", "0 0 0 200 100 50\n1 0 0 0.5 0.5 0.5\n")
+text("xyz_six_columns_both.xyz", "0 0 0 0 0 1\n1 0 0 1 0 0\n")
 
 # ---- PCD
 PCD_HEAD = (

@@ -3,7 +3,8 @@
 //! - PLY, ASCII and binary of either endianness, read through the maintained `ply-rs-bw` crate,
 //!   one element at a time so that a bad header count never drives an allocation ([`ply`]);
 //! - OFF, the format of the CGAL data set ([`off`]); OBJ, vertices and faces ([`obj`]);
-//! - XYZ, whitespace-separated `x y z [nx ny nz]` lines ([`xyz`]);
+//! - XYZ, lines of numbers whose columns a header, the caller or a documented rule names
+//!   ([`xyz`]: `x y z`, normals, colours);
 //! - with the cargo feature `formats` (on for the harness, off for the method crates): LAS and
 //!   LAZ (`las`, reader and writer; `las_extra`, the extra bytes that carry normals), E57
 //!   (`e57`, every scan with its pose) and PCD (`pcd`, ascii, binary and binary_compressed);
@@ -153,6 +154,8 @@ pub struct ReadOptions {
     pub classes: Option<Vec<u8>>,
     /// E57: read only this scan (0-based); all scans merged when `None`.
     pub scan: Option<usize>,
+    /// XYZ: what each column holds (else a header line or the rule of [`xyz`]).
+    pub columns: Option<xyz::Columns>,
 }
 
 /// Reads a file, choosing the format by its extension (`ply`, `off`, `obj`, `xyz`/`txt`, and
@@ -211,14 +214,7 @@ fn read_unguarded(path: &Path, options: &ReadOptions) -> Result<Loaded, ReadErro
         Format::Ply => ply::read_ply(path),
         Format::Off => off::read_off(path),
         Format::Obj => obj::read_obj(path),
-        Format::Xyz => xyz::read_xyz(path).map(|cloud| Loaded {
-            normal_fields: cloud
-                .normals
-                .as_ref()
-                .map(|_| "columns 4 to 6 (XYZ nx ny nz)".to_owned()),
-            cloud,
-            ..Loaded::default()
-        }),
+        Format::Xyz => xyz::read_xyz(path, options.columns.as_ref()),
         #[cfg(feature = "formats")]
         Format::Las => las::read_las(
             path,

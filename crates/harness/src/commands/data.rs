@@ -26,18 +26,23 @@ pub fn fetch(data_dir: &Path) -> Result<()> {
 }
 
 /// `pointsight paths`: each folder and page script with the step of the rule that chose it.
-pub fn paths(data: &paths::Place, methods: &paths::Place, clone: Option<&Path>) {
+pub fn paths(data: &paths::Place, methods: &[paths::Place], clone: Option<&Path>) {
     println!("data={} ({})", data.path.display(), data.why());
-    let readable = if methods.warning().is_some() {
-        ", cannot be read"
-    } else {
-        ""
-    };
-    println!(
-        "methods={} ({}{readable})",
-        methods.path.display(),
-        methods.why()
-    );
+    if methods.is_empty() {
+        println!("methods=- (--no-installed-methods)");
+    }
+    for folder in methods {
+        let readable = if folder.warning().is_some() {
+            ", cannot be read"
+        } else {
+            ""
+        };
+        println!(
+            "methods={} ({}{readable})",
+            folder.path.display(),
+            folder.why()
+        );
+    }
     for quick in [false, true] {
         println!(
             "{}={}",
@@ -48,6 +53,15 @@ pub fn paths(data: &paths::Place, methods: &paths::Place, clone: Option<&Path>) 
     println!(
         "clone={}",
         clone.map_or("-".into(), |c| c.display().to_string())
+    );
+    // The docs' example files: the clone's, else the copy installed beside the binary.
+    let examples = clone
+        .map(|c| c.join("examples"))
+        .or_else(|| paths::installed_share().map(|s| s.join("examples")))
+        .filter(|e| e.is_dir());
+    println!(
+        "examples={}",
+        examples.map_or("-".into(), |e| e.display().to_string())
     );
     for (file, var) in [
         ("viewer.js", crate::view::page::BUNDLE_VAR),
@@ -229,11 +243,13 @@ pub fn inspect(
     format: Option<String>,
     classes: Option<Vec<u8>>,
     scan: Option<usize>,
+    columns: Option<cloud::io::xyz::Columns>,
 ) -> Result<()> {
     let options = cloud::io::ReadOptions {
         format: super::parse_format(format)?,
         classes,
         scan,
+        columns,
     };
     let start = std::time::Instant::now();
     let loaded = cloud::io::read_with(file, &options)?;

@@ -61,9 +61,11 @@ pub fn source_from(
             format: super::parse_format(f.format)?,
             classes: f.classes,
             scan: f.scan,
+            columns: f.columns,
         },
         merge_scans: f.merge_scans,
         surface_tolerance: f.surface_tolerance,
+        allow_off_surface: f.allow_off_surface,
         camera: visible::CameraFlags {
             eye: c.eye,
             target: c.target,

@@ -488,6 +488,8 @@ pub fn load(info: &DatasetInfo, data_dir: &Path) -> Result<Dataset> {
         surface_tolerance: None,
         truth_positions,
         outliers,
+        mesh_fit: None,
+        allow_off_surface: false,
     })
 }
 

@@ -69,6 +69,8 @@ pub struct FileDataset {
     pub surface_tolerance: Option<f64>,
     /// Degradations applied after loading (`cloud::degrade`), with their seed.
     pub degrade: (Vec<Degradation>, u64),
+    /// Score against a mesh that does not fit the points anyway ([`super::fit`]).
+    pub allow_off_surface: bool,
 }
 
 /// Largest coordinate of a mesh whose samples [`plain_sample`] streams: far below the
@@ -238,5 +240,7 @@ pub fn load_files(spec: &FileDataset) -> Result<Dataset> {
         surface_tolerance: spec.surface_tolerance.map(|t| t * scale.0 * scale.1),
         truth_positions,
         outliers,
+        mesh_fit: None,
+        allow_off_surface: spec.allow_off_surface,
     })
 }

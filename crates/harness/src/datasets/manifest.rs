@@ -11,8 +11,11 @@
 //! format = "laz"                    # optional: the format, when the extension does not say
 //! classes = [2, 6]                  # optional, LAS/LAZ: keep these classifications
 //! scan = 0                          # optional, E57: one scan (all merged by default)
+//! columns = "x,y,z,r,g,b"           # optional, XYZ: what each column holds (cloud::io::xyz)
 //! views = "views.jsonl"             # optional: a views file, a COLMAP model, or "scanners"
 //! surface_tolerance = 0.002         # optional: off-surface distance (default: 1 spacing)
+//! allow_off_surface = true          # optional: score against a mesh that does not fit the
+//!                                   # points (refused by default: datasets::fit)
 //!
 //! [datasets.my-bunny-50000]
 //! mesh = "bunny.obj"
@@ -113,6 +116,8 @@ pub struct Entry {
     pub classes: Option<Vec<u8>>,
     /// E57 scan to read.
     pub scan: Option<usize>,
+    /// XYZ columns (`x,y,z,r,g,b`; `cloud::io::xyz::Columns`).
+    pub columns: Option<String>,
     /// Views file, COLMAP model, or `scanners`.
     pub views: Option<PathBuf>,
     /// Fibonacci views.
@@ -130,6 +135,9 @@ pub struct Entry {
     pub degrade: Vec<String>,
     /// Seed of the degradations (default 1).
     pub degrade_seed: Option<u64>,
+    /// Score against a mesh that does not fit the points anyway (`super::fit`).
+    #[serde(default)]
+    pub allow_off_surface: bool,
 }
 
 impl Manifest {
@@ -137,8 +145,26 @@ impl Manifest {
     pub fn read(path: &Path) -> Result<Self> {
         let text = std::fs::read_to_string(path)
             .with_context(|| format!("cannot read the manifest {}", path.display()))?;
-        let mut m: Manifest = toml::from_str(&text)
-            .with_context(|| format!("{}: malformed manifest", path.display()))?;
+        let mut m: Manifest = match toml::from_str(&text) {
+            Ok(m) => m,
+            Err(e) => {
+                // The dataset whose entry failed, when the file parses as TOML at all: each
+                // entry read on its own (the error itself keeps its line and column).
+                let dataset = toml::from_str::<toml::Table>(&text).ok().and_then(|t| {
+                    let datasets = t.get("datasets")?.as_table()?.clone();
+                    datasets
+                        .into_iter()
+                        .find(|(_, v)| v.clone().try_into::<Entry>().is_err())
+                        .map(|(name, _)| name)
+                });
+                return Err(match dataset {
+                    Some(name) => {
+                        anyhow::anyhow!("{}: dataset {name}: malformed entry: {e}", path.display())
+                    }
+                    None => anyhow::anyhow!("{}: malformed manifest: {e}", path.display()),
+                });
+            }
+        };
         m.base = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
@@ -195,6 +221,8 @@ impl Manifest {
                     path.display()
                 );
             }
+            // The values read later (format, columns, degradations), checked now.
+            read_values(name, e).with_context(|| format!("{}", path.display()))?;
         }
         // An E57 file with several scans is one dataset per scan unless merged.
         let mut expanded = BTreeMap::new();
@@ -268,8 +296,9 @@ pub fn views_from(m: &Manifest, e: &Entry) -> ViewsFrom {
     }
 }
 
-/// The file dataset a manifest entry describes.
-pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDataset> {
+/// How entry `name` reads its cloud and what degrades it: its `format`, `classes`, `scan` and
+/// `columns`, and its `degrade` steps with their seed; the errors name the dataset.
+fn read_values(name: &str, e: &Entry) -> Result<(cloud::io::ReadOptions, (Vec<Degradation>, u64))> {
     let format = match &e.format {
         Some(f) => Some(cloud::io::Format::from_name(f).with_context(|| {
             format!(
@@ -279,6 +308,29 @@ pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDatas
         })?),
         None => None,
     };
+    let read = cloud::io::ReadOptions {
+        format,
+        classes: e.classes.clone(),
+        scan: e.scan,
+        columns: e
+            .columns
+            .as_deref()
+            .map(str::parse)
+            .transpose()
+            .map_err(|why: String| anyhow::anyhow!("dataset {name}: columns: {why}"))?,
+    };
+    let degrade = e
+        .degrade
+        .iter()
+        .map(|d| d.parse::<Degradation>())
+        .collect::<cloud::Result<Vec<_>>>()
+        .with_context(|| format!("dataset {name}: degrade"))?;
+    Ok((read, (degrade, e.degrade_seed.unwrap_or(1))))
+}
+
+/// The file dataset a manifest entry describes.
+pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDataset> {
+    let (read, degrade) = read_values(name, e).with_context(|| format!("{}", m.path.display()))?;
     let views = views_from(m, e);
     Ok(FileDataset {
         name: name.to_owned(),
@@ -290,21 +342,11 @@ pub fn manifest_dataset(m: &Manifest, name: &str, e: &Entry) -> Result<FileDatas
         cloud: e.cloud.as_ref().map(|p| m.resolve(p)),
         sample: e.sample.map(|s| (s.n, s.seed)),
         mesh: e.mesh.as_ref().map(|p| m.resolve(p)),
-        read: cloud::io::ReadOptions {
-            format,
-            classes: e.classes.clone(),
-            scan: e.scan,
-        },
+        read,
         views,
         surface_tolerance: e.surface_tolerance,
-        degrade: (
-            e.degrade
-                .iter()
-                .map(|d| d.parse::<Degradation>())
-                .collect::<cloud::Result<Vec<_>>>()
-                .with_context(|| format!("dataset {name}: degrade"))?,
-            e.degrade_seed.unwrap_or(1),
-        ),
+        degrade,
+        allow_off_surface: e.allow_off_surface,
     })
 }
 
@@ -358,6 +400,40 @@ mod tests {
         }
     }
 
+    #[test]
+    fn every_mistake_names_the_file_and_the_dataset() {
+        for (text, needle) in [
+            (
+                "[datasets.ok]\ncloud = \"a.ply\"\n[datasets.x]\nclud = \"a.ply\"\n",
+                "malformed entry: TOML parse error at line 4",
+            ),
+            (
+                "[datasets.x]\nmesh = \"m.off\"\nsample = { n = 3, sed = 1 }\n",
+                "unknown field `sed`",
+            ),
+            (
+                "[datasets.x]\ncloud = \"a.ply\"\nformat = \"xyzz\"\n",
+                "unknown format",
+            ),
+            (
+                "[datasets.x]\ncloud = \"a.ply\"\ndegrade = [\"noise:sigm=1\"]\n",
+                "degrade",
+            ),
+            (
+                "[datasets.x]\ncloud = \"a.xyz\"\ncolumns = \"x,y\"\n",
+                "columns:",
+            ),
+            ("[datasets.x]\nmesh = \"a.off\"\n", "needs a cloud"),
+        ] {
+            let (_d, p) = write(text);
+            let err = format!("{:#}", Manifest::read(&p).unwrap_err());
+            assert!(
+                err.starts_with(&format!("{}: dataset x", p.display())) && err.contains(needle),
+                "{text}: {err}"
+            );
+        }
+    }
+
     /// Writes `mesh`, moved by `shift`, as an OFF file (each coordinate's shortest exact text).
     fn write_off(path: &Path, mesh: &cloud::TriMesh, shift: cloud::glam::DVec3) {
         let mut off = format!("OFF\n{} {} 0\n", mesh.vertices.len(), mesh.triangles.len());
@@ -399,12 +475,13 @@ mod tests {
         assert!((0..5_000).filter(|&i| on(ds.cloud.positions[i])).count() < 100);
         let bad = "[datasets.x]\nmesh = \"ball.off\"\nsample = { n = 10, seed = 1 }\ndegrade = [\"blur:sigma=1\"]\n";
         std::fs::write(&path, bad).unwrap();
-        let m = Manifest::read(&path).unwrap();
-        let err = format!(
-            "{:#}",
-            manifest_dataset(&m, "x", &m.datasets["x"]).unwrap_err()
+        // Refused as the manifest is read, naming the file and the dataset.
+        let err = format!("{:#}", Manifest::read(&path).unwrap_err());
+        assert!(
+            err.contains("unknown degradation \"blur\"")
+                && err.starts_with(&format!("{}: dataset x: degrade", path.display())),
+            "{err}"
         );
-        assert!(err.contains("unknown degradation \"blur\""), "{err}");
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! of the process's manifest ([`manifest`]: datasets made of the user's files, loaded through
 //! the frame of [`files`]: read, recentred without loss, rescaled exactly, degraded,
 //! recorded with their SHA-256). Degraded clouds keep their truth bookkeeping through
-//! [`degrade`], the one place that does it. The real meshes and `pointsight fetch` are
+//! [`degrade`], the one place that does it. A user's mesh is checked against the points before
+//! it becomes a ground truth ([`fit`]). The real meshes and `pointsight fetch` are
 //! [`crate::fetch`]'s.
 //!
 //! A manifest dataset may instead be a built LOD file ([`lod_file`], the `lod` experiment's
@@ -15,7 +16,9 @@
 
 pub mod builtin;
 pub mod degraded;
+pub mod eyes;
 pub mod files;
+pub mod fit;
 pub mod lod_file;
 pub mod manifest;
 
@@ -120,6 +123,12 @@ pub struct Dataset {
     /// For degraded datasets: per point, whether it is an added outlier (scored apart, with
     /// the off-surface points).
     pub outliers: Option<Vec<bool>>,
+    /// How far the points lie from the mesh, once checked ([`fit::check`]: a user's dataset
+    /// with a mesh); `None`: not checked (built-in datasets, no mesh).
+    pub mesh_fit: Option<fit::MeshFit>,
+    /// True when a mesh that does not fit may be used anyway (a manifest entry's
+    /// `allow_off_surface`; `--allow-off-surface` adds it for every dataset of a command).
+    pub allow_off_surface: bool,
 }
 
 impl Dataset {
@@ -197,6 +206,17 @@ impl Dataset {
         })
     }
 
+    /// The `mesh_fit` of rows scored against this dataset's mesh: `off-surface` for a mesh
+    /// that does not fit, used anyway ([`fit::MeshFit::mark`]), else `ok` (a built-in dataset
+    /// is a sample of its own mesh); empty without a mesh.
+    pub fn mesh_fit_mark(&self) -> &'static str {
+        match (&self.mesh, &self.mesh_fit) {
+            (None, _) => "",
+            (Some(_), Some(fit)) => fit.mark(),
+            (Some(_), None) => "ok",
+        }
+    }
+
     /// Which points lie farther than the surface tolerance from the mesh (`None` without a
     /// mesh); the tolerance used.
     pub fn off_surface(&self) -> Result<Option<(Vec<bool>, f64)>> {
@@ -240,6 +260,13 @@ pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
     let ds = builtin::load(info(name)?, data_dir)?;
     ds.check_views()?;
     Ok(ds)
+}
+
+/// The mesh file of manifest dataset `name` (resolved against the manifest's folder); `None`
+/// for any other dataset or one without a mesh.
+pub fn manifest_mesh(name: &str) -> Option<PathBuf> {
+    let m = manifest()?;
+    m.datasets.get(name)?.mesh.as_ref().map(|p| m.resolve(p))
 }
 
 /// The built LOD file of dataset `name` when the manifest gives it one (`lod_file`), opened

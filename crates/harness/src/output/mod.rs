@@ -66,14 +66,61 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-/// Writes `rows` as CSV with a header (from the row type's field names), atomically.
-pub fn write_csv<T: Serialize>(path: &Path, rows: &[T]) -> Result<()> {
+/// Writes `rows` as CSV with a header (from the row type's field names), atomically; a
+/// table without rows is its header alone, so that it reads as an empty table.
+pub fn write_csv<T: Serialize + DeserializeOwned>(path: &Path, rows: &[T]) -> Result<()> {
     let mut writer = csv::Writer::from_writer(Vec::new());
+    if rows.is_empty() {
+        writer.write_record(header::<T>())?;
+    }
     for row in rows {
         writer.serialize(row)?;
     }
     let bytes = writer.into_inner().context("cannot finish the CSV")?;
     write_atomic(path, &bytes)
+}
+
+/// The column names of row type `T`: its fields as serde names them, read from what its
+/// `Deserialize` asks for (the header `csv` writes before a first row).
+pub fn header<T: DeserializeOwned>() -> Vec<&'static str> {
+    /// A deserializer that only records the fields of the struct asked for.
+    struct Fields(Vec<&'static str>);
+    #[derive(Debug)]
+    struct Done;
+    impl std::fmt::Display for Done {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("fields recorded")
+        }
+    }
+    impl std::error::Error for Done {}
+    impl serde::de::Error for Done {
+        fn custom<M: std::fmt::Display>(_: M) -> Self {
+            Done
+        }
+    }
+    impl<'de> serde::Deserializer<'de> for &mut Fields {
+        type Error = Done;
+        fn deserialize_any<V: serde::de::Visitor<'de>>(self, _: V) -> Result<V::Value, Done> {
+            Err(Done)
+        }
+        fn deserialize_struct<V: serde::de::Visitor<'de>>(
+            self,
+            _name: &'static str,
+            fields: &'static [&'static str],
+            _visitor: V,
+        ) -> Result<V::Value, Done> {
+            self.0.extend_from_slice(fields);
+            Err(Done)
+        }
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string bytes
+            byte_buf option unit unit_struct newtype_struct seq tuple tuple_struct map enum
+            identifier ignored_any
+        }
+    }
+    let mut fields = Fields(Vec::new());
+    let _ = T::deserialize(&mut fields);
+    fields.0
 }
 
 /// Reads a CSV written by [`write_csv`].
@@ -129,6 +176,15 @@ mod tests {
         assert!(text.starts_with("dataset,f1\n"));
         // No temporary file is left behind.
         assert_eq!(fs::read_dir(path.parent().unwrap()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn an_empty_table_is_its_header() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("empty.csv");
+        write_csv::<Row>(&path, &[]).unwrap();
+        assert_eq!(fs::read_to_string(&path).unwrap(), "dataset,f1\n");
+        assert!(read_csv::<Row>(&path).unwrap().is_empty());
     }
 
     #[test]

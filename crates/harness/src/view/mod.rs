@@ -111,7 +111,7 @@ pub fn default_methods() -> Result<Vec<(&'static Card, String)>> {
 pub type Chosen = (&'static Card, Params, String);
 
 /// The chosen methods with their parameters: each method's default setting (its sweep's, else
-/// none), then the `--set` pairs that are its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every
+/// its card's), then the `--set` pairs that are its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every
 /// chosen method that has KEY). A pair no chosen method takes is an error.
 pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     let sweeps = registry::Sweeps::resolve(None)?;
@@ -134,8 +134,8 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
                     .methods
                     .get(m.name)
                     .and_then(registry::MethodSweep::default_setting)
-                    .map(|s| s.label())
-                    .unwrap_or_default();
+                    .unwrap_or_else(|| m.default_setting())
+                    .label();
                 out.push((m, label));
             }
             out

@@ -183,21 +183,55 @@ impl KernelRule {
     }
 
     /// The kernel for a view from `eye`; an automatic γ is added to `detail` as `gamma_value`.
+    /// Fails when the rule gives no usable γ (an eye near the middle of the cloud: the
+    /// error says what the rule needs, [`auto_too_close`]).
     pub(crate) fn for_view(
         &self,
         points: &[DVec3],
         eye: DVec3,
         detail: &mut Vec<(String, String)>,
-    ) -> Kernel {
+    ) -> Result<Kernel> {
         match self {
-            Self::Fixed(k) => *k,
+            Self::Fixed(k) => Ok(*k),
             Self::Auto(scale) => {
                 let gamma = auto_gamma_for(scale, points, eye);
+                if !(gamma > 0.0) {
+                    return Err(auto_too_close(scale, points, eye, gamma));
+                }
                 detail.push(("gamma_value".to_owned(), format!("{gamma:.3}")));
-                Kernel::Linear(Radius::Gamma(gamma))
+                Ok(Kernel::Linear(Radius::Gamma(gamma)))
             }
         }
     }
+}
+
+/// Why `gamma=auto` cannot serve a view from `eye` (its γ, `gamma`, is not positive), in the
+/// user's words: the rule reads γ from the eye's distance d to the middle of the cloud's box,
+/// γ = log10(κ·D·d²/(s²·m)), which is positive only beyond d = s·√(m / (κ·D)); nearer, the
+/// flipping sphere would not hold the cloud.
+fn auto_too_close(
+    scale: &hpr::auto::CloudScale,
+    points: &[DVec3],
+    eye: DVec3,
+    gamma: f64,
+) -> Error {
+    let m = points
+        .iter()
+        .map(|p| (*p - eye).length())
+        .fold(0.0, f64::max);
+    let d = (eye - scale.center).length();
+    let needed = scale.spacing * (m / (hpr::auto::KAPPA * scale.diagonal)).sqrt();
+    Error::Unsupported(format!(
+        "gamma=auto chooses how far HPR flips the points from how far the eye is from the \
+         cloud, and this eye is too close: it is {d:.4} from the middle of the cloud's bounding \
+         box ({:.4} across, points about {:.4} apart), where the rule gives gamma {gamma:.3}, a \
+         flipping sphere no larger than the cloud (HPR needs gamma > 0). The rule is made for \
+         an eye outside the object looking at it: move the eye at least about {needed:.4} from \
+         the box's middle (outside the object), or give the setting yourself: gamma=G with G > 0 \
+         (larger keeps more points), or radius=R with R > {m:.4} (the farthest point's distance \
+         from this eye)",
+        scale.diagonal, scale.spacing
+    ))
 }
 
 /// The method.
@@ -244,7 +278,7 @@ impl Prepared for Prep<'_> {
         refuse_orthographic("hpr", camera)?;
         let mut detail = Vec::new();
         let params = HprParams {
-            kernel: self.kernel.for_view(self.points, camera.eye, &mut detail),
+            kernel: self.kernel.for_view(self.points, camera.eye, &mut detail)?,
             perturb: self.args.perturb,
             seed: self.args.seed,
         };

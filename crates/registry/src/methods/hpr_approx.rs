@@ -110,7 +110,7 @@ impl Prepared for Prep<'_> {
     fn visible(&self, camera: &Camera) -> Result<Output> {
         refuse_orthographic("hpr-approx", camera)?;
         let mut detail = Vec::new();
-        let kernel = self.kernel.for_view(self.points, camera.eye, &mut detail);
+        let kernel = self.kernel.for_view(self.points, camera.eye, &mut detail)?;
         let sectors = self.args.sectors.unwrap_or_else(|| auto_sectors(camera));
         let v = visible(
             self.points,

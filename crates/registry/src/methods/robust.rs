@@ -221,7 +221,13 @@ impl Prepared for Prep<'_> {
             detail.push(("noise_value".to_owned(), format!("{:.4e}", c.noise)));
         }
         detail.push(("tolerance_value".to_owned(), format!("{tolerance:.4e}")));
-        let v = robustvis::visible(self.points, eye, radius, tolerance).map_err(Error::method)?;
+        let v = robustvis::visible(self.points, eye, radius, tolerance).map_err(|e| match e {
+            robustvis::RobustError::EyeInsideCloud => Error::Unsupported(format!(
+                "{e}; from among the points, a method that traces rays or draws the points \
+                 answers, as the ground truth does: raycast or splat"
+            )),
+            e => Error::method(e),
+        })?;
         detail.push(("hull_vertices".to_owned(), v.hull_vertices.to_string()));
         Ok(Output {
             visible: v.visible,

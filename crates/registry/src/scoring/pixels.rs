@@ -60,48 +60,178 @@ fn entry(origin: DVec3, dir: DVec3, c: DVec3, r: f64) -> Option<f64> {
     ((b + s) / a > 0.0).then(|| ((b - s) / a).max(0.0))
 }
 
-/// The pixel rectangle (x0..=x1, y0..=y1, columns may wrap for a spherical image) that holds
-/// every pixel centre whose ray can meet the sphere at `c` of radius `r`; `None` when the
-/// sphere is out of view. Conservative: twice the sphere's projected radius, plus a pixel.
-fn footprint_box(camera: &Camera, c: DVec3, r: f64) -> Option<(i64, i64, i64, i64)> {
+/// The pixels whose rays can meet a sphere: a rectangle (x0..=x1, y0..=y1, columns may wrap
+/// for a spherical image), or, for a pinhole sphere that reaches the eye's plane (beside the
+/// eye, or behind it), its exact rows ([`row_span`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Footprint {
+    /// Every pixel centre whose ray can meet the sphere lies in this rectangle.
+    Rect(i64, i64, i64, i64),
+    /// A pinhole sphere across the eye's plane, the eye outside it: the rays within the cone
+    /// of half-angle α around the unit direction `u` to its centre (`cos2` = cos² α), found
+    /// row by row.
+    Cone {
+        /// The unit direction from the eye to the sphere's centre.
+        u: DVec3,
+        /// cos² of the cone's half-angle (r / distance = sin α).
+        cos2: f64,
+    },
+}
+
+/// Where the sphere at `c` of radius `r` can show in `camera`'s image; `None` when it is out of
+/// view. Conservative: a rectangle of twice the sphere's projected radius plus a pixel around
+/// its projection, or, for a pinhole sphere across the eye's plane, the exact span of each
+/// row with a pixel's margin ([`row_span`]); the whole image only when the eye is inside the
+/// sphere (then every ray starts in it).
+fn footprint(camera: &Camera, c: DVec3, r: f64) -> Option<Footprint> {
     let (w, h) = (i64::from(camera.width), i64::from(camera.height));
-    let whole = Some((0, w - 1, 0, h - 1));
-    let Some(p) = camera.project(c) else {
-        // Behind the eye or on its plane: only a sphere reaching the eye's side can be hit.
-        return if camera.depth(c) > -r { whole } else { None };
-    };
-    let near = p.depth - r;
-    if near <= p.depth * 1e-6 {
+    let whole = Some(Footprint::Rect(0, w - 1, 0, h - 1));
+    let to_centre = c - camera.eye;
+    let distance = to_centre.length();
+    if distance <= r {
         return whole;
     }
-    let half = 2.0 * r / camera.pixel_size_at(near) + 1.0;
-    let (mut hx, hy) = (half, half);
-    if matches!(camera.model(), cloud::Model::Spherical) {
-        // A pixel column narrows towards the poles by sin θ.
-        let theta = (p.y / camera.height as f64 * std::f64::consts::PI).sin();
-        hx = if theta * w as f64 > 2.0 * hx {
-            hx / theta.max(1e-9)
-        } else {
-            w as f64
-        };
+    match camera.model() {
+        cloud::Model::Orthographic {
+            view_width,
+            view_height,
+        } => {
+            // Parallel rays from the plane through the eye: the sphere's disc around its
+            // projection, wherever its depth (rays start on that plane; one behind it by less
+            // than r is entered at 0).
+            if camera.depth(c) <= -r {
+                return None;
+            }
+            let (sx, sy) = (
+                f64::from(camera.width) / view_width,
+                f64::from(camera.height) / view_height,
+            );
+            let (px, py) = (
+                0.5 * w as f64 + to_centre.dot(camera.right()) * sx,
+                0.5 * h as f64 + to_centre.dot(camera.down()) * sy,
+            );
+            let (hx, hy) = (r * sx + 1.0, r * sy + 1.0);
+            rect(px, py, hx, hy, w, h)
+        }
+        cloud::Model::Pinhole { .. } => {
+            if camera.depth(c) <= -r {
+                return None;
+            }
+            let Some(p) = camera.project(c).filter(|p| p.depth - r > p.depth * 1e-6) else {
+                let sin = r / distance;
+                return Some(Footprint::Cone {
+                    u: to_centre / distance,
+                    cos2: (1.0 - sin * sin).max(0.0),
+                });
+            };
+            let half = 2.0 * r / camera.pixel_size_at(p.depth - r) + 1.0;
+            rect(p.x, p.y, half, half, w, h)
+        }
+        cloud::Model::Spherical => {
+            let p = camera.project(c)?;
+            let near = p.depth - r;
+            if near <= p.depth * 1e-6 {
+                return whole;
+            }
+            let half = 2.0 * r / camera.pixel_size_at(near) + 1.0;
+            // A pixel column narrows towards the poles by sin θ.
+            let theta = (p.y / camera.height as f64 * std::f64::consts::PI).sin();
+            let hx = if theta * w as f64 > 2.0 * half {
+                half / theta.max(1e-9)
+            } else {
+                w as f64
+            };
+            let (x0, x1) = ((p.x - hx).floor() as i64, (p.x + hx).ceil() as i64);
+            let (y0, y1) = (
+                ((p.y - half).floor() as i64).max(0),
+                ((p.y + half).ceil() as i64).min(h - 1),
+            );
+            if y0 > y1 {
+                return None;
+            }
+            Some(if x1 - x0 + 1 >= w {
+                Footprint::Rect(0, w - 1, y0, y1)
+            } else {
+                Footprint::Rect(x0, x1, y0, y1)
+            })
+        }
     }
-    let (x0, x1) = ((p.x - hx).floor() as i64, (p.x + hx).ceil() as i64);
-    let (y0, y1) = (
-        ((p.y - hy).floor() as i64).max(0),
-        ((p.y + hy).ceil() as i64).min(h - 1),
+}
+
+/// The rectangle of half-sizes `hx`, `hy` pixels around (`x`, `y`), clipped to a `w` × `h`
+/// image; `None` when it misses it.
+fn rect(x: f64, y: f64, hx: f64, hy: f64, w: i64, h: i64) -> Option<Footprint> {
+    let (x0, x1) = (
+        ((x - hx).floor() as i64).max(0),
+        ((x + hx).ceil() as i64).min(w - 1),
     );
-    if y0 > y1 {
+    let (y0, y1) = (
+        ((y - hy).floor() as i64).max(0),
+        ((y + hy).ceil() as i64).min(h - 1),
+    );
+    (x0 <= x1 && y0 <= y1).then_some(Footprint::Rect(x0, x1, y0, y1))
+}
+
+/// The pixels of row `y` of a pinhole `camera` whose rays lie within the cone around the unit
+/// direction `u` whose half-angle has cosine² `cos2` (a sphere seen from outside), as columns
+/// `x0..=x1` with a pixel's margin, clipped to the image; `None` when the row misses it.
+///
+/// The row's rays are d(a) = f + b·down + a·right (a, b: the pixel centre's offsets over the
+/// focal lengths), |d|² = 1 + b² + a², d·u = P + a·Q; d is in the cone when d·u > 0 and
+/// (P + aQ)² ≥ cos²α (1 + b² + a²), a quadratic in a.
+fn row_span(camera: &Camera, u: DVec3, cos2: f64, y: i64) -> Option<(i64, i64)> {
+    let cloud::Model::Pinhole { fx, fy, cx, cy } = *camera.model() else {
         return None;
-    }
-    if matches!(camera.model(), cloud::Model::Spherical) {
-        return Some(if x1 - x0 + 1 >= w {
-            (0, w - 1, y0, y1)
+    };
+    let w = i64::from(camera.width);
+    let b = (y as f64 + 0.5 - cy) / fy;
+    let p = u.dot(camera.forward()) + b * u.dot(camera.down());
+    let q = u.dot(camera.right());
+    let (qa, qb, qc) = (q * q - cos2, 2.0 * p * q, p * p - cos2 * (1.0 + b * b));
+    // The interval of a (possibly unbounded) in the cone's forward nappe.
+    let (lo, hi) = if qa.abs() <= 1e-12 {
+        // Q² = cos²α (the cone touches the right axis): the forward half-line P + aQ > 0,
+        // a superset; each pixel's own test decides.
+        match q.partial_cmp(&0.0) {
+            Some(std::cmp::Ordering::Greater) => (-p / q, f64::INFINITY),
+            Some(std::cmp::Ordering::Less) => (f64::NEG_INFINITY, -p / q),
+            _ => return None,
+        }
+    } else {
+        let disc = qb * qb - 4.0 * qa * qc;
+        if qa < 0.0 {
+            // Between the roots, when that stretch is on the forward nappe.
+            if disc < 0.0 {
+                return None;
+            }
+            let s = disc.sqrt();
+            let (r1, r2) = ((-qb + s) / (2.0 * qa), (-qb - s) / (2.0 * qa));
+            let (a1, a2) = (r1.min(r2), r1.max(r2));
+            if p + 0.5 * (a1 + a2) * q <= 0.0 {
+                return None;
+            }
+            (a1, a2)
         } else {
-            (x0, x1, y0, y1)
-        });
-    }
-    let (x0, x1) = (x0.max(0), x1.min(w - 1));
-    (x0 <= x1).then_some((x0, x1, y0, y1))
+            // Outside the roots (everywhere when there are none): the forward side alone.
+            let (a1, a2) = if disc < 0.0 {
+                (f64::NAN, f64::NAN)
+            } else {
+                let s = disc.sqrt();
+                let (r1, r2) = ((-qb + s) / (2.0 * qa), (-qb - s) / (2.0 * qa));
+                (r1.min(r2), r1.max(r2))
+            };
+            match (q > 0.0, disc < 0.0) {
+                (true, false) => (a2, f64::INFINITY),
+                (false, false) => (f64::NEG_INFINITY, a1),
+                (true, true) => (-p / q, f64::INFINITY),
+                (false, true) => (f64::NEG_INFINITY, -p / q),
+            }
+        }
+    };
+    let x0 = (cx + fx * lo - 0.5).floor() - 1.0;
+    let x1 = (cx + fx * hi - 0.5).ceil() + 1.0;
+    let (x0, x1) = (x0.max(0.0), x1.min((w - 1) as f64));
+    (x0 <= x1).then_some((x0 as i64, x1 as i64))
 }
 
 /// The pixel choice a visible set shows (the module doc's footprint rule): per pixel of
@@ -149,21 +279,37 @@ fn drawn_in_shares(
         let mut best = vec![(f64::INFINITY, NONE); w * h];
         for &i in share {
             let c = points[i as usize];
-            let Some((x0, x1, y0, y1)) = footprint_box(camera, c, radius) else {
-                continue;
+            let mut test = |x: i64, y: i64| {
+                let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
+                if let Some(t) = entry(o, d, c, radius) {
+                    let b = &mut best[y as usize * w + x as usize];
+                    if (t, i) < *b {
+                        *b = (t, i);
+                    }
+                }
             };
-            for y in y0..=y1 {
-                for xs in x0..=x1 {
-                    let x = if spherical {
-                        xs.rem_euclid(w as i64)
-                    } else {
-                        xs
-                    };
-                    let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
-                    if let Some(t) = entry(o, d, c, radius) {
-                        let b = &mut best[y as usize * w + x as usize];
-                        if (t, i) < *b {
-                            *b = (t, i);
+            match footprint(camera, c, radius) {
+                None => {}
+                Some(Footprint::Rect(x0, x1, y0, y1)) => {
+                    for y in y0..=y1 {
+                        for xs in x0..=x1 {
+                            test(
+                                if spherical {
+                                    xs.rem_euclid(w as i64)
+                                } else {
+                                    xs
+                                },
+                                y,
+                            );
+                        }
+                    }
+                }
+                Some(Footprint::Cone { u, cos2 }) => {
+                    for y in 0..h as i64 {
+                        if let Some((x0, x1)) = row_span(camera, u, cos2, y) {
+                            for x in x0..=x1 {
+                                test(x, y);
+                            }
                         }
                     }
                 }

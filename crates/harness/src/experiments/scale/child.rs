@@ -194,13 +194,14 @@ fn run_child(
     // variables `pointsight` reads ([`cell_entry`] reads the manifest's too; a program that
     // embeds the registry has no such flags); every path absolute, so that the child does not
     // depend on its working directory.
-    for (var, path) in [
-        ("POINTSIGHT_MANIFEST", crate::datasets::manifest_path()),
-        ("POINTSIGHT_METHODS", crate::paths::methods_in_use()),
-    ] {
-        if let Some(p) = path {
-            command.env(var, absolute(p));
-        }
+    if let Some(p) = crate::datasets::manifest_path() {
+        command.env("POINTSIGHT_MANIFEST", absolute(p));
+    }
+    // Every methods folder of the run, joined as PATH is (none: the child's own rule).
+    if let Some(folders) = crate::paths::methods_in_use().filter(|f| !f.is_empty())
+        && let Ok(joined) = std::env::join_paths(folders.iter().map(|p| absolute(p)))
+    {
+        command.env("POINTSIGHT_METHODS", joined);
     }
     let child = command
         .stdout(Stdio::piped())

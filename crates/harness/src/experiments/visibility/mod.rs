@@ -15,7 +15,9 @@
 //! (`registry::timing`; an external method's own reported seconds), `seconds_min`/`seconds_max`
 //! their spread, `samples` how many; `status` is `ok` or `error: ...` (a
 //! failing view is a row and the run goes on); `made_for` is the score the method was made
-//! for (`registry::Card::made_for`: `points` or `pixels`), the one the findings judge it by.
+//! for (`registry::Card::made_for`: `points` or `pixels`), the one the findings judge it by;
+//! `mesh_fit` is `off-surface` on a user's dataset whose mesh does not fit its points, scored
+//! anyway (`--allow-off-surface`, `datasets::fit`), `ok` otherwise, empty without a mesh.
 //! `pixels.csv`: for every method on a dataset with a mesh, one row per (view, setting): the
 //! share of covered pixels whose point is truly visible (`pixel_precision`), the share of the
 //! mesh's pixels (the mesh rasterised at the same camera) that got a point (`mesh_coverage`)
@@ -51,6 +53,7 @@ use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 
 use super::{Context, Experiment};
 
+mod auto_rules;
 mod papers;
 mod peers;
 mod pixel_table;
@@ -118,6 +121,10 @@ pub struct Row {
     /// same answer (the findings name such a runner-up identical); empty for a failed view.
     #[serde(default)]
     pub visible_sha256: String,
+    /// `ok` when the dataset's mesh fits its points, `off-surface` when a user's mesh that does
+    /// not fit was used anyway (`--allow-off-surface`: `datasets::fit`), empty without a mesh.
+    #[serde(default)]
+    pub mesh_fit: String,
 }
 
 /// SHA-256 of the visible set, its indices sorted, as little-endian `u32`s.
@@ -192,6 +199,9 @@ pub struct PixelRow {
     /// The score the method was made for, as in results.csv.
     #[serde(default = "pixels")]
     pub made_for: String,
+    /// As in results.csv.
+    #[serde(default)]
+    pub mesh_fit: String,
 }
 
 fn method_source() -> String {
@@ -417,13 +427,20 @@ impl Experiment for VisibilityExperiment {
             let reference = ds.mesh.as_ref().map(Reference::new).transpose()?;
             let off = ds.off_surface()?;
             if let Some((flags, tolerance)) = &off {
-                off_surface_meta.insert(
-                    name.clone(),
-                    serde_json::json!({
-                        "tolerance": tolerance,
-                        "off_surface_points": flags.iter().filter(|&&f| f).count(),
-                    }),
-                );
+                let mut entry = serde_json::json!({
+                    "tolerance": tolerance,
+                    "off_surface_points": flags.iter().filter(|&&f| f).count(),
+                });
+                if let Some(fit) = &ds.mesh_fit {
+                    entry["mesh_fit"] = serde_json::json!({
+                        "fits": fit.fits(),
+                        "far_share": fit.far_share,
+                        "far_limit": fit.limit,
+                        "median_distance": fit.median_distance,
+                        "likely_cause": fit.cause,
+                    });
+                }
+                off_surface_meta.insert(name.clone(), entry);
             }
             let off_flags = off.as_ref().map(|(f, _)| &f[..]);
             let mut truths: BTreeMap<usize, Option<Vec<bool>>> = BTreeMap::new();
@@ -496,6 +513,7 @@ impl Experiment for VisibilityExperiment {
                             status: ok_status(),
                             made_for: m.made_for.as_str().to_owned(),
                             visible_sha256: String::new(),
+                            mesh_fit: ds.mesh_fit_mark().to_owned(),
                         };
                         match outcome {
                             Ok(kernel::Answer {
@@ -714,6 +732,7 @@ fn pixel_row(
         pixel_f1: s.f1(),
         source: source.to_owned(),
         made_for: row.made_for.clone(),
+        mesh_fit: row.mesh_fit.clone(),
     })
 }
 

@@ -218,6 +218,7 @@ mod tests {
             status: "ok".into(),
             made_for: "points".into(),
             visible_sha256: String::new(),
+            mesh_fit: String::new(),
         }
     }
 

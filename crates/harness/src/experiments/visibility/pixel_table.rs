@@ -143,6 +143,7 @@ mod tests {
             pixel_f1: f64::NAN,
             source: "projected".into(),
             made_for: "points".into(),
+            mesh_fit: String::new(),
         }
     }
 

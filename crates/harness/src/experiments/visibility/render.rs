@@ -196,14 +196,6 @@ Each method at its tuned setting against \
     )
 }
 
-/// True when a fixed setting `o` agrees with the automatic `rule` on every key both set,
-/// the rule's own `auto` keys aside.
-fn comparable(rule: &Setting, o: &Setting) -> bool {
-    rule.0
-        .iter()
-        .all(|(k, v)| *v == registry::Value::Text("auto".into()) || o.get(k).is_none_or(|w| w == v))
-}
-
 /// F1 against a family's main parameter (the numeric key with the most values over its fixed
 /// settings), one line per dataset and per combination of the other varying keys; `None` when
 /// the family sweeps no number. Negative parameters (the exponential kernel's γ) are negated
@@ -555,7 +547,19 @@ pub(super) fn render(
         ));
     }
     let mut off_surface = String::new();
+    let mut mesh_warning = String::new();
     for d in &datasets {
+        if rows
+            .iter()
+            .any(|r| r.dataset == *d && r.mesh_fit == "off-surface")
+        {
+            mesh_warning.push_str(&format!(
+                "- **{d}: scored against a mesh that does not fit its points** \
+                 (`--allow-off-surface`; the share far from it, the median distance and the \
+                 likely cause are in metadata.json's `off_surface`): its rows are marked \
+                 `mesh_fit=off-surface`, and their scores are not a ground truth's.\n\n"
+            ));
+        }
         let flagged: usize = rows
             .iter()
             .filter(|r| r.dataset == *d)
@@ -668,74 +672,7 @@ pub(super) fn render(
         super::papers::katz_tal(rows, &datasets, &protocol)
     );
 
-    // The automatic rules against the best fixed setting of the same family, view by view:
-    // fixed settings that agree with the rule's setting on every fixed key both have (the ray
-    // cast at the same resolution, HPR without perturbation).
-    let mut auto_table = Vec::new();
-    let mut worst: BTreeMap<(String, &str), f64> = BTreeMap::new();
-    let mut gaps: BTreeMap<(String, &str), Vec<f64>> = BTreeMap::new();
-    for r in rows
-        .iter()
-        .filter(|r| is_auto(&r.params) && r.status == "ok" && !r.f1.is_nan())
-    {
-        let rule = Setting::parse(&r.params);
-        let best = rows
-            .iter()
-            .filter(|o| {
-                o.dataset == r.dataset
-                    && o.view == r.view
-                    && o.family == r.family
-                    && o.status == "ok"
-                    && !is_auto(&o.params)
-                    && comparable(&rule, &Setting::parse(&o.params))
-            })
-            .map(|o| o.f1)
-            .fold(f64::NEG_INFINITY, f64::max);
-        if best == f64::NEG_INFINITY {
-            continue;
-        }
-        let gap = best - r.f1;
-        let key = (r.dataset.clone(), r.family.as_str());
-        gaps.entry(key.clone()).or_default().push(gap);
-        let w = worst.entry(key).or_insert(f64::NEG_INFINITY);
-        *w = w.max(gap);
-        auto_table.push(vec![
-            r.dataset.clone(),
-            r.view.to_string(),
-            r.family.clone(),
-            format!(
-                "{}{}",
-                r.params.replace(';', " "),
-                if r.detail.is_empty() {
-                    String::new()
-                } else {
-                    format!(" ({})", r.detail.replace(';', " "))
-                }
-            ),
-            format!("{:.4}", r.f1),
-            format!("{best:.4}"),
-            format!("{gap:+.4}"),
-        ]);
-    }
-    let worst_lines: Vec<String> = worst
-        .iter()
-        .map(|((d, fam), g)| {
-            let mean = gaps
-                .get(&(d.clone(), *fam))
-                .and_then(|v| crate::stats::bootstrap_mean(v, 2007))
-                .map_or(String::new(), |e| {
-                    format!("; mean gap {}", e.text(|x| format!("{x:+.4}"), ""))
-                });
-            format!(
-                "- {d}, {fam}: worst gap {g:.4} ({}){mean}",
-                if *g <= 0.02 {
-                    "within 0.02"
-                } else {
-                    "**over 0.02**"
-                }
-            )
-        })
-        .collect();
+    let (auto_table, worst_lines) = super::auto_rules::gaps(rows);
 
     // Image-space figures of every method at its setting tuned by the per-pixel F1.
     let pixel_table = super::pixel_table::table(pixels, &datasets, protocol.roles.clone());
@@ -759,7 +696,7 @@ pub(super) fn render(
     let summary = format!(
         "Every visibility method against the reference (mesh depth buffer), F1 = harmonic mean of \
          precision and recall of the visible set, mean over the views. `seconds`: the method \
-         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{renders}### Tuned setting per method\n\n{protocol_md}{}\n\
+         alone, {runs} (their spread and number, `samples`, in results.csv).\n\n{mesh_warning}{renders}### Tuned setting per method\n\n{protocol_md}{}\n\
          {versus}### Choosing the parameter automatically\n\nHPR's γ from the cloud alone: \
          γ = log10(κ·D·d²/(s²·m)) (`hpr::auto`, κ = {} fitted on the synthetic scenes); the ray \
          cast's radius: {} density spacings (`raycast::auto`, fitted on these datasets). The gap is the oracle's F1, the best fixed \

@@ -16,6 +16,7 @@ use serde::Deserialize;
 use crate::card::{Metric, PeerKey, Program};
 use crate::error::{Error, Result};
 use crate::params::Param;
+use crate::setting::{Setting, Value};
 use crate::sweep::MethodSweep;
 
 /// The newest protocol version this crate speaks.
@@ -222,17 +223,42 @@ impl ExternalMethod {
                 table.insert(key.to_owned(), v.clone());
             }
         }
+        let origin = path.display().to_string();
+        // The one default setting, the same in every command: the `default` table, else every
+        // `[params]` default that is a value (`-` or none: the program's own rule, not sent).
+        let default = match &m.default {
+            Some(v) => {
+                let only: toml::Table = [("default".to_owned(), v.clone())].into_iter().collect();
+                MethodSweep::from_toml(&only, &origin)?
+                    .default
+                    .unwrap_or_default()
+            }
+            None => Setting(
+                m.params
+                    .iter()
+                    .filter(|(_, p)| !p.default.is_empty() && p.default != "-")
+                    .map(|(k, p)| (k.clone(), Value::parse(&p.default)))
+                    .collect(),
+            ),
+        };
+        if let Some(k) = default.0.keys().find(|k| !m.params.contains_key(*k)) {
+            return Err(bad(format!("default.{k}: not one of its [params]")));
+        }
         let sweep = if table.contains_key("grid") {
-            Some(MethodSweep::from_toml(&table, &path.display().to_string())?)
+            let mut sweep = MethodSweep::from_toml(&table, &origin)?;
+            sweep.default = Some(default.clone());
+            Some(sweep)
         } else {
             None
         };
-        // Defaults are the program's own, which it applies itself: none is sent.
+        // A key of the default setting is sent at its default when not given (so the setting
+        // a command prints is the one the program ran); any other is the program's own rule.
         let params: Vec<Param> = m
             .params
             .into_iter()
-            .map(|(k, p)| {
-                Param::rule(
+            .map(|(k, p)| match default.0.get(&k) {
+                Some(v) => Param::value(leak(k), leak(v.to_string()), leak(p.help)),
+                None => Param::rule(
                     leak(k),
                     leak(if p.default.is_empty() {
                         "-".into()
@@ -240,7 +266,7 @@ impl ExternalMethod {
                         p.default
                     }),
                     leak(p.help),
-                )
+                ),
             })
             .collect();
         Ok(Self {

@@ -74,6 +74,9 @@
 //! cameras = ["pinhole", "spherical"]         # models it takes (default: all)
 //! grid = [{gamma = ["2", "3"]}]             # what the visibility experiment sweeps, in
 //! quick_grid = [{gamma = "3"}]               # registry::sweep's format (lists are swept)
+//! default = {gamma = "3"}                    # the default setting in every command; absent:
+//!                                            # the [params] defaults ("-": none), sent to
+//!                                            # the program when a key is not given
 //! family = "open3d-hpr"                      # how its rows group in plots (default: name)
 //! skip_robustness = "why"                    # leaves the robustness experiment (listed
 //!                                            # with the reason); default: it takes part

@@ -15,15 +15,15 @@ use crate::visibility::{Input, Method, Output, Prepared, Setup};
 /// An external visibility method.
 pub(super) struct Visibility(pub(super) &'static ExternalMethod);
 
-/// The keys given of those `method`'s manifest declares, as a JSON object of strings (its
-/// defaults are the program's own: none is sent).
+/// The keys `method`'s manifest declares, each given or at the method's default setting (a key
+/// outside it, not given, is left to the program's own rule), as a JSON object of strings.
 pub(super) fn params_json(
     method: &ExternalMethod,
     r: &mut Reader<'_>,
 ) -> Result<serde_json::Value> {
     let mut pairs = serde_json::Map::new();
     for p in method.params {
-        if let Some(v) = r.given_text(p)? {
+        if let Some(v) = r.text(p)? {
             pairs.insert(p.key.to_owned(), serde_json::Value::String(v));
         }
     }

@@ -71,6 +71,31 @@ fn the_derived_choice_is_each_pixels_first_visible_sphere_for_every_camera_model
             32,
         )
         .unwrap(),
+        // Pinhole among the points: spheres beside the eye and across its plane, a wide and
+        // an off-centre, non-square one.
+        Camera::new(
+            DVec3::new(0.1, 0.05, 0.2),
+            DVec3::new(1.0, 0.3, 0.2),
+            DVec3::Z,
+            120.0,
+            48,
+            32,
+        )
+        .unwrap(),
+        Camera::look_at(
+            DVec3::new(-0.2, 0.1, -0.3),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::X,
+            Model::Pinhole {
+                fx: 20.0,
+                fy: 30.0,
+                cx: 20.0,
+                cy: 14.0,
+            },
+            48,
+            32,
+        )
+        .unwrap(),
         // Inside the box: points all around, behind the eye too.
         Camera::look_at(
             DVec3::new(0.1, 0.0, 0.2),
@@ -195,5 +220,55 @@ fn the_score_counts_pixels_and_refuses_mismatched_inputs() {
             0.0
         )
         .is_err()
+    );
+}
+
+/// The pixels [`footprint`] has tested for a sphere.
+fn footprint_pixels(camera: &Camera, c: DVec3, r: f64) -> usize {
+    match footprint(camera, c, r) {
+        None => 0,
+        Some(Footprint::Rect(x0, x1, y0, y1)) => ((x1 - x0 + 1) * (y1 - y0 + 1)) as usize,
+        Some(Footprint::Cone { u, cos2 }) => (0..i64::from(camera.height))
+            .filter_map(|y| row_span(camera, u, cos2, y))
+            .map(|(x0, x1)| (x1 - x0 + 1) as usize)
+            .sum(),
+    }
+}
+
+#[test]
+fn a_sphere_beside_the_eye_costs_its_own_pixels_not_the_whole_image() {
+    // An eye among the points: spheres on the eye's plane (depth 0) beside it. Out of the
+    // 90-degree view they cost nothing; across the plane inside the view, only the pixels
+    // their cone reaches. Before, each cost the whole image (921,600 ray tests at 1280 x 720).
+    let eye = DVec3::ZERO;
+    let camera = Camera::new(eye, DVec3::new(0.0, 0.0, 1.0), DVec3::Y, 90.0, 1280, 720).unwrap();
+    let r = 0.02;
+    let whole = 1280 * 720;
+    // Beside the eye, 10 radii off, on its plane: the cone points sideways, out of view.
+    assert_eq!(footprint_pixels(&camera, DVec3::new(0.2, 0.0, 0.0), r), 0);
+    assert_eq!(footprint_pixels(&camera, DVec3::new(0.0, -0.2, 0.01), r), 0);
+    // Just behind the plane, by less than r: still out of view.
+    assert_eq!(
+        footprint_pixels(&camera, DVec3::new(0.2, 0.1, -0.015), r),
+        0
+    );
+    // Across the plane near the frustum's edge: a sliver of the image, and the derived
+    // choice is the rule's (every pixel a brute force of its ray against the sphere).
+    let c = DVec3::new(0.03, 0.0, 0.01);
+    let n = footprint_pixels(&camera, c, r);
+    assert!(n > 0 && n < whole / 2, "{n}");
+    let small = Camera::new(eye, DVec3::new(0.0, 0.0, 1.0), DVec3::Y, 90.0, 64, 36).unwrap();
+    for c in [
+        c,
+        DVec3::new(-0.025, 0.01, 0.0),
+        DVec3::new(0.0, 0.021, -0.005),
+    ] {
+        let got = projected(&[c], &[0], &small, r).unwrap();
+        assert_eq!(got.point, brute(&[c], &[0], &small, r), "{c}");
+    }
+    // The eye inside a sphere: every ray starts in it, the whole image.
+    assert_eq!(
+        footprint_pixels(&camera, DVec3::new(0.01, 0.0, 0.0), r),
+        whole
     );
 }
