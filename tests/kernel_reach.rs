@@ -273,11 +273,18 @@ fn every_experiment(root: &Path) {
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
         assert_eq!(rows.len(), 2, "visibility: {m} on 2 views: {rows:?}");
-        // The last columns say what the method was made for (points or pixels) and that the
-        // mesh fits the points (`mesh_fit`).
+        // The last columns say what the method was made for (points or pixels), the digest of
+        // the visible set, and that the mesh fits the points (`mesh_fit`).
         assert!(
-            rows.iter()
-                .all(|r| r.ends_with(",ok,points,ok") || r.ends_with(",ok,pixels,ok")),
+            rows.iter().all(|r| {
+                let cols: Vec<&str> = r.rsplitn(4, ',').collect();
+                cols.len() == 4
+                    && cols[0] == "ok"
+                    && cols[1].len() == 64
+                    && cols[1].bytes().all(|b| b.is_ascii_hexdigit())
+                    && (cols[2] == "points" || cols[2] == "pixels")
+                    && cols[3].ends_with(",ok")
+            }),
             "{rows:?}"
         );
     }
