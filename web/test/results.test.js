@@ -2,11 +2,13 @@
 // `pointsight tables` from the committed robustness and lod results, opened from disk. Every
 // figure draws as many series as its data lists; a series hidden from the legend is gone from
 // the picture, a family unticked leaves none of its colour; hovering a point names it (method,
-// setting, score with its interval). Skipped (with the reason) only outside CI when Chromium is
-// missing.
+// setting, score with its interval). The landing page `index.html` the same run writes: a row per
+// finding, sorted by a click on a heading and filtered by its search box, every link to a file
+// that exists, no request off the disk. Skipped (with the reason) only outside CI when Chromium
+// is missing.
 
 import assert from 'node:assert/strict';
-import { cpSync, mkdirSync, readFileSync } from 'node:fs';
+import { cpSync, existsSync, mkdirSync, readFileSync } from 'node:fs';
 import { join } from 'node:path';
 import { pathToFileURL } from 'node:url';
 import { after, before, test } from 'node:test';
@@ -190,5 +192,76 @@ test('hovering a point names it', { skip }, async () => {
   assert.ok(text.includes(Number(p.y.toPrecision(4)).toString()), `tip ${text} lacks the score ${p.y}`);
   assert.ok(text.includes('seconds'), `tip ${text} lacks the time`);
   await page.screenshot({ path: join(dir, 'lod-hover.png') });
+  await page.close();
+});
+
+test('the landing page lists, sorts and filters the findings and links only to files that exist', { skip }, async () => {
+  const file = join(dir, 'index.html');
+  const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });
+  const errors = [];
+  const offDisk = [];
+  page.on('pageerror', (e) => errors.push(String(e)));
+  page.on('request', (r) => {
+    if (!r.url().startsWith('file:')) offDisk.push(r.url());
+  });
+  await page.goto(pathToFileURL(file).href);
+  await page.waitForFunction(() => window.landingReady === true, null, { timeout: 30_000 });
+  assert.deepEqual(errors, []);
+
+  // One row per finding (findings.csv has no line breaks inside its fields).
+  const csv = readFileSync(join(dir, 'findings.csv'), 'utf8').trim().split('\n');
+  const rows = page.locator('#findings-table tbody tr');
+  const n = await rows.count();
+  assert.ok(n >= 10, `${n} findings`);
+  assert.equal(n, csv.length - 1);
+
+  // Every link resolves: a file of the folder, or an element of the page.
+  const hrefs = await page.evaluate(() => [...document.querySelectorAll('a[href]')].map((a) => a.getAttribute('href')));
+  for (const h of hrefs) {
+    if (h.startsWith('#')) {
+      assert.ok(await page.locator(`[id="${h.slice(1)}"]`).count(), `no element for ${h}`);
+    } else {
+      assert.ok(existsSync(join(dir, decodeURIComponent(h.split('#')[0]))), `${h} is missing`);
+    }
+  }
+  // A row of one dataset links the figure of that dataset.
+  const links = await page.evaluate(() =>
+    [...document.querySelectorAll('#findings-table tbody tr')].map((r) => [r.cells[1].textContent, r.querySelector('a.figure').getAttribute('href')]),
+  );
+  const lod = links.find(([c]) => c.startsWith('bunny-69451 at distance'));
+  assert.ok(lod, 'no LOD finding on bunny-69451');
+  assert.match(lod[1], /^lod\/psnr_vs_points_bunny-69451\.png$/);
+  // The experiments that ran link their interactive pages; one card per method with results.
+  for (const exp of ['robustness', 'lod']) {
+    assert.equal(await page.locator(`li[data-experiment="${exp}"] a.results`).count(), 1, exp);
+  }
+  for (const m of ['qsplat', 'random', 'raycast']) {
+    assert.equal(await page.locator(`article[data-method="${m}"]`).count(), 1, `no card for ${m}`);
+  }
+
+  // A click on the value's heading sorts by it, a second click the other way.
+  const values = () =>
+    page.evaluate(() =>
+      [...document.querySelectorAll('#findings-table tbody tr')].map((r) => parseFloat(r.cells[6].getAttribute('data-sort'))),
+    );
+  const heading = page.locator('#findings-table thead th', { hasText: 'value' });
+  await heading.click();
+  const up = await values();
+  assert.deepEqual(up, [...up].sort((a, b) => a - b));
+  await heading.click();
+  const down = await values();
+  assert.deepEqual(down, [...down].sort((a, b) => b - a));
+  assert.notDeepEqual(up, down);
+
+  // The filter keeps the rows that contain its text.
+  await page.locator('#filter').fill('qsplat');
+  const kept = await page.evaluate(() =>
+    [...document.querySelectorAll('#findings-table tbody tr')].filter((r) => !r.hidden).map((r) => r.textContent.toLowerCase()),
+  );
+  assert.ok(kept.length >= 1 && kept.length < n, `${kept.length} of ${n} kept`);
+  assert.ok(kept.every((t) => t.includes('qsplat')));
+  assert.equal(await page.locator('#shown').textContent(), `${kept.length} of ${n} findings shown`);
+  await page.screenshot({ path: join(dir, 'landing.png'), fullPage: false });
+  assert.deepEqual(offDisk, [], 'requests off the disk');
   await page.close();
 });

@@ -335,6 +335,7 @@ fn assemble_report(reports: &Path) -> Result<()> {
         quick,
         &view::report::section(reports)?,
     )?;
+    output::landing::write(reports, &sections, &method_infos())?;
     // Each experiment's folder lists what the assembly added (its findings, its results page).
     for name in &names {
         let dir = reports.join(name);
@@ -348,4 +349,39 @@ fn assemble_report(reports: &Path) -> Result<()> {
 /// `k/n`, or `-` without a shard.
 fn shard_text(shard: Option<shard::Shard>) -> String {
     shard.map_or_else(|| "-".into(), |s| format!("{}/{}", s.k, s.n))
+}
+
+/// What the landing page says of every registered method (its card, in registry order).
+fn method_infos() -> Vec<output::landing::MethodInfo> {
+    registry::cards()
+        .into_iter()
+        .map(|card| output::landing::MethodInfo {
+            name: card.name.to_owned(),
+            summary: card.summary.to_owned(),
+            kind: match card.kind {
+                registry::Kind::Visibility(_) => "visibility".into(),
+                registry::Kind::Lod(_) => "level of detail".into(),
+            },
+            peer_of: card.peer_of.map(str::to_owned),
+            made_for: card.made_for.as_str().to_owned(),
+            exact: card.exact,
+            default_setting: card.default_setting().label(),
+            params: card
+                .params
+                .iter()
+                .map(|p| {
+                    let default = match p.default {
+                        registry::ParamDefault::Value(v) => v.to_owned(),
+                        registry::ParamDefault::Per { key, values } => values
+                            .iter()
+                            .map(|(at, v)| format!("{v} at {key}={at}"))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        registry::ParamDefault::Rule(rule) => rule.to_owned(),
+                    };
+                    (p.key.to_owned(), default, p.help.to_owned())
+                })
+                .collect(),
+        })
+        .collect()
 }

@@ -1,11 +1,12 @@
 //! Everything the harness writes: atomic files, CSV, run metadata, figures (a JSON twin and a
-//! PNG from one description, in one style table), the report page.
+//! PNG from one description, in one style table), the report page and the landing page.
 //!
 //! Every file is written to a temporary name beside its target and renamed into place, so an
 //! interrupted run leaves the previous version or the new one, never half a file.
 
 pub mod figure;
 pub mod folder;
+pub mod landing;
 pub mod meta;
 pub mod render;
 pub mod report;
