@@ -18,9 +18,10 @@ use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
 use crate::experiments::markdown_table;
 use crate::experiments::rules::ratio;
+use crate::experiments::rules::wrong::{self, Wrong};
 use crate::output::figure::{Axis, Draw, Figure, Panel, Point, Series};
 use crate::output::render::{classified_panel, compose, footprint};
-use crate::output::{distinct, write_atomic};
+use crate::output::{distinct, style, write_atomic};
 use registry::scoring::Score;
 
 /// Every family of `rows`, in the order they first appear.
@@ -200,7 +201,13 @@ Each method at its tuned setting against \
 /// settings), one line per dataset and per combination of the other varying keys; `None` when
 /// the family sweeps no number. Negative parameters (the exponential kernel's γ) are negated
 /// and spans over two decades get a log axis.
-fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Result<Option<String>> {
+fn param_chart(
+    dir: &Path,
+    rows: &[Row],
+    datasets: &[String],
+    fam: &str,
+    failed: &Wrong,
+) -> Result<Option<String>> {
     let fixed: Vec<(&Row, Setting)> = rows
         .iter()
         .filter(|r| r.family == fam && r.status == "ok" && !r.f1.is_nan() && !is_auto(&r.params))
@@ -294,7 +301,12 @@ fn param_chart(dir: &Path, rows: &[Row], datasets: &[String], fam: &str) -> Resu
                 })
                 .collect();
             let rank = lines.iter().position(|l| *l == line).unwrap_or(0);
-            let sr = if line.is_empty() {
+            let sr = if let Some(j) = failed.0.get(method) {
+                // A failed exactness claim: its own marked style, whatever the line.
+                let label = if line.is_empty() { fam } else { line.as_str() };
+                Series::new(method, fam, style::WRONG, Draw::Line, points)
+                    .label(format!("{label} — {}", wrong::note(*j)))
+            } else if line.is_empty() {
                 Series::new(method, fam, "settings", Draw::Line, points).label(fam)
             } else {
                 Series::new(method, fam, &line, Draw::Line, points)
@@ -580,6 +592,8 @@ pub(super) fn render(
         .unwrap_or_default();
     let protocol = Protocol::new(observations(rows), roles_of(&datasets, &meta));
     let mut pictures = String::new();
+    // A method whose exactness claim failed, in every figure below.
+    let failed = wrong::peers(dir)?;
 
     // F1 against seconds, every setting (mean over views; bars: the views' fastest and slowest
     // timed runs and the lowest and highest F1), Pareto front marked, per dataset.
@@ -619,6 +633,14 @@ pub(super) fn render(
                         .setting(params.to_string())
                 })
                 .collect();
+            // A method with wrong answers is drawn apart and is never on the front.
+            if let Some(j) = failed.0.get(&method) {
+                series.push(
+                    Series::new(&method, fam, style::WRONG, Draw::Points, points)
+                        .label(format!("{fam} — {}", wrong::note(*j))),
+                );
+                continue;
+            }
             all.extend(points.iter().map(|p| {
                 (
                     p.x,
@@ -656,7 +678,7 @@ pub(super) fn render(
 
     // F1 against each family's main parameter.
     for fam in &families {
-        if let Some(md) = param_chart(dir, rows, &datasets, fam)? {
+        if let Some(md) = param_chart(dir, rows, &datasets, fam, &failed)? {
             pictures.push_str(&md);
         }
     }
@@ -759,14 +781,13 @@ pub(super) fn render(
         },
     );
     // A method whose exactness claim failed: said first, as every table below lists it.
-    let wrong = crate::experiments::rules::wrong::peers(dir)?;
-    let mut summary = match wrong.0.is_empty() {
+    let mut summary = match failed.0.is_empty() {
         true => summary,
         false => format!(
             "**Wrong answers** (a method that claims exactness and returned sets that differ from \
              our hpr's at the same γ, Jaccard below 0.999 on an unperturbed cell; never ranked in \
              the findings): {}.\n\n{summary}",
-            wrong.notes(wrong.0.keys().map(String::as_str)).join("; ")
+            failed.notes(failed.0.keys().map(String::as_str)).join("; ")
         ),
     };
     for extra in ["builds.csv", "peers.csv"] {
@@ -778,4 +799,93 @@ pub(super) fn render(
         }
     }
     write_atomic(&dir.join("summary.md"), summary.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    /// The committed visibility results, their peers' rows claiming exactness, one of
+    /// open3d-hpr's sets made wrong (Jaccard 0.5): redrawn, open3d-hpr is drawn in the
+    /// wrong-answer style in the Pareto and parameter figures and is never on the front, while
+    /// cgal-hpr (right answers) keeps its own style.
+    #[test]
+    fn a_peer_with_wrong_answers_is_drawn_apart_and_left_off_the_front() {
+        let committed = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../reports/visibility");
+        let dir = tempfile::tempdir().unwrap();
+        for f in [
+            "results.csv",
+            "pixels.csv",
+            "agreement.csv",
+            "metadata.json",
+        ] {
+            std::fs::copy(committed.join(f), dir.path().join(f)).unwrap();
+        }
+        let peers = std::fs::read_to_string(committed.join("peers.csv")).unwrap();
+        let mut lines = peers.lines();
+        let header = lines.next().unwrap();
+        let jaccard = header.split(',').position(|c| c == "jaccard").unwrap();
+        let mut out = format!("{header},claims_exact\n");
+        let mut made_wrong = false;
+        for line in lines {
+            let mut cols: Vec<String> = line.split(',').map(str::to_owned).collect();
+            let exact = matches!(cols[2].as_str(), "open3d-hpr" | "cgal-hpr");
+            if cols[2] == "open3d-hpr" && !made_wrong {
+                cols[jaccard] = "0.5".into();
+                made_wrong = true;
+            }
+            out.push_str(&format!("{},{exact}\n", cols.join(",")));
+        }
+        assert!(made_wrong, "the committed peers.csv has no open3d-hpr row");
+        std::fs::write(dir.path().join("peers.csv"), out).unwrap();
+        crate::experiments::experiment("visibility")
+            .unwrap()
+            .render(dir.path())
+            .unwrap();
+        let read = |name: &str| -> serde_json::Value {
+            serde_json::from_str(&std::fs::read_to_string(dir.path().join(name)).unwrap()).unwrap()
+        };
+        let series = |fig: &serde_json::Value| -> Vec<serde_json::Value> {
+            fig["panels"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|p| p["series"].as_array().unwrap().clone())
+                .collect()
+        };
+        let wrong = crate::output::style::WRONG;
+        let pareto = read("pareto_bunny.json");
+        let all = series(&pareto);
+        let of = |m: &str| -> Vec<&serde_json::Value> {
+            all.iter()
+                .filter(|s| s["method"] == m && s["context"] == false)
+                .collect()
+        };
+        assert!(!of("open3d-hpr").is_empty());
+        for s in of("open3d-hpr") {
+            assert_eq!(s["variant"], wrong, "{s}");
+            assert!(
+                s["label"].as_str().unwrap().contains("wrong answers"),
+                "{s}"
+            );
+        }
+        assert!(!of("cgal-hpr").is_empty());
+        assert!(of("cgal-hpr").iter().all(|s| s["variant"] != wrong));
+        let front = all.iter().find(|s| s["draw"] == "front").unwrap();
+        let names: Vec<&str> = front["points"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|p| p["name"].as_str().unwrap())
+            .collect();
+        assert!(!names.is_empty());
+        assert!(
+            names.iter().all(|n| !n.starts_with("open3d-hpr")),
+            "{names:?}"
+        );
+        let param = read("f1_open3d-hpr.json");
+        assert!(series(&param).iter().all(|s| s["variant"] == wrong));
+        let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+        assert!(summary.starts_with("**Wrong answers**"), "{summary}");
+    }
 }
