@@ -12,7 +12,7 @@ use registry::Setting;
 use truth::{Reference, ReferenceParams};
 
 use super::papers::chosen;
-use super::tuned::{protocol_text, tuned_table};
+use super::tuned::{by_dataset, protocol_text, tuned_table};
 use super::tuning::{Protocol, observations, roles_of};
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
@@ -685,7 +685,12 @@ pub(super) fn render(
 
     // Each family at its tuned setting per dataset, the oracle beside it.
     let best_table = tuned_table(rows, &datasets, &families, &protocol);
-    let protocol_md = protocol_text(&protocol);
+    let never_best: Vec<&str> = failed.0.keys().map(String::as_str).collect();
+    let protocol_md = format!(
+        "{}{}",
+        protocol_text(&protocol),
+        by_dataset(&best_table, &datasets, &families, &never_best)
+    );
 
     let versus = format!(
         "{}{}{}",

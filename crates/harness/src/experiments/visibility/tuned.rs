@@ -85,6 +85,69 @@ pub(super) fn tuned_table(
     table
 }
 
+/// The tuned table (`tuned_table`'s rows) as the papers print it: one row per family, one column
+/// per dataset, each cell its F1 with its 95 % interval, the best of each dataset in bold (ties
+/// at four decimals all bold; a family of `never_best`, whose answers are wrong, never is).
+pub(super) fn by_dataset(
+    table: &[Vec<String>],
+    datasets: &[String],
+    families: &[String],
+    never_best: &[&str],
+) -> String {
+    let cell = |d: &str, fam: &str| {
+        table
+            .iter()
+            .find(|r| r[0] == d && r[2] == fam)
+            .map(|r| r[4].clone())
+    };
+    let value = |text: &str| {
+        text.split_whitespace()
+            .next()
+            .and_then(|v| v.parse::<f64>().ok())
+    };
+    let best: Vec<Option<String>> = datasets
+        .iter()
+        .map(|d| {
+            families
+                .iter()
+                .filter(|f| !never_best.contains(&f.as_str()))
+                .filter_map(|f| cell(d, f).as_deref().and_then(value))
+                .max_by(f64::total_cmp)
+                .map(|v| format!("{v:.4}"))
+        })
+        .collect();
+    let mut rows = Vec::new();
+    for fam in families {
+        let mut row = vec![fam.clone()];
+        let mut any = false;
+        for (d, best) in datasets.iter().zip(&best) {
+            let text = cell(d, fam).unwrap_or_else(|| "-".into());
+            let is_best = !never_best.contains(&fam.as_str())
+                && value(&text).is_some_and(|v| Some(format!("{v:.4}")) == *best);
+            any |= text != "-";
+            row.push(if is_best { format!("**{text}**") } else { text });
+        }
+        if any {
+            rows.push(row);
+        }
+    }
+    if rows.is_empty() {
+        return String::new();
+    }
+    let mut header = vec!["method"];
+    header.extend(datasets.iter().map(String::as_str));
+    format!(
+        "F1 at the tuned setting [95 % interval over the views], methods by datasets; the best of \
+         each dataset in bold{}:\n\n{}\n",
+        if never_best.is_empty() {
+            String::new()
+        } else {
+            format!(" (never {}: wrong answers)", never_best.join(", "))
+        },
+        crate::experiments::markdown_table(&header, &rows)
+    )
+}
+
 /// What the tuned-setting table's settings are, for the summary.
 pub(super) fn protocol_text(protocol: &Protocol) -> String {
     let tuning = protocol.tuning_datasets();
@@ -183,5 +246,43 @@ mod table_tests {
         );
         assert_eq!(table[0][1], "evaluation (oracle)");
         assert_eq!(table[0][3], "gamma=2 kernel=linear (oracle)");
+    }
+
+    #[test]
+    fn the_papers_table_bolds_each_datasets_best_and_never_a_wrong_one() {
+        let row = |d: &str, fam: &str, f1: &str| {
+            let mut r = vec![String::new(); 10];
+            r[0] = d.into();
+            r[2] = fam.into();
+            r[4] = f1.into();
+            r
+        };
+        let table = vec![
+            row("a", "hpr", "0.9500 [0.9400, 0.9600]"),
+            row("a", "raycast", "0.9500 [0.9300, 0.9700]"),
+            row("a", "peer", "0.9900 [0.9800, 0.9950]"),
+            row("b", "hpr", "0.8000 [0.7000, 0.9000]"),
+            row("b", "raycast", "0.9000 [0.8500, 0.9500]"),
+        ];
+        let ds = ["a".to_owned(), "b".to_owned()];
+        let fams = ["hpr", "raycast", "peer", "absent"].map(String::from);
+        let md = by_dataset(&table, &ds, &fams, &["peer"]);
+        // Ties are both bold; the wrong peer's higher value is not; a family without cells is
+        // left out.
+        assert!(
+            md.contains("| hpr | **0.9500 [0.9400, 0.9600]** | 0.8000 [0.7000, 0.9000] |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| raycast | **0.9500 [0.9300, 0.9700]** | **0.9000 [0.8500, 0.9500]** |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| peer | 0.9900 [0.9800, 0.9950] | - |"),
+            "{md}"
+        );
+        assert!(!md.contains("absent"));
+        assert!(md.contains("never peer: wrong answers"));
+        assert_eq!(by_dataset(&[], &ds, &fams, &[]), "");
     }
 }
