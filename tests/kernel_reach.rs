@@ -321,7 +321,8 @@ fn every_experiment(root: &Path) {
     let rows = lines_with(&lod.join("results.csv"), ",kernel-test-stride,");
     // 2 settings × 8 views × 2 distances.
     assert_eq!(rows.len(), 2 * 8 * 2, "lod: {rows:?}");
-    assert!(rows.iter().all(|r| r.ends_with(",ok")), "{rows:?}");
+    // The last columns: the status, then the cloud's points (`n_points`).
+    assert!(rows.iter().all(|r| r.ends_with(",ok,24000")), "{rows:?}");
     assert_eq!(
         lines_with(&lod.join("builds.csv"), ",kernel-test-stride,").len(),
         1
