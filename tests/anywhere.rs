@@ -1,4 +1,4 @@
-//! pointsight from anywhere (issue 42): installed into a temporary prefix by
+//! pointsight from anywhere: installed into a temporary prefix by
 //! `scripts/install.sh` (this build's binary, a stand-in viewer script) and run from a temporary
 //! folder with a temporary `HOME` and XDG folder, so nothing of the user's is read or written;
 //! the folders' rule (`harness::paths`) inside a clone, found from a subfolder; `run

@@ -4,7 +4,8 @@
 //! progress bars; from the harness's sources: which of its modules may name method crates
 //! ([`MAY_NAME`]); and from every workspace crate's sources: that its modules import each
 //! other without circles, and that no source file outside tests is over [`MAX_LINES`] lines
-//! (both but for [`EXEMPT_CYCLES`] and [`EXEMPT_LONG`]).
+//! (both but for [`EXEMPT_CYCLES`] and [`EXEMPT_LONG`]); and from every source file of the
+//! repository: that no comment cites an issue, stop, round or session by number.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -814,15 +815,15 @@ fn workspace_crates() -> Vec<String> {
 }
 
 /// The import circles a crate may have while it is being reshaped, each the modules of one
-/// circle: none since the registry's reshaping (issue 40) removed `lod` ↔ `plugins`. A circle
+/// circle: none today. A circle
 /// listed here must exist (a listed circle that is gone fails the test).
 const EXEMPT_CYCLES: &[(&str, &[&str])] = &[];
 
 /// The longest a source file may be: one concept per module.
 const MAX_LINES: usize = 900;
 
-/// Files over [`MAX_LINES`] while they are being split, with their crate: none since the
-/// registry's reshaping (issue 40) split `external.rs`. A file listed here must be long (a
+/// Files over [`MAX_LINES`] while they are being split, with their crate: none today. A file
+/// listed here must be long (a
 /// listed file that is no longer long fails the test).
 const EXEMPT_LONG: &[(&str, &str)] = &[];
 
@@ -1153,7 +1154,7 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
     ),
     (
         "output/style.rs",
-        "the report's one style table (issue 39): each family's colour, dash and peer marker \
+        "the report's one style table: each family's colour, dash and peer marker \
          assigned in one place, so a method looks the same in every figure and page",
     ),
     (
@@ -1207,5 +1208,118 @@ fn harness_modules_name_methods_in_strings_only_where_listed() {
     assert!(
         stale.is_empty(),
         "MAY_NAME_IN_STRINGS lists files that name no method: {stale:?}"
+    );
+}
+
+/// The comment part of `line` in a file of extension `ext` (`//` in Rust, JavaScript and C++;
+/// `#` in Python, shell and TOML), empty when it has none. A marker inside a string counts as
+/// a comment too: the check errs towards reading more, never less.
+fn comment_of<'a>(line: &'a str, ext: &str) -> &'a str {
+    let marker = match ext {
+        "rs" | "js" | "cpp" | "hpp" | "h" => "//",
+        _ => "#",
+    };
+    line.find(marker).map_or("", |at| &line[at..])
+}
+
+/// The places in `comment` where an issue, stop, round or session is cited by number
+/// (the word, a space, an optional `#`, a digit): history, which belongs in commit messages.
+fn narrations(comment: &str) -> Vec<String> {
+    let lower = comment.to_lowercase();
+    let mut out = Vec::new();
+    for word in ["issue", "stop", "round", "session"] {
+        let mut from = 0;
+        while let Some(pos) = lower[from..].find(word) {
+            let at = from + pos;
+            from = at + word.len();
+            let before = lower[..at].chars().next_back();
+            if before.is_some_and(|c| c.is_alphanumeric()) {
+                continue;
+            }
+            let rest = lower[from..]
+                .trim_start_matches(' ')
+                .trim_start_matches('#');
+            if lower[from..].starts_with(' ') && rest.starts_with(|c: char| c.is_ascii_digit()) {
+                out.push(comment[at..].chars().take(40).collect());
+            }
+        }
+    }
+    out
+}
+
+/// Every source file of the repository a comment could narrate in: Rust, Python, shell,
+/// JavaScript, C++ and TOML under the crates, tests, methods, scripts, examples and the web
+/// sources (build outputs, installed packages and test data files left out).
+fn commented_sources() -> Vec<std::path::PathBuf> {
+    fn walk(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        let Ok(read) = std::fs::read_dir(dir) else {
+            return;
+        };
+        let mut entries: Vec<_> = read.map(|e| e.expect("entry").path()).collect();
+        entries.sort();
+        for path in entries {
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+            if path.is_dir() {
+                if !matches!(
+                    name.as_deref(),
+                    Some("target" | "node_modules" | "dist" | ".venv" | "__pycache__")
+                ) {
+                    walk(&path, out);
+                }
+            } else if path.extension().is_some_and(|e| {
+                ["rs", "py", "sh", "js", "cpp", "hpp", "h", "toml"]
+                    .contains(&e.to_string_lossy().as_ref())
+            }) {
+                out.push(path);
+            }
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut out = Vec::new();
+    for dir in [
+        "crates", "tests", "methods", "scripts", "examples", "web/src", "web/test",
+    ] {
+        walk(&root.join(dir), &mut out);
+    }
+    out
+}
+
+#[test]
+fn comments_explain_instead_of_narrating() {
+    // The cases are built at run time, so that this file's own lines cite nothing.
+    let cite = |word: &str, n: u32| format!("{word} {n}");
+    assert_eq!(
+        narrations(&format!("// ({}: under 250 lines)", cite("issue", 39))),
+        ["issue 39: under 250 lines)"]
+    );
+    assert_eq!(
+        narrations("# at stop 58, round #2"),
+        ["stop 58, round #2", "round #2"]
+    );
+    assert!(narrations("// three rounds 3 times; tissue 4; issue tracker").is_empty());
+    let line = format!("let a = 1; // {}", cite("issue", 4));
+    assert_eq!(comment_of(&line, "rs"), format!("// {}", cite("issue", 4)));
+    assert_eq!(comment_of("x = 1  # stop 2", "py"), "# stop 2");
+    let files = commented_sources();
+    assert!(files.len() > 100, "{} source files found", files.len());
+    let mut found = Vec::new();
+    for path in files {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let Ok(text) = std::fs::read_to_string(&path) else {
+            continue;
+        };
+        for (k, line) in text.lines().enumerate() {
+            for n in narrations(comment_of(line, &ext)) {
+                found.push(format!("{}:{}: {n}", path.display(), k + 1));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "comments that narrate history (it belongs in commit messages, docs/ and reports/):\n{}",
+        found.join("\n")
     );
 }

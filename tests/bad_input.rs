@@ -362,7 +362,7 @@ fn degenerate_valid_inputs_have_their_documented_result() {
     let set = visible_set(&out);
     assert_eq!(set.contains(&0), set.contains(&grid.len()), "{set:?}");
 
-    // The eye on a point (issue 41): every method and the ground truth refuse alike (HPR
+    // The eye on a point: every method and the ground truth refuse alike (HPR
     // refused, the ray cast returned that point alone, the splats 3,620 points of a sphere,
     // the reference none).
     let mut ball: Vec<[f64; 3]> = grid.iter().map(|p| [p[0], p[1], -1.0]).collect();
@@ -380,7 +380,7 @@ fn degenerate_valid_inputs_have_their_documented_result() {
     }
 }
 
-// ---- Issue 41: nothing lost, nothing hung. Each case asserts the error, and that nothing was
+// ---- Nothing lost, nothing hung. Each case asserts the error, and that nothing was
 // left (no scratch, partial or lock file), lost (what was there is as it was) or left running.
 
 /// `pointsight` with string arguments.

@@ -242,7 +242,7 @@ fn the_audit_recomputes_every_finding(reports: &Path) {
     );
 }
 
-/// Issue 39: a quick run's report opens with its findings, says in both titles that they are
+/// A quick run's report opens with its findings, says in both titles that they are
 /// indicative, and prints no interval from fewer than 5 views (its findings.csv leaves them
 /// empty; no table of any summary shows `value [low, high]`).
 fn quick_findings_are_indicative(reports: &Path, readme: &str) {
@@ -405,8 +405,8 @@ fn figures_have_twins_with_distinct_and_consistent_styles(reports: &Path, files:
     }
 }
 
-/// Regression (issue 39): the LOD section put `# Level of detail` into the combined README,
-/// under its `## lod`, and its Builds table had 7 header cells and 8 a row.
+/// The combined README keeps its structure: one top heading (no experiment's own `#` heading
+/// inside its section), and every table's rows have as many cells as its header.
 fn readme_keeps_its_structure(readme: &str) {
     let top: Vec<&str> = readme.lines().filter(|l| l.starts_with("# ")).collect();
     assert_eq!(

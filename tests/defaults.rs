@@ -1,4 +1,4 @@
-//! One default per method, everywhere (issue 40): given no setting, `pointsight visible`,
+//! One default per method, everywhere: given no setting, `pointsight visible`,
 //! `pointsight view` (its choice of each method's setting) and the experiments (the default
 //! setting the sweeps resolve to, run through a kernel cell as they run it) run every method at
 //! its card's default setting, and give the same visible set on one cloud and view; `view

@@ -504,7 +504,7 @@ fn a_georeferenced_cloud_gives_the_same_visible_sets_as_near_the_origin() {
     }
 }
 
-/// Issue 13: exact at every magnitude. The same scene multiplied by 2^±665 (about 1e±200, far
+/// Exact at every magnitude. The same scene multiplied by 2^±665 (about 1e±200, far
 /// outside where squared distances, the flip and the exact predicates hold) is rescaled by a
 /// power of two on loading, so every method gives the same visible set as at unit scale.
 #[test]

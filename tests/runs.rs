@@ -72,7 +72,7 @@ size = [{width = 320, height = 180}]
 radius_px = [2.0]
 "#;
 
-/// Issue 22's case as a new user tried it: two shards written with `run ... --out DIR`, merged.
+/// A new user's sharded run: two shards written with `run ... --out DIR`, merged.
 #[test]
 fn merge_takes_the_folders_run_shard_out_writes() {
     let root = tmp("merge");

@@ -6,7 +6,7 @@
 //!
 //! `lod`'s `spt-cut` and `srn-select` report entries per second; entries × 16 bytes (SPT's
 //! list entry) or points × the bytes SRN reads per point, over the read figure here, is the
-//! fraction of the memory speed they reach (issue 16 asks ≥ 50 %).
+//! fraction of the memory speed they reach (the goal is at least 50 %).
 
 use std::hint::black_box;
 

@@ -1,5 +1,5 @@
 //! Criterion benchmark of the normals kernel that dominates the out-of-core LOD builds'
-//! preparation (`lod-build`'s `normals` stage, 39 % of QSplat's 10^8-point build at stop 58):
+//! preparation (`lod-build`'s `normals` stage; its share of a build is in `docs/lod-out-of-core.md`):
 //! [`cloud::normals::estimate_normals`] at k = 16 (the grid's exact k-nearest-neighbour
 //! queries, [`cloud::knn_grid`], and the covariance normal of each), on 2·10^6 samples of the
 //! synthetic torus (always available, so runs on any machine compare), oriented away from the

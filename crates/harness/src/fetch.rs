@@ -58,7 +58,7 @@ pub const ARMADILLO_MESH: MeshFile = MeshFile {
 };
 
 /// An elephant (2,775 vertices, 5,558 triangles, closed): trunk, tusks and legs that hide one
-/// another. An evaluation mesh (issue 39's protocol: never used for tuning).
+/// another. An evaluation mesh (the tuning/evaluation protocol: never used for tuning).
 pub const ELEPHANT_MESH: MeshFile = MeshFile {
     file: "elephant.off",
     archive_path: "data/meshes/elephant.off",

@@ -1,4 +1,4 @@
-//! The guards every command runs under (issue 41): what it writes is checked, locked and
+//! The guards every command runs under: what it writes is checked, locked and
 //! cleaned up, whatever stops it.
 //!
 //! - **Outputs checked before any work**: a file output (`--out` of `visible` for one view,

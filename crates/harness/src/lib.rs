@@ -72,7 +72,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     let reports = |given: Option<std::path::PathBuf>, quick: bool| {
         given.unwrap_or_else(|| paths::reports_dir(quick, clone.as_deref()))
     };
-    // Outputs checked and locked, stale scratch reclaimed, signals answered (issue 41).
+    // Outputs checked and locked, stale scratch reclaimed, signals answered.
     let _guard = guard::begin(&cli.command, &reports)?;
     match cli.command {
         Command::Fetch => commands::data::fetch(&data_dir)?,

@@ -9,7 +9,7 @@ use cloud::rng::{RngExt, seeded};
 pub const RESAMPLES: usize = 10_000;
 
 /// The fewest views (paired values) an interval is stated from; below, an estimate is
-/// indicative (issue 39: a quick run's 2 views gave intervals that looked like results).
+/// indicative (an interval over 2 views looks like a result and is not one).
 pub const MIN_VIEWS: usize = 5;
 
 /// A value estimated from `n` views, with its bootstrap 95 % interval when `n` is at least

@@ -354,8 +354,8 @@ mod tests {
         (false_pos, false_neg, worst)
     }
 
-    /// Issue 13: clouds at 1e200 and 1e-200 give the visible set of the same cloud at unit
-    /// size (the flip used to overflow or underflow its norms).
+    /// Clouds at 1e200 and 1e-200 give the visible set of the same cloud at unit size (an
+    /// unscaled flip overflows or underflows its norms).
     #[test]
     fn extreme_magnitudes_give_the_unit_answer() {
         let scene = sphere_scene(3_000);

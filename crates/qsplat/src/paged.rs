@@ -1,5 +1,5 @@
-//! A built file read on demand: selection from a tree that is not loaded (issue 27's
-//! `lod_file`), so that memory follows what a view draws, not the file's size.
+//! A built file read on demand: selection from a tree that is not loaded (the `lod_file`
+//! method), so that memory follows what a view draws, not the file's size.
 //!
 //! [`PagedTree::open`] reads and checks the header ([`crate::file`]'s layout: the magic, the
 //! version, the counts against the file's length), the root's colour and the table of page

@@ -1,6 +1,6 @@
 //! A built LOD file (`pointsight lod-build`) as an LOD structure: selected from the file, never
 //! loaded whole, so that a cloud of 10^8 points or more can be viewed within a memory limit
-//! (issue 27's `lod_file`): a QSplat file through `qsplat::PagedTree`, a sequential point
+//! (`lod_file`): a QSplat file through `qsplat::PagedTree`, a sequential point
 //! tree's through `spt::paged::PagedTree` (the prefix a view needs, read block by block). The
 //! method is told by the file's magic ([`file_info`], [`open_file`], [`file_leaves`]).
 //!

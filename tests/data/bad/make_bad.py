@@ -160,7 +160,7 @@ overflow = bytearray(las)
 struct.pack_into("<H", overflow, 105, 1024)
 struct.pack_into("<Q", overflow, 247, 1 << 60)
 binary("las_count_overflow.las", overflow)
-# Issue 41: corruption read as data. A point outside the header's box (its X moved by 100,000
+# Corruption read as data. A point outside the header's box (its X moved by 100,000
 # units of the 0.001 scale), the same point inside a LAZ whose box was shrunk, an x scale of 0,
 # a count below the records the file holds, and LAS 1.4's two counts disagreeing.
 outside = bytearray(las)

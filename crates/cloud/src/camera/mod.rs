@@ -631,8 +631,8 @@ impl Camera {
 
     /// Fails when this camera cannot look at the cloud `positions` (in the frame the methods
     /// see: a dataset's recentred one), with the same refusal for the ground truth and every
-    /// method (issue 41; before, an eye on a point gave HPR's refusal, 1 point for the ray
-    /// cast and 0 for the reference):
+    /// method (without it, an eye on a point gives HPR's refusal, 1 point for the ray cast and
+    /// 0 for the reference):
     /// - the eye within [`EYE_CLEARANCE`] of the cloud's diameter of a point: the direction to
     ///   that point, and so its visibility, is undefined;
     /// - the eye so far that the cloud's extent is below [`MIN_EXTENT`] of its distance: the

@@ -7,7 +7,7 @@
 //! 1280 × 720, eyes at 1.5 box diagonals from the centre of the mesh's bounding box). Real
 //! datasets keep the source mesh's coordinates: no recentring, no scaling.
 //!
-//! Each entry has a [`Role`] (issue 39's protocol): the **tuning** datasets are the ones a
+//! Each entry has a [`Role`] (the tuning/evaluation protocol): the **tuning** datasets are the ones a
 //! method's "best" setting is chosen on; the **evaluation** datasets (four further meshes of the
 //! same Debian package, area-weighted samples) are never used to choose a setting, so a score
 //! there at the tuned setting is an out-of-sample figure. How the tuned setting is computed is

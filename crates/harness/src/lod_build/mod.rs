@@ -1,5 +1,5 @@
-//! `pointsight lod-build`: an LOD method's file built from a point file within a memory limit
-//! (issue 27), out of core when the cloud does not fit (`qsplat::ooc`, which starts from
+//! `pointsight lod-build`: an LOD method's file built from a point file within a memory limit,
+//! out of core when the cloud does not fit (`qsplat::ooc`, which starts from
 //! `cloud::ooc::prepare`; `spt::ooc` fed by `cloud::ooc::prepare`), the same bytes as the
 //! in-memory build when it does.
 //!

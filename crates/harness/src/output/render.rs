@@ -205,9 +205,9 @@ pub fn compose(panels: &[Panel], cols: usize, legend: &str, path: &Path) -> Resu
 mod tests {
     use super::*;
 
-    /// Regression (issue 39): renders.png's captions ran into the next panel ("threshold=0.25
-    /// (F1 0.9" over "vardensity k=16 ..."). Long captions are wrapped: no caption pixel lies
-    /// right of its own panel's column.
+    /// Long captions are wrapped: no caption pixel lies right of its own panel's column (an
+    /// unwrapped caption runs into the next panel, "threshold=0.25 (F1 0.9" over "vardensity
+    /// k=16 ...").
     #[test]
     fn captions_wrap_inside_their_panel() {
         let dir = tempfile::tempdir().unwrap();

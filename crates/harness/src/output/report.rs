@@ -7,7 +7,7 @@
 //! experiments it is given (the caller passes the experiment registry's names and summaries,
 //! in registry order), each with its run line (date, revision, compiler, CPU) and its summary:
 //! inlined, links rewritten relative to the reports folder, when it is at most
-//! [`INLINE_LINES`] lines, else linked, so the page stays short (issue 39: under 250 lines).
+//! [`INLINE_LINES`] lines, else linked, so the page stays short (under 250 lines).
 //! Experiments without results are named as such. A page with a quick run's results says in
 //! its title that they are indicative.
 //! Each experiment with figures also gets its interactive results page ([`results`]), linked

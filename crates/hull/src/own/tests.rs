@@ -236,9 +236,9 @@ proptest! {
     }
 }
 
-/// Regression (issue 13): 2,000 random points in [0, 1e200]³ were refused as "all points are
-/// collinear" and in [0, 1e-200]³ as "all points coincide" (the predicates overflowed and
-/// underflowed). Exact power-of-two copies of a unit cloud now give its hull.
+/// 2,000 random points in [0, 1e200]³ and in [0, 1e-200]³ (where unscaled predicates overflow
+/// and underflow, refusing them as "all points are collinear" or "all points coincide"):
+/// exact power-of-two copies of a unit cloud give its hull.
 #[test]
 fn extreme_magnitudes_give_the_same_hull_as_the_unit_cloud() {
     let mut r = rng(2000);

@@ -70,7 +70,7 @@ pub fn ooc_disk_per_point(name: &str) -> u64 {
 }
 
 /// The largest size of a full run without `--max-points`: 10^7, so the whole `bench` stays
-/// within the hour (issue 39); the committed `reports/scale` is a `--max-points` run.
+/// within the hour; the committed `reports/scale` is a `--max-points` run.
 pub const DEFAULT_MAX_POINTS: u64 = 10_000_000;
 
 /// The largest size of a quick run without `--max-points`.

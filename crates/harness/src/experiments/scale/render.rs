@@ -372,9 +372,9 @@ pub fn fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
 mod tests {
     use super::*;
 
-    /// Regression (issue 39): the committed table said "10000000: refused: its memory per
-    /// point is not declared (...); 100000000: refused: its memory per point is not declared
-    /// (...)", the reason twice in one row.
+    /// A reason shared by several sizes is said once in a row, not once a size ("10000000:
+    /// refused: its memory per point is not declared (...); 100000000: refused: its memory per
+    /// point is not declared (...)").
     #[test]
     fn a_reason_is_given_once_for_all_its_sizes() {
         let why = "refused: its memory per point is not declared (memory_bytes_per_point in an \

@@ -1,4 +1,4 @@
-//! The tuning/evaluation protocol (issue 39, "an honest protocol"): which setting of a method
+//! The tuning/evaluation protocol: which setting of a method
 //! (family) stands for it in the visibility tables and findings.
 //!
 //! Every dataset has a role ([`crate::datasets::Role`]): the built-in datasets of before the

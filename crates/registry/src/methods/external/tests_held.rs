@@ -1,4 +1,4 @@
-//! External programs held to account (issue 41): their process group ended on timeout, on
+//! External programs held to account: their process group ended on timeout, on
 //! error and when the caller is done (no child left running), their stderr kept as a bounded
 //! tail in memory and quoted, one answer line per request, `seconds` a number from 0 to the
 //! timeout, and `visible_file` confined to the program's own scratch folder.
