@@ -541,13 +541,13 @@ pub fn html(
     }
     body.push_str("</section>\n");
 
-    Ok(format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <meta name=\"generator\" content=\"pointsight report\">\n\
-         <title>pointsight results</title>\n<style>{STYLE}</style>\n</head>\n<body>\n{body}\
-         <script>{}</script>\n</body>\n</html>\n",
-        SCRIPT.replace("</script", "<\\/script")
+    body.push_str(&super::script_element(SCRIPT));
+    body.push('\n');
+    Ok(super::html_document(
+        "pointsight report",
+        "pointsight results",
+        &format!("<style>{STYLE}</style>\n"),
+        &body,
     ))
 }
 

@@ -40,6 +40,49 @@ pub fn escape_html(text: &str) -> String {
         .replace('"', "&quot;")
 }
 
+/// An HTML document as every page pointsight writes it: UTF-8, the viewport for small screens,
+/// `generator` naming the command that wrote it, `title` (escaped here), `head` added to the
+/// head (a style sheet), then `body`.
+pub fn html_document(generator: &str, title: &str, head: &str, body: &str) -> String {
+    format!(
+        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
+         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
+         <meta name=\"generator\" content=\"{generator}\">\n\
+         <title>{}</title>\n{head}</head>\n<body>\n{body}</body>\n</html>\n",
+        escape_html(title)
+    )
+}
+
+/// `script` as an inline `<script>` element, `</script` escaped so that nothing in it ends the
+/// element early.
+pub fn script_element(script: &str) -> String {
+    format!(
+        "<script>{}</script>",
+        script.replace("</script", "<\\/script")
+    )
+}
+
+/// A page its script draws from its data (the results and viewer pages): `data` as the JSON
+/// element `pointsight-data` (`</` escaped: JSON and JavaScript both read `<\/` as `</`), then
+/// `script`.
+pub fn data_page(
+    generator: &str,
+    title: &str,
+    data: &serde_json::Value,
+    script: &str,
+) -> Result<String> {
+    let json = serde_json::to_string(data)?.replace("</", "<\\/");
+    Ok(html_document(
+        generator,
+        title,
+        "",
+        &format!(
+            "<script id=\"pointsight-data\" type=\"application/json\">{json}</script>\n{}\n",
+            script_element(script)
+        ),
+    ))
+}
+
 /// Relative link targets in a markdown text (for checking that they exist).
 pub fn link_targets(markdown: &str) -> Vec<String> {
     let mut targets = Vec::new();

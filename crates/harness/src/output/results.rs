@@ -112,17 +112,8 @@ pub fn data(
 /// A page of `data` with `script` embedded (as the viewer's pages: the JSON and the script
 /// each in their own `<script>` element, `</` escaped).
 pub fn html(data: &serde_json::Value, script: &str) -> Result<String> {
-    let json = serde_json::to_string(data)?.replace("</", "<\\/");
-    let script = script.replace("</script", "<\\/script");
-    let title = super::escape_html(data["title"].as_str().unwrap_or("pointsight"));
-    Ok(format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <meta name=\"generator\" content=\"pointsight report\">\n\
-         <title>{title}</title>\n</head>\n<body>\n\
-         <script id=\"pointsight-data\" type=\"application/json\">{json}</script>\n\
-         <script>{script}</script>\n</body>\n</html>\n"
-    ))
+    let title = data["title"].as_str().unwrap_or("pointsight");
+    super::data_page("pointsight report", title, data, script)
 }
 
 /// Writes `dir/results.html` for `experiment` when `dir` holds figures; `Ok(false)` when it

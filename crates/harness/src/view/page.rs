@@ -311,19 +311,13 @@ impl Page<'_> {
 
 /// A page of `data` (the JSON the script reads) with `script` (the viewer bundle) embedded.
 pub fn html_of(data: &serde_json::Value, script: &str) -> Result<String> {
-    // Inside <script>, "</" could close the element: JSON and JavaScript both read "<\/" as
-    // "</".
-    let json = serde_json::to_string(data)?.replace("</", "<\\/");
-    let script = script.replace("</script", "<\\/script");
-    let title = escape_html(data["title"].as_str().unwrap_or("pointsight"));
-    Ok(format!(
-        "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
-         <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <meta name=\"generator\" content=\"pointsight view\">\n\
-         <title>pointsight: {title}</title>\n</head>\n<body>\n\
-         <script id=\"pointsight-data\" type=\"application/json\">{json}</script>\n\
-         <script>{script}</script>\n</body>\n</html>\n"
-    ))
+    let title = data["title"].as_str().unwrap_or("pointsight");
+    crate::output::data_page(
+        "pointsight view",
+        &format!("pointsight: {title}"),
+        data,
+        script,
+    )
 }
 
 /// The vertical field of view of a pinhole camera (from its focal length, so off-centre
