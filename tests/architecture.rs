@@ -1323,3 +1323,261 @@ fn comments_explain_instead_of_narrating() {
         found.join("\n")
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// ARCHITECTURE.md itself: its dependency block equals the manifests, and what it names exists.
+
+/// The repository's root.
+fn repo_root() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn architecture_doc() -> String {
+    std::fs::read_to_string(repo_root().join("ARCHITECTURE.md")).expect("ARCHITECTURE.md")
+}
+
+/// The ```text block of `crate: dep, dep` lines in `doc`, as a map.
+fn doc_dependencies(doc: &str) -> BTreeMap<String, Vec<String>> {
+    let mut out = BTreeMap::new();
+    let mut inside = false;
+    for line in doc.lines() {
+        if line.trim() == "```text" {
+            inside = true;
+            continue;
+        }
+        if inside && line.trim() == "```" {
+            break;
+        }
+        if let Some((name, deps)) = line.split_once(':').filter(|_| inside) {
+            let mut deps: Vec<String> = deps
+                .split(',')
+                .map(|d| d.trim().to_owned())
+                .filter(|d| !d.is_empty())
+                .collect();
+            deps.sort();
+            out.insert(name.trim().to_owned(), deps);
+        }
+    }
+    out
+}
+
+#[test]
+fn the_architecture_doc_lists_the_dependencies() {
+    let manifests: BTreeMap<String, Vec<String>> = dependencies()
+        .into_iter()
+        .map(|(name, deps)| {
+            let mut local: Vec<String> = deps
+                .into_iter()
+                .filter(|d| LOCAL.contains(&d.as_str()))
+                .collect();
+            local.sort();
+            (name, local)
+        })
+        .collect();
+    let doc = doc_dependencies(&architecture_doc());
+    assert_eq!(
+        doc, manifests,
+        "ARCHITECTURE.md's dependency block (left) differs from crates/*/Cargo.toml (right)"
+    );
+    // The parser reads what it is shown, so a wrong block fails.
+    let wrong = doc_dependencies("x\n```text\ncloud:\nhpr: hull, cloud\n```\nhpr: y\n");
+    assert_eq!(wrong["hpr"], ["cloud", "hull"]);
+    assert_eq!(wrong.len(), 2);
+}
+
+/// Every file and folder of the repository (relative, with `/`), build outputs and installed
+/// packages left out, folders with a trailing `/`.
+fn repository_paths() -> Vec<String> {
+    fn walk(root: &Path, dir: &Path, out: &mut Vec<String>) {
+        let Ok(read) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for entry in read {
+            let path = entry.expect("entry").path();
+            let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+            let rel = path
+                .strip_prefix(root)
+                .expect("under the root")
+                .to_string_lossy()
+                .replace('\\', "/");
+            if path.is_dir() {
+                if matches!(
+                    name.as_deref(),
+                    Some(
+                        "target"
+                            | "node_modules"
+                            | ".venv"
+                            | ".git"
+                            | ".tools"
+                            | "bench-data"
+                            | "__pycache__"
+                    )
+                ) {
+                    continue;
+                }
+                out.push(format!("{rel}/"));
+                walk(root, &path, out);
+            } else {
+                out.push(rel);
+            }
+        }
+    }
+    let root = repo_root().canonicalize().expect("root");
+    let mut out = Vec::new();
+    walk(&root, &root, &mut out);
+    out
+}
+
+/// Whether `name`, a path as the doc writes it (from the root, or from a crate's or a source
+/// folder's level: `methods/hpr.rs`, `output/style.rs`), is the end of some repository path.
+fn names_a_path(paths: &[String], name: &str) -> bool {
+    let name = name.trim_end_matches('/');
+    paths.iter().any(|p| {
+        let p = p.trim_end_matches('/');
+        p == name || p.ends_with(&format!("/{name}"))
+    })
+}
+
+/// The spans in backticks of `doc`.
+fn code_spans(doc: &str) -> Vec<&str> {
+    let mut out = Vec::new();
+    let mut fenced = false;
+    for line in doc.lines() {
+        if line.trim_start().starts_with("```") {
+            fenced = !fenced;
+            continue;
+        }
+        if fenced {
+            continue;
+        }
+        let mut parts = line.split('`');
+        parts.next();
+        while let (Some(inside), Some(_)) = (parts.next(), parts.next()) {
+            out.push(inside);
+        }
+        // A span left open at the end of a line continues on the next; such spans are rare and
+        // left unchecked.
+    }
+    out
+}
+
+/// Whether `span` looks like a file or folder the doc names (not a placeholder like
+/// `methods/NAME.rs`, a glob, a command line or a Rust path).
+fn is_path_span(span: &str) -> bool {
+    if span.contains(char::is_whitespace)
+        || span.contains(['*', '{', '<', '(', '='].as_slice())
+        || span.contains("NAME")
+        || span.contains("::")
+        || span.starts_with('.')
+    {
+        return false;
+    }
+    let file = [
+        ".rs", ".toml", ".md", ".py", ".sh", ".hpp", ".js", ".json", ".tsv", ".csv",
+    ]
+    .iter()
+    .any(|e| span.ends_with(e));
+    file || (span.ends_with('/') && span.len() > 1)
+}
+
+/// Whether `text` defines `name` (a function, type, constant, static or module) or re-exports
+/// it (`pub use`).
+fn defines(text: &str, name: &str) -> bool {
+    let whole = |line: &str, at: usize| {
+        let before = line[..at].chars().next_back();
+        let after = line[at + name.len()..].chars().next();
+        !before.is_some_and(is_ident) && !after.is_some_and(is_ident)
+    };
+    text.lines().any(|line| {
+        let line = line.trim_start();
+        let declares = [
+            "fn ", "struct ", "enum ", "trait ", "type ", "const ", "static ", "mod ",
+        ]
+        .iter()
+        .any(|kw| {
+            line.match_indices(&format!("{kw}{name}"))
+                .any(|(at, _)| whole(line, at + kw.len()))
+        });
+        declares
+    }) || text.match_indices("pub use ").any(|(at, _)| {
+        // A re-export, on one line or several: the statement up to its `;`.
+        let statement = text[at..].split(';').next().unwrap_or_default();
+        statement
+            .match_indices(name)
+            .any(|(k, _)| whole(statement, k))
+    })
+}
+
+/// Whether the Rust path `span` (`crate::module[::item]`) names a module or an item of a
+/// workspace crate: each segment a module file or folder under the previous one, the last one
+/// a module or an item its module defines or re-exports. `None` when `span` does not start
+/// with a workspace crate.
+fn names_a_rust_item(span: &str) -> Option<bool> {
+    let span = span.split('(').next().unwrap_or(span);
+    let segments: Vec<&str> = span.split("::").collect();
+    let krate = *segments.first()?;
+    if segments.len() < 2 || !LOCAL.contains(&krate) {
+        return None;
+    }
+    let mut dir = repo_root().join("crates").join(krate).join("src");
+    let mut files = vec![dir.join("lib.rs")];
+    for (k, segment) in segments[1..].iter().enumerate() {
+        let as_file = dir.join(format!("{segment}.rs"));
+        let as_dir = dir.join(segment);
+        if as_file.exists() || as_dir.join("mod.rs").exists() {
+            files = vec![as_file, as_dir.join("mod.rs")];
+            dir = as_dir;
+            continue;
+        }
+        if k + 2 < segments.len() {
+            // A type's associated item (`Card::setup`): the type must be defined here.
+            let ty = segment;
+            return Some(
+                files
+                    .iter()
+                    .any(|f| std::fs::read_to_string(f).is_ok_and(|text| defines(&text, ty))),
+            );
+        }
+        return Some(
+            files
+                .iter()
+                .any(|f| std::fs::read_to_string(f).is_ok_and(|text| defines(&text, segment))),
+        );
+    }
+    Some(true)
+}
+
+#[test]
+fn the_architecture_doc_names_what_exists() {
+    let paths = repository_paths();
+    assert!(names_a_path(&paths, "crates/registry/src/kernel.rs"));
+    assert!(names_a_path(&paths, "output/style.rs"));
+    assert!(!names_a_path(&paths, "output/colours.rs"));
+    assert!(is_path_span("methods/_shared/"));
+    assert!(!is_path_span("methods/NAME.rs"));
+    assert_eq!(names_a_rust_item("registry::kernel"), Some(true));
+    assert_eq!(names_a_rust_item("cloud::ooc::prepare"), Some(true));
+    assert_eq!(names_a_rust_item("hull::incremental"), Some(true));
+    assert_eq!(names_a_rust_item("hull::own"), Some(false));
+    assert_eq!(names_a_rust_item("cloud::nowhere::prepare"), Some(false));
+    assert_eq!(names_a_rust_item("std::fs"), None);
+    assert_eq!(names_a_rust_item("registry::Card"), Some(true));
+    assert_eq!(names_a_rust_item("registry::Cardboard"), Some(false));
+    assert!(defines("pub use m::{\n    a, b_c,\n    d,\n};", "b_c"));
+    assert!(!defines("pub use m::{\n    a, b_cd,\n};", "b_c"));
+    let doc = architecture_doc();
+    let mut missing = Vec::new();
+    for span in code_spans(&doc) {
+        if is_path_span(span) && !names_a_path(&paths, span) {
+            missing.push(format!("path `{span}`"));
+        }
+        if names_a_rust_item(span) == Some(false) {
+            missing.push(format!("Rust path `{span}`"));
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "ARCHITECTURE.md names what does not exist:\n{}",
+        missing.join("\n")
+    );
+}

@@ -501,8 +501,8 @@ mod tests {
             let reps = representatives(&t.points[..n], m);
             let mut sub: Vec<[f64; 3]> = reps.iter().map(|&i| t.points[i as usize]).collect();
             sub.push([0.0; 3]);
-            let approx = hull::own::hull(&sub).unwrap();
-            let exact = hull::own::hull(&t.points).unwrap();
+            let approx = hull::incremental::hull(&sub).unwrap();
+            let exact = hull::incremental::hull(&t.points).unwrap();
             let plane = |pts: &[[f64; 3]], f: &[u32; 3]| {
                 let [a, b, c] = f.map(|i| DVec3::from_array(pts[i as usize]));
                 let nrm = (b - a).cross(c - a).normalize();

@@ -263,7 +263,7 @@ mod tests {
             "unsure"
         }
         fn vertices(&self, points: &[[f64; 3]]) -> Result<Vec<u32>, HullError> {
-            hull::own::hull_vertices(points).map(|h| h.vertices)
+            hull::incremental::hull_vertices(points).map(|h| h.vertices)
         }
     }
 

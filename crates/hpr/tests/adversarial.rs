@@ -35,7 +35,7 @@ fn certified(points: &[DVec3], eye: DVec3, gamma: f64, brute_limit: usize) -> Ve
         .expect("the flip")
         .points;
     assert_eq!(flipped.len(), points.len() + 1, "the eye is the last point");
-    let h = hull::own::hull(&flipped).expect("the hull");
+    let h = hull::incremental::hull(&flipped).expect("the hull");
     verify(&flipped, &h.facets, &h.vertices).unwrap_or_else(|e| panic!("certificate: {e}"));
     let eye_index = points.len() as u32;
     let mut from_hull: Vec<u32> = h

@@ -6,7 +6,7 @@
 //!
 //! | name | what | exact? |
 //! |---|---|---|
-//! | `own` | our randomised incremental hull with exact predicates ([`own`]) | yes |
+//! | `own` | our randomised incremental hull with exact predicates ([`incremental`]) | yes |
 //! | `qhull` | Qhull 2020.2 through the `qhull` crate, options `Qt` (default) or `QJ` ([`qhull_impl`]) | no: merges or joggles |
 //! | `parry` | `parry3d-f64::try_convex_hull`, indices recovered ([`parry_impl`]) | no |
 //! | `quickhull` | Jondolf's `quickhull` crate, f32 ([`quickhull_impl`]) | no |
@@ -23,7 +23,7 @@
 
 pub mod check;
 pub mod chull_impl;
-pub mod own;
+pub mod incremental;
 pub mod parry_impl;
 pub mod predicates;
 pub mod qhull_impl;
@@ -90,7 +90,7 @@ pub const NAMES: &[&str] = &["own", "qhull", "parry", "quickhull", "chull"];
 /// The implementation called `name` with default options (`qhull`: `Qt`).
 pub fn by_name(name: &str) -> Result<Box<dyn ConvexHull>, HullError> {
     Ok(match name {
-        "own" => Box::new(own::Own),
+        "own" => Box::new(incremental::Incremental),
         "qhull" => Box::new(qhull_impl::Qhull::new(qhull_impl::QhullOption::Qt)),
         "qhull-qj" => Box::new(qhull_impl::Qhull::new(qhull_impl::QhullOption::QJ)),
         "parry" => Box::new(parry_impl::Parry),

@@ -100,9 +100,17 @@ impl Model {
         Self::from_weights(Weights::load(path)?)
     }
 
-    /// The committed network.
+    /// The committed network. Its weights are checked and its layers folded once per process
+    /// (a constant of the build, like the bytes it comes from); every later call copies it, so
+    /// a sweep's settings do not each pay the checksum and the folding.
     pub fn committed() -> Result<Self> {
-        Self::from_weights(Weights::from_bytes(COMMITTED_BYTES, Path::new(COMMITTED))?)
+        static FOLDED: std::sync::OnceLock<Model> = std::sync::OnceLock::new();
+        if let Some(model) = FOLDED.get() {
+            return Ok(model.clone());
+        }
+        let model =
+            Self::from_weights(Weights::from_bytes(COMMITTED_BYTES, Path::new(COMMITTED))?)?;
+        Ok(FOLDED.get_or_init(|| model).clone())
     }
 
     /// The network of checked weights.

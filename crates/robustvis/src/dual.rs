@@ -104,7 +104,7 @@ impl Dual {
             .collect();
         flipped.push(ORIGIN);
         let eye_index = points.len() as u32;
-        let hull = hull::own::hull(&flipped).map_err(|e| match e {
+        let hull = hull::incremental::hull(&flipped).map_err(|e| match e {
             hull::HullError::Degenerate(m) => RobustError::Degenerate(format!(
                 "the flipped cloud and the eye do not span 3-d space (all points coincident, \
                  or all points and the eye coplanar): {m}"

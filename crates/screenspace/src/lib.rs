@@ -4,7 +4,7 @@
 //!
 //! - [`pintus`]: Pintus, Gobbetti, Agus (VAST 2011): the open solid angle a pixel's
 //!   neighbours leave towards the viewer, over a multi-level pyramid.
-//! - [`biasutti`]: Biasutti, Bugeau, Aujol, Brédif (VISAPP 2019): a depth-relative score over
+//! - [`vardensity`] (the method `vardensity`): Biasutti, Bugeau, Aujol, Brédif (VISAPP 2019): a depth-relative score over
 //!   a screen-space k-nearest neighbourhood that grows where the projection is sparse.
 //!
 //! Shared: [`depth`] (the per-model depth buffer and the direction towards the viewer),
@@ -14,7 +14,6 @@
 //!
 //! Depends on `cloud` only; knows nothing of meshes, ground truth or scoring.
 
-pub mod biasutti;
 pub mod depth;
 pub mod error;
 pub mod pintus;
@@ -22,8 +21,9 @@ pub mod pyramid;
 pub mod select;
 #[cfg(test)]
 mod testutil;
+pub mod vardensity;
 
-pub use biasutti::BiasuttiParams;
 pub use error::{Error, Result};
 pub use pintus::PintusParams;
 pub use select::Verdict;
+pub use vardensity::VardensityParams;

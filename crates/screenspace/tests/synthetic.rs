@@ -7,7 +7,7 @@ use cloud::glam::DVec3;
 use cloud::synth::{SpherePlane, sphere_plane_scene};
 use cloud::{Camera, Model};
 use proptest::prelude::*;
-use screenspace::{BiasuttiParams, Error, PintusParams, Verdict, biasutti, pintus};
+use screenspace::{Error, PintusParams, VardensityParams, Verdict, pintus, vardensity};
 
 fn camera(model: &str, eye: DVec3, w: u32, h: u32) -> Camera {
     let m = match model {
@@ -55,7 +55,7 @@ fn scene() -> (Vec<DVec3>, SpherePlane) {
     (s.cloud.positions, g)
 }
 
-/// (model, eye, width, height, F1 bound of screenspace, F1 bound of biasutti): an oblique
+/// (model, eye, width, height, F1 bound of screenspace, F1 bound of vardensity): an oblique
 /// view for the frustum models, a scanner beside the ball for the spherical image (the
 /// mobile-LiDAR case). Measured when written: pinhole 0.985 / 0.939, orthographic 0.988 /
 /// 0.967, spherical 0.977 / 0.826.
@@ -95,19 +95,19 @@ fn both_operators_beat_their_f1_bounds_on_the_ball_before_the_square() {
             },
         )
         .expect("pintus");
-        let b = biasutti::visible(
+        let b = vardensity::visible(
             &points,
             &cam,
-            &BiasuttiParams {
+            &VardensityParams {
                 depth_tolerance: 0.02,
-                ..BiasuttiParams::default()
+                ..VardensityParams::default()
             },
         )
-        .expect("biasutti");
+        .expect("vardensity");
         let (fp, fb) = (f1(&points, &g, &cam, &p), f1(&points, &g, &cam, &b));
-        eprintln!("{model}: F1 pintus {fp:.3}, biasutti {fb:.3}");
+        eprintln!("{model}: F1 pintus {fp:.3}, vardensity {fb:.3}");
         assert!(fp > bound_p, "{model}: pintus F1 {fp} <= {bound_p}");
-        assert!(fb > bound_b, "{model}: biasutti F1 {fb} <= {bound_b}");
+        assert!(fb > bound_b, "{model}: vardensity F1 {fb} <= {bound_b}");
     }
 }
 
@@ -120,7 +120,7 @@ fn degenerate_clouds_and_views_are_errors() {
     for pts in [Vec::new(), behind] {
         let e = pintus::visible(&pts, &cam, &PintusParams::default()).expect_err("pintus");
         assert!(matches!(e, Error::NothingInView { .. }), "{e}");
-        let e = biasutti::visible(&pts, &cam, &BiasuttiParams::default()).expect_err("b");
+        let e = vardensity::visible(&pts, &cam, &VardensityParams::default()).expect_err("b");
         assert!(matches!(e, Error::NothingInView { .. }), "{e}");
     }
     let nan = vec![DVec3::new(0.0, f64::NAN, 0.0)];
@@ -129,7 +129,8 @@ fn degenerate_clouds_and_views_are_errors() {
         Err(Error::Cloud(_))
     ));
     let huge = cam.with_resolution(100_000, 100_000).expect("camera");
-    let e = biasutti::visible(&[DVec3::ZERO], &huge, &BiasuttiParams::default()).expect_err("huge");
+    let e =
+        vardensity::visible(&[DVec3::ZERO], &huge, &VardensityParams::default()).expect_err("huge");
     assert!(matches!(e, Error::ImageTooLarge { .. }), "{e}");
 }
 
@@ -150,7 +151,7 @@ proptest! {
         prop_assume!(in_view);
         let a = pintus::visible(&p, &cam, &PintusParams::default()).expect("pintus");
         prop_assert_eq!(a.visible, vec![0]);
-        let b = biasutti::visible(&p, &cam, &BiasuttiParams::default()).expect("biasutti");
+        let b = vardensity::visible(&p, &cam, &VardensityParams::default()).expect("vardensity");
         prop_assert_eq!(b.visible, vec![0]);
     }
 
@@ -169,10 +170,10 @@ proptest! {
             pintus::visible(&pts, &cam, &p).expect("a").visible,
             pintus::visible(&scaled, &cam2, &p).expect("b").visible
         );
-        let b = BiasuttiParams::default();
+        let b = VardensityParams::default();
         prop_assert_eq!(
-            biasutti::visible(&pts, &cam, &b).expect("a").visible,
-            biasutti::visible(&scaled, &cam2, &b).expect("b").visible
+            vardensity::visible(&pts, &cam, &b).expect("a").visible,
+            vardensity::visible(&scaled, &cam2, &b).expect("b").visible
         );
     }
 }

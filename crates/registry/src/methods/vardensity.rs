@@ -1,12 +1,12 @@
 //! `vardensity`: Biasutti, Bugeau, Aujol, Brédif (VISAPP 2019), a depth-relative score over
 //! a screen-space k-nearest neighbourhood that needs no density assumption
-//! (`screenspace::biasutti`). Every camera model, the spherical equirectangular image of
+//! (`screenspace::vardensity`). Every camera model, the spherical equirectangular image of
 //! mobile LiDAR included; per-pixel output (`Output::pixels`) and the score per point
 //! (`Output::score`). No automatic rule beyond the paper's own design (the neighbourhood
 //! adapts to the projected density by itself); see the method crate's doc on what of the
 //! paper could be read.
 
-use screenspace::BiasuttiParams;
+use screenspace::VardensityParams;
 
 use super::screenspace::{HEIGHT, ScreenArgs, WIDTH};
 use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
@@ -49,7 +49,7 @@ struct Vardensity;
 
 impl Method for Vardensity {
     fn parse(&self, r: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
-        let p = BiasuttiParams {
+        let p = VardensityParams {
             k: r.get(&K)?,
             max_radius: r.get(&MAX_RADIUS)?,
             threshold: r.get(&THRESHOLD)?,
@@ -59,7 +59,7 @@ impl Method for Vardensity {
         Ok(Box::new(ScreenArgs::read(
             r,
             p,
-            screenspace::biasutti::visible,
+            screenspace::vardensity::visible,
         )?))
     }
 }

@@ -94,7 +94,7 @@ mod session;
 #[cfg(test)]
 mod tests;
 #[cfg(test)]
-mod tests_held;
+mod tests_contract;
 mod visibility;
 
 use std::path::Path;

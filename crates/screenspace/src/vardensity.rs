@@ -43,7 +43,7 @@ use crate::select::{Verdict, check_tolerance, select};
 
 /// The operator's parameters.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BiasuttiParams {
+pub struct VardensityParams {
     /// Neighbours k in the screen-space neighbourhood (1..=256).
     pub k: u32,
     /// Farthest ring searched, pixels (Chebyshev; 1..=1024).
@@ -54,7 +54,7 @@ pub struct BiasuttiParams {
     pub depth_tolerance: f64,
 }
 
-impl Default for BiasuttiParams {
+impl Default for VardensityParams {
     fn default() -> Self {
         Self {
             k: 8,
@@ -65,7 +65,7 @@ impl Default for BiasuttiParams {
     }
 }
 
-impl BiasuttiParams {
+impl VardensityParams {
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
         let bad = |name, reason: String| Err(Error::InvalidParameter { name, reason });
@@ -169,7 +169,7 @@ fn nearest(buffer: &DepthBuffer, x: i64, y: i64, k: usize, max_r: i64, out: &mut
 }
 
 /// v per pixel of `buffer` (`NaN` for empty pixels).
-pub fn pixel_scores(buffer: &DepthBuffer, params: &BiasuttiParams) -> Vec<f64> {
+pub fn pixel_scores(buffer: &DepthBuffer, params: &VardensityParams) -> Vec<f64> {
     let w = buffer.width as usize;
     let mut out = vec![f64::NAN; buffer.point.len()];
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
@@ -199,7 +199,7 @@ pub fn pixel_scores(buffer: &DepthBuffer, params: &BiasuttiParams) -> Vec<f64> {
 }
 
 /// The points of `points` the operator keeps from `camera` (at the camera's resolution).
-pub fn visible(points: &[DVec3], camera: &Camera, params: &BiasuttiParams) -> Result<Verdict> {
+pub fn visible(points: &[DVec3], camera: &Camera, params: &VardensityParams) -> Result<Verdict> {
     params.validate()?;
     let buffer = DepthBuffer::build(points, camera)?;
     let v = pixel_scores(&buffer, params);

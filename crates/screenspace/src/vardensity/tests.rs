@@ -4,7 +4,7 @@
 use super::*;
 use crate::testutil::{MODELS, camera, layers};
 
-fn brute(b: &DepthBuffer, p: &BiasuttiParams) -> Vec<f64> {
+fn brute(b: &DepthBuffer, p: &VardensityParams) -> Vec<f64> {
     let (w, h) = (i64::from(b.width), i64::from(b.height));
     let r = i64::from(p.max_radius);
     let mut out = vec![f64::NAN; b.point.len()];
@@ -57,16 +57,16 @@ fn brute(b: &DepthBuffer, p: &BiasuttiParams) -> Vec<f64> {
 fn matches_the_brute_force_on_every_model_and_setting() {
     let points = layers(300, 11);
     let settings = [
-        BiasuttiParams::default(),
-        BiasuttiParams {
+        VardensityParams::default(),
+        VardensityParams {
             k: 1,
             max_radius: 2,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
-        BiasuttiParams {
+        VardensityParams {
             k: 24,
             max_radius: 40,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
     ];
     let mut totals = (0usize, 0usize);
@@ -108,25 +108,25 @@ fn bad_parameters_are_errors() {
     let pts = layers(10, 1);
     let cam = camera("spherical", 16, 8);
     for p in [
-        BiasuttiParams {
+        VardensityParams {
             k: 0,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
-        BiasuttiParams {
+        VardensityParams {
             max_radius: 0,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
-        BiasuttiParams {
+        VardensityParams {
             threshold: f64::NAN,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
-        BiasuttiParams {
+        VardensityParams {
             threshold: 1.5,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
-        BiasuttiParams {
+        VardensityParams {
             depth_tolerance: -1.0,
-            ..BiasuttiParams::default()
+            ..VardensityParams::default()
         },
     ] {
         let e = visible(&pts, &cam, &p).expect_err("bad parameter");

@@ -1,4 +1,4 @@
-//! `own`: an exact 3-d convex hull written for the HPR workload.
+//! `incremental` (the hull named `own`): an exact 3-d convex hull written for the HPR workload.
 //!
 //! **What.** The vertices of the convex hull of a set of f64 points, exactly: a point is
 //! reported if and only if it is an extreme point of the input (not a convex combination of
@@ -668,9 +668,9 @@ fn norm2(a: &P3) -> f64 {
 
 /// The `own` implementation behind [`crate::ConvexHull`].
 #[derive(Debug, Clone, Copy, Default)]
-pub struct Own;
+pub struct Incremental;
 
-impl crate::ConvexHull for Own {
+impl crate::ConvexHull for Incremental {
     fn name(&self) -> &'static str {
         "own"
     }

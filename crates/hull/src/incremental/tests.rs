@@ -126,7 +126,10 @@ fn vertices_only_hull_and_its_distinct_flag() {
     let h = hull_vertices(&pts).unwrap();
     assert!(!h.distinct);
     assert_eq!(h.vertices, full.vertices, "the copy is not reported");
-    assert_eq!(Own.vertices_distinct(&pts).unwrap(), (h.vertices, false));
+    assert_eq!(
+        Incremental.vertices_distinct(&pts).unwrap(),
+        (h.vertices, false)
+    );
 }
 
 #[test]
