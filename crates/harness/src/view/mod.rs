@@ -161,17 +161,16 @@ pub fn apply_set(
     methods: &[(&'static Card, String)],
     set: &[String],
 ) -> Result<Vec<(Params, String)>> {
-    let set = registry::Assignments::parse(set).map_err(crate::visible::set_error)?;
-    set.one_setting("view").map_err(crate::visible::set_error)?;
+    let set = registry::Assignments::parse(set).map_err(visible::set_error)?;
+    set.one_setting("view").map_err(visible::set_error)?;
     let cards: Vec<&Card> = methods.iter().map(|(m, _)| *m).collect();
-    set.check_targets(&cards)
-        .map_err(crate::visible::set_error)?;
+    set.check_targets(&cards).map_err(visible::set_error)?;
     methods
         .iter()
         .map(|(m, label)| {
             let pairs: Vec<&str> = label.split(';').filter(|kv| kv.contains('=')).collect();
             let params = set.over_params(m, &Params::parse(&pairs)?);
-            crate::visible::typed(m, &params, &set)?;
+            visible::typed(m, &params, &set)?;
             let label = params.canonical();
             Ok((params, label))
         })
