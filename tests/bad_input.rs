@@ -215,15 +215,15 @@ fn bad_cameras_and_parameters_on_the_command_line_are_refused() {
         // The registry's parameter errors, in `--set` words.
         (
             &["--view", "0", "--method", "hpr", "--set", "gamma=x"],
-            "error: --set gamma=x: invalid float literal\n",
+            "error: --set gamma=x: method hpr: expected a number or auto (invalid float literal)\n",
         ),
         (
             &["--view", "0", "--method", "hpr", "--set", "kernel=box"],
-            "error: --set kernel=box: expected linear, exp, log or expdecay\n",
+            "error: --set kernel=box: method hpr: expected linear, exp, log or expdecay\n",
         ),
         (
             &["--view", "0", "--method", "hpr", "--set", "gamma"],
-            "error: --set gamma: expected NAME=VALUE\n",
+            "error: --set gamma: expected [METHOD.]KEY=VALUE\n",
         ),
         (&["--view", "99", "--method", "hpr"], "view 99"),
         // Image options without an eye would be silently ignored: refused instead.

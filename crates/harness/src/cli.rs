@@ -117,8 +117,9 @@ pub enum Command {
         /// Method name (see `pointsight methods`).
         #[arg(long)]
         method: String,
-        /// Method parameter, KEY=VALUE (repeatable).
-        #[arg(long = "set", value_name = "KEY=VALUE")]
+        /// Method parameter, KEY=VALUE or METHOD.KEY=VALUE (repeatable), typed by the method
+        /// before any data is read; one value each (a list A,B,C is a sweep: `run`, `bench`).
+        #[arg(long = "set", value_name = "[METHOD.]KEY=VALUE")]
         set: Vec<String>,
         /// Output file for the indices (one view) or folder (many views). `-`: the indices on
         /// standard output (one view), the other lines on standard error.
@@ -154,8 +155,10 @@ pub enum Command {
         #[arg(long, value_delimiter = ',')]
         methods: Option<Vec<String>>,
         /// Method parameter, KEY=VALUE or METHOD.KEY=VALUE (repeatable): over the default
-        /// setting of every chosen method that has KEY (or of METHOD alone).
-        #[arg(long = "set", value_name = "KEY=VALUE")]
+        /// setting of every chosen method that has KEY (or of METHOD alone), typed by each
+        /// method before any data is read; one value each (a list A,B,C is a sweep: `run`,
+        /// `bench`).
+        #[arg(long = "set", value_name = "[METHOD.]KEY=VALUE")]
         set: Vec<String>,
         /// At most this many points on the page (a uniform subsample; the scores stay those of
         /// the whole cloud).
@@ -472,6 +475,12 @@ pub struct SweepFlags {
     /// names; `pointsight sweeps` prints the built-in one to start from.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// Method parameter over the sweeps, KEY=VALUE or METHOD.KEY=VALUE (repeatable), a list
+    /// KEY=A,B,C sweeping it: each method it names (or that has KEY) is measured at its default
+    /// setting (after `--config`) with each key at each value given, the lists' product;
+    /// typed by each method before any data is read.
+    #[arg(long = "set", value_name = "[METHOD.]KEY=VALUE")]
+    pub set: Vec<String>,
     /// Timed runs per call, 1 to 1000 (default: the sweeps file's `repeats`, else 3).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeats: Option<u32>,

@@ -3,8 +3,10 @@
 //!
 //! Per-dataset preparation (k-d tree, BVH) is done once; for many views, methods that say so
 //! (`registry::Card::parallel_views`) answer views in parallel, the others one after another
-//! (their single view already uses every core). The `--set` pairs are the method's setting; a
-//! key left out is its default (the card's, as everywhere), and the line before the last says
+//! (their single view already uses every core). The `--set` pairs are the method's setting,
+//! typed by its card before the cloud is read (`registry::set`: one value each; a list is a
+//! sweep, for `run`); a key left out is its default (the card's, as everywhere), and the line
+//! before the last says
 //! the setting as it ran: `setting=k=v;...`, every key the method read with its value.
 //! When some of many views fail (an external program that dies at view 9), the views answered
 //! are still written, each file whole, and the error names the first failure, how many views
@@ -336,10 +338,45 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
     Ok(ds)
 }
 
+/// A registry error of the `--set` pairs themselves in `--set` words (`--set PAIR: why`, as
+/// `cli::frame_set` frames it); any other error as it is.
+pub fn set_error(err: registry::Error) -> anyhow::Error {
+    match err {
+        registry::Error::BadPair { pair, reason } => anyhow::anyhow!("--set {pair}: {reason}"),
+        other => other.into(),
+    }
+}
+
+/// A method's setting typed by its card before any data is read (`registry::Card::check`),
+/// its value errors naming the method: `--set KEY=VALUE: method M: why` for a key `set` gave,
+/// `method M: parameter KEY=VALUE: why` for one from a default or `--config`.
+pub fn typed(
+    card: &registry::Card,
+    params: &Params,
+    set: &registry::Assignments,
+) -> Result<registry::Setting> {
+    card.check(params).map_err(|e| match e {
+        registry::Error::BadValue { key, value, reason } => {
+            if set.0.iter().any(|a| a.key == key && a.is_for(card)) {
+                anyhow::anyhow!("--set {key}={value}: method {}: {reason}", card.name)
+            } else {
+                anyhow::anyhow!("method {}: parameter {key}={value}: {reason}", card.name)
+            }
+        }
+        other => other.into(),
+    })
+}
+
 /// Runs the request; prints the contract lines.
 pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
-    let params = Params::parse(&req.set)?;
+    // The setting first, typed by the method's card: a bad value is refused before the cloud
+    // is read.
+    let set = registry::Assignments::parse(&req.set)?;
+    set.one_setting("visible")?;
     let method = registry::card(&req.method)?;
+    set.check_targets(&[method])?;
+    let params = set.over_params(method, &Params::default());
+    typed(method, &params, &set)?;
     let ds = load_source(&req.source, data_dir)?;
     let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {

@@ -296,7 +296,6 @@ fn visible<'py>(
     let method = method.to_owned();
     let cams: Vec<cloud::Camera> = cameras.iter().map(|c| c.inner).collect();
     let results = run(py, move || {
-        let cloud = cloud_of(pts)?;
         let m = registry::card(&method).map_err(err)?;
         let p = registry::Params::from_pairs(
             &params
@@ -304,6 +303,10 @@ fn visible<'py>(
                 .map(|(k, v)| (k.as_str(), v.clone()))
                 .collect::<Vec<_>>(),
         );
+        // The keyword arguments typed by the method's card, as the command line's `--set`,
+        // before the cloud is made.
+        m.check(&p).map_err(|e| registry_err(&method, &e))?;
+        let cloud = cloud_of(pts)?;
         let input = registry::Input {
             cloud: &cloud,
             mesh: mesh.as_ref(),

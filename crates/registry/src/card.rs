@@ -229,6 +229,17 @@ impl Card {
         Ok((setup, reader.finish()?))
     }
 
+    /// Types `params` as the method reads them, without any data: a bad value, or a key the
+    /// method does not read, is the error it would be when the method runs; else the setting as
+    /// it would run. Commands call it when they read their command line, before loading a
+    /// cloud.
+    pub fn check(&self, params: &Params) -> Result<Setting> {
+        match self.kind {
+            Kind::Visibility(_) => self.setup(params).map(|(_, setting)| setting),
+            Kind::Lod(_) => self.lod_args(params).map(|(_, setting)| setting),
+        }
+    }
+
     /// A level-of-detail method's setting read into its own typed struct (refusing keys it did
     /// not read), with the setting as it runs.
     pub fn lod_args(&self, params: &Params) -> Result<(LodArgs, Setting)> {

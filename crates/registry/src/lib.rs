@@ -20,7 +20,8 @@
 //! Modules import downwards only: `error`, `setting`, `timing` and `scoring` at the bottom;
 //! `params` (on `setting`); `visibility` and `lod` (on `params`); `sweep`; `card` (on those);
 //! `kernel` (on `card`); `methods` (the adapters, on everything below) and `lod_file` (on the
-//! `qsplat` and `spt` adapters). Nothing imports this root.
+//! `qsplat` and `spt` adapters); `set` (the command line's `[METHOD.]KEY=VALUE` pairs, on the
+//! catalogue). Nothing imports this root.
 
 pub mod card;
 pub mod error;
@@ -30,6 +31,7 @@ pub mod lod_file;
 pub mod methods;
 pub mod params;
 pub mod scoring;
+pub mod set;
 pub mod setting;
 pub mod sweep;
 pub mod timing;
@@ -42,6 +44,7 @@ pub use methods::{
     card, card_named, cards, lod_cards, register, register_external, visibility_cards,
 };
 pub use params::{Param, ParamDefault, Params, Reader};
+pub use set::{Assignment, Assignments};
 pub use setting::{Setting, Value};
 pub use sweep::{MethodSweep, Sweeps};
 pub use visibility::{Input, Method, Output, PixelChoice, Prepared, Setup};

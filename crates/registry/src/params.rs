@@ -155,6 +155,11 @@ impl Params {
         }
     }
 
+    /// Sets `key` to `value` (replacing what it was).
+    pub fn insert(&mut self, key: &str, value: &str) {
+        self.values.insert(key.to_owned(), value.to_owned());
+    }
+
     /// The text given for `key`.
     pub fn get(&self, key: &str) -> Option<&str> {
         self.values.get(key).map(String::as_str)
@@ -199,6 +204,18 @@ pub struct Reader<'p> {
     ran: Setting,
 }
 
+/// What a value of `T` is, in words, for the types settings are read as; `None` for others
+/// (their own parse error says it).
+fn expected<T>() -> Option<&'static str> {
+    Some(match std::any::type_name::<T>() {
+        "f64" | "f32" => "a number",
+        "u8" | "u16" | "u32" | "u64" | "usize" => "a whole number, 0 or more",
+        "i8" | "i16" | "i32" | "i64" | "isize" => "a whole number",
+        "bool" => "true or false",
+        _ => return None,
+    })
+}
+
 fn parsed<T: FromStr>(key: &str, text: &str) -> Result<T>
 where
     T::Err: fmt::Display,
@@ -206,7 +223,10 @@ where
     text.parse::<T>().map_err(|e| Error::BadValue {
         key: key.to_owned(),
         value: text.to_owned(),
-        reason: e.to_string(),
+        reason: match expected::<T>() {
+            Some(what) => format!("expected {what} ({e})"),
+            None => e.to_string(),
+        },
     })
 }
 
@@ -402,11 +422,11 @@ mod tests {
         let mut r = Reader::new("hpr", SPECS, &p);
         assert_eq!(
             r.get::<f64>(&GAMMA).unwrap_err().to_string(),
-            "parameter gamma=abc: invalid float literal"
+            "parameter gamma=abc: expected a number (invalid float literal)"
         );
         assert_eq!(
             r.given::<u32>(&GAMMA).unwrap_err().to_string(),
-            "parameter gamma=abc: invalid digit found in string"
+            "parameter gamma=abc: expected a whole number, 0 or more (invalid digit found in string)"
         );
         // A key given and never read: refused at the end, naming the known keys.
         let p = Params::parse(&["gama=3"]).unwrap();

@@ -256,14 +256,35 @@ pub fn scale_cell(cell: &experiments::scale::child::CellArgs, data_dir: &Path) -
     experiments::scale::child::run_in_this_process(cell, data_dir)
 }
 
-/// The sweeps (built-in, external methods', `--config`'s) and repeats of `flags`.
+/// The sweeps (built-in, external methods', `--config`'s, then `--set`'s over them) and
+/// repeats of `flags`. The `--set` pairs must each be for a method with a sweep; the settings
+/// they make are typed by each method's card here, before any data is read.
 fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<usize>)> {
+    let set = registry::Assignments::parse(&flags.set).map_err(visible::set_error)?;
     let user = flags
         .config
         .as_deref()
         .map(registry::Sweeps::read)
         .transpose()?;
-    let sweeps = registry::Sweeps::resolve(user)?;
+    let mut sweeps = registry::Sweeps::resolve(user)?;
+    if !set.is_empty() {
+        let cards: Vec<&registry::Card> = sweeps
+            .methods
+            .keys()
+            .filter_map(|name| registry::card_named(name))
+            .collect();
+        set.check_targets(&cards).map_err(visible::set_error)?;
+        for card in cards {
+            let Some(sweep) = sweeps.methods.get_mut(card.name) else {
+                continue;
+            };
+            if set.over_sweep(card, sweep) {
+                for setting in sweep.grid.iter().chain(&sweep.default) {
+                    visible::typed(card, &setting.params(), &set)?;
+                }
+            }
+        }
+    }
     let repeats = flags.repeats.map(|r| r as usize).or(sweeps.repeats);
     Ok((sweeps, repeats))
 }

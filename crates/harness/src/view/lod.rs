@@ -94,11 +94,7 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>
     if base.is_empty() {
         bail!("no level-of-detail method to show: name some with --methods");
     }
-    let named: Vec<(&str, &[registry::Param], String)> = base
-        .iter()
-        .map(|(m, label)| (m.name, m.params, label.clone()))
-        .collect();
-    let settings = super::apply_set(&named, set)?;
+    let settings = super::apply_set(&base, set)?;
     Ok(base
         .into_iter()
         .zip(settings)
@@ -338,9 +334,10 @@ pub fn run(
             lod.distance
         );
     }
+    // The methods and their settings, typed, before any data is read.
+    let chosen = choose(req.methods.as_deref(), &req.set)?;
     let ds = crate::visible::load_source(&req.source, data_dir)?;
     let camera = at_distance(ds.view(req.view)?, lod.distance)?;
-    let chosen = choose(req.methods.as_deref(), &req.set)?;
     let (selected, failed) = select(&ds, req.view, &camera, &chosen)?;
     if let Some((_, e)) = failed.into_iter().next() {
         return Err(e);

@@ -5,7 +5,8 @@
 //! The points, mesh and camera come exactly as `visible` takes them
 //! ([`crate::visible::load_source`]); the methods are those named, else every registered method
 //! with a sweep that can run here (external methods and installed peers included) at its
-//! sweep's default setting, `--set` pairs over it. The ground truth is the reference
+//! sweep's default setting, `--set` pairs over it (`registry::set`; typed by each method before
+//! any data is read). The ground truth is the reference
 //! (`truth::Reference`, the mesh's z-buffer, as in the visibility experiment); off-surface
 //! points and outliers ([`crate::datasets::Dataset::off_surface`]) are a class apart and left
 //! out of the scores. Without a mesh, the classes are against the methods' majority vote and
@@ -144,11 +145,7 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     if base.is_empty() {
         bail!("no method to show: name some with --methods");
     }
-    let named: Vec<(&str, &[registry::Param], String)> = base
-        .iter()
-        .map(|(m, label)| (m.name, m.params, label.clone()))
-        .collect();
-    let settings = apply_set(&named, set)?;
+    let settings = apply_set(&base, set)?;
     Ok(base
         .into_iter()
         .zip(settings)
@@ -157,56 +154,25 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
 }
 
 /// Each method's default `label` (`k=v` pairs joined by `;`) with the `--set` pairs that are
-/// its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every method with KEY among its `params`), as
-/// parameters and their sorted label. A pair no method takes is an error.
+/// its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every method with KEY; `registry::set`, one
+/// value each), as parameters and their sorted label, typed by each method's card (no data is
+/// read). A pair no method takes is an error naming what they accept.
 pub fn apply_set(
-    methods: &[(&str, &[registry::Param], String)],
+    methods: &[(&'static Card, String)],
     set: &[String],
 ) -> Result<Vec<(Params, String)>> {
-    let mut pairs: Vec<Vec<(String, String)>> = methods
+    let set = registry::Assignments::parse(set).map_err(visible::set_error)?;
+    set.one_setting("view").map_err(visible::set_error)?;
+    let cards: Vec<&Card> = methods.iter().map(|(m, _)| *m).collect();
+    set.check_targets(&cards).map_err(visible::set_error)?;
+    methods
         .iter()
-        .map(|(_, _, label)| {
-            label
-                .split(';')
-                .filter_map(|kv| kv.split_once('='))
-                .map(|(k, v)| (k.to_owned(), v.to_owned()))
-                .collect()
-        })
-        .collect();
-    for pair in set {
-        let (key, value) = pair
-            .split_once('=')
-            .with_context(|| format!("--set {pair:?}: expected KEY=VALUE"))?;
-        let (only, key) = match key.split_once('.') {
-            Some((m, k)) => (Some(m), k),
-            None => (None, key),
-        };
-        let mut taken = false;
-        for ((name, params, _), kv) in methods.iter().zip(&mut pairs) {
-            if only.is_some_and(|o| o != *name) || !params.iter().any(|p| p.key == key) {
-                continue;
-            }
-            kv.retain(|(k, _)| k != key);
-            kv.push((key.to_owned(), value.to_owned()));
-            taken = true;
-        }
-        if !taken {
-            bail!(
-                "--set {pair:?}: no chosen method ({}) has the parameter {key:?}",
-                methods
-                    .iter()
-                    .map(|(name, _, _)| *name)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            );
-        }
-    }
-    pairs
-        .into_iter()
-        .map(|mut kv| {
-            kv.sort();
-            let text: Vec<String> = kv.iter().map(|(k, v)| format!("{k}={v}")).collect();
-            Ok((Params::parse(&text)?, text.join(";")))
+        .map(|(m, label)| {
+            let pairs: Vec<&str> = label.split(';').filter(|kv| kv.contains('=')).collect();
+            let params = set.over_params(m, &Params::parse(&pairs)?);
+            visible::typed(m, &params, &set)?;
+            let label = params.canonical();
+            Ok((params, label))
         })
         .collect()
 }
@@ -250,9 +216,10 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<Written> {
     if req.max_points == Some(0) {
         bail!("--max-points must be at least 1");
     }
+    // The methods and their settings, typed, before any data is read.
+    let chosen = choose(req.methods.as_deref(), &req.set)?;
     let ds = visible::load_source(&req.source, data_dir)?;
     let camera = *ds.view(req.view)?;
-    let chosen = choose(req.methods.as_deref(), &req.set)?;
     let mut runs = Vec::new();
     for (m, params, setting) in &chosen {
         let (out, seconds) = run_method(m, &ds, params, req.view, &camera)

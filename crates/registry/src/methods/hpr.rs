@@ -123,7 +123,7 @@ pub(crate) fn read_kernel(r: &mut Reader<'_>) -> Result<KernelChoice> {
     }
     let g = gamma
         .parse::<f64>()
-        .map_err(|e| r.bad(&GAMMA, &gamma, e.to_string()))?;
+        .map_err(|e| r.bad(&GAMMA, &gamma, format!("expected a number or auto ({e})")))?;
     Ok(KernelChoice::Fixed(match kernel.as_str() {
         "linear" => Kernel::Linear(Radius::Gamma(g)),
         "exp" => Kernel::Exponential(g),
