@@ -194,6 +194,7 @@ impl Experiment for ScaleExperiment {
             &normal_kinds,
             &normal_sizes,
             normals::CAP,
+            ctx.quick,
             |m, n| {
                 let row = run_cell(
                     dataset,
@@ -239,7 +240,7 @@ impl Experiment for ScaleExperiment {
             "opted_out": opted_out,
             "normals": {
                 "k": normals::K,
-                "rounds": normals::ROUNDS,
+                "rounds": normals::rounds(ctx.quick),
                 "cap_seconds": normals::CAP.as_secs(),
                 "sizes": normal_sizes,
                 "python": python.display().to_string(),

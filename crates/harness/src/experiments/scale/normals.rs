@@ -42,6 +42,16 @@ pub const K: usize = 16;
 /// Rounds at every size: each ratio is the median of this many alternated pairs.
 pub const ROUNDS: usize = 3;
 
+/// Why a quick run leaves Open3D's orientation out: it takes minutes even at 10^4 points, more
+/// than the whole quick run's other cells.
+pub const QUICK_SKIP: &str =
+    "skipped: quick run (Open3D's orientation takes minutes even at 10^4 points)";
+
+/// Rounds a size runs: [`ROUNDS`], one in a quick run (no ratio is stated from it then).
+pub fn rounds(quick: bool) -> usize {
+    if quick { 1 } else { ROUNDS }
+}
+
 /// The time cap of one run of a normal-estimation cell (the peer program is killed at it).
 pub const CAP: Duration = Duration::from_secs(300);
 
@@ -439,6 +449,7 @@ pub fn measure(
     kinds: &[CellKind],
     sizes: &[u64],
     cap: Duration,
+    quick: bool,
     mut run: impl FnMut(&str, u64) -> Row,
     mut progress: impl FnMut(&str, u64),
 ) -> Vec<Row> {
@@ -455,6 +466,8 @@ pub fn measure(
                 };
                 if let Some(why) = &k.unavailable {
                     Some(format!("skipped: not installed: {why}"))
+                } else if quick && k.name == Kind::Open3dOriented.name() {
+                    Some(QUICK_SKIP.to_owned())
                 } else if let Err(e) = cloud::memory::ensure(
                     u128::from(n) * u128::from(per_point + 48),
                     &format!("{} on {n} points", k.name),
@@ -466,7 +479,7 @@ pub fn measure(
             })
             .collect();
         let mut runs: Vec<Vec<Row>> = vec![Vec::new(); kinds.len()];
-        for _ in 0..ROUNDS {
+        for _ in 0..rounds(quick) {
             for (i, k) in kinds.iter().enumerate() {
                 if not_run[i].is_some() || runs[i].last().is_some_and(|r| r.status != "ok") {
                     continue;
@@ -642,8 +655,8 @@ pub fn summary(rows: &[Row]) -> String {
         "\nNormal estimation ({K} neighbours; the same sampled points; a peer's time is its \
          library call alone, reading and writing excluded). Accuracy against the mesh's \
          normals: the unsigned angle (median, 95th percentile) and, for oriented normals, the \
-         share on the mesh's side. Each cell ran {ROUNDS} rounds, alternated with the others \
-         at its size; seconds are their median.\n\n{}\n{}",
+         share on the mesh's side. Each cell ran up to {ROUNDS} rounds (one in a quick run), \
+         alternated with the others at its size; seconds are their median.\n\n{}\n{}",
         crate::experiments::markdown_table(
             &[
                 "points",
@@ -783,6 +796,7 @@ mod tests {
             &ks,
             &[10_000],
             CAP,
+            false,
             |m, n| Row {
                 method: m.into(),
                 n_points: n,
