@@ -345,6 +345,44 @@ fn every_experiment(root: &Path) {
         let prepare: f64 = fields[5].parse().expect("prepare_seconds");
         assert!(prepare.is_finite() && prepare >= 0.0, "scale: {rows:?}");
     }
+    // The normal-estimation family: a cell of each kind at 10^4 points, ours in the quick run's
+    // one round with its accuracy against the mesh's normals; a peer whose library is missing
+    // is a skipped row, never an error, and Open3D's orientation is left out of quick runs.
+    let rows: Vec<experiments::scale::row::Row> =
+        harness::output::read_csv(&scale.join("results.csv")).expect("the scale results read");
+    for kind in experiments::scale::normals::Kind::ALL {
+        let row = rows
+            .iter()
+            .find(|r| r.method == kind.name() && r.n_points == 10_000)
+            .unwrap_or_else(|| panic!("no {} row at 10^4 points", kind.name()));
+        if kind == experiments::scale::normals::Kind::Open3dOriented {
+            assert_eq!(
+                row.status,
+                experiments::scale::normals::QUICK_SKIP,
+                "{row:?}"
+            );
+        } else if kind.peer().is_none() || row.status == "ok" {
+            assert_eq!(row.status, "ok", "{row:?}");
+            assert_eq!(
+                row.runs_seconds.split(';').count(),
+                experiments::scale::normals::rounds(true),
+                "{row:?}"
+            );
+            assert!(
+                row.angle_median_deg < 5.0 && row.angle_p95_deg.is_finite(),
+                "{row:?}"
+            );
+            assert_eq!(kind.oriented(), row.sign_agreement.is_finite(), "{row:?}");
+        } else {
+            assert!(row.status.starts_with("skipped: not installed"), "{row:?}");
+        }
+    }
+    assert!(
+        std::fs::read_to_string(scale.join("summary.md"))
+            .expect("the scale summary")
+            .contains("Normal estimation"),
+        "the summary has the family's section"
+    );
     // A dataset of the run's manifest: each cell (this executable re-run) finds it only
     // because `cell_entry` reads the manifest the parent passes as `POINTSIGHT_MANIFEST`.
     let manifest = write_manifest(root);

@@ -37,11 +37,16 @@ pub fn all(reports: &Path) -> Result<Vec<Ratio>> {
         let found = match name {
             "visibility" => ratio::visibility(&read_csv(&csv)?),
             "hull" => ratio::hull(&read_csv(&csv)?),
-            _ => ratio::scale(
-                &read_csv(&csv)?,
-                &format!("{COPC_CONVERTER}{OOC_SUFFIX}"),
-                OOC_SUFFIX,
-            ),
+            _ => {
+                let mut found = ratio::scale(
+                    &read_csv(&csv)?,
+                    &format!("{COPC_CONVERTER}{OOC_SUFFIX}"),
+                    OOC_SUFFIX,
+                );
+                // The normal-estimation family: medians of alternated rounds.
+                found.extend(super::scale::normals::ratios(&read_csv(&csv)?));
+                found
+            }
         };
         let meta = RunMeta::read(&dir).ok();
         for mut r in found {

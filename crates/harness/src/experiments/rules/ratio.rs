@@ -68,10 +68,15 @@ pub struct Ratio {
 
 impl Ratio {
     /// `13.65× [12.76, 14.51]`, or without an interval `13.65× (indicative: 3 views)` (a scale
-    /// cell's: `0.53× (one run)`).
+    /// cell's: `0.53× (one run)`; the scale experiment's normal estimation, alternated rounds:
+    /// `3.10× (median of 3 alternated pairs)`).
     pub fn text(&self) -> String {
         match (self.low, self.high) {
             (Some(lo), Some(hi)) => format!("{:.2}× [{lo:.2}, {hi:.2}]", self.ratio),
+            _ if self.experiment == "scale" && self.pairs > 1 => format!(
+                "{:.2}× (median of {} alternated pairs)",
+                self.ratio, self.pairs
+            ),
             _ if self.experiment == "scale" => format!("{:.2}× (one run)", self.ratio),
             _ => format!(
                 "{:.2}× ({})",

@@ -50,6 +50,14 @@ pub fn cell(
             ready(&on_prepared)
         });
     }
+    if let Some(kind) = super::normals::Kind::named(method) {
+        // The mesh's normals (each sample's triangle's) are the reference.
+        let mut cloud = cloud::sample::sample_surface(&mesh, usize::try_from(n)?, SEED)?;
+        cloud.samples = None;
+        let dir = super::normals::cell_dir(method, n, std::os::unix::process::parent_id());
+        let python = super::normals::python();
+        return super::normals::cell(kind, &cloud, &dir, &python, || ready(&on_prepared));
+    }
     let n = usize::try_from(n)?;
     cloud::memory::ensure(
         48 * n as u128,
@@ -119,6 +127,7 @@ pub fn cell(
         peak_rss_bytes: peak_rss_with_children(),
         prepare_seconds,
         detail: String::new(),
+        accuracy: Default::default(),
     })
 }
 
@@ -140,6 +149,7 @@ fn ooc_cell(
     ready: impl FnOnce() -> f64,
 ) -> Result<CellOutput> {
     let dir = ooc_dir(data_dir, &format!("{method}{OOC_SUFFIX}"), n);
+    let (method, given) = super::plan::ooc_method(method);
     std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
     // The work in a closure, so that the folder goes whatever it returns.
     let outcome = (|| -> Result<CellOutput> {
@@ -152,10 +162,23 @@ fn ooc_cell(
             &input,
             bbox.min - pad,
             bbox.max + pad,
-            false,
+            given,
             |batch| {
                 let k = left.min(1 << 16);
-                sampler.positions_into(k as usize, &mut batch.positions);
+                if given {
+                    // The same draws, each with its triangle's normal.
+                    for _ in 0..k {
+                        let s = sampler.draw();
+                        batch
+                            .positions
+                            .push(cloud::sample::sample_position(mesh, &s));
+                        batch
+                            .normals
+                            .push(mesh.face_normal(s.triangle as usize).as_vec3());
+                    }
+                } else {
+                    sampler.positions_into(k as usize, &mut batch.positions);
+                }
                 left -= k;
                 left > 0
             },
@@ -166,6 +189,12 @@ fn ooc_cell(
         }
         let out = dir.join(format!("{method}.lod"));
         let built = crate::lod_build::build(&input, method, OOC_LIMIT, &out, false)?;
+        if given && built.given_normals.is_none() {
+            bail!(
+                "the build of {} did not read the normals it was given",
+                input.display()
+            );
+        }
         let input_bytes = std::fs::metadata(&input).map_or(0, |m| m.len());
         let mib = |b: u64| b as f64 / 1048576.0;
         let (setting, view) = select;
@@ -192,11 +221,16 @@ fn ooc_cell(
             peak_rss_bytes: peak_rss_with_children(),
             prepare_seconds,
             detail: format!(
-                "limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} {}, \
+                "normals {} ({} neighbour queries), limit {:.0} MiB, peak {:.0} MiB, {:.2} M points/s, {} chunks, {} {}, \
                  LAZ {:.0} MiB, scratch {:.0} MiB written, {:.0} MiB at most, file {:.0} MiB, \
                  stage seconds {}; selection from the file \
                  ({}, view 0): {:.3} ms median of {}, {} splats, read {:.1} MiB, cache {:.1} \
                  MiB, peak after {:.0} MiB",
+                built
+                    .given_normals
+                    .as_deref()
+                    .map_or("estimated".to_owned(), |f| format!("given: {f}")),
+                built.neighbour_queries,
                 mib(OOC_LIMIT),
                 mib(built.peak_rss_bytes),
                 built.points as f64 / built.seconds / 1e6,
@@ -216,6 +250,7 @@ fn ooc_cell(
                 mib(reads.cache_bytes),
                 mib(peak_rss_with_children()),
             ),
+            accuracy: Default::default(),
         })
     })();
     let _ = std::fs::remove_dir_all(&dir);
@@ -272,6 +307,40 @@ mod tests {
             .unwrap_or(0);
         assert!(splats > 0 && splats <= 5_000, "{}", out.detail);
         assert!(!ooc_dir(dir.path(), "qsplat-build-ooc", 5_000).exists());
+        assert!(
+            out.detail.starts_with("normals estimated"),
+            "{}",
+            out.detail
+        );
+        // The same points with their triangles' normals in the LAZ: the build reads them and
+        // estimates none (its neighbour queries are the spacing sample's alone).
+        let given = ooc_cell(
+            "qsplat-given",
+            &mesh,
+            &bbox,
+            5_000,
+            dir.path(),
+            (&setting, &view),
+            || 0.5,
+        )
+        .unwrap();
+        assert!(
+            given.detail.starts_with("normals given: "),
+            "{}",
+            given.detail
+        );
+        let queries = |d: &str| -> u64 {
+            d.split_once(" neighbour queries")
+                .and_then(|(a, _)| a.rsplit_once('(')?.1.parse().ok())
+                .unwrap()
+        };
+        assert!(
+            queries(&given.detail) < queries(&out.detail),
+            "{} | {}",
+            given.detail,
+            out.detail
+        );
+        assert!(!ooc_dir(dir.path(), "qsplat-given-build-ooc", 5_000).exists());
         assert!(
             ooc_cell(
                 "spt",

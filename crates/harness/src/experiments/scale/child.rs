@@ -165,13 +165,10 @@ fn run_child(
     cap: Duration,
 ) -> Row {
     let row = |seconds: f64, peak: u64, status: String, prepare_seconds: f64| Row {
-        method: method.to_owned(),
-        n_points: n,
         seconds,
         peak_rss_bytes: peak,
-        status,
         prepare_seconds,
-        detail: String::new(),
+        ..Row::not_run(method, n, status)
     };
     let exe = match std::env::current_exe() {
         Ok(e) => e,
@@ -292,6 +289,9 @@ fn run_child(
                 return match last.as_deref().map(serde_json::from_str::<CellOutput>) {
                     Some(Ok(o)) => Row {
                         detail: o.detail,
+                        angle_median_deg: o.accuracy.angle_median_deg,
+                        angle_p95_deg: o.accuracy.angle_p95_deg,
+                        sign_agreement: o.accuracy.sign_agreement,
                         ..row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds)
                     },
                     _ => row(

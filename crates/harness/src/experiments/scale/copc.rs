@@ -148,5 +148,6 @@ pub fn build_cell(
             SCRATCH_POLL.as_millis(),
             mib(file_bytes),
         ),
+        accuracy: Default::default(),
     })
 }

@@ -39,13 +39,19 @@
 //! The peer's out-of-core build, `copc_converter-build-ooc` ([`copc`]): copc_converter from the
 //! same LAZ, with the same thread count and memory limit, beside ours.
 //!
+//! The normal-estimation family (`normals-NAME`, [`normals`]): ours, Open3D's and
+//! point-cloud-utils' 16-neighbour normals of the same samples, each cell its own process as
+//! the others, in alternated rounds at each size, with their accuracy against the mesh's
+//! normals; the peers' time over ours is the median of the rounds' ratios.
+//!
 //! Modules: [`plan`] (cells, sizes, caps, skip rules), [`child`] (a cell in its own process),
-//! [`cell`] (a cell's body), [`copc`] (the peer's build), [`row`] (what a cell reports),
-//! [`render`] (the report).
+//! [`cell`] (a cell's body), [`copc`] (the peer's build), [`normals`] (the normal-estimation
+//! family), [`row`] (what a cell reports), [`render`] (the report).
 
 pub mod cell;
 pub mod child;
 pub mod copc;
+pub mod normals;
 pub mod plan;
 pub mod render;
 pub mod row;
@@ -102,8 +108,12 @@ impl Experiment for ScaleExperiment {
                 &in_core_sizes
             }
         };
+        let python = normals::python();
+        let normal_kinds = normals::kinds(&python);
+        let normal_sizes = normals::sizes(&in_core_sizes);
         let bar = crate::progress::bar(
-            kinds.iter().map(|k| sizes_of(k).len() as u64).sum(),
+            kinds.iter().map(|k| sizes_of(k).len() as u64).sum::<u64>()
+                + (normal_kinds.len() * normal_sizes.len()) as u64,
             "scale",
         );
         let mut rows = Vec::new();
@@ -126,15 +136,7 @@ impl Experiment for ScaleExperiment {
             let mut before: Option<(f64, f64)> = None;
             for &n in sizes {
                 crate::progress::at(&format!("{n} points"), method);
-                let not_run = |status: String| Row {
-                    method: method.to_owned(),
-                    n_points: n,
-                    seconds: f64::NAN,
-                    peak_rss_bytes: 0,
-                    status,
-                    prepare_seconds: f64::NAN,
-                    detail: String::new(),
-                };
+                let not_run = |status: String| Row::not_run(method, n, status);
                 // An out-of-core cell's disk: its build's (`NAME-build-ooc`).
                 let disk_per_point = plan::ooc_disk_per_point(
                     method.strip_suffix(plan::OOC_SUFFIX).unwrap_or(method),
@@ -186,6 +188,28 @@ impl Experiment for ScaleExperiment {
                 bar.inc(1);
             }
         }
+        // The normal-estimation family, in alternated rounds (`normals`); a run's cap has a
+        // margin over the peer's own, so that the cell stops its peer before it is stopped.
+        rows.extend(normals::measure(
+            &normal_kinds,
+            &normal_sizes,
+            normals::CAP,
+            ctx.quick,
+            |m, n| {
+                let row = run_cell(
+                    dataset,
+                    m,
+                    &registry::Setting::default(),
+                    n,
+                    &ctx.data_dir,
+                    normals::CAP + Duration::from_secs(30),
+                );
+                normals::remove_cell_dir(m, n);
+                row
+            },
+            |m, n| crate::progress::at(&format!("{n} points"), m),
+        ));
+        bar.inc((normal_kinds.len() * normal_sizes.len()) as u64);
         bar.finish_and_clear();
         write_csv(&ctx.out_dir.join("results.csv"), &rows)?;
         Ok(serde_json::json!({
@@ -214,6 +238,17 @@ impl Experiment for ScaleExperiment {
                 "bytes_per_point": match &k.memory { Memory::PerPoint(b) => Some(b + 48), _ => None },
             })).collect::<Vec<_>>(),
             "opted_out": opted_out,
+            "normals": {
+                "k": normals::K,
+                "rounds": normals::rounds(ctx.quick),
+                "cap_seconds": normals::CAP.as_secs(),
+                "sizes": normal_sizes,
+                "python": python.display().to_string(),
+                "cells": normal_kinds.iter().map(|k| serde_json::json!({
+                    "method": k.name,
+                    "not_installed": k.unavailable,
+                })).collect::<Vec<_>>(),
+            },
         }))
     }
 

@@ -60,13 +60,28 @@ pub const OOC_CAP: Duration = Duration::from_secs(3 * 3600);
 pub const COPC_OOC_DISK_PER_POINT: u64 = 80;
 
 /// Disk the out-of-core cell of `name` (`NAME-build-ooc` without its suffix) needs per point:
-/// the peer's converter's, else our build's (`lod_build::disk_per_point`).
+/// the peer's converter's, else our build's (`lod_build::disk_per_point`; with normals given,
+/// [`GIVEN`], the input's 12 bytes of normals a point more).
 pub fn ooc_disk_per_point(name: &str) -> u64 {
     if name == super::copc::COPC_CONVERTER {
         COPC_OOC_DISK_PER_POINT
+    } else if let Some(base) = name.strip_suffix(GIVEN) {
+        crate::lod_build::disk_per_point(base) + 12
     } else {
         crate::lod_build::disk_per_point(name)
     }
+}
+
+/// Marks an out-of-core build whose input gives the normals (`NAME-given-build-ooc`): the LAZ
+/// carries each sample's triangle normal as extra bytes (`NormalX`/`NormalY`/`NormalZ`), so the
+/// build estimates none and times the structure alone, the work copc_converter does.
+pub const GIVEN: &str = "-given";
+
+/// Our out-of-core method of an out-of-core cell's name without [`OOC_SUFFIX`], and whether
+/// its input gives the normals.
+pub fn ooc_method(name: &str) -> (&str, bool) {
+    name.strip_suffix(GIVEN)
+        .map_or((name, false), |m| (m, true))
 }
 
 /// The largest size of a full run without `--max-points`: 10^7, so the whole `bench` stays
@@ -77,9 +92,14 @@ pub const DEFAULT_MAX_POINTS: u64 = 10_000_000;
 pub const QUICK_MAX_POINTS: u64 = 1_000_000;
 
 /// Sizes of the out-of-core cells: every power of ten from 10^6 to `max_points` (`--max-points
-/// 1e9` adds the 10^9 cells), else to [`DEFAULT_MAX_POINTS`] (quick: [`QUICK_MAX_POINTS`]).
+/// 1e9` adds the 10^9 cells), else to [`DEFAULT_MAX_POINTS`] (quick: [`QUICK_MAX_POINTS`]),
+/// and 2·10^6 where 10^7 is reached (a size the structure is compared at).
 pub fn ooc_sizes(quick: bool, max_points: Option<u64>) -> Vec<u64> {
-    decades(6, largest(quick, max_points).ilog10(), None)
+    let mut sizes = decades(6, largest(quick, max_points).ilog10(), None);
+    if sizes.contains(&10_000_000) {
+        sizes.insert(1, 2_000_000);
+    }
+    sizes
 }
 
 fn largest(quick: bool, max_points: Option<u64>) -> u64 {
@@ -152,14 +172,17 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
             });
         }
     }
-    out.extend(crate::lod_build::OUT_OF_CORE.iter().map(|m| CellKind {
-        name: format!("{m}{OOC_SUFFIX}"),
-        // The setting of the selection from the built file.
-        setting: default_of(m),
-        memory: Memory::PerPoint(0),
-        unavailable: None,
-        out_of_core: true,
-    }));
+    // Each with the normals estimated, then given by its input ([`GIVEN`]).
+    for given in ["", GIVEN] {
+        out.extend(crate::lod_build::OUT_OF_CORE.iter().map(|m| CellKind {
+            name: format!("{m}{given}{OOC_SUFFIX}"),
+            // The setting of the selection from the built file.
+            setting: default_of(m),
+            memory: Memory::PerPoint(0),
+            unavailable: None,
+            out_of_core: true,
+        }));
+    }
     // The peer's build from the same LAZ (`copc`).
     out.push(CellKind {
         name: format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER),
@@ -239,16 +262,25 @@ mod tests {
     #[test]
     fn the_out_of_core_sizes_and_the_free_disk() {
         assert_eq!(ooc_sizes(true, None), vec![1_000_000]);
-        assert_eq!(ooc_sizes(false, None), vec![1_000_000, 10_000_000]);
+        assert_eq!(
+            ooc_sizes(false, None),
+            vec![1_000_000, 2_000_000, 10_000_000]
+        );
         assert_eq!(sizes(false, None).last(), Some(&10_000_000));
         assert_eq!(sizes(true, None).last(), Some(&1_000_000));
-        assert_eq!(ooc_sizes(false, Some(10u64.pow(8))).len(), 3);
+        assert_eq!(ooc_sizes(false, Some(10u64.pow(8))).len(), 4);
         // --max-points extends the out-of-core sizes (10^9) and caps the in-core ones at 10^8.
         assert_eq!(
             ooc_sizes(false, Some(10u64.pow(9))).last(),
             Some(&10u64.pow(9))
         );
-        assert_eq!(ooc_sizes(true, Some(10u64.pow(7))).len(), 2);
+        assert_eq!(ooc_sizes(true, Some(10u64.pow(7))).len(), 3);
+        assert_eq!(ooc_method("qsplat-given"), ("qsplat", true));
+        assert_eq!(ooc_method("spt"), ("spt", false));
+        assert_eq!(
+            ooc_disk_per_point("spt-given"),
+            ooc_disk_per_point("spt") + 12
+        );
         assert_eq!(ooc_sizes(false, Some(5 * 10u64.pow(5))), Vec::<u64>::new());
         assert_eq!(sizes(false, Some(10u64.pow(9))).last(), Some(&10u64.pow(8)));
         assert_eq!(sizes(false, Some(3 * 10u64.pow(5))).last(), Some(&100_000));

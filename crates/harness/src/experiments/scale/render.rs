@@ -45,6 +45,70 @@ fn rates_against_the_peer(rows: &[Row]) -> String {
     out
 }
 
+/// Our out-of-core builds with the normals estimated and given ([`super::plan::GIVEN`]) beside
+/// copc_converter's build of the same points without normals, one table: a size and method a
+/// row, each time and the converter's over it (above 1: ours is faster). One run each.
+fn structure_table(rows: &[Row]) -> String {
+    let secs = |m: &str, n: u64| {
+        rows.iter()
+            .find(|r| r.method == m && r.n_points == n && r.status == "ok")
+            .map(|r| r.seconds)
+    };
+    let peer = format!("{}{OOC_SUFFIX}", super::copc::COPC_CONVERTER);
+    let mut sizes: Vec<u64> = rows
+        .iter()
+        .filter(|r| r.method.ends_with(OOC_SUFFIX))
+        .map(|r| r.n_points)
+        .collect();
+    sizes.sort_unstable();
+    sizes.dedup();
+    let text = |t: Option<f64>| t.map_or("-".to_owned(), |t| format!("{t:.2}"));
+    let over = |p: Option<f64>, t: Option<f64>| match (p, t) {
+        (Some(p), Some(t)) if t > 0.0 => format!("{:.2}×", p / t),
+        _ => "-".to_owned(),
+    };
+    let mut table = Vec::new();
+    for n in sizes {
+        let copc = secs(&peer, n);
+        for m in crate::lod_build::OUT_OF_CORE {
+            let estimated = secs(&format!("{m}{OOC_SUFFIX}"), n);
+            let given = secs(&format!("{m}{}{OOC_SUFFIX}", super::plan::GIVEN), n);
+            if estimated.is_none() && given.is_none() {
+                continue;
+            }
+            table.push(vec![
+                n.to_string(),
+                (*m).to_owned(),
+                text(estimated),
+                text(given),
+                text(copc),
+                over(copc, estimated),
+                over(copc, given),
+            ]);
+        }
+    }
+    if table.is_empty() {
+        return String::new();
+    }
+    format!(
+        "\nOut-of-core builds from the same LAZ points: ours with the normals estimated, ours \
+         with the normals given by the file (the structure alone), copc_converter (structure, \
+         no normals), one run each:\n\n{}",
+        markdown_table(
+            &[
+                "points",
+                "ours",
+                "normals estimated s",
+                "normals given s",
+                "copc_converter s",
+                "copc ÷ estimated",
+                "copc ÷ given",
+            ],
+            &table
+        )
+    )
+}
+
 /// The peak memory of an out-of-core cell's build alone, MiB: the first `peak N MiB` of its
 /// detail (our build's own measure, the converter's own), else the cell process's (which adds
 /// the LAZ written before and, for the peer, the harness beside the converter).
@@ -86,9 +150,11 @@ fn over_the_limit(rows: &[Row], limit: u64) -> String {
 
 /// The group of a scale cell's method, by the cell names' convention: 0 a visibility method,
 /// 1 a hull (`hull-NAME`), 2 an LOD build or selection (`NAME-build`, `NAME-select`,
-/// `NAME-build-ooc`).
+/// `NAME-build-ooc`), 3 a normal estimation (`normals-NAME`, [`super::normals`]).
 pub fn group(m: &str) -> usize {
-    if m.starts_with("hull-") {
+    if super::normals::Kind::named(m).is_some() {
+        3
+    } else if m.starts_with("hull-") {
         1
     } else if m.ends_with("-build") || m.ends_with("-select") || m.ends_with(OOC_SUFFIX) {
         2
@@ -120,8 +186,8 @@ pub fn render(dir: &Path) -> Result<()> {
             (style::family(m, ""), "default".to_owned())
         }
     };
-    let mut time_series: [Vec<Series>; 3] = Default::default();
-    let mut memory_series: [Vec<Series>; 3] = Default::default();
+    let mut time_series: [Vec<Series>; 4] = Default::default();
+    let mut memory_series: [Vec<Series>; 4] = Default::default();
     for m in &methods {
         let g = group(m);
         let (family, variant) = identity(m);
@@ -198,11 +264,12 @@ pub fn render(dir: &Path) -> Result<()> {
             not_ok,
         ]);
     }
-    let names = ["visibility", "hulls", "lod"];
+    let names = ["visibility", "hulls", "lod", "normals"];
     let captions = [
         "visibility methods",
         "hull implementations on HPR's flipped set",
         "LOD builds and selections",
+        "normal estimation (16 neighbours)",
     ];
     let mut images = String::new();
     for (k, (times, mems)) in time_series.into_iter().zip(memory_series).enumerate() {
@@ -284,9 +351,10 @@ pub fn render(dir: &Path) -> Result<()> {
              the same samples, and the peer copc_converter's build of that file with the same \
              thread count and memory limit; `seconds` includes reading and decoding it):\n\n{}{}",
             ooc.concat(),
-            rates_against_the_peer(&rows)
-        )
+            rates_against_the_peer(&rows),
+        ) + &structure_table(&rows)
     };
+    let normals = super::normals::summary(&rows);
     let opted_out = if opted_out.is_empty() {
         String::new()
     } else {
@@ -301,7 +369,7 @@ pub fn render(dir: &Path) -> Result<()> {
          `prepare s` the cell's input before it (sampling the cloud; a hull's flip; an LOD \
          method's normals), under a cap of its own ({} s on the operation, {} s on the \
          preparation). Cells not run or stopped say why.\n\n\
-         {over}{images}{}{ooc}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
+         {over}{images}{}{ooc}{normals}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
         cap,
         prepare_cap,
         markdown_table(
@@ -425,13 +493,10 @@ mod tests {
     /// A row of an out-of-core cell: `seconds`, peak MiB, status.
     fn ooc_row(method: &str, n: u64, seconds: f64, peak_mib: u64, status: &str) -> Row {
         Row {
-            method: method.into(),
-            n_points: n,
             seconds,
             peak_rss_bytes: peak_mib << 20,
-            status: status.into(),
             prepare_seconds: 0.0,
-            detail: String::new(),
+            ..Row::not_run(method, n, status.into())
         }
     }
 
@@ -458,6 +523,29 @@ mod tests {
             "\nAt 1000000 points, copc_converter's time over ours (our rate over its rate; \
              `reports/ratios.csv`): `qsplat-build-ooc` 0.40× (one run), `spt-build-ooc` 0.25× (one run).\n"
         );
+    }
+
+    #[test]
+    fn the_structure_table_sets_given_and_estimated_normals_beside_the_converter() {
+        let rows = [
+            ooc_row("qsplat-build-ooc", 2_000_000, 4.0, 500, "ok"),
+            ooc_row("qsplat-given-build-ooc", 2_000_000, 2.0, 500, "ok"),
+            ooc_row("copc_converter-build-ooc", 2_000_000, 3.0, 500, "ok"),
+            ooc_row(
+                "spt-given-build-ooc",
+                2_000_000,
+                1.0,
+                500,
+                "timeout after 9 s",
+            ),
+        ];
+        let t = structure_table(&rows);
+        assert!(
+            t.contains("| 2000000 | qsplat | 4.00 | 2.00 | 3.00 | 0.75× | 1.50× |"),
+            "{t}"
+        );
+        assert!(!t.contains("| spt |"), "{t}");
+        assert_eq!(structure_table(&rows[2..3]), "");
     }
 
     #[test]

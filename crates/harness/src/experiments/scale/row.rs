@@ -26,6 +26,66 @@ pub struct Row {
     /// empty for the others.
     #[serde(default)]
     pub detail: String,
+    /// A normal-estimation cell's runs, in the order they ran (seconds joined by `;`), one a
+    /// round of the family's alternation (`normals`); empty for the others.
+    #[serde(default)]
+    pub runs_seconds: String,
+    /// A normal-estimation cell's accuracy against the mesh's normals: see
+    /// [`Accuracy::angle_median_deg`] (NaN for the other cells).
+    #[serde(default = "nan")]
+    pub angle_median_deg: f64,
+    /// See [`Accuracy::angle_p95_deg`].
+    #[serde(default = "nan")]
+    pub angle_p95_deg: f64,
+    /// See [`Accuracy::sign_agreement`].
+    #[serde(default = "nan")]
+    pub sign_agreement: f64,
+}
+
+impl Row {
+    /// The row of a cell not run (or stopped before it reported): `status` says why.
+    pub fn not_run(method: &str, n_points: u64, status: String) -> Row {
+        Row {
+            method: method.to_owned(),
+            n_points,
+            seconds: f64::NAN,
+            peak_rss_bytes: 0,
+            status,
+            prepare_seconds: f64::NAN,
+            detail: String::new(),
+            runs_seconds: String::new(),
+            angle_median_deg: f64::NAN,
+            angle_p95_deg: f64::NAN,
+            sign_agreement: f64::NAN,
+        }
+    }
+}
+
+/// Normals against the mesh's (each point's triangle's normal): the unsigned angle between
+/// the two lines, in degrees, its median and 95th percentile, and the share of points whose
+/// normal points the mesh's way (NaN where the normals are not oriented). NaN everywhere when
+/// the cell estimates no normals.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Accuracy {
+    /// Median unsigned angle error, degrees.
+    #[serde(default = "nan", deserialize_with = "null_as_nan")]
+    pub angle_median_deg: f64,
+    /// 95th percentile of it.
+    #[serde(default = "nan", deserialize_with = "null_as_nan")]
+    pub angle_p95_deg: f64,
+    /// Share of points with n · mesh normal > 0 (oriented cells only).
+    #[serde(default = "nan", deserialize_with = "null_as_nan")]
+    pub sign_agreement: f64,
+}
+
+impl Default for Accuracy {
+    fn default() -> Self {
+        Self {
+            angle_median_deg: f64::NAN,
+            angle_p95_deg: f64::NAN,
+            sign_agreement: f64::NAN,
+        }
+    }
 }
 
 /// What a cell process prints last (one JSON line).
@@ -42,8 +102,38 @@ pub struct CellOutput {
     /// See [`Row::detail`].
     #[serde(default)]
     pub detail: String,
+    /// See [`Row::accuracy`].
+    #[serde(default)]
+    pub accuracy: Accuracy,
 }
 
 fn nan() -> f64 {
     f64::NAN
+}
+
+/// A number that JSON wrote as `null` (serde_json's NaN) read back as NaN.
+fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cells_output_without_accuracy_reads_back() {
+        let out = CellOutput {
+            seconds: 1.5,
+            peak_rss_bytes: 7,
+            prepare_seconds: 0.5,
+            detail: String::new(),
+            accuracy: Accuracy::default(),
+        };
+        let line = serde_json::to_string(&out).unwrap();
+        let back: CellOutput = serde_json::from_str(&line).unwrap();
+        assert!(back.accuracy.angle_median_deg.is_nan() && back.seconds == 1.5);
+        let old: CellOutput =
+            serde_json::from_str(r#"{"seconds":1.0,"peak_rss_bytes":1}"#).unwrap();
+        assert!(old.accuracy.sign_agreement.is_nan());
+    }
 }
