@@ -34,6 +34,8 @@ nav a { margin-right: 14px; }
 .legend .entry.off { opacity: 0.35; text-decoration: line-through; }
 .legend .key { color: #555; font-size: 12px; }
 .files { font-size: 12px; color: #555; }
+.ylabel { font-size: 11px; color: #333; margin: 2px 0 0 8px; }
+.figure-notes { font-size: 12px; color: #555; margin: 4px 0; }
 `;
 
 /** An element with attributes (`on...`: listeners) and children. */
@@ -54,6 +56,112 @@ function num(v) {
   if (a === 0) return '0';
   if (a >= 1e4 || a < 1e-3) return v.toExponential(2);
   return Number(v.toPrecision(4)).toString();
+}
+
+/** A tick label as the PNG prints it (format_number in figure/draw.rs): "0.05", "2.5", "40k", "3M". */
+export function tickNumber(v) {
+  const a = Math.abs(v);
+  const trim = (t) => (t.includes('.') ? t.replace(/0+$/, '').replace(/\.$/, '') : t);
+  if (a === 0) return '0';
+  if (a >= 1e6) return `${(v / 1e6).toFixed(0)}M`;
+  if (a >= 1e4) return `${(v / 1e3).toFixed(0)}k`;
+  if (a >= 100) return v.toFixed(0);
+  if (a >= 1) return trim(v.toFixed(2));
+  if (a >= 1e-3) return trim(v.toFixed(4));
+  return v.toExponential(0);
+}
+
+/** Seconds with their unit: "0.4 s", "12 ms", "100 µs", "20 ns". */
+export function tickSeconds(v) {
+  const a = Math.abs(v);
+  const short = (x) => Number(x.toPrecision(3)).toString();
+  if (a === 0) return '0 s';
+  if (a >= 0.1) return `${short(v)} s`;
+  if (a >= 1e-3) return `${short(v * 1e3)} ms`;
+  if (a >= 1e-6) return `${short(v * 1e6)} µs`;
+  return `${short(v * 1e9)} ns`;
+}
+
+/** True when an axis counts seconds (its label says so). */
+export function isSeconds(axis) {
+  return /\bseconds\b|\(s\)/i.test(axis.label || '');
+}
+
+/** Plot options for a numeric axis: our tick labels; on a log axis ticks at the powers of ten
+ * inside `domain` when there are two or more (else Plot's, labelled alike). */
+export function numericTicks(axis, domain) {
+  const format = isSeconds(axis) ? tickSeconds : tickNumber;
+  if (!axis.log || !domain) return { tickFormat: format };
+  const [lo, hi] = domain.map(Math.log10);
+  const powers = [];
+  for (let k = Math.ceil(lo - 1e-9); k <= Math.floor(hi + 1e-9); k++) powers.push(10 ** k);
+  return powers.length >= 2 ? { ticks: powers, tickFormat: format } : { tickFormat: format };
+}
+
+/** The places of a front's numbers 1, 2, ... around its rings at `rings` (pixels, radius
+ * `ring`), `size`-pixel text of width `widthOf(text)`: each the first box, at growing distance
+ * and in eight directions (above first), that overlaps no ring and no number placed before it;
+ * one beyond the first distance stands apart, with a leader line (as the PNG's, figure/draw.rs). */
+export function frontLabels(rings, ring, size, widthOf) {
+  const overlap = (a, b) => a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+  const obstacles = rings.map(([x, y]) => [x - ring, y - ring, x + ring, y + ring]);
+  const dirs = [[0, -1], [0, 1], [1, 0], [-1, 0], [0.7, -0.7], [-0.7, -0.7], [0.7, 0.7], [-0.7, 0.7]];
+  const placed = [];
+  return rings.map(([x, y], k) => {
+    const w = widthOf(String(k + 1)) + 2;
+    const h = size;
+    for (let step = 0; step < 8; step++) {
+      const d = ring + 2 + step * (h + 2);
+      for (const [ux, uy] of dirs) {
+        const c = [x + ux * (d + w / 2), y + uy * (d + h / 2)];
+        const b = [c[0] - w / 2, c[1] - h / 2, c[0] + w / 2, c[1] + h / 2];
+        if (!placed.concat(obstacles).some((o) => overlap(o, b))) {
+          placed.push(b);
+          return { centre: c, leader: step > 0 };
+        }
+      }
+    }
+    const c = [x, y - ring - 2 - h / 2];
+    placed.push([c[0] - w / 2, c[1] - h / 2, c[0] + w / 2, c[1] + h / 2]);
+    return { centre: c, leader: false };
+  });
+}
+
+/** Numbers the rings of a front drawn in `plot` (its points `pts`), placed by frontLabels. */
+function numberFront(plot, pts, className, ring) {
+  const sx = plot.scale('x');
+  const sy = plot.scale('y');
+  if (!sx || !sy) return;
+  const rings = pts.map((p) => [sx.apply(p.x), sy.apply(p.y)]);
+  const size = 11;
+  const places = frontLabels(rings, ring, size, (t) => 6.5 * t.length);
+  const ns = 'http://www.w3.org/2000/svg';
+  const g = document.createElementNS(ns, 'g');
+  g.setAttribute('class', `${className} ps-front-numbers`);
+  places.forEach((place, k) => {
+    const [x, y] = rings[k];
+    if (place.leader) {
+      const line = document.createElementNS(ns, 'line');
+      const [dx, dy] = [place.centre[0] - x, place.centre[1] - y];
+      const len = Math.max(Math.hypot(dx, dy), 1e-9);
+      line.setAttribute('x1', x + (dx / len) * ring);
+      line.setAttribute('y1', y + (dy / len) * ring);
+      line.setAttribute('x2', place.centre[0] - (dx / len) * size * 0.6);
+      line.setAttribute('y2', place.centre[1] - (dy / len) * size * 0.6);
+      line.setAttribute('stroke', '#787878');
+      g.append(line);
+    }
+    const text = document.createElementNS(ns, 'text');
+    text.setAttribute('x', place.centre[0]);
+    text.setAttribute('y', place.centre[1]);
+    text.setAttribute('text-anchor', 'middle');
+    text.setAttribute('dominant-baseline', 'central');
+    text.setAttribute('font-size', size);
+    text.textContent = String(k + 1);
+    g.append(text);
+  });
+  const svg = plot.tagName === 'svg' ? plot : plot.querySelector('svg');
+  if (svg) svg.append(g);
 }
 
 /** A legend identity: series with equal keys are one entry (the same method and variant). */
@@ -87,7 +195,7 @@ export function tipText(fig, s, p) {
   lines.push(`${fig.x.label}: ${x}`);
   const interval = p.y_lo != null ? ` [${num(p.y_lo)}, ${num(p.y_hi)}]${fig.interval ? ` (${fig.interval})` : ''}` : '';
   lines.push(`${fig.y.label}: ${num(p.y)}${interval}`);
-  if (p.seconds != null) lines.push(`seconds: ${num(p.seconds)}`);
+  if (p.seconds != null) lines.push(`seconds: ${tickSeconds(p.seconds)}`);
   return lines.join('\n');
 }
 
@@ -151,6 +259,7 @@ function main(data) {
     main.append(
       el('h2', { id: fig.id }, fig.title),
       el('div', { class: 'figure', 'data-figure': fig.id }, panels, legend),
+      ...(fig.notes || []).map((n) => el('div', { class: 'figure-notes' }, n)),
       el('div', { class: 'files' }, 'data: ', el('a', { href: `${fig.id}.json` }, `${fig.id}.json`), ' · picture: ', el('a', { href: fig.png }, fig.png)),
     );
     return { panels, legend, fi };
@@ -205,6 +314,8 @@ function main(data) {
     fig.panels.forEach((panel, pi) => {
       const marks = [];
       const tips = [];
+      // Front series: numbered after the plot is drawn, placed apart from each other.
+      const fronts = [];
       const own = panel.series.filter((s) => !s.context && shown(fi, s));
       let dodge = 0;
       panel.series.forEach((s, si) => {
@@ -243,11 +354,17 @@ function main(data) {
             className,
           }),
         );
-        if (s.draw === 'front') {
-          marks.push(Plot.text(pts, { x: 'x', y: 'y', text: (d, k) => String(k + 1), dy: -12, dx: 4, fontSize: 11, className }));
-        }
+        if (s.draw === 'front') fronts.push({ pts, className });
         for (const p of s.points) tips.push({ x: p.x + dx, y: p.y, text: tipText(fig, s, p) });
       });
+      // The figure's vertical rules (LOD budgets, say) inside the x range, labelled at the top.
+      const rules = (fig.rules || []).filter((r) => !xDomain || (r.x > xDomain[0] && r.x < xDomain[1]));
+      if (rules.length) {
+        marks.unshift(
+          Plot.ruleX(rules, { x: 'x', stroke: '#787878', strokeDasharray: '5,3', className: 'ps-rule' }),
+          Plot.text(rules, { x: 'x', text: 'label', frameAnchor: 'top', rotate: 90, textAnchor: 'start', dx: -5, dy: 4, fill: '#464646', fontSize: 10, className: 'ps-rule-label' }),
+        );
+      }
       marks.push(Plot.tip(tips, Plot.pointer({ x: 'x', y: 'y', title: 'text', lineWidth: 60, maxRadius: 30 })));
       const plot = Plot.plot({
         width,
@@ -262,13 +379,16 @@ function main(data) {
           labelAnchor: 'center',
           labelArrow: 'none',
           grid: true,
-          ...(categorical ? { ticks: fig.x.categories.map((_, k) => k), tickFormat: (k) => fig.x.categories[k] ?? '' } : {}),
+          ...(categorical ? { ticks: fig.x.categories.map((_, k) => k), tickFormat: (k) => fig.x.categories[k] ?? '' } : numericTicks(fig.x, xDomain)),
         },
-        y: { type: fig.y.log ? 'log' : 'linear', domain: yDomain, label: fig.y.label, labelAnchor: 'center', labelArrow: 'none', grid: true },
+        // The y axis' description stands above the plot (wrapped, never clipped).
+        y: { type: fig.y.log ? 'log' : 'linear', domain: yDomain, label: null, grid: true, ...numericTicks(fig.y, yDomain) },
         marks,
       });
+      for (const f of fronts) numberFront(plot, f.pts, f.className, single ? 7 : 5.6);
       const holder = el('div', { class: 'panel', 'data-panel': String(pi) });
       if (panel.title) holder.append(el('h3', {}, panel.title));
+      holder.append(el('div', { class: 'ylabel', style: `max-width: ${width}px` }, `↑ ${fig.y.label}`));
       holder.append(plot);
       panels.append(holder);
     });

@@ -195,6 +195,45 @@ test('hovering a point names it', { skip }, async () => {
   await page.close();
 });
 
+test('the LOD curves mark every budget with a labelled rule; ticks print "0.05" and seconds with their unit', { skip }, async () => {
+  const file = join(dir, 'lod', 'results.html');
+  const data = dataOf(file);
+  const page = await open(file);
+  for (const [fi, fig] of data.figures.entries()) {
+    if (!fig.id.startsWith('psnr_vs_points_')) continue;
+    assert.deepEqual(
+      fig.rules.map((r) => r.label),
+      ['1 %', '2 %', '5 %', '10 %', '20 %', '30 %'],
+      `${fig.id}: rules`,
+    );
+    const labels = await page.evaluate((id) => {
+      const fig = document.querySelector(`.figure[data-figure="${id}"]`);
+      return {
+        rules: fig.querySelectorAll('g[aria-label="rule"].ps-rule line').length,
+        texts: [...fig.querySelectorAll('g[aria-label="text"].ps-rule-label text')].map((t) => t.textContent),
+      };
+    }, fig.id);
+    // Every panel draws every rule inside its x range: all six here.
+    assert.equal(labels.rules, 6 * fig.panels.length, `${fig.id}: ${labels.rules} rule lines`);
+    for (const l of ['1 %', '10 %', '30 %']) assert.ok(labels.texts.includes(l), `${fig.id}: no label ${l} in ${labels.texts}`);
+    void fi;
+  }
+  // Tick labels: no middle dot, no SI suffix on seconds.
+  const ticks = await page.evaluate(() => [...document.querySelectorAll('g[aria-label$="tick label"] text')].map((t) => t.textContent));
+  assert.ok(ticks.length > 20, `${ticks.length} tick labels`);
+  for (const t of ticks) assert.ok(!/·|\d[mun]$/.test(t), `tick label ${t}`);
+  const timeFig = data.figures.find((f) => f.id.startsWith('time_vs_points_'));
+  const timeTicks = await page.evaluate(
+    (id) => [...document.querySelectorAll(`.figure[data-figure="${id}"] g[aria-label="y-axis tick label"] text`)].map((t) => t.textContent),
+    timeFig.id,
+  );
+  assert.ok(timeTicks.length >= 2 && timeTicks.every((t) => / (s|ms|µs|ns)$/.test(t)), `seconds ticks ${timeTicks}`);
+  // The y axis' description is printed whole above the plots.
+  const ylabels = await page.evaluate((id) => [...document.querySelectorAll(`.figure[data-figure="${id}"] .ylabel`)].map((e) => e.textContent), timeFig.id);
+  assert.ok(ylabels.length >= 1 && ylabels.every((t) => t.includes(timeFig.y.label)), `y labels ${ylabels}`);
+  await page.close();
+});
+
 test('the landing page lists, sorts and filters the findings and links only to files that exist', { skip }, async () => {
   const file = join(dir, 'index.html');
   const page = await browser.newPage({ viewport: { width: 1500, height: 1000 } });

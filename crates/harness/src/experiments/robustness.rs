@@ -50,7 +50,7 @@ use serde::{Deserialize, Serialize};
 use super::lod::noise::{LOD_NOISE, LodRow};
 use super::{Context, Experiment, markdown_table};
 use crate::datasets::{self, Degraded};
-use crate::output::figure::{Axis, Draw, Figure, Point, Series};
+use crate::output::figure::{Axis, Draw, Figure, Point, Rule, Series};
 use crate::output::style;
 use crate::output::{read_csv, write_atomic, write_csv};
 
@@ -370,6 +370,15 @@ impl Experiment for RobustnessExperiment {
         let mut thresholds = Vec::new();
         for ds in &datasets {
             for (axis, label, _) in axes {
+                // Levels spanning a decade or more: a log axis, the clean cloud (level 0) half
+                // a step of the ladder left of the lowest level, at a rule labelled "clean".
+                let nonzero: Vec<f64> = groups
+                    .iter()
+                    .filter(|((d, a, _, _), _)| d == ds && a == axis)
+                    .flat_map(|(_, levels)| levels.keys().map(|l| *l as f64 / 1e6))
+                    .filter(|l| *l > 0.0)
+                    .collect();
+                let clean_x = log_clean_x(&nonzero);
                 let mut series = Vec::new();
                 for ((d, a, method, setting), levels) in &groups {
                     if d != ds || a != axis {
@@ -387,11 +396,14 @@ impl Experiment for RobustnessExperiment {
                             .seconds(median(rs.iter().map(|r| r.seconds).collect()))
                             .setting(rs.first().map_or("", |r| r.params.as_str()))
                     };
-                    let mut pts = vec![point(0.0, &base)];
+                    let mut pts = vec![point(clean_x.unwrap_or(0.0), &base)];
                     for (level, rs) in levels {
                         pts.push(point(*level as f64 / 1e6, rs));
                     }
-                    let med: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
+                    let mut med: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
+                    if let Some(first) = med.first_mut() {
+                        first.0 = 0.0;
+                    }
                     if axis == "noise" {
                         // The σ at which the median F1 first falls below 0.9 (linear between
                         // levels); "> max" when it never does, "clean" when it starts below.
@@ -416,13 +428,24 @@ impl Experiment for RobustnessExperiment {
                 if series.is_empty() {
                     continue;
                 }
+                let (x_axis, rules) = match clean_x {
+                    Some(x) => (
+                        Axis::log(format!("{label} (log; the clean cloud at the rule)")),
+                        vec![Rule {
+                            x,
+                            label: "clean (0)".into(),
+                        }],
+                    ),
+                    None => (Axis::linear(label), Vec::new()),
+                };
                 let fig = Figure::new(
                     format!("f1_{axis}_{ds}"),
                     format!("{ds}: F1 against {axis}"),
-                    Axis::linear(label),
+                    x_axis,
                     Axis::linear("F1 (median over views; bars: quartiles)"),
                 )
                 .interval("first to third quartile over the views")
+                .rules(rules)
                 .series(series, Vec::new());
                 text.push_str(&fig.write(dir)?);
             }
@@ -709,5 +732,40 @@ impl Experiment for RobustnessExperiment {
             )
         ));
         write_atomic(&dir.join("summary.md"), text.as_bytes())
+    }
+}
+
+/// Where the clean cloud (level 0) stands on a log axis of degradation `levels` (the non-zero
+/// ones): when they span a decade or more, the lowest level divided by the ladder's smallest
+/// ratio between neighbours (at least 2), so it sits one step left of the lowest; `None` (a
+/// linear axis) for levels spanning less.
+pub(crate) fn log_clean_x(levels: &[f64]) -> Option<f64> {
+    let mut v: Vec<f64> = levels.iter().copied().filter(|l| *l > 0.0).collect();
+    v.sort_by(f64::total_cmp);
+    v.dedup();
+    let (lo, hi) = (*v.first()?, *v.last()?);
+    if hi / lo < 10.0 {
+        return None;
+    }
+    let step = v
+        .windows(2)
+        .map(|w| w[1] / w[0])
+        .fold(f64::INFINITY, f64::min)
+        .max(2.0);
+    Some(lo / step)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::log_clean_x;
+
+    #[test]
+    fn levels_spanning_a_decade_take_a_log_axis_with_the_clean_cloud_one_step_left() {
+        let noise = [0.05, 0.1, 0.25, 0.5, 1.0, 2.0];
+        assert_eq!(log_clean_x(&noise), Some(0.025));
+        assert_eq!(log_clean_x(&[0.01, 0.02, 0.05, 0.1]), Some(0.005));
+        // Less than a decade: linear.
+        assert_eq!(log_clean_x(&[0.0025, 0.005, 0.01]), None);
+        assert_eq!(log_clean_x(&[]), None);
     }
 }

@@ -256,6 +256,15 @@ impl Axis {
     }
 }
 
+/// A vertical rule across every panel at one x, with its label (an LOD budget, say).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rule {
+    /// Where (in the data's units, not log10 on a log axis).
+    pub x: f64,
+    /// What it marks, printed beside it at the top of the plot.
+    pub label: String,
+}
+
 /// One panel of a figure.
 #[derive(Debug, Clone, Serialize)]
 pub struct Panel {
@@ -283,6 +292,13 @@ pub struct Figure {
     pub interval: String,
     /// The panels.
     pub panels: Vec<Panel>,
+    /// Vertical rules drawn in every panel (those inside the x range).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub rules: Vec<Rule>,
+    /// Notes about data that is not drawn (images identical to the reference, say), printed
+    /// under the legend.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// The PNG drawn from it.
     pub png: String,
 }
@@ -352,7 +368,21 @@ impl Figure {
             y,
             interval: String::new(),
             panels: Vec::new(),
+            rules: Vec::new(),
+            notes: Vec::new(),
         }
+    }
+
+    /// With vertical rules at these x, labelled.
+    pub fn rules(mut self, rules: Vec<Rule>) -> Self {
+        self.rules = rules;
+        self
+    }
+
+    /// With notes printed under the legend.
+    pub fn notes(mut self, notes: Vec<String>) -> Self {
+        self.notes = notes;
+        self
     }
 
     /// With the meaning of the points' y intervals.
@@ -378,7 +408,53 @@ impl Figure {
         }
         panels.retain(|p| p.series.iter().any(|s| !s.context));
         self.panels = panels;
+        self.distinct_colours();
         self
+    }
+
+    /// Gives each series identity of the figure (as the legend lists them) a colour no other
+    /// identity has: a series whose colour another already took (two variants of one family,
+    /// a method and its variant in one panel) takes the next free shade of it
+    /// ([`style::free_shade`]); the first keeps the table's. Context, fronts and wrong answers
+    /// keep their reserved colours.
+    fn distinct_colours(&mut self) {
+        type Key = (String, String, String, String);
+        let key = |s: &Series| -> Key {
+            (
+                s.method.clone(),
+                s.family.clone(),
+                s.variant.clone(),
+                s.label.clone(),
+            )
+        };
+        let mut taken: Vec<[u8; 3]> = Vec::new();
+        let mut chosen: Vec<(Key, [u8; 3])> = Vec::new();
+        for s in self.panels.iter().flat_map(|p| &p.series) {
+            let k = key(s);
+            if s.context
+                || s.draw == Draw::Front
+                || s.variant == style::WRONG
+                || s.style.color == style::WRONG_COLOR
+                || chosen.iter().any(|(c, _)| *c == k)
+            {
+                continue;
+            }
+            let colour = if taken.contains(&s.style.color) {
+                style::free_shade(s.style.color, &taken).unwrap_or(s.style.color)
+            } else {
+                s.style.color
+            };
+            taken.push(colour);
+            chosen.push((k, colour));
+        }
+        for s in self.panels.iter_mut().flat_map(|p| &mut p.series) {
+            if s.context {
+                continue;
+            }
+            if let Some((_, c)) = chosen.iter().find(|(k, _)| *k == key(s)) {
+                s.style.color = *c;
+            }
+        }
     }
 
     /// With `series` (and `shared`) arranged by [`arrange`], series without a plottable point
@@ -461,7 +537,7 @@ impl Figure {
         if self.panels.len() <= 1 {
             (1000 + self.legend_width(), 560)
         } else {
-            let entries = self.legend_lines().len() as u32;
+            let entries = self.legend_lines().len() as u32 + 1;
             let (pw, ph) = self.panel_size();
             let h = (TITLE_H + rows as u32 * ph + 40).max(TITLE_H + entries * 18 + 40);
             (cols as u32 * pw + 40 + self.legend_width(), h)

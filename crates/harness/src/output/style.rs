@@ -230,53 +230,128 @@ impl Serialize for Style {
     }
 }
 
-/// One row of the table: family, palette index, dash, peer.
-type Entry = (&'static str, usize, Dash, bool);
+/// A shade of a palette colour: the colour itself, or mixed towards white or black. A peer
+/// takes a lighter shade of its partner's colour, and a second family on one colour a darker
+/// one, so that no two families of a domain share a colour.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shade {
+    /// The palette colour.
+    Base,
+    /// 35 % towards white.
+    Light,
+    /// 60 % towards white.
+    Lighter,
+    /// 40 % towards black.
+    Dark,
+}
 
-/// The families the table knows. A peer's colour is its partner's.
+impl Shade {
+    /// `c` in this shade.
+    pub fn of(self, c: [u8; 3]) -> [u8; 3] {
+        match self {
+            Base => c,
+            Light => mix(c, [255; 3], 0.35),
+            Lighter => mix(c, [255; 3], 0.6),
+            Dark => mix(c, [0; 3], 0.4),
+        }
+    }
+}
+
+/// `a` moved the share `t` of the way to `b`.
+pub fn mix(a: [u8; 3], b: [u8; 3], t: f64) -> [u8; 3] {
+    let m = |x: u8, y: u8| (f64::from(x) + (f64::from(y) - f64::from(x)) * t).round() as u8;
+    [m(a[0], b[0]), m(a[1], b[1]), m(a[2], b[2])]
+}
+
+/// One row of the table: family, palette index, shade, dash, peer.
+type Entry = (&'static str, usize, Shade, Dash, bool);
+
+use Shade::{Base, Dark, Light, Lighter};
+
+/// The families the table knows. A peer's colour is a lighter shade of its partner's.
 const TABLE: &[Entry] = &[
     // Visibility, ours.
-    ("hpr-linear", 0, Dash::Solid, false),
-    ("hpr-exp", 1, Dash::Solid, false),
-    ("hpr-log", 2, Dash::Solid, false),
-    ("hpr-expdecay", 4, Dash::Solid, false),
-    ("hpr-confidence", 8, Dash::Solid, false),
-    ("hpr-approx", 5, Dash::Solid, false),
-    ("robust", 7, Dash::Solid, false),
-    ("raycast", 3, Dash::Solid, false),
-    ("splat", 6, Dash::Solid, false),
-    ("screenspace", 9, Dash::Solid, false),
-    ("vardensity", 2, Dash::Dashed, false),
-    ("example-zbuffer", 9, Dash::Dashed, false),
-    // Visibility, peers: the partner's colour, hollow.
-    ("cgal-hpr", 0, Dash::Dashed, true),
-    ("open3d-hpr", 0, Dash::Dotted, true),
-    ("pcu-raycast", 3, Dash::Dashed, true),
-    ("vtk-zbuffer", 6, Dash::Dashed, true),
-    ("pcl-voxel", 8, Dash::Dashed, true),
+    ("hpr-linear", 0, Base, Dash::Solid, false),
+    ("hpr-exp", 1, Base, Dash::Solid, false),
+    ("hpr-log", 2, Base, Dash::Solid, false),
+    ("hpr-expdecay", 4, Base, Dash::Solid, false),
+    ("hpr-confidence", 8, Base, Dash::Solid, false),
+    ("hpr-approx", 5, Base, Dash::Solid, false),
+    ("robust", 7, Base, Dash::Solid, false),
+    ("raycast", 3, Base, Dash::Solid, false),
+    ("splat", 6, Base, Dash::Solid, false),
+    ("screenspace", 9, Base, Dash::Solid, false),
+    ("vardensity", 2, Dark, Dash::Dashed, false),
+    ("example-zbuffer", 5, Dark, Dash::Dashed, false),
+    // Visibility, peers: the partner's hue, their own shade, hollow.
+    ("cgal-hpr", 0, Light, Dash::Dashed, true),
+    ("open3d-hpr", 0, Lighter, Dash::Dotted, true),
+    ("pcu-raycast", 3, Light, Dash::Dashed, true),
+    ("vtk-zbuffer", 6, Light, Dash::Dashed, true),
+    ("pcl-voxel", 8, Light, Dash::Dashed, true),
     // The ground truths.
-    ("reference", 9, Dash::Dotted, false),
-    ("zbuffer", 1, Dash::Dotted, false),
-    ("exact", 7, Dash::Dotted, false),
+    ("reference", 1, Dark, Dash::Dotted, false),
+    ("zbuffer", 4, Dark, Dash::Dotted, false),
+    ("exact", 7, Light, Dash::Dotted, false),
     // The Pareto front of a figure (its colour is [`FRONT_COLOR`], its marker a ring).
-    ("pareto-front", 9, Dash::Solid, false),
+    ("pareto-front", 9, Base, Dash::Solid, false),
     // Hull implementations (HPR's hull; the `hull` and `scale` experiments).
-    ("hull-own", 0, Dash::Solid, false),
-    ("hull-qhull", 3, Dash::Solid, false),
-    ("hull-qhull-qj", 2, Dash::Solid, false),
-    ("hull-parry", 6, Dash::Solid, false),
-    ("hull-quickhull", 5, Dash::Solid, false),
-    ("hull-chull", 7, Dash::Solid, false),
-    ("hull-cgal", 1, Dash::Dashed, true),
+    ("hull-own", 0, Base, Dash::Solid, false),
+    ("hull-qhull", 3, Base, Dash::Solid, false),
+    ("hull-qhull-qj", 2, Base, Dash::Solid, false),
+    ("hull-parry", 6, Base, Dash::Solid, false),
+    ("hull-quickhull", 5, Base, Dash::Solid, false),
+    ("hull-chull", 7, Base, Dash::Solid, false),
+    ("hull-cgal", 1, Base, Dash::Dashed, true),
     // Level of detail.
-    ("qsplat", 0, Dash::Solid, false),
-    ("spt", 6, Dash::Solid, false),
-    ("srn", 3, Dash::Solid, false),
-    ("random", 9, Dash::Solid, false),
-    ("full", 4, Dash::Dotted, false),
-    ("py3dtiles-lod", 1, Dash::Dashed, true),
-    ("copc-lod", 2, Dash::DashDot, true),
+    ("qsplat", 0, Base, Dash::Solid, false),
+    ("spt", 6, Base, Dash::Solid, false),
+    ("srn", 3, Base, Dash::Solid, false),
+    ("random", 9, Base, Dash::Solid, false),
+    ("full", 4, Base, Dash::Dotted, false),
+    ("py3dtiles-lod", 1, Base, Dash::Dashed, true),
+    ("copc-lod", 2, Base, Dash::DashDot, true),
 ];
+
+/// The shades a series takes, in order, when its colour is already another series' in its
+/// figure (two variants of one family in one panel, say): its own colour first.
+const LADDER: [(Shade, f64); 10] = [
+    (Base, 0.0),
+    (Dark, 0.0),
+    (Light, 0.0),
+    (Lighter, 0.0),
+    (Dark, 0.6),
+    (Light, 0.8),
+    (Dark, 0.2),
+    (Light, 0.2),
+    (Light, 0.5),
+    (Dark, 0.75),
+];
+
+/// Colours no method takes: the front, the context, wrong answers.
+const RESERVED: [[u8; 3]; 3] = [FRONT_COLOR, CONTEXT_COLOR, WRONG_COLOR];
+
+/// The first colour of `base`'s shades that lies at least a small distance from every colour
+/// in `taken` and the reserved ones; `None` when every shade is too near.
+pub fn free_shade(base: [u8; 3], taken: &[[u8; 3]]) -> Option<[u8; 3]> {
+    let near = |a: [u8; 3], b: [u8; 3]| {
+        let d: f64 = (0..3)
+            .map(|k| (f64::from(a[k]) - f64::from(b[k])).powi(2))
+            .sum();
+        d.sqrt() < 30.0
+    };
+    LADDER
+        .iter()
+        .map(|&(shade, extra)| {
+            let c = shade.of(base);
+            match (shade, extra) {
+                (_, 0.0) => c,
+                (Dark, t) => mix(base, [0; 3], t),
+                (_, t) => mix(base, [255; 3], t),
+            }
+        })
+        .find(|c| !taken.iter().chain(&RESERVED).any(|t| near(*t, *c)))
+}
 
 /// The marker of a named variant; `None` for a variant the table does not name.
 fn named_marker(variant: &str) -> Option<Marker> {
@@ -324,8 +399,8 @@ fn registered_outside_table() -> Vec<(String, bool)> {
 
 /// The colour, dash and peer flag of a family.
 fn family_slot(family: &str) -> ([u8; 3], Dash, bool) {
-    if let Some(&(_, c, dash, peer)) = TABLE.iter().find(|e| e.0 == family) {
-        return (PALETTE[c], dash, peer);
+    if let Some(&(_, c, shade, dash, peer)) = TABLE.iter().find(|e| e.0 == family) {
+        return (shade.of(PALETTE[c]), dash, peer);
     }
     let others = registered_outside_table();
     match others.iter().position(|(f, _)| f == family) {
@@ -470,6 +545,9 @@ mod tests {
                 })
                 .collect();
             assert_eq!(slots.len(), domain.len(), "{domain:?}");
+            // Within a domain no two families share a colour (a peer is its own shade).
+            let colours: BTreeSet<_> = domain.iter().map(|f| style(f, "best").color).collect();
+            assert_eq!(colours.len(), domain.len(), "{domain:?}");
         }
         // Every table row is unique by name.
         let names: BTreeSet<_> = TABLE.iter().map(|e| e.0).collect();
@@ -502,14 +580,34 @@ mod tests {
     }
 
     #[test]
-    fn peers_are_hollow_in_their_partners_colour() {
+    fn peers_are_hollow_in_a_shade_of_their_partners_colour() {
         assert!(style("cgal-hpr", "best").hollow);
         assert!(!style("hpr-linear", "best").hollow);
-        assert_eq!(
+        let (ours, peer) = (
+            style("hpr-linear", "best").color,
             style("cgal-hpr", "best").color,
-            style("hpr-linear", "best").color
         );
-        assert_eq!(style("vtk-zbuffer", "").color, style("splat", "").color);
+        assert_ne!(ours, peer);
+        assert_eq!(peer, mix(ours, [255; 3], 0.35));
+        assert_eq!(
+            style("vtk-zbuffer", "").color,
+            Shade::Light.of(style("splat", "").color)
+        );
+    }
+
+    #[test]
+    fn a_free_shade_stays_clear_of_the_taken_and_reserved_colours() {
+        let indigo = PALETTE[0];
+        assert_eq!(free_shade(indigo, &[]), Some(indigo));
+        let second = free_shade(indigo, &[indigo]).unwrap();
+        assert_ne!(second, indigo);
+        let third = free_shade(indigo, &[indigo, second]).unwrap();
+        assert!(![indigo, second].contains(&third));
+        // Black's lighter shades stop short of the wrong answers' grey.
+        for c in [free_shade([0; 3], &[[0; 3]]).unwrap()] {
+            assert_ne!(c, WRONG_COLOR);
+            assert_ne!(c, [0; 3]);
+        }
     }
 
     #[test]

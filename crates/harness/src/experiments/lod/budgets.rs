@@ -10,6 +10,7 @@ use crate::experiments::rules::curve::{
     self as lod, BD_ANCHOR, Curves, IDENTICAL_PSNR, LOD_BUDGETS, LodRow, percent,
 };
 use crate::experiments::rules::verdict::SEED;
+use crate::output::figure::Rule;
 use crate::stats::bootstrap_mean;
 
 use super::Row;
@@ -43,6 +44,28 @@ fn means(curves: &Curves, points: f64) -> Vec<(String, Option<(f64, usize)>)> {
                 .collect();
             let mean = (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()));
             (m.clone(), mean)
+        })
+        .collect()
+}
+
+/// The budgets of dataset `ds` as the figures' vertical rules, each labelled with its share
+/// ("10 %"), at the points the tables read them at.
+pub(super) fn rules(rows: &[Row], ds: &str) -> Vec<Rule> {
+    let own: Vec<LodRow> = rows
+        .iter()
+        .filter(|r| r.dataset == ds && r.status == "ok")
+        .map(as_findings_row)
+        .collect();
+    let refs: Vec<&LodRow> = own.iter().collect();
+    let n = lod::dataset_points(&refs);
+    if n <= 0.0 {
+        return Vec::new();
+    }
+    LOD_BUDGETS
+        .iter()
+        .map(|b| Rule {
+            x: (b * n).round(),
+            label: format!("{} %", percent(*b)),
         })
         .collect()
 }

@@ -214,7 +214,25 @@ pub(super) enum LegendLine<'a> {
     Series(&'a Series),
     Context,
     Key(String),
+    /// One line of a note (wrapped to the column).
+    Note(String),
 }
+
+/// The lines of `text` wrapped at spaces to at most `width` pixels at `size` points.
+pub(super) fn wrap_to(text: &str, size: u32, width: u32) -> Vec<String> {
+    let mut scratch = vec![255u8; 3];
+    let area = BitMapBackend::with_buffer(&mut scratch, (1, 1)).into_drawing_area();
+    wrap_text(&area, text, &(FONT, size).into_font().into(), width)
+}
+
+/// Every text size the figures use. All even: plotters' glyph placement truncates half a
+/// pixel (size / 2 + the glyph's top) towards zero, which at odd sizes lifts a glyph that sits
+/// low (the decimal point) one pixel against the digits, so "0.05" read as "0·05".
+#[cfg(test)]
+pub(super) const TEXT_SIZES: [u32; 5] = [10, 12, 14, 16, 18];
+
+/// The notes' (and keys') font size.
+pub(super) const NOTE_FONT: u32 = 12;
 
 impl Figure {
     /// True when the category names do not fit under their slots: the axis shows letters,
@@ -230,7 +248,7 @@ impl Figure {
         } else {
             self.panel_size().0 - 75
         };
-        let size = if single { 14 } else { 11 };
+        let size = if single { 14 } else { 12 };
         let widest = self
             .x
             .categories
@@ -267,7 +285,30 @@ impl Figure {
                 }
             }
         }
-        out.extend(named.into_iter().map(LegendLine::Key));
+        // The names wrapped to the column (never cut: the parameter that tells two apart is
+        // often the last), continuation lines indented.
+        let width = self.legend_width() - 20;
+        for line in named {
+            for (k, part) in wrap_to(&line, NOTE_FONT, width - 12)
+                .into_iter()
+                .enumerate()
+            {
+                out.push(LegendLine::Key(if k == 0 {
+                    part
+                } else {
+                    format!("    {part}")
+                }));
+            }
+        }
+        // The notes, under a gap, wrapped to the column.
+        for note in &self.notes {
+            out.push(LegendLine::Note(String::new()));
+            out.extend(
+                wrap_to(note, NOTE_FONT, width)
+                    .into_iter()
+                    .map(LegendLine::Note),
+            );
+        }
         out
     }
 
@@ -305,7 +346,7 @@ impl Figure {
         {
             let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
             root.fill(&WHITE).map_err(|x| e(&x))?;
-            let title_font: TextStyle = (FONT, 19).into_font().color(&BLACK);
+            let title_font: TextStyle = (FONT, 18).into_font().color(&BLACK);
             let title = fit_text(&root, &self.title, &title_font, w - 20);
             root.draw_text(&title, &title_font, (12, 10))
                 .map_err(|x| e(&x))?;
@@ -355,8 +396,8 @@ impl Figure {
                 };
                 let y_fmt = move |v: &f64| tick(*v, yl);
                 let mut mesh = chart.configure_mesh();
-                mesh.label_style((FONT, if single { 14 } else { 11 }))
-                    .axis_desc_style((FONT, if single { 15 } else { 12 }))
+                mesh.label_style((FONT, if single { 14 } else { 12 }))
+                    .axis_desc_style((FONT, if single { 14 } else { 12 }))
                     .x_label_formatter(&x_fmt)
                     .y_label_formatter(&y_fmt)
                     .light_line_style(RGBColor(238, 238, 238))
@@ -371,6 +412,46 @@ impl Figure {
                     mesh.x_desc(&self.x.label).y_desc(&self.y.label);
                 }
                 mesh.draw().map_err(|x| e(&x))?;
+                // The vertical rules under the data, labelled at the top: each label centred on
+                // its rule on a white patch, in the first of three rows where it meets no
+                // label placed before it.
+                let rule_size = if single { 12 } else { 10 };
+                let rule_font: TextStyle = (FONT, rule_size)
+                    .into_font()
+                    .color(&RULE_TEXT)
+                    .pos(Pos::new(HPos::Center, VPos::Center));
+                let mut row_ends = [f64::NEG_INFINITY; 3];
+                for rule in &self.rules {
+                    let Some(tx) = transform(rule.x, xl).filter(|t| *t > x0 && *t < x1) else {
+                        continue;
+                    };
+                    let (px, top) = chart.backend_coord(&(tx, y1));
+                    let (_, bottom) = chart.backend_coord(&(tx, y0));
+                    draw_polyline(
+                        &root,
+                        &[(px as f64, top as f64), (px as f64, bottom as f64)],
+                        RULE_LINE,
+                        1,
+                        &[5.0, 3.0],
+                    )
+                    .map_err(|x| e(&x))?;
+                    let w = f64::from(text_width(&rule.label, rule_size)) + 4.0;
+                    let left = px as f64 - w / 2.0;
+                    let row = row_ends.iter().position(|end| left > *end).unwrap_or(0);
+                    row_ends[row] = left + w;
+                    let cy = top as f64 + 3.0 + (f64::from(rule_size) + 3.0) * (row as f64 + 0.5);
+                    let half_h = f64::from(rule_size) / 2.0 + 1.0;
+                    root.draw(&Rectangle::new(
+                        [
+                            (left as i32, (cy - half_h) as i32),
+                            ((left + w) as i32, (cy + half_h) as i32),
+                        ],
+                        WHITE.filled(),
+                    ))
+                    .map_err(|x| e(&x))?;
+                    root.draw_text(&rule.label, &rule_font, (px, cy as i32))
+                        .map_err(|x| e(&x))?;
+                }
                 let to_px = |x: f64, y: f64| -> Option<(f64, f64)> {
                     let (tx, ty) = (transform(x, xl)?, transform(y, yl)?);
                     let (px, py) = chart.backend_coord(&(tx, ty));
@@ -439,6 +520,10 @@ impl Figure {
         Ok(buf)
     }
 }
+
+/// A rule's line and label.
+pub(super) const RULE_LINE: RGBColor = RGBColor(120, 120, 120);
+pub(super) const RULE_TEXT: RGBColor = RGBColor(70, 70, 70);
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
 type DrawResult = std::result::Result<
@@ -575,24 +660,92 @@ pub(super) fn draw_series(
         }
     }
     if s.draw == Draw::Front {
-        let font: TextStyle = (FONT, if r < 4.0 { 10 } else { 12 })
+        let size = if r < 4.0 { 10 } else { 12 };
+        let font: TextStyle = (FONT, size)
             .into_font()
-            .color(&BLACK);
-        for (k, &(x, y)) in xy.iter().enumerate() {
-            // Numbers alternate above and below the ring, so neighbours do not collide.
-            let dy = if k % 2 == 0 {
-                -r * 1.6 - 14.0
-            } else {
-                r * 1.6 + 2.0
-            };
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        for (k, place) in front_labels(&xy, r * 1.6, size).into_iter().enumerate() {
+            if place.leader {
+                // A thin line from the ring's edge to the number placed apart.
+                let (x, y) = xy[k];
+                let (dx, dy) = (place.centre.0 - x, place.centre.1 - y);
+                let len = dx.hypot(dy).max(1e-9);
+                let from = (x + dx / len * r * 1.6, y + dy / len * r * 1.6);
+                let to = (
+                    place.centre.0 - dx / len * (size as f64 * 0.6),
+                    place.centre.1 - dy / len * (size as f64 * 0.6),
+                );
+                draw_polyline(area, &[from, to], RULE_LINE, 1, &[])?;
+            }
             area.draw_text(
                 &(k + 1).to_string(),
                 &font,
-                ((x + 3.0) as i32, (y + dy) as i32),
+                (place.centre.0 as i32, place.centre.1 as i32),
             )?;
         }
     }
     Ok(())
+}
+
+/// Where a front's number goes: the centre of its box, and whether it stands apart from its
+/// ring (then a leader line joins them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct LabelPlace {
+    pub centre: (f64, f64),
+    pub leader: bool,
+}
+
+/// The places of the numbers 1, 2, ... of the front's rings at `rings` (pixels, radius
+/// `ring`), `size`-point text: each the first box, in rings of growing distance and eight
+/// directions (above first), that overlaps no ring and no number placed before it. A number
+/// beyond the first distance stands apart, with a leader line.
+pub(super) fn front_labels(rings: &[(f64, f64)], ring: f64, size: u32) -> Vec<LabelPlace> {
+    type Box4 = (f64, f64, f64, f64);
+    let overlap = |a: &Box4, b: &Box4| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+    let obstacles: Vec<Box4> = rings
+        .iter()
+        .map(|&(x, y)| (x - ring, y - ring, x + ring, y + ring))
+        .collect();
+    let h = f64::from(size);
+    let mut placed: Vec<Box4> = Vec::new();
+    let mut out = Vec::new();
+    const DIRECTIONS: [(f64, f64); 8] = [
+        (0.0, -1.0),
+        (0.0, 1.0),
+        (1.0, 0.0),
+        (-1.0, 0.0),
+        (0.7, -0.7),
+        (-0.7, -0.7),
+        (0.7, 0.7),
+        (-0.7, 0.7),
+    ];
+    for (k, &(x, y)) in rings.iter().enumerate() {
+        let w = f64::from(text_width(&(k + 1).to_string(), size)) + 2.0;
+        let mut found = None;
+        'search: for step in 0..8 {
+            let d = ring + 2.0 + step as f64 * (h + 2.0);
+            for (ux, uy) in DIRECTIONS {
+                let c = (x + ux * (d + w / 2.0), y + uy * (d + h / 2.0));
+                let b = (c.0 - w / 2.0, c.1 - h / 2.0, c.0 + w / 2.0, c.1 + h / 2.0);
+                if !placed.iter().chain(&obstacles).any(|o| overlap(o, &b)) {
+                    found = Some((c, b, step > 0));
+                    break 'search;
+                }
+            }
+        }
+        let (centre, b, leader) = found.unwrap_or_else(|| {
+            let c = (x, y - ring - 2.0 - h / 2.0);
+            (
+                c,
+                (c.0 - w / 2.0, c.1 - h / 2.0, c.0 + w / 2.0, c.1 + h / 2.0),
+                false,
+            )
+        });
+        placed.push(b);
+        out.push(LabelPlace { centre, leader });
+    }
+    out
 }
 
 /// Left of a series' label in the legend: its swatch.
@@ -607,12 +760,9 @@ impl Figure {
         let area = BitMapBackend::with_buffer(&mut buf, (1, 1)).into_drawing_area();
         let font: TextStyle = (FONT, LEGEND_FONT).into_font().into();
         let widest = self
-            .legend_lines()
+            .legend()
             .iter()
-            .filter_map(|l| match l {
-                LegendLine::Series(s) => area.estimate_text_size(&s.label, &font).ok(),
-                _ => None,
-            })
+            .filter_map(|s| area.estimate_text_size(&s.label, &font).ok())
             .map(|(w, _)| w)
             .max()
             .unwrap_or(0);
@@ -621,12 +771,12 @@ impl Figure {
 }
 
 /// The legend's font size for series labels.
-pub(super) const LEGEND_FONT: u32 = 13;
+pub(super) const LEGEND_FONT: u32 = 12;
 
 pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResult {
     let centred = Pos::new(HPos::Left, VPos::Center);
     let font: TextStyle = (FONT, LEGEND_FONT).into_font().color(&BLACK).pos(centred);
-    let small: TextStyle = (FONT, 11)
+    let small: TextStyle = (FONT, NOTE_FONT)
         .into_font()
         .color(&RGBColor(60, 60, 60))
         .pos(centred);
@@ -657,6 +807,12 @@ pub(super) fn draw_legend(area: &Area<'_>, lines: &[LegendLine<'_>]) -> DrawResu
             LegendLine::Key(text) => {
                 let text = fit_text(area, text, &small, w - 20);
                 area.draw_text(&text, &small, (14, y as i32))?;
+                y += 15.0;
+            }
+            LegendLine::Note(text) => {
+                if !text.is_empty() {
+                    area.draw_text(text, &small, (14, y as i32))?;
+                }
                 y += 15.0;
             }
         }
