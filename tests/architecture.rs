@@ -1490,15 +1490,14 @@ fn defines(text: &str, name: &str) -> bool {
     };
     text.lines().any(|line| {
         let line = line.trim_start();
-        let declares = [
+        [
             "fn ", "struct ", "enum ", "trait ", "type ", "const ", "static ", "mod ",
         ]
         .iter()
         .any(|kw| {
             line.match_indices(&format!("{kw}{name}"))
                 .any(|(at, _)| whole(line, at + kw.len()))
-        });
-        declares
+        })
     }) || text.match_indices("pub use ").any(|(at, _)| {
         // A re-export, on one line or several: the statement up to its `;`.
         let statement = text[at..].split(';').next().unwrap_or_default();
