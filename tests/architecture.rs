@@ -243,11 +243,6 @@ const MAY_NAME: &[(&str, &str, &str)] = &[
         "replication: scored against the ground truth",
     ),
     (
-        "experiments/lod/peer_notes.rs",
-        "explains one named peer's flat curve by its wrapper's drawing rule \
-         (methods/py3dtiles-lod/lod.py), written only when the rows show it",
-    ),
-    (
         "experiments/lod/srn_table.rs",
         "srn",
         "replication: seed 003's Table 1 (SRN masking)",
@@ -1130,6 +1125,11 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
     (
         "experiments/background.rs",
         "replication: hpr::background's update, against HPR's own answer",
+    ),
+    (
+        "experiments/lod/peer_notes.rs",
+        "explains one named peer's flat curve by its wrapper's drawing rule \
+         (methods/py3dtiles-lod/lod.py), written only when the rows show it",
     ),
     (
         "experiments/lod/srn_table.rs",
