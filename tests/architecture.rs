@@ -1127,6 +1127,11 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
         "replication: hpr::background's update, against HPR's own answer",
     ),
     (
+        "experiments/lod/peer_notes.rs",
+        "explains one named peer's flat curve by its wrapper's drawing rule \
+         (methods/py3dtiles-lod/lod.py), written only when the rows show it",
+    ),
+    (
         "experiments/lod/srn_table.rs",
         "replication: seed 003's Table 1 (SRN), its output folder named after it",
     ),

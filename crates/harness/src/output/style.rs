@@ -340,6 +340,14 @@ pub fn free_shade(base: [u8; 3], taken: &[[u8; 3]]) -> Option<[u8; 3]> {
             .sum();
         d.sqrt() < 30.0
     };
+    shades(base)
+        .into_iter()
+        .find(|c| !taken.iter().chain(&RESERVED).any(|t| near(*t, *c)))
+}
+
+/// The shades of `base` a series may take, in the order [`free_shade`] tries them: `base`
+/// itself first. A method's series are drawn in these colours only, in every figure.
+pub fn shades(base: [u8; 3]) -> Vec<[u8; 3]> {
     LADDER
         .iter()
         .map(|&(shade, extra)| {
@@ -350,7 +358,7 @@ pub fn free_shade(base: [u8; 3], taken: &[[u8; 3]]) -> Option<[u8; 3]> {
                 (_, t) => mix(base, [255; 3], t),
             }
         })
-        .find(|c| !taken.iter().chain(&RESERVED).any(|t| near(*t, *c)))
+        .collect()
 }
 
 /// The marker of a named variant; `None` for a variant the table does not name.
