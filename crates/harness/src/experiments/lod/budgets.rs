@@ -48,14 +48,18 @@ fn means(curves: &Curves, points: f64) -> Vec<(String, Option<(f64, usize)>)> {
         .collect()
 }
 
+/// The ok rows of dataset `ds`, in the findings' form.
+fn ok_rows(rows: &[Row], ds: &str) -> Vec<LodRow> {
+    rows.iter()
+        .filter(|r| r.dataset == ds && r.status == "ok")
+        .map(as_findings_row)
+        .collect()
+}
+
 /// The budgets of dataset `ds` as the figures' vertical rules, each labelled with its share
 /// ("10 %"), at the points the tables read them at.
 pub(super) fn rules(rows: &[Row], ds: &str) -> Vec<Rule> {
-    let own: Vec<LodRow> = rows
-        .iter()
-        .filter(|r| r.dataset == ds && r.status == "ok")
-        .map(as_findings_row)
-        .collect();
+    let own = ok_rows(rows, ds);
     let refs: Vec<&LodRow> = own.iter().collect();
     let n = lod::dataset_points(&refs);
     if n <= 0.0 {
@@ -72,11 +76,7 @@ pub(super) fn rules(rows: &[Row], ds: &str) -> Vec<Rule> {
 
 /// The tables of dataset `ds` (markdown), per distance; empty without ok rows.
 pub(super) fn tables(rows: &[Row], ds: &str) -> String {
-    let own: Vec<LodRow> = rows
-        .iter()
-        .filter(|r| r.dataset == ds && r.status == "ok")
-        .map(as_findings_row)
-        .collect();
+    let own = ok_rows(rows, ds);
     let refs: Vec<&LodRow> = own.iter().collect();
     let n = lod::dataset_points(&refs);
     let mut distances: Vec<f64> = refs.iter().map(|r| r.distance).collect();
