@@ -528,6 +528,7 @@ impl Experiment for RobustnessExperiment {
         }
         for part in [
             tables::winners(&rows),
+            tables::methods_by_datasets(&rows),
             tables::mehra(&rows),
             tables::biasutti(&rows),
         ] {

@@ -3,7 +3,8 @@
 //! budgets, per view on its own curve, and its BD-PSNR against the random subsample, one pair
 //! of tables per distance (as the findings judge each distance on its own). The verdicts over
 //! them are the findings'; these tables show every method's numbers, with how many views each
-//! one's mean is over.
+//! one's mean is over; and [`methods_by_datasets`], the papers' one-glance table of every
+//! method's BD-PSNR on every dataset and distance.
 
 use crate::experiments::markdown_table;
 use crate::experiments::rules::curve::{
@@ -72,6 +73,86 @@ pub(super) fn rules(rows: &[Row], ds: &str) -> Vec<Rule> {
             label: format!("{} %", percent(*b)),
         })
         .collect()
+}
+
+/// Every method's BD-PSNR against the random subsample ([`at_distance`]'s, with its bootstrap
+/// interval over the comparable views), methods by (dataset, distance), the best of each
+/// column in bold: the papers' table at a glance. Empty without a comparable method.
+pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
+    let mut columns: Vec<(String, f64)> = rows
+        .iter()
+        .filter(|r| r.status == "ok")
+        .map(|r| (r.dataset.clone(), r.distance))
+        .collect();
+    columns.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    columns.dedup();
+    let mut methods: Vec<String> = rows
+        .iter()
+        .filter(|r| r.status == "ok" && r.method != BD_ANCHOR)
+        .map(|r| r.method.clone())
+        .collect();
+    methods.sort();
+    methods.dedup();
+    // Per column: each method's estimate, `None` when not comparable.
+    let estimates: Vec<Vec<Option<crate::stats::Estimate>>> = columns
+        .iter()
+        .map(|(ds, d)| {
+            let own = ok_rows(rows, ds);
+            let at: Vec<&LodRow> = own.iter().filter(|r| r.distance == *d).collect();
+            let bd = lod::bd_cells(&lod::curves(&at, |r| r.psnr));
+            methods
+                .iter()
+                .map(|m| {
+                    let v: Vec<f64> = bd
+                        .iter()
+                        .filter(|c| &c.method == m)
+                        .map(|c| c.value)
+                        .collect();
+                    bootstrap_mean(&v, SEED)
+                })
+                .collect()
+        })
+        .collect();
+    if estimates.iter().flatten().all(Option::is_none) {
+        return String::new();
+    }
+    let table: Vec<Vec<String>> = methods
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let mut row = vec![m.clone()];
+            for column in &estimates {
+                let best = column
+                    .iter()
+                    .flatten()
+                    .map(|e| e.value)
+                    .max_by(f64::total_cmp);
+                row.push(match &column[i] {
+                    Some(e) => {
+                        let text = e.text(|x| format!("{x:+.2}"), "");
+                        if Some(e.value) == best {
+                            format!("**{text}**")
+                        } else {
+                            text
+                        }
+                    }
+                    None => "not comparable".into(),
+                });
+            }
+            row
+        })
+        .collect();
+    let header: Vec<String> = std::iter::once("method".to_owned())
+        .chain(columns.iter().map(|(ds, d)| format!("{ds} ×{d}")))
+        .collect();
+    let head: Vec<&str> = header.iter().map(String::as_str).collect();
+    format!(
+        "BD-PSNR (dB) against `{BD_ANCHOR}` [95 % interval over the comparable views], methods \
+         by dataset and distance; the best of each column in bold (`not comparable`: fewer than \
+         two points of the method's curve in the common range on every view). Per dataset \
+         below: the curves, PSNR at each budget and the views each figure is over.\n\n{}\n",
+        markdown_table(&head, &table)
+    )
 }
 
 /// The tables of dataset `ds` (markdown), per distance; empty without ok rows.
@@ -169,4 +250,66 @@ fn at_distance(refs: &[&LodRow], n: f64) -> String {
         ));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rows of `method` on `ds` at distance 1 on 6 views: PSNR `offset + log10(points)` at
+    /// each of `points`.
+    fn curve(ds: &str, method: &str, offset: f64, points: &[usize]) -> Vec<Row> {
+        let mut rows = Vec::new();
+        for view in 0..6 {
+            for &p in points {
+                let mut r = Row::new(
+                    ds.into(),
+                    view,
+                    1.0,
+                    method.into(),
+                    format!("p={p}"),
+                    "ok".into(),
+                );
+                r.points_rendered = p;
+                r.psnr = offset + (p as f64).log10() + 0.01 * view as f64;
+                r.ssim = 0.5;
+                r.n_points = 10_000;
+                rows.push(r);
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn the_methods_by_datasets_table_bolds_each_columns_best_bd_psnr() {
+        let sweep = [100, 300, 1_000, 3_000];
+        let mut rows = Vec::new();
+        for ds in ["a", "b"] {
+            rows.extend(curve(ds, BD_ANCHOR, 10.0, &sweep));
+        }
+        // `qsplat` leads on `a`, `spt` on `b`; `one` has a single point of its curve.
+        rows.extend(curve("a", "qsplat", 12.0, &sweep));
+        rows.extend(curve("b", "qsplat", 10.5, &sweep));
+        rows.extend(curve("a", "spt", 11.0, &sweep));
+        rows.extend(curve("b", "spt", 11.5, &sweep));
+        rows.extend(curve("a", "one", 15.0, &[1_000]));
+        let table = methods_by_datasets(&rows);
+        let line = |m: &str| {
+            table
+                .lines()
+                .find(|l| l.starts_with(&format!("| {m} |")))
+                .unwrap_or_else(|| panic!("no row for {m} in {table}"))
+                .to_owned()
+        };
+        assert!(table.contains("| method | a ×1 | b ×1 |"), "{table}");
+        assert!(line("qsplat").contains("| **+2.00 [+2.00, +2.00]** | +0.50"), "{table}");
+        assert!(line("spt").contains("| +1.00 [+1.00, +1.00] | **+1.50"), "{table}");
+        assert!(line("one").contains("not comparable"), "{table}");
+        assert!(!table.contains(&format!("| {BD_ANCHOR} |")), "{table}");
+    }
+
+    #[test]
+    fn the_methods_by_datasets_table_is_empty_without_a_comparable_method() {
+        assert!(methods_by_datasets(&curve("a", BD_ANCHOR, 10.0, &[100, 1_000])).is_empty());
+    }
 }

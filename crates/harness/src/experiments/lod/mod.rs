@@ -671,6 +671,7 @@ fn render_outputs(
     if !not_run.is_empty() {
         summary.push('\n');
     }
+    summary.push_str(&budgets::methods_by_datasets(rows));
     for ds in &datasets {
         let series_of = |f: &dyn Fn(&Mean) -> (f64, f64)| -> Vec<Series> {
             let mut out = Vec::new();

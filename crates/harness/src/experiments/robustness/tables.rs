@@ -12,13 +12,17 @@
 //!   the truly visible ones;
 //! - [`biasutti`]: the comparison of Biasutti et al. 2019 (HPR, screen-space operators and
 //!   their variable-density operator on mobile-mapping scans), on our simulated mobile and
-//!   terrestrial scans, every method beside them.
+//!   terrestrial scans, every method beside them;
+//! - [`methods_by_datasets`]: per degradation, every method's mean F1 on every dataset, the
+//!   best of each dataset in bold (the papers' one-glance table).
 
 use std::collections::BTreeMap;
 
 use registry::Comparison;
 
 use super::{Row, median};
+use crate::experiments::rules::verdict::SEED;
+use crate::stats::{Estimate, bootstrap_mean};
 use crate::experiments::markdown_table;
 use crate::experiments::rules::verdict::{Cell, Rules, verdict};
 
@@ -130,6 +134,101 @@ pub fn winners(rows: &[Row]) -> String {
 }
 
 /// True when the method called `name` is one `paper` compared (its card says so).
+/// Per degradation (the clean clouds first, the simulated scans last), methods by datasets:
+/// each method's F1 on each view averaged over the degradation's levels run on that dataset,
+/// then the mean over the views with its bootstrap 95 % interval; each method at the better of
+/// `best` and `auto` there by that mean, the best of each dataset in bold. Empty without ok
+/// rows.
+pub fn methods_by_datasets(rows: &[Row]) -> String {
+    // degradation -> dataset -> (method, setting) -> view -> F1 per level.
+    type Views = BTreeMap<usize, Vec<f64>>;
+    let mut cells: BTreeMap<&str, BTreeMap<&str, BTreeMap<(&str, &str), Views>>> =
+        BTreeMap::new();
+    for r in rows.iter().filter(|r| r.status == "ok" && r.f1.is_finite()) {
+        cells
+            .entry(r.degradation.as_str())
+            .or_default()
+            .entry(r.dataset.as_str())
+            .or_default()
+            .entry((r.method.as_str(), r.setting.as_str()))
+            .or_default()
+            .entry(r.view)
+            .or_default()
+            .push(r.f1);
+    }
+    let order = |d: &str| match d {
+        "clean" => 0,
+        "scan" => 2,
+        _ => 1,
+    };
+    let mut degradations: Vec<&str> = cells.keys().copied().collect();
+    degradations.sort_by_key(|d| (order(d), *d));
+    let mut out = String::new();
+    for degradation in degradations {
+        let by_dataset = &cells[degradation];
+        let datasets: Vec<&str> = by_dataset.keys().copied().collect();
+        let mut methods: Vec<&str> = by_dataset
+            .values()
+            .flat_map(|m| m.keys().map(|(method, _)| *method))
+            .collect();
+        methods.sort_unstable();
+        methods.dedup();
+        // Per dataset, per method: the better setting's estimate and its name.
+        let estimate = |ds: &str, method: &str| -> Option<(Estimate, &str)> {
+            by_dataset[ds]
+                .iter()
+                .filter(|((m, _), _)| *m == method)
+                .filter_map(|((_, setting), views)| {
+                    let per_view: Vec<f64> = views
+                        .values()
+                        .map(|f| f.iter().sum::<f64>() / f.len() as f64)
+                        .collect();
+                    bootstrap_mean(&per_view, SEED).map(|e| (e, *setting))
+                })
+                .max_by(|a, b| a.0.value.total_cmp(&b.0.value))
+        };
+        let columns: Vec<Vec<Option<(Estimate, &str)>>> = datasets
+            .iter()
+            .map(|ds| methods.iter().map(|m| estimate(ds, m)).collect())
+            .collect();
+        let table: Vec<Vec<String>> = methods
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                let mut row = vec![(*m).to_owned()];
+                for column in &columns {
+                    let best = column
+                        .iter()
+                        .flatten()
+                        .map(|(e, _)| e.value)
+                        .max_by(f64::total_cmp);
+                    row.push(match &column[i] {
+                        Some((e, setting)) => {
+                            let text =
+                                format!("{} ({setting})", e.text(|x| format!("{x:.3}"), ""));
+                            if Some(e.value) == best {
+                                format!("**{text}**")
+                            } else {
+                                text
+                            }
+                        }
+                        None => "-".into(),
+                    });
+                }
+                row
+            })
+            .collect();
+        let header: Vec<&str> = std::iter::once("method").chain(datasets.iter().copied()).collect();
+        out.push_str(&format!(
+            "{degradation}: mean F1 [95 % interval over the views], each view's F1 averaged over \
+             the levels run on that dataset, each method at the better of `best` and `auto` (in \
+             brackets after the interval); the best of each dataset in bold.\n\n{}\n",
+            markdown_table(&header, &table)
+        ));
+    }
+    out
+}
+
 fn compared_in(name: &str, paper: Comparison) -> bool {
     registry::card_named(name).is_some_and(|c| c.compared_in.contains(&paper))
 }
@@ -391,5 +490,34 @@ mod tests {
             mobile < terrestrial && t.contains("| x-mobile | raycast |"),
             "{t}"
         );
+    }
+
+    #[test]
+    fn the_methods_by_datasets_table_bolds_each_datasets_best_per_degradation() {
+        let mut rows = Vec::new();
+        for view in 0..6 {
+            // Noise at two levels: `a` averages 30/40 found, `b` 35/40; clean: `a` leads.
+            rows.push(row("noise", 0.1, "a", view, 30, 0));
+            rows.push(row("noise", 0.2, "a", view, 30, 0));
+            rows.push(row("noise", 0.1, "b", view, 36, 0));
+            rows.push(row("noise", 0.2, "b", view, 34, 0));
+            rows.push(row("clean", 0.0, "a", view, 40, 0));
+            rows.push(row("clean", 0.0, "b", view, 38, 0));
+            // `b`'s automatic rule is worse on the clean cloud: `best` is shown.
+            let mut auto = row("clean", 0.0, "b", view, 20, 0);
+            auto.setting = "auto".into();
+            rows.push(auto);
+        }
+        let text = methods_by_datasets(&rows);
+        let clean = text.find("clean:").expect("a clean table");
+        let noise = text.find("noise:").expect("a noise table");
+        assert!(clean < noise, "{text}");
+        let (clean_part, noise_part) = text.split_at(noise);
+        assert!(clean_part.contains("| a | **1.000 [1.000, 1.000] (best)** |"), "{text}");
+        assert!(clean_part.contains("| b | 0.974 [0.974, 0.974] (best) |"), "{text}");
+        let f1 = |tp: f64| 2.0 * tp / (tp + 40.0);
+        let b = format!("{:.3}", (f1(36.0) + f1(34.0)) / 2.0);
+        assert!(noise_part.contains(&format!("| b | **{b} [{b}, {b}] (best)** |")), "{text}");
+        assert!(methods_by_datasets(&[]).is_empty());
     }
 }

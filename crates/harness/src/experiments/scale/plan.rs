@@ -167,7 +167,7 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
                 name: format!("{}-{part}", m.name),
                 setting: default_of(m.name),
                 memory: m.memory.clone(),
-                unavailable: None,
+                unavailable: m.availability().err(),
                 out_of_core: false,
             });
         }
