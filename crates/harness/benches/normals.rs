@@ -1,5 +1,6 @@
 //! Criterion benchmark of the normals kernel that dominates the out-of-core LOD builds'
-//! preparation (`lod-build`'s `normals` stage; its share of a build is in `docs/lod-out-of-core.md`):
+//! preparation (`lod-build`'s `normals` stage, `docs/lod-out-of-core.md`; its share of a build
+//! is in the stage seconds of `reports/scale`'s out-of-core cells):
 //! [`cloud::normals::estimate_normals`] at k = 16 (the grid's exact k-nearest-neighbour
 //! queries, [`cloud::knn_grid`], and the covariance normal of each), on 2·10^6 samples of the
 //! synthetic torus (always available, so runs on any machine compare), oriented away from the
