@@ -3,7 +3,8 @@
 //! (`harness::experiments::ratios`) or of the findings, both computed here from the committed
 //! `reports/` as `pointsight report` computes them. A number counts when it has a decimal point
 //! (`13.65`, `0.948`, `-0.003`) and stands outside a code span (settings and levels are written as
-//! code: `gamma=4`); it must equal one of those values printed with as many decimals.
+//! code: `gamma=4`); it must equal one of those values printed with as many decimals. The
+//! comparison of `docs/lod-out-of-core.md` is held to the same rule against the scale results.
 
 use std::path::Path;
 
@@ -132,6 +133,59 @@ fn every_number_of_the_headline_is_in_the_ratios_or_the_findings() {
     assert!(
         missing.is_empty(),
         "docs/benchmarks.md's headline quotes numbers in no table: {missing:?}"
+    );
+}
+
+/// The values `docs/lod-out-of-core.md`'s comparison may quote besides the ratios: every scale
+/// cell's seconds, and end to end at each size, Open3D's normals plus copc_converter's build and
+/// that sum over each of our out-of-core builds from the plain LAZ.
+fn scale_values(reports: &Path) -> Vec<f64> {
+    let rows: Vec<harness::experiments::scale::row::Row> =
+        harness::output::read_csv(&reports.join("scale/results.csv"))
+            .expect("the committed scale results");
+    let ok = |method: &str, n: u64| {
+        rows.iter()
+            .find(|r| r.method == method && r.n_points == n && r.status == "ok")
+            .map(|r| r.seconds)
+    };
+    let mut v: Vec<f64> = rows.iter().map(|r| r.seconds).collect();
+    for r in rows.iter().filter(|r| r.method == "normals-open3d") {
+        let Some(sum) = ok("normals-open3d", r.n_points)
+            .zip(ok("copc_converter-build-ooc", r.n_points))
+            .map(|(a, b)| a + b)
+        else {
+            continue;
+        };
+        v.push(sum);
+        for ours in ["qsplat-build-ooc", "spt-build-ooc"] {
+            v.extend(ok(ours, r.n_points).map(|s| sum / s));
+        }
+    }
+    v.into_iter().filter(|x| x.is_finite()).collect()
+}
+
+#[test]
+fn every_number_of_the_out_of_core_comparison_is_in_the_scale_results_or_the_ratios() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let reports = root.join("reports");
+    let mut values = values(&reports);
+    values.extend(scale_values(&reports));
+    let doc = std::fs::read_to_string(root.join("docs/lod-out-of-core.md"))
+        .expect("docs/lod-out-of-core.md");
+    let table = section(&doc, "## Against the field's tools");
+    assert!(
+        !table.contains("{{"),
+        "docs/lod-out-of-core.md's comparison has an unfilled placeholder"
+    );
+    assert!(
+        decimals(table).len() >= 10,
+        "the comparison quotes its numbers: {table}"
+    );
+    let missing = unknown(table, &values);
+    assert!(
+        missing.is_empty(),
+        "docs/lod-out-of-core.md's comparison quotes numbers in neither reports/scale/results.csv \
+         nor the ratios: {missing:?}"
     );
 }
 

@@ -150,6 +150,79 @@ pub trait Program: Sync {
 }
 
 impl Card {
+    /// A built-in card: its name, summary, what runs it, its parameters and its memory, every
+    /// other field at its default, which the `with_` methods change where a method differs:
+    /// its own name as its family, views one after another, no peer, no comparison of the
+    /// literature, no paper's node size, the built-in sweeps, no program, not exact, and made
+    /// for the visible set (a visibility method) or the image (an LOD method). Const, so a
+    /// card stays a `static`.
+    pub const fn new(
+        name: &'static str,
+        summary: &'static str,
+        kind: Kind,
+        params: &'static [Param],
+        memory: Memory,
+    ) -> Card {
+        Card {
+            name,
+            summary,
+            params,
+            family: Family::Name,
+            memory,
+            parallel_views: false,
+            peer_of: None,
+            peer_keys: &[],
+            compared_in: &[],
+            bare_node_bytes: None,
+            sweep: None,
+            program: None,
+            made_for: match kind {
+                Kind::Visibility(_) => Metric::Points,
+                Kind::Lod(_) => Metric::Pixels,
+            },
+            exact: false,
+            kind,
+        }
+    }
+
+    /// With the family its settings group under.
+    pub const fn with_family(mut self, family: Family) -> Card {
+        self.family = family;
+        self
+    }
+
+    /// With several views answered in parallel, one a thread.
+    pub const fn with_parallel_views(mut self) -> Card {
+        self.parallel_views = true;
+        self
+    }
+
+    /// Taking part in these comparisons of the literature.
+    pub const fn with_compared_in(mut self, compared_in: &'static [Comparison]) -> Card {
+        self.compared_in = compared_in;
+        self
+    }
+
+    /// With its paper's bytes per node of the bare structure.
+    pub const fn with_bare_node_bytes(mut self, bytes: u32) -> Card {
+        self.bare_node_bytes = Some(bytes);
+        self
+    }
+
+    /// Made for this score.
+    pub const fn with_made_for(mut self, metric: Metric) -> Card {
+        self.made_for = metric;
+        self
+    }
+
+    /// Claiming exact answers (the findings check the claim).
+    pub const fn with_exact(mut self) -> Card {
+        self.exact = true;
+        self
+    }
+}
+
+impl Card {
     /// The family of `setting`'s results.
     pub fn family(&self, setting: &Setting) -> String {
         match self.family {

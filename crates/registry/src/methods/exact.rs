@@ -10,24 +10,15 @@ use crate::params::Reader;
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "exact",
-    summary: "exact check: a segment from the eye to each point against the mesh (BVH, f64)",
-    params: &[],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "exact",
+    "exact check: a segment from the eye to each point against the mesh (BVH, f64)",
+    Kind::Visibility(&Exact),
+    &[],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
-    memory: Memory::PerPoint(40),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: false,
-    kind: Kind::Visibility(&Exact),
-};
+    Memory::PerPoint(40),
+)
+.with_parallel_views();
 
 /// The method (no parameters: it is its own setting).
 struct Exact;

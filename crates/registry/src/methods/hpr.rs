@@ -15,24 +15,18 @@ use crate::setting::Setting;
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "hpr",
-    summary: "Hidden Point Removal (Katz et al. 2007): spherical flipping + convex hull (seed 000)",
-    params: &[GAMMA, RADIUS, KERNEL, PERTURB, HULL, SEED],
-    family: Family::Of(family),
+pub static CARD: Card = Card::new(
+    "hpr",
+    "Hidden Point Removal (Katz et al. 2007): spherical flipping + convex hull (seed 000)",
+    Kind::Visibility(&Hpr),
+    &[GAMMA, RADIUS, KERNEL, PERTURB, HULL, SEED],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
-    memory: Memory::PerPoint(130),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[Comparison::Mehra2010, Comparison::Biasutti2019],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: true,
-    kind: Kind::Visibility(&Hpr),
-};
+    Memory::PerPoint(130),
+)
+.with_family(Family::Of(family))
+.with_parallel_views()
+.with_compared_in(&[Comparison::Mehra2010, Comparison::Biasutti2019])
+.with_exact();
 
 /// The kernel's parameter, by kernel.
 pub(crate) const GAMMA: Param = Param::per(

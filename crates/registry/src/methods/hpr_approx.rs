@@ -22,25 +22,16 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "hpr-approx",
-    summary: "HPR over an approximate hull (Machado e Silva et al. 2012/2014): farthest flipped point per direction sector, hull of those",
-    params: &[SECTORS, GAMMA, RADIUS, KERNEL, HULL],
-    family: Family::Name,
-    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
-    // dragon at its default setting peaked at 955 MB.
-    memory: Memory::PerPoint(59),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Visibility(&HprApprox),
-};
+pub static CARD: Card = Card::new(
+    "hpr-approx",
+    "HPR over an approximate hull (Machado e Silva et al. 2012/2014): farthest flipped point per direction sector, hull of those",
+    Kind::Visibility(&HprApprox),
+    &[SECTORS, GAMMA, RADIUS, KERNEL, HULL],
+    // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+    Memory::PerPoint(59),
+)
+    .with_parallel_views()
+    .with_made_for(Metric::Pixels);
 
 const SECTORS: Param = Param::value(
     "sectors",

@@ -20,25 +20,15 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "hpr-confidence",
-    summary: "HPR visibility-confidence score (Katz & Tal 2015): fraction of a kernel-parameter grid at which a point is on the hull, thresholded",
-    params: &[KERNEL, FROM, TO, STEPS, THRESHOLD, HULL],
-    family: Family::Name,
-    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
-    // dragon at its default setting peaked at 1789 MB.
-    memory: Memory::PerPoint(164),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: false,
-    kind: Kind::Visibility(&HprConfidence),
-};
+pub static CARD: Card = Card::new(
+    "hpr-confidence",
+    "HPR visibility-confidence score (Katz & Tal 2015): fraction of a kernel-parameter grid at which a point is on the hull, thresholded",
+    Kind::Visibility(&HprConfidence),
+    &[KERNEL, FROM, TO, STEPS, THRESHOLD, HULL],
+    // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+    Memory::PerPoint(164),
+)
+    .with_parallel_views();
 
 const FROM: Param = Param::per(
     "from",

@@ -16,24 +16,14 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "neuralvis",
-    summary: "learned: Neural Visibility of Point Sets (Wang et al. 2025), octree U-Net features once per cloud + view-direction MLP per view; our training of their design on 29 CGAL meshes",
-    params: &[THRESHOLD, DEPTH, WEIGHTS],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "neuralvis",
+    "learned: Neural Visibility of Point Sets (Wang et al. 2025), octree U-Net features once per cloud + view-direction MLP per view; our training of their design on 29 CGAL meshes",
+    Kind::Visibility(&NeuralVis),
+    &[THRESHOLD, DEPTH, WEIGHTS],
     // The features (63 f32 a point) and the build's keys, positions and indices, with a margin.
-    memory: Memory::PerPoint(400),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: false,
-    kind: Kind::Visibility(&NeuralVis),
-};
+    Memory::PerPoint(400),
+);
 
 const THRESHOLD: Param = Param::value(
     "threshold",

@@ -11,26 +11,17 @@ use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, a
 use crate::params::{Param, Reader};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "qsplat",
-    summary: "QSplat (Rusinkiewicz & Levoy 2000): bounding-sphere tree, projected-size cut (seed 002)",
-    params: &[THRESHOLD_PX],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "qsplat",
+    "QSplat (Rusinkiewicz & Levoy 2000): bounding-sphere tree, projected-size cut (seed 002)",
+    Kind::Lod(&Qsplat),
+    &[THRESHOLD_PX],
     // 1.25 times the peak per point measured at 10^7 points (build and selection, with the
     // normals, colours and texture coordinates of `LodData`), less the cloud's 48.
-    memory: Memory::PerPoint(382),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    // Without colour: 4 bytes a node, offset words included (the paper's count).
-    bare_node_bytes: Some(4),
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Lod(&Qsplat),
-};
+    Memory::PerPoint(382),
+)
+// Without colour: 4 bytes a node, offset words included (the paper's count).
+.with_bare_node_bytes(4);
 
 const THRESHOLD_PX: Param = Param::value(
     "threshold_px",

@@ -11,25 +11,15 @@ use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, a
 use crate::params::{Param, Reader};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "random",
-    summary: "baseline: a seeded uniform random subset, splats grown by 1/sqrt(fraction)",
-    params: &[FRACTION],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "random",
+    "baseline: a seeded uniform random subset, splats grown by 1/sqrt(fraction)",
+    Kind::Lod(&Random),
+    &[FRACTION],
     // 1.25 times the peak per point measured at 10^7 points (build and selection, with the
     // normals, colours and texture coordinates of `LodData`), less the cloud's 48.
-    memory: Memory::PerPoint(72),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Lod(&Random),
-};
+    Memory::PerPoint(72),
+);
 
 const FRACTION: Param = Param::value(
     "fraction",

@@ -19,24 +19,15 @@ use crate::visibility::{
 };
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "raycast",
-    summary: "ray-cast point filtering (Jensen 2012): one ray per pixel through a point hierarchy (a bucketed BVH cast in 8x8 packets, or the seed's k-d tree; seed 001)",
-    params: &[RADIUS, RADIUS_FACTOR, WIDTH, HEIGHT, TRAVERSAL, PRIMITIVE],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "raycast",
+    "ray-cast point filtering (Jensen 2012): one ray per pixel through a point hierarchy (a bucketed BVH cast in 8x8 packets, or the seed's k-d tree; seed 001)",
+    Kind::Visibility(&Raycast),
+    &[RADIUS, RADIUS_FACTOR, WIDTH, HEIGHT, TRAVERSAL, PRIMITIVE],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
-    memory: Memory::PerPoint(155),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Visibility(&Raycast),
-};
+    Memory::PerPoint(155),
+)
+    .with_made_for(Metric::Pixels);
 
 const RADIUS: Param = Param::value(
     "radius",

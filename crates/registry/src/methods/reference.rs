@@ -12,24 +12,15 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "reference",
-    summary: "ground truth: the mesh's depth buffer (>= 2048 px), each point's own ray tested against the triangles it shows",
-    params: &[TOLERANCE_PX, MIN_LONG_SIDE, GRAZING_COS, EXACT_FALLBACK],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "reference",
+    "ground truth: the mesh's depth buffer (>= 2048 px), each point's own ray tested against the triangles it shows",
+    Kind::Visibility(&ReferenceMethod),
+    &[TOLERANCE_PX, MIN_LONG_SIDE, GRAZING_COS, EXACT_FALLBACK],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
-    memory: Memory::PerPoint(40),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: false,
-    kind: Kind::Visibility(&ReferenceMethod),
-};
+    Memory::PerPoint(40),
+)
+    .with_parallel_views();
 
 const TOLERANCE_PX: Param =
     Param::implied("tolerance_px", "0.5", "depth tolerance in reference pixels");

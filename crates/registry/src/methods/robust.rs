@@ -13,25 +13,16 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "robust",
-    summary: "Visibility of noisy clouds (Mehra et al. 2010): dual-space hull + depth band from noise and concavity bounds",
-    params: &[GAMMA, RADIUS, NOISE, BAND, TOLERANCE, SEED],
-    family: Family::Name,
-    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
-    // dragon at its default setting peaked at 1562 MB.
-    memory: Memory::PerPoint(135),
-    parallel_views: true,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[Comparison::Mehra2010],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Points,
-    exact: false,
-    kind: Kind::Visibility(&Robust),
-};
+pub static CARD: Card = Card::new(
+    "robust",
+    "Visibility of noisy clouds (Mehra et al. 2010): dual-space hull + depth band from noise and concavity bounds",
+    Kind::Visibility(&Robust),
+    &[GAMMA, RADIUS, NOISE, BAND, TOLERANCE, SEED],
+    // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+    Memory::PerPoint(135),
+)
+    .with_parallel_views()
+    .with_compared_in(&[Comparison::Mehra2010]);
 
 const GAMMA: Param = Param::value(
     "gamma",

@@ -17,33 +17,24 @@ use crate::visibility::{
 };
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "screenspace",
-    summary: "screen-space operator (Pintus et al. 2011): open solid angle left by a pixel's neighbours, multi-level",
-    params: &[
-        SECTORS,
-        HALF_WIDTH,
-        LEVELS,
-        THRESHOLD,
-        DEPTH_TOLERANCE,
-        WIDTH,
-        HEIGHT,
-    ],
-    family: Family::Name,
-    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
-    // dragon at its default setting peaked at 687 MB.
-    memory: Memory::PerPoint(26),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[Comparison::Biasutti2019],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Visibility(&Screenspace),
-};
+pub static CARD: Card = Card::new(
+    "screenspace",
+    "screen-space operator (Pintus et al. 2011): open solid angle left by a pixel's neighbours, multi-level",
+    Kind::Visibility(&Screenspace),
+        &[
+            SECTORS,
+            HALF_WIDTH,
+            LEVELS,
+            THRESHOLD,
+            DEPTH_TOLERANCE,
+            WIDTH,
+            HEIGHT,
+        ],
+    // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+    Memory::PerPoint(26),
+)
+    .with_compared_in(&[Comparison::Biasutti2019])
+    .with_made_for(Metric::Pixels);
 
 const SECTORS: Param = Param::value("sectors", "8", "angular sectors around each pixel");
 const HALF_WIDTH: Param = Param::value(

@@ -14,24 +14,15 @@ use crate::visibility::{
 };
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "splat",
-    summary: "baseline: point splats into a z-buffer, visible within a depth tolerance of the nearest",
-    params: &[RADIUS_PX, DEPTH_TOLERANCE, RULE, WIDTH, HEIGHT],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "splat",
+    "baseline: point splats into a z-buffer, visible within a depth tolerance of the nearest",
+    Kind::Visibility(&Splat),
+    &[RADIUS_PX, DEPTH_TOLERANCE, RULE, WIDTH, HEIGHT],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
-    memory: Memory::PerPoint(45),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Visibility(&Splat),
-};
+    Memory::PerPoint(45),
+)
+.with_made_for(Metric::Pixels);
 
 const RADIUS_PX: Param = Param::value("radius_px", "2.0", "splat radius in pixels");
 const DEPTH_TOLERANCE: Param = Param::value("depth_tolerance", "0.01", "relative depth tolerance");

@@ -11,25 +11,15 @@ use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, a
 use crate::params::{Param, Reader};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "spt",
-    summary: "Sequential Point Trees (Dachsbacher et al. 2003): sorted list cut at an error (seed 002)",
-    params: &[EPSILON_PX],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "spt",
+    "Sequential Point Trees (Dachsbacher et al. 2003): sorted list cut at an error (seed 002)",
+    Kind::Lod(&Spt),
+    &[EPSILON_PX],
     // 1.25 times the peak per point measured at 10^7 points (build and selection, with the
     // normals, colours and texture coordinates of `LodData`), less the cloud's 48.
-    memory: Memory::PerPoint(392),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Lod(&Spt),
-};
+    Memory::PerPoint(392),
+);
 
 const EPSILON_PX: Param = Param::value(
     "epsilon_px",

@@ -12,25 +12,15 @@ use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, a
 use crate::params::{Param, Reader};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "srn",
-    summary: "SRN (seed 003): random numbers against a JPEG2000 visual-masking importance",
-    params: &[SCALE],
-    family: Family::Name,
+pub static CARD: Card = Card::new(
+    "srn",
+    "SRN (seed 003): random numbers against a JPEG2000 visual-masking importance",
+    Kind::Lod(&SrnMethod),
+    &[SCALE],
     // 1.25 times the peak per point measured at 10^7 points (build and selection, with the
     // normals, colours and texture coordinates of `LodData`), less the cloud's 48.
-    memory: Memory::PerPoint(72),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Lod(&SrnMethod),
-};
+    Memory::PerPoint(72),
+);
 
 const SCALE: Param = Param::value(
     "scale",

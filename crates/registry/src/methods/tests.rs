@@ -36,27 +36,12 @@ impl LodMethod for Nothing {
 
 /// A card called `name` of either kind.
 fn named(name: &'static str, lod: bool) -> &'static Card {
-    Box::leak(Box::new(Card {
-        name,
-        summary: "test",
-        params: &[],
-        family: Family::Name,
-        memory: Memory::Unknown,
-        parallel_views: false,
-        peer_of: None,
-        peer_keys: &[],
-        compared_in: &[],
-        bare_node_bytes: None,
-        sweep: None,
-        program: None,
-        made_for: Metric::Points,
-        exact: false,
-        kind: if lod {
-            Kind::Lod(&Nothing)
-        } else {
-            Kind::Visibility(&Nothing)
-        },
-    }))
+    let kind = if lod {
+        Kind::Lod(&Nothing)
+    } else {
+        Kind::Visibility(&Nothing)
+    };
+    Box::leak(Box::new(Card::new(name, "test", kind, &[], Memory::Unknown)))
 }
 
 #[test]

@@ -15,25 +15,16 @@ use crate::params::{Param, Reader};
 use crate::visibility::{Method, Setup};
 
 /// The card.
-pub static CARD: Card = Card {
-    name: "vardensity",
-    summary: "variable-density screen-space visibility (Biasutti et al. 2019): depth score over k screen neighbours",
-    params: &[K, MAX_RADIUS, THRESHOLD, DEPTH_TOLERANCE, WIDTH, HEIGHT],
-    family: Family::Name,
-    // 1.25 x (the peak per point at 10^7 points less the cloud's 48): a scale cell of the
-    // dragon at its default setting peaked at 688 MB.
-    memory: Memory::PerPoint(26),
-    parallel_views: false,
-    peer_of: None,
-    peer_keys: &[],
-    compared_in: &[Comparison::Biasutti2019],
-    bare_node_bytes: None,
-    sweep: None,
-    program: None,
-    made_for: Metric::Pixels,
-    exact: false,
-    kind: Kind::Visibility(&Vardensity),
-};
+pub static CARD: Card = Card::new(
+    "vardensity",
+    "variable-density screen-space visibility (Biasutti et al. 2019): depth score over k screen neighbours",
+    Kind::Visibility(&Vardensity),
+    &[K, MAX_RADIUS, THRESHOLD, DEPTH_TOLERANCE, WIDTH, HEIGHT],
+    // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
+    Memory::PerPoint(26),
+)
+    .with_compared_in(&[Comparison::Biasutti2019])
+    .with_made_for(Metric::Pixels);
 
 const K: Param = Param::value("k", "8", "screen-space neighbours of each pixel");
 const MAX_RADIUS: Param = Param::value("max_radius", "32", "farthest neighbour searched, pixels");
