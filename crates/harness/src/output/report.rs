@@ -10,6 +10,9 @@
 //! [`INLINE_LINES`] lines, else linked, so the page stays short (under 250 lines).
 //! Experiments without results are named as such. A page with a quick run's results says in
 //! its title that they are indicative.
+//! An earlier run of an experiment kept beside the current one (a folder `NAME-SUFFIX` with
+//! its own `metadata.json`, such as a longer scale run on another machine: [`kept_runs`]) is
+//! listed under the run table with its own run line, never mixed into the current section.
 //! Each experiment with figures also gets its interactive results page ([`results`]), linked
 //! from its section and from the contents, and linking back to the section and to the 3D
 //! viewer pages of its datasets.
@@ -164,6 +167,28 @@ pub fn assemble(
              |---|---|---|---|---|---|---|\n{rows}\n"
         ));
     }
+    let kept = kept_runs(reports_dir, experiments);
+    if !kept.is_empty() {
+        let rows: String = kept
+            .iter()
+            .map(|(folder, m)| {
+                format!(
+                    "| [{folder}]({folder}/summary.md) | {} | `{}` | {} ({} cores) | {:.0} s | `{}` |\n",
+                    m.date_utc,
+                    &m.git_revision[..m.git_revision.len().min(10)],
+                    m.cpu,
+                    m.cores,
+                    m.seconds,
+                    m.command
+                )
+            })
+            .collect();
+        page.push_str(&format!(
+            "Earlier runs kept beside the sections (each its own run, not part of the findings):\n\n\
+             | folder | date (UTC) | git revision | machine | measured time | command |\n\
+             |---|---|---|---|---|---|\n{rows}\n"
+        ));
+    }
     let mut contents = String::from("## Contents\n\n");
     let mut sections = String::new();
     // Each experiment's interactive results page, when the results script is built.
@@ -288,6 +313,34 @@ pub fn assemble(
     write_atomic(&reports_dir.join("README.md"), page.as_bytes())
 }
 
+/// The earlier runs kept in `reports_dir`: each folder named after an experiment of
+/// `experiments` and a suffix (`scale-1e9`) that holds a run's `metadata.json` and a
+/// `summary.md`, with that run, in name order.
+pub(crate) fn kept_runs(reports_dir: &Path, experiments: &[Section<'_>]) -> Vec<(String, RunMeta)> {
+    let Ok(entries) = fs::read_dir(reports_dir) else {
+        return Vec::new();
+    };
+    let mut out: Vec<(String, RunMeta)> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+        .filter_map(|e| e.file_name().into_string().ok())
+        .filter(|name| {
+            experiments.iter().any(|x| {
+                name.strip_prefix(x.name)
+                    .and_then(|rest| rest.strip_prefix('-'))
+                    .is_some_and(|suffix| !suffix.is_empty())
+            })
+        })
+        .filter(|name| reports_dir.join(name).join("summary.md").is_file())
+        .filter_map(|name| {
+            let meta = RunMeta::read(&reports_dir.join(&name)).ok()?;
+            Some((name, meta))
+        })
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -301,5 +354,42 @@ mod tests {
             "![a](hull/plot.png) [b](https://x.org/y) [c](#top) [d](hull/sub/t.csv)"
         );
         assert_eq!(link_targets(&out), vec!["hull/plot.png", "hull/sub/t.csv"]);
+    }
+
+    #[test]
+    fn kept_runs_are_an_experiments_suffixed_folders_with_a_run() {
+        let dir = tempfile::tempdir().unwrap();
+        let meta = serde_json::json!({
+            "experiment": "scale", "date_utc": "2026-12-06T11:29:48Z",
+            "git_revision": "fbbef03bc3b31034133585a96a2187182c7995a8", "git_dirty": false,
+            "rustc": "rustc", "cpu": "Intel(R) Xeon(R) Processor", "cores": 2, "os": "linux",
+            "command": "pointsight bench --experiments scale --max-points 1e9", "quick": false,
+            "datasets": ["dragon-871414"], "parameters": {}, "seconds": 3959.0
+        });
+        for (folder, summary, metadata) in [
+            ("scale", true, true),
+            ("scale-1e9", true, true),
+            ("scale-nosummary", false, true),
+            ("scale-nometa", true, false),
+            ("scale-", true, true),
+            ("other-1e9", true, true),
+        ] {
+            let d = dir.path().join(folder);
+            std::fs::create_dir(&d).unwrap();
+            if summary {
+                std::fs::write(d.join("summary.md"), "s").unwrap();
+            }
+            if metadata {
+                std::fs::write(d.join("metadata.json"), meta.to_string()).unwrap();
+            }
+        }
+        let experiments = [Section {
+            name: "scale",
+            summary: "",
+        }];
+        let kept = kept_runs(dir.path(), &experiments);
+        let names: Vec<&str> = kept.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["scale-1e9"]);
+        assert_eq!(kept[0].1.cpu, "Intel(R) Xeon(R) Processor");
     }
 }
