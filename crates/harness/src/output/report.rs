@@ -173,20 +173,25 @@ pub fn assemble(
             .iter()
             .map(|(folder, m)| {
                 format!(
-                    "| [{folder}]({folder}/summary.md) | {} | `{}` | {} ({} cores) | {:.0} s | `{}` |\n",
+                    "| [{folder}]({folder}/summary.md) | {} | `{}`{} | {} ({} cores) | {} | {:.0} s | `{}` |\n",
                     m.date_utc,
                     &m.git_revision[..m.git_revision.len().min(10)],
+                    if m.git_dirty { " (dirty)" } else { "" },
                     m.cpu,
                     m.cores,
+                    if m.quick { "quick" } else { "full" },
                     m.seconds,
                     m.command
                 )
             })
             .collect();
+        if metas.is_empty() {
+            page.push_str("## Run\n\n");
+        }
         page.push_str(&format!(
             "Earlier runs kept beside the sections (each its own run, not part of the findings):\n\n\
-             | folder | date (UTC) | git revision | machine | measured time | command |\n\
-             |---|---|---|---|---|---|\n{rows}\n"
+             | folder | date (UTC) | git revision | machine | mode | measured time | command |\n\
+             |---|---|---|---|---|---|---|\n{rows}\n"
         ));
     }
     let mut contents = String::from("## Contents\n\n");

@@ -231,8 +231,9 @@ impl Serialize for Style {
 }
 
 /// A shade of a palette colour: the colour itself, or mixed towards white or black. A peer
-/// takes a lighter shade of its partner's colour, and a second family on one colour a darker
-/// one, so that no two families of a domain share a colour.
+/// takes a lighter shade of its partner's colour (a deeper one where that colour is light),
+/// and a second family on one colour a darker one, so that no two families of a domain share
+/// a colour.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Shade {
     /// The palette colour.
@@ -243,6 +244,8 @@ pub enum Shade {
     Lighter,
     /// 40 % towards black.
     Dark,
+    /// 20 % towards black (a peer of a light colour, whose tint would wash out).
+    Deep,
 }
 
 impl Shade {
@@ -253,6 +256,7 @@ impl Shade {
             Light => mix(c, [255; 3], 0.35),
             Lighter => mix(c, [255; 3], 0.6),
             Dark => mix(c, [0; 3], 0.4),
+            Deep => mix(c, [0; 3], 0.2),
         }
     }
 }
@@ -266,7 +270,7 @@ pub fn mix(a: [u8; 3], b: [u8; 3], t: f64) -> [u8; 3] {
 /// One row of the table: family, palette index, shade, dash, peer.
 type Entry = (&'static str, usize, Shade, Dash, bool);
 
-use Shade::{Base, Dark, Light, Lighter};
+use Shade::{Base, Dark, Deep, Light, Lighter};
 
 /// The families the table knows. A peer's colour is a lighter shade of its partner's (a darker
 /// one where the partner's colour is light).
@@ -288,8 +292,9 @@ const TABLE: &[Entry] = &[
     ("cgal-hpr", 0, Light, Dash::Dashed, true),
     ("open3d-hpr", 0, Lighter, Dash::Dotted, true),
     ("pcu-raycast", 3, Light, Dash::Dashed, true),
-    // Rose is light already: its tint washes out on white, so this peer takes its dark shade.
-    ("vtk-zbuffer", 6, Dark, Dash::Dashed, true),
+    // Rose is light already: its tint washes out on white, so this peer takes a deeper shade
+    // (not `Dark`, which nears `robust`'s wine).
+    ("vtk-zbuffer", 6, Deep, Dash::Dashed, true),
     ("pcl-voxel", 8, Light, Dash::Dashed, true),
     // The ground truths.
     ("reference", 1, Dark, Dash::Dotted, false),
@@ -601,7 +606,7 @@ mod tests {
         assert_eq!(peer, mix(ours, [255; 3], 0.35));
         assert_eq!(
             style("vtk-zbuffer", "").color,
-            Dark.of(style("splat", "").color)
+            Deep.of(style("splat", "").color)
         );
     }
 

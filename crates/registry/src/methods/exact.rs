@@ -4,7 +4,7 @@ use cloud::Camera;
 use rayon::prelude::*;
 use truth::ExactVisibility;
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::Reader;
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};

@@ -8,7 +8,7 @@ use cloud::glam::DVec3;
 use hpr::{HprParams, Kernel, Radius};
 use hull::ConvexHull;
 
-use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
+use crate::card::{Card, Comparison, Family, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::setting::Setting;

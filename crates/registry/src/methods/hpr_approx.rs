@@ -16,7 +16,7 @@ use super::hpr::{
     GAMMA, HULL, KERNEL, KernelChoice, KernelRule, RADIUS, read_hull, read_kernel,
     refuse_orthographic,
 };
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -30,8 +30,8 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(59),
 )
-    .with_parallel_views()
-    .with_made_for(Metric::Pixels);
+.with_parallel_views()
+.with_made_for(Metric::Pixels);
 
 const SECTORS: Param = Param::value(
     "sectors",

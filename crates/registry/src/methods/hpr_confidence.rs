@@ -14,7 +14,7 @@ use hpr::properties::Family as KernelFamily;
 use hull::ConvexHull;
 
 use super::hpr::{HULL, KERNEL, auto_gamma_for, read_hull, refuse_orthographic};
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -28,7 +28,7 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(164),
 )
-    .with_parallel_views();
+.with_parallel_views();
 
 const FROM: Param = Param::per(
     "from",

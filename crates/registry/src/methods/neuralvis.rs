@@ -10,7 +10,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use neuralvis::{Features, Model};
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};

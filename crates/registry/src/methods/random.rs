@@ -5,7 +5,7 @@ use cloud::Camera;
 use cloud::rng::{RngExt, seeded};
 use splat::render::Splat;
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::Result;
 use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
 use crate::params::{Param, Reader};

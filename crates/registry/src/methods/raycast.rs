@@ -11,7 +11,7 @@ use cloud::Camera;
 use raycast::{CastParams, Primitive, RayCaster, RayList, Traversal};
 
 use super::external::points::cloud_normals;
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{
@@ -27,7 +27,7 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(155),
 )
-    .with_made_for(Metric::Pixels);
+.with_made_for(Metric::Pixels);
 
 const RADIUS: Param = Param::value(
     "radius",

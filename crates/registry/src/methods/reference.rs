@@ -6,7 +6,7 @@
 use cloud::Camera;
 use truth::{Reference, ReferenceParams};
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup, indices_of};
@@ -20,7 +20,7 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(40),
 )
-    .with_parallel_views();
+.with_parallel_views();
 
 const TOLERANCE_PX: Param =
     Param::implied("tolerance_px", "0.5", "depth tolerance in reference pixels");

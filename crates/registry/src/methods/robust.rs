@@ -7,7 +7,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use robustvis::bounds::{AutoRule, CloudScale};
 
-use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
+use crate::card::{Card, Comparison, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Input, Method, Output, Prepared, Setup};
@@ -21,8 +21,8 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(135),
 )
-    .with_parallel_views()
-    .with_compared_in(&[Comparison::Mehra2010]);
+.with_parallel_views()
+.with_compared_in(&[Comparison::Mehra2010]);
 
 const GAMMA: Param = Param::value(
     "gamma",

@@ -9,7 +9,7 @@ use cloud::Camera;
 use cloud::glam::DVec3;
 use screenspace::PintusParams;
 
-use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
+use crate::card::{Card, Comparison, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{
@@ -21,20 +21,20 @@ pub static CARD: Card = Card::new(
     "screenspace",
     "screen-space operator (Pintus et al. 2011): open solid angle left by a pixel's neighbours, multi-level",
     Kind::Visibility(&Screenspace),
-        &[
-            SECTORS,
-            HALF_WIDTH,
-            LEVELS,
-            THRESHOLD,
-            DEPTH_TOLERANCE,
-            WIDTH,
-            HEIGHT,
-        ],
+    &[
+        SECTORS,
+        HALF_WIDTH,
+        LEVELS,
+        THRESHOLD,
+        DEPTH_TOLERANCE,
+        WIDTH,
+        HEIGHT,
+    ],
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(26),
 )
-    .with_compared_in(&[Comparison::Biasutti2019])
-    .with_made_for(Metric::Pixels);
+.with_compared_in(&[Comparison::Biasutti2019])
+.with_made_for(Metric::Pixels);
 
 const SECTORS: Param = Param::value("sectors", "8", "angular sectors around each pixel");
 const HALF_WIDTH: Param = Param::value(

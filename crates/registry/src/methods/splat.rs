@@ -6,7 +6,7 @@ use std::sync::Mutex;
 use cloud::Camera;
 use splat::{SplatParams, SplatScratch, Splatter};
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{

@@ -6,7 +6,7 @@ use cloud::Camera;
 use splat::render::Splat;
 use srn::{MaskingParams, Srn, SrnParams, masking_map};
 
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory};
 use crate::error::{Error, Result};
 use crate::lod::{LodArgs, LodBuilt, LodInput, LodMethod, LodSelector, LodSize, args_of};
 use crate::params::{Param, Reader};

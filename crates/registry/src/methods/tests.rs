@@ -7,7 +7,7 @@ use cloud::{Camera, PointCloud};
 use srn::texture::Texture;
 
 use super::{BUILT_IN, card, card_named, cards, register, register_external};
-use crate::card::{Card, Family, Kind, Memory, Metric};
+use crate::card::{Card, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::kernel::{self, LodCell, View};
 use crate::lod::{LodArgs, LodBuilt, LodData, LodInput, LodMethod};
@@ -41,7 +41,13 @@ fn named(name: &'static str, lod: bool) -> &'static Card {
     } else {
         Kind::Visibility(&Nothing)
     };
-    Box::leak(Box::new(Card::new(name, "test", kind, &[], Memory::Unknown)))
+    Box::leak(Box::new(Card::new(
+        name,
+        "test",
+        kind,
+        &[],
+        Memory::Unknown,
+    )))
 }
 
 #[test]

@@ -9,7 +9,7 @@
 use screenspace::VardensityParams;
 
 use super::screenspace::{HEIGHT, ScreenArgs, WIDTH};
-use crate::card::{Card, Comparison, Family, Kind, Memory, Metric};
+use crate::card::{Card, Comparison, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::params::{Param, Reader};
 use crate::visibility::{Method, Setup};
@@ -23,8 +23,8 @@ pub static CARD: Card = Card::new(
     // 1.25 times the peak per point measured at 10^7 points, less the cloud's 48.
     Memory::PerPoint(26),
 )
-    .with_compared_in(&[Comparison::Biasutti2019])
-    .with_made_for(Metric::Pixels);
+.with_compared_in(&[Comparison::Biasutti2019])
+.with_made_for(Metric::Pixels);
 
 const K: Param = Param::value("k", "8", "screen-space neighbours of each pixel");
 const MAX_RADIUS: Param = Param::value("max_radius", "32", "farthest neighbour searched, pixels");

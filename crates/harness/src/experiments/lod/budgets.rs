@@ -93,8 +93,9 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
         .collect();
     methods.sort();
     methods.dedup();
-    // Per column: each method's estimate, `None` when not comparable.
-    let estimates: Vec<Vec<Option<crate::stats::Estimate>>> = columns
+    // Per column: each method's estimate, `Err(true)` when it ran there but is not
+    // comparable, `Err(false)` when it did not run there.
+    let estimates: Vec<Vec<Result<crate::stats::Estimate, bool>>> = columns
         .iter()
         .map(|(ds, d)| {
             let own = ok_rows(rows, ds);
@@ -108,12 +109,12 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
                         .filter(|c| &c.method == m)
                         .map(|c| c.value)
                         .collect();
-                    bootstrap_mean(&v, SEED)
+                    bootstrap_mean(&v, SEED).ok_or_else(|| at.iter().any(|r| &r.method == m))
                 })
                 .collect()
         })
         .collect();
-    if estimates.iter().flatten().all(Option::is_none) {
+    if estimates.iter().flatten().all(Result::is_err) {
         return String::new();
     }
     let table: Vec<Vec<String>> = methods
@@ -128,7 +129,7 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
                     .map(|e| e.value)
                     .max_by(f64::total_cmp);
                 row.push(match &column[i] {
-                    Some(e) => {
+                    Ok(e) => {
                         let text = e.text(|x| format!("{x:+.2}"), "");
                         if Some(e.value) == best {
                             format!("**{text}**")
@@ -136,7 +137,8 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
                             text
                         }
                     }
-                    None => "not comparable".into(),
+                    Err(true) => "not comparable".into(),
+                    Err(false) => "-".into(),
                 });
             }
             row
@@ -149,7 +151,8 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
     format!(
         "BD-PSNR (dB) against `{BD_ANCHOR}` [95 % interval over the comparable views], methods \
          by dataset and distance; the best of each column in bold (`not comparable`: fewer than \
-         two points of the method's curve in the common range on every view). Per dataset \
+         two points of the method's curve in the common range on every view; `-`: not run \
+         there). Per dataset \
          below: the curves, PSNR at each budget and the views each figure is over.\n\n{}\n",
         markdown_table(&head, &table)
     )
@@ -302,9 +305,15 @@ mod tests {
                 .to_owned()
         };
         assert!(table.contains("| method | a ×1 | b ×1 |"), "{table}");
-        assert!(line("qsplat").contains("| **+2.00 [+2.00, +2.00]** | +0.50"), "{table}");
-        assert!(line("spt").contains("| +1.00 [+1.00, +1.00] | **+1.50"), "{table}");
-        assert!(line("one").contains("not comparable"), "{table}");
+        assert!(
+            line("qsplat").contains("| **+2.00 [+2.00, +2.00]** | +0.50"),
+            "{table}"
+        );
+        assert!(
+            line("spt").contains("| +1.00 [+1.00, +1.00] | **+1.50"),
+            "{table}"
+        );
+        assert!(line("one").contains("| not comparable | - |"), "{table}");
         assert!(!table.contains(&format!("| {BD_ANCHOR} |")), "{table}");
     }
 

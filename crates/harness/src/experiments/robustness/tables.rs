@@ -21,10 +21,9 @@ use std::collections::BTreeMap;
 use registry::Comparison;
 
 use super::{Row, median};
-use crate::experiments::rules::verdict::SEED;
-use crate::stats::{Estimate, bootstrap_mean};
 use crate::experiments::markdown_table;
-use crate::experiments::rules::verdict::{Cell, Rules, verdict};
+use crate::experiments::rules::verdict::{Cell, Rules, SEED, verdict};
+use crate::stats::{Estimate, bootstrap_mean};
 
 /// A cell of the comparison: dataset, degradation, level (×10⁶, rounded).
 type Key = (String, String, i64);
@@ -133,17 +132,20 @@ pub fn winners(rows: &[Row]) -> String {
     )
 }
 
-/// True when the method called `name` is one `paper` compared (its card says so).
+/// A method's F1 values in one table cell: view -> level -> F1, per setting.
+type Views = BTreeMap<usize, BTreeMap<i64, f64>>;
+
+/// One dataset's cells of one degradation: (method, setting) -> its values.
+type Settings<'a> = BTreeMap<(&'a str, &'a str), Views>;
+
 /// Per degradation (the clean clouds first, the simulated scans last), methods by datasets:
 /// each method's F1 on each view averaged over the degradation's levels run on that dataset,
 /// then the mean over the views with its bootstrap 95 % interval; each method at the better of
-/// `best` and `auto` there by that mean, the best of each dataset in bold. Empty without ok
-/// rows.
+/// `best` and `auto` there by that mean, the best of each dataset in bold. A method that
+/// finished fewer (view, level) cells of a dataset than the most any method did is shown with
+/// its count and never bold (its mean is over other cells). Empty without ok rows.
 pub fn methods_by_datasets(rows: &[Row]) -> String {
-    // degradation -> dataset -> (method, setting) -> view -> F1 per level.
-    type Views = BTreeMap<usize, Vec<f64>>;
-    let mut cells: BTreeMap<&str, BTreeMap<&str, BTreeMap<(&str, &str), Views>>> =
-        BTreeMap::new();
+    let mut cells: BTreeMap<&str, BTreeMap<&str, Settings<'_>>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.status == "ok" && r.f1.is_finite()) {
         cells
             .entry(r.degradation.as_str())
@@ -154,7 +156,7 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
             .or_default()
             .entry(r.view)
             .or_default()
-            .push(r.f1);
+            .insert((r.level * 1e6).round() as i64, r.f1);
     }
     let order = |d: &str| match d {
         "clean" => 0,
@@ -173,21 +175,22 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
             .collect();
         methods.sort_unstable();
         methods.dedup();
-        // Per dataset, per method: the better setting's estimate and its name.
-        let estimate = |ds: &str, method: &str| -> Option<(Estimate, &str)> {
+        // Per dataset, per method: the better setting's estimate, its name and its cells.
+        let estimate = |ds: &str, method: &str| -> Option<(Estimate, &str, usize)> {
             by_dataset[ds]
                 .iter()
                 .filter(|((m, _), _)| *m == method)
                 .filter_map(|((_, setting), views)| {
                     let per_view: Vec<f64> = views
                         .values()
-                        .map(|f| f.iter().sum::<f64>() / f.len() as f64)
+                        .map(|f| f.values().sum::<f64>() / f.len() as f64)
                         .collect();
-                    bootstrap_mean(&per_view, SEED).map(|e| (e, *setting))
+                    let n = views.values().map(BTreeMap::len).sum();
+                    bootstrap_mean(&per_view, SEED).map(|e| (e, *setting, n))
                 })
                 .max_by(|a, b| a.0.value.total_cmp(&b.0.value))
         };
-        let columns: Vec<Vec<Option<(Estimate, &str)>>> = datasets
+        let columns: Vec<Vec<Option<(Estimate, &str, usize)>>> = datasets
             .iter()
             .map(|ds| methods.iter().map(|m| estimate(ds, m)).collect())
             .collect();
@@ -197,16 +200,19 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
             .map(|(i, m)| {
                 let mut row = vec![(*m).to_owned()];
                 for column in &columns {
+                    let most = column.iter().flatten().map(|c| c.2).max().unwrap_or(0);
                     let best = column
                         .iter()
                         .flatten()
-                        .map(|(e, _)| e.value)
+                        .filter(|c| c.2 == most)
+                        .map(|c| c.0.value)
                         .max_by(f64::total_cmp);
                     row.push(match &column[i] {
-                        Some((e, setting)) => {
-                            let text =
-                                format!("{} ({setting})", e.text(|x| format!("{x:.3}"), ""));
-                            if Some(e.value) == best {
+                        Some((e, setting, n)) => {
+                            let text = format!("{} ({setting})", e.text(|x| format!("{x:.3}"), ""));
+                            if *n < most {
+                                format!("{text}, {n} of {most} cells")
+                            } else if Some(e.value) == best {
                                 format!("**{text}**")
                             } else {
                                 text
@@ -218,17 +224,22 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
                 row
             })
             .collect();
-        let header: Vec<&str> = std::iter::once("method").chain(datasets.iter().copied()).collect();
+        let header: Vec<&str> = std::iter::once("method")
+            .chain(datasets.iter().copied())
+            .collect();
         out.push_str(&format!(
             "{degradation}: mean F1 [95 % interval over the views], each view's F1 averaged over \
              the levels run on that dataset, each method at the better of `best` and `auto` (in \
-             brackets after the interval); the best of each dataset in bold.\n\n{}\n",
+             brackets after the interval); the best of each dataset in bold, among the methods \
+             that finished every (view, level) cell any method did (`k of n cells`: fewer, not \
+             ranked).\n\n{}\n",
             markdown_table(&header, &table)
         ));
     }
     out
 }
 
+/// True when the method called `name` is one `paper` compared (its card says so).
 fn compared_in(name: &str, paper: Comparison) -> bool {
     registry::card_named(name).is_some_and(|c| c.compared_in.contains(&paper))
 }
@@ -513,11 +524,30 @@ mod tests {
         let noise = text.find("noise:").expect("a noise table");
         assert!(clean < noise, "{text}");
         let (clean_part, noise_part) = text.split_at(noise);
-        assert!(clean_part.contains("| a | **1.000 [1.000, 1.000] (best)** |"), "{text}");
-        assert!(clean_part.contains("| b | 0.974 [0.974, 0.974] (best) |"), "{text}");
+        assert!(
+            clean_part.contains("| a | **1.000 [1.000, 1.000] (best)** |"),
+            "{text}"
+        );
+        assert!(
+            clean_part.contains("| b | 0.974 [0.974, 0.974] (best) |"),
+            "{text}"
+        );
         let f1 = |tp: f64| 2.0 * tp / (tp + 40.0);
         let b = format!("{:.3}", (f1(36.0) + f1(34.0)) / 2.0);
-        assert!(noise_part.contains(&format!("| b | **{b} [{b}, {b}] (best)** |")), "{text}");
+        assert!(
+            noise_part.contains(&format!("| b | **{b} [{b}, {b}] (best)** |")),
+            "{text}"
+        );
         assert!(methods_by_datasets(&[]).is_empty());
+        // A method that finished fewer cells is shown with its count, never in bold.
+        let mut fewer: Vec<Row> = rows
+            .iter()
+            .filter(|r| !(r.method == "b" && r.degradation == "noise" && r.level > 0.15))
+            .cloned()
+            .collect();
+        fewer.retain(|r| r.degradation == "noise");
+        let text = methods_by_datasets(&fewer);
+        assert!(text.contains("(best), 6 of 12 cells |"), "{text}");
+        assert!(text.contains("| a | **"), "{text}");
     }
 }
