@@ -235,6 +235,28 @@ pub fn tables(reports: &Path) -> Result<()> {
             rendered += 1;
         }
     }
+    // An earlier run kept beside the sections (`output::report::kept_runs`) is redrawn by its
+    // own experiment, so that its figures follow the same style as the sections'.
+    let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
+        .iter()
+        .map(|e| output::report::Section {
+            name: e.name(),
+            summary: e.summary(),
+        })
+        .collect();
+    for (folder, _) in output::report::kept_runs(reports, &sections) {
+        let Some(exp) = experiments::EXPERIMENTS.iter().find(|e| {
+            folder
+                .strip_prefix(e.name())
+                .is_some_and(|rest| rest.starts_with('-'))
+        }) else {
+            continue;
+        };
+        let dir = reports.join(&folder);
+        exp.render(&dir)
+            .with_context(|| format!("redrawing {}", dir.display()))?;
+        output::folder::seal(&dir)?;
+    }
     if rendered == 0 {
         bail!(
             "no experiment results under {}: run an experiment first",
