@@ -380,12 +380,12 @@ mod tests {
             ("other-1e9", true, true),
         ] {
             let d = dir.path().join(folder);
-            std::fs::create_dir(&d).unwrap();
+            fs::create_dir(&d).unwrap();
             if summary {
-                std::fs::write(d.join("summary.md"), "s").unwrap();
+                fs::write(d.join("summary.md"), "s").unwrap();
             }
             if metadata {
-                std::fs::write(d.join("metadata.json"), meta.to_string()).unwrap();
+                fs::write(d.join("metadata.json"), meta.to_string()).unwrap();
             }
         }
         let experiments = [Section {
