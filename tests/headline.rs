@@ -137,7 +137,7 @@ fn every_number_of_the_headline_is_in_the_ratios_or_the_findings() {
 }
 
 /// The values `docs/lod-out-of-core.md`'s comparison may quote besides the ratios: every scale
-/// cell's seconds, and end to end at each size, Open3D's normals plus copc_converter's build and
+/// cell's seconds, angle errors and sign agreement (in per cent), and end to end at each size, Open3D's normals plus copc_converter's build and
 /// that sum over each of our out-of-core builds from the plain LAZ.
 fn scale_values(reports: &Path) -> Vec<f64> {
     let rows: Vec<harness::experiments::scale::row::Row> =
@@ -148,7 +148,17 @@ fn scale_values(reports: &Path) -> Vec<f64> {
             .find(|r| r.method == method && r.n_points == n && r.status == "ok")
             .map(|r| r.seconds)
     };
-    let mut v: Vec<f64> = rows.iter().map(|r| r.seconds).collect();
+    let mut v: Vec<f64> = rows
+        .iter()
+        .flat_map(|r| {
+            [
+                r.seconds,
+                r.angle_median_deg,
+                r.angle_p95_deg,
+                100.0 * r.sign_agreement,
+            ]
+        })
+        .collect();
     for r in rows.iter().filter(|r| r.method == "normals-open3d") {
         let Some(sum) = ok("normals-open3d", r.n_points)
             .zip(ok("copc_converter-build-ooc", r.n_points))
