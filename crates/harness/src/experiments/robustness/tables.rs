@@ -138,6 +138,9 @@ type Views = BTreeMap<usize, BTreeMap<i64, f64>>;
 /// One dataset's cells of one degradation: (method, setting) -> its values.
 type Settings<'a> = BTreeMap<(&'a str, &'a str), Views>;
 
+/// A method's entry in one column: its estimate, the setting it is at, its cells.
+type Entry<'a> = Option<(Estimate, &'a str, usize)>;
+
 /// Per degradation (the clean clouds first, the simulated scans last), methods by datasets:
 /// each method's F1 on each view averaged over the degradation's levels run on that dataset,
 /// then the mean over the views with its bootstrap 95 % interval; each method at the better of
@@ -176,7 +179,7 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
         methods.sort_unstable();
         methods.dedup();
         // Per dataset, per method: the better setting's estimate, its name and its cells.
-        let estimate = |ds: &str, method: &str| -> Option<(Estimate, &str, usize)> {
+        let estimate = |ds: &str, method: &str| -> Entry<'_> {
             by_dataset[ds]
                 .iter()
                 .filter(|((m, _), _)| *m == method)
@@ -190,7 +193,7 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
                 })
                 .max_by(|a, b| a.0.value.total_cmp(&b.0.value))
         };
-        let columns: Vec<Vec<Option<(Estimate, &str, usize)>>> = datasets
+        let columns: Vec<Vec<Entry<'_>>> = datasets
             .iter()
             .map(|ds| methods.iter().map(|m| estimate(ds, m)).collect())
             .collect();
