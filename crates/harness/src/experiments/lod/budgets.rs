@@ -78,7 +78,7 @@ pub(super) fn rules(rows: &[Row], ds: &str) -> Vec<Rule> {
 /// Every method's BD-PSNR against the random subsample ([`at_distance`]'s, with its bootstrap
 /// interval over the comparable views), methods by (dataset, distance), the best of each
 /// column in bold: the papers' table at a glance. Empty without a comparable method.
-pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
+pub(super) fn methods_by_datasets(rows: &[Row], quick: bool) -> String {
     let mut columns: Vec<(String, f64)> = rows
         .iter()
         .filter(|r| r.status == "ok")
@@ -130,7 +130,7 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
                     .max_by(f64::total_cmp);
                 row.push(match &column[i] {
                     Ok(e) => {
-                        let text = e.text(|x| format!("{x:+.2}"), "");
+                        let text = bd_text(e, "", quick);
                         if Some(e.value) == best {
                             format!("**{text}**")
                         } else {
@@ -158,8 +158,19 @@ pub(super) fn methods_by_datasets(rows: &[Row]) -> String {
     )
 }
 
-/// The tables of dataset `ds` (markdown), per distance; empty without ok rows.
-pub(super) fn tables(rows: &[Row], ds: &str) -> String {
+/// A BD-PSNR estimate as a table prints it: with its interval, or, from a quick run (whose
+/// figures are indicative), the mean alone, saying so.
+fn bd_text(e: &crate::stats::Estimate, unit: &str, quick: bool) -> String {
+    if quick {
+        format!("{:+.2}{unit} (indicative: quick run)", e.value)
+    } else {
+        e.text(|x| format!("{x:+.2}"), unit)
+    }
+}
+
+/// The tables of dataset `ds` (markdown), per distance; empty without ok rows. `quick`: a
+/// quick run's, whose BD-PSNR is printed without its interval.
+pub(super) fn tables(rows: &[Row], ds: &str, quick: bool) -> String {
     let own = ok_rows(rows, ds);
     let refs: Vec<&LodRow> = own.iter().collect();
     let n = lod::dataset_points(&refs);
@@ -170,13 +181,13 @@ pub(super) fn tables(rows: &[Row], ds: &str) -> String {
         .into_iter()
         .map(|d| {
             let at: Vec<&LodRow> = refs.iter().copied().filter(|r| r.distance == d).collect();
-            format!("At distance ×{d}: {}", at_distance(&at, n))
+            format!("At distance ×{d}: {}", at_distance(&at, n, quick))
         })
         .collect()
 }
 
 /// The tables of one dataset's ok rows at one distance, `n` its points.
-fn at_distance(refs: &[&LodRow], n: f64) -> String {
+fn at_distance(refs: &[&LodRow], n: f64, quick: bool) -> String {
     let cells_total = {
         let mut views: Vec<usize> = refs.iter().map(|r| r.view).collect();
         views.sort_unstable();
@@ -238,9 +249,8 @@ fn at_distance(refs: &[&LodRow], n: f64) -> String {
                     .filter(|c| &c.method == m)
                     .map(|c| c.value)
                     .collect();
-                let text = bootstrap_mean(&v, SEED).map_or("not comparable".into(), |e| {
-                    e.text(|x| format!("{x:+.2}"), " dB")
-                });
+                let text = bootstrap_mean(&v, SEED)
+                    .map_or("not comparable".into(), |e| bd_text(&e, " dB", quick));
                 vec![m.clone(), text, format!("{} of {cells_total}", v.len())]
             })
             .collect();
@@ -296,7 +306,7 @@ mod tests {
         rows.extend(curve("a", "spt", 11.0, &sweep));
         rows.extend(curve("b", "spt", 11.5, &sweep));
         rows.extend(curve("a", "one", 15.0, &[1_000]));
-        let table = methods_by_datasets(&rows);
+        let table = methods_by_datasets(&rows, false);
         let line = |m: &str| {
             table
                 .lines()
@@ -315,10 +325,15 @@ mod tests {
         );
         assert!(line("one").contains("| not comparable | - |"), "{table}");
         assert!(!table.contains(&format!("| {BD_ANCHOR} |")), "{table}");
+        let quick = methods_by_datasets(&rows, true);
+        assert!(
+            quick.contains("| **+2.00 (indicative: quick run)** |") && !quick.contains("[+"),
+            "{quick}"
+        );
     }
 
     #[test]
     fn the_methods_by_datasets_table_is_empty_without_a_comparable_method() {
-        assert!(methods_by_datasets(&curve("a", BD_ANCHOR, 10.0, &[100, 1_000])).is_empty());
+        assert!(methods_by_datasets(&curve("a", BD_ANCHOR, 10.0, &[100, 1_000]), false).is_empty());
     }
 }

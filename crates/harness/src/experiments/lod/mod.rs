@@ -518,7 +518,10 @@ impl Experiment for LodExperiment {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let builds: Vec<BuildRow> = read_csv(&dir.join("builds.csv"))?;
         let srn_rows: Vec<SrnRow> = read_csv(&dir.join("srn_table.csv"))?;
-        let parameters = crate::output::meta::RunMeta::read(dir)?.parameters;
+        let meta = crate::output::meta::RunMeta::read(dir)?;
+        // A quick run's figures are indicative: its tables state no intervals.
+        let quick = meta.quick;
+        let parameters = meta.parameters;
         let repeats = parameters["repeats"]
             .as_u64()
             .unwrap_or(super::REPEATS as u64);
@@ -530,7 +533,7 @@ impl Experiment for LodExperiment {
         } else {
             Vec::new()
         };
-        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run)?;
+        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run, quick)?;
         if reads.is_empty() {
             return Ok(());
         }
@@ -648,6 +651,7 @@ fn render_outputs(
     srn: &[SrnRow],
     repeats: u64,
     not_run: &[String],
+    quick: bool,
 ) -> Result<()> {
     let datasets = distinct(rows.iter().map(|r| r.dataset.as_str()));
     let mut distances: Vec<f64> = rows.iter().map(|r| r.distance).collect();
@@ -671,7 +675,7 @@ fn render_outputs(
     if !not_run.is_empty() {
         summary.push('\n');
     }
-    summary.push_str(&budgets::methods_by_datasets(rows));
+    summary.push_str(&budgets::methods_by_datasets(rows, quick));
     for ds in &datasets {
         let series_of = |f: &dyn Fn(&Mean) -> (f64, f64)| -> Vec<Series> {
             let mut out = Vec::new();
@@ -722,7 +726,7 @@ fn render_outputs(
         if let Some(text) = peer_notes::py3dtiles_note(rows, ds, &distances) {
             summary.push_str(&text);
         }
-        summary.push_str(&budgets::tables(rows, ds));
+        summary.push_str(&budgets::tables(rows, ds, quick));
         let mut table = Vec::new();
         for &d in &distances {
             for m in &methods {
