@@ -147,19 +147,7 @@ pub fn assemble(
     } else if !metas.is_empty() {
         let rows: String = metas
             .iter()
-            .map(|(name, m)| {
-                format!(
-                    "| [{name}](#{name}) | {} | `{}`{} | {} ({} cores) | {} | {:.0} s | `{}` |\n",
-                    m.date_utc,
-                    &m.git_revision[..m.git_revision.len().min(10)],
-                    if m.git_dirty { " (dirty)" } else { "" },
-                    m.cpu,
-                    m.cores,
-                    if m.quick { "quick" } else { "full" },
-                    m.seconds,
-                    m.command
-                )
-            })
+            .map(|(name, m)| run_row(&format!("[{name}](#{name})"), m))
             .collect();
         page.push_str(&format!(
             "## Run\n\nThe sections come from different runs; each from:\n\n\
@@ -171,19 +159,7 @@ pub fn assemble(
     if !kept.is_empty() {
         let rows: String = kept
             .iter()
-            .map(|(folder, m)| {
-                format!(
-                    "| [{folder}]({folder}/summary.md) | {} | `{}`{} | {} ({} cores) | {} | {:.0} s | `{}` |\n",
-                    m.date_utc,
-                    &m.git_revision[..m.git_revision.len().min(10)],
-                    if m.git_dirty { " (dirty)" } else { "" },
-                    m.cpu,
-                    m.cores,
-                    if m.quick { "quick" } else { "full" },
-                    m.seconds,
-                    m.command
-                )
-            })
+            .map(|(folder, m)| run_row(&format!("[{folder}]({folder}/summary.md)"), m))
             .collect();
         if metas.is_empty() {
             page.push_str("## Run\n\n");
@@ -316,6 +292,22 @@ pub fn assemble(
     page.push_str(&sections);
     page.push_str(viewer);
     write_atomic(&reports_dir.join("README.md"), page.as_bytes())
+}
+
+/// One row of a run table: `first` (the section or folder, as a link), then the run's date,
+/// revision (dirty or not), machine, mode, measured time and command.
+fn run_row(first: &str, m: &RunMeta) -> String {
+    format!(
+        "| {first} | {} | `{}`{} | {} ({} cores) | {} | {:.0} s | `{}` |\n",
+        m.date_utc,
+        &m.git_revision[..m.git_revision.len().min(10)],
+        if m.git_dirty { " (dirty)" } else { "" },
+        m.cpu,
+        m.cores,
+        if m.quick { "quick" } else { "full" },
+        m.seconds,
+        m.command
+    )
 }
 
 /// The earlier runs kept in `reports_dir`: each folder named after an experiment of

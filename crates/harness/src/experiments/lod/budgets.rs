@@ -10,7 +10,7 @@ use crate::experiments::markdown_table;
 use crate::experiments::rules::curve::{
     self as lod, BD_ANCHOR, Curves, IDENTICAL_PSNR, LOD_BUDGETS, LodRow, percent,
 };
-use crate::experiments::rules::verdict::SEED;
+use crate::experiments::rules::verdict::{Cell, SEED};
 use crate::output::figure::Rule;
 use crate::stats::bootstrap_mean;
 
@@ -32,17 +32,22 @@ fn as_findings_row(r: &Row) -> LodRow {
     }
 }
 
+/// The values of `method`'s cells.
+fn values_of(cells: &[Cell], method: &str) -> Vec<f64> {
+    cells
+        .iter()
+        .filter(|c| c.method == method)
+        .map(|c| c.value)
+        .collect()
+}
+
 /// Mean of `cells`' values per method (with how many cells), `None` for a method without any.
 fn means(curves: &Curves, points: f64) -> Vec<(String, Option<(f64, usize)>)> {
     let cells = lod::at_budget(curves, points);
     curves
         .keys()
         .map(|m| {
-            let v: Vec<f64> = cells
-                .iter()
-                .filter(|c| &c.method == m)
-                .map(|c| c.value)
-                .collect();
+            let v = values_of(&cells, m);
             let mean = (!v.is_empty()).then(|| (v.iter().sum::<f64>() / v.len() as f64, v.len()));
             (m.clone(), mean)
         })
@@ -104,11 +109,7 @@ pub(super) fn methods_by_datasets(rows: &[Row], quick: bool) -> String {
             methods
                 .iter()
                 .map(|m| {
-                    let v: Vec<f64> = bd
-                        .iter()
-                        .filter(|c| &c.method == m)
-                        .map(|c| c.value)
-                        .collect();
+                    let v = values_of(&bd, m);
                     bootstrap_mean(&v, SEED).ok_or_else(|| at.iter().any(|r| &r.method == m))
                 })
                 .collect()
@@ -244,11 +245,7 @@ fn at_distance(refs: &[&LodRow], n: f64, quick: bool) -> String {
             .keys()
             .filter(|m| *m != BD_ANCHOR)
             .map(|m| {
-                let v: Vec<f64> = bd
-                    .iter()
-                    .filter(|c| &c.method == m)
-                    .map(|c| c.value)
-                    .collect();
+                let v = values_of(&bd, m);
                 let text = bootstrap_mean(&v, SEED)
                     .map_or("not comparable".into(), |e| bd_text(&e, " dB", quick));
                 vec![m.clone(), text, format!("{} of {cells_total}", v.len())]
