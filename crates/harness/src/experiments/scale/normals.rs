@@ -18,8 +18,8 @@
 //! once a round in the same order ([`measure`]), so that ours and each peer alternate on a
 //! shared, noisy machine; a row's seconds are the median of its rounds, and a peer's time over
 //! ours is the median of the per-round ratios ([`ratios`]). Sizes: the in-core decades and
-//! 2·10^6 ([`sizes`]); a cell whose forecast from the sizes before exceeds [`CAP`] is not
-//! started ([`forecast_skip`]).
+//! 2·10^6 ([`sizes`]); a cell whose forecast from the sizes before exceeds [`CAP`] a run, or
+//! [`SIZE_BUDGET`] over its rounds, is not started ([`forecast_skip`]).
 
 use std::io::BufRead as _;
 use std::path::{Path, PathBuf};
@@ -54,6 +54,12 @@ pub fn rounds(quick: bool) -> usize {
 
 /// The time cap of one run of a normal-estimation cell (the peer program is killed at it).
 pub const CAP: Duration = Duration::from_secs(300);
+
+/// The most a kind's rounds at one size may be forecast to take together: a cell whose
+/// forecast run times its rounds exceeds it is not started there ([`forecast_skip`]). It keeps
+/// the slowest peer (Open3D's orientation, minutes a run from 10^6 points) to the sizes where
+/// its ratio costs minutes, not a quarter of an hour.
+pub const SIZE_BUDGET: Duration = Duration::from_secs(600);
 
 /// The peers' program, written into the cell's folder and run by [`python`].
 pub const SCRIPT: &str = include_str!("normals_peer.py");
@@ -206,8 +212,9 @@ pub fn sizes(in_core: &[u64]) -> Vec<u64> {
 
 /// Why a cell of a kind is not started at `n` points, from its earlier sizes (`done`: points
 /// and seconds of a run, NaN when it did not finish): the last time grown as the last two
-/// sizes grew (exponent at least 1, at most 3; 1 with one size), over `cap`.
-pub fn forecast_skip(done: &[(u64, f64)], n: u64, cap: Duration) -> Option<String> {
+/// sizes grew (exponent at least 1, at most 3; 1 with one size), over `cap` a run, or over
+/// [`SIZE_BUDGET`] for its `rounds` together.
+pub fn forecast_skip(done: &[(u64, f64)], n: u64, cap: Duration, rounds: usize) -> Option<String> {
     let &(n1, t1) = done.last()?;
     if !t1.is_finite() {
         return Some("skipped: the previous size did not finish".into());
@@ -219,13 +226,21 @@ pub fn forecast_skip(done: &[(u64, f64)], n: u64, cap: Duration) -> Option<Strin
         _ => 1.0,
     };
     let predicted = t1 * (n as f64 / n1 as f64).powf(exponent);
-    (predicted > cap.as_secs_f64()).then(|| {
-        format!(
-            "skipped: {t1:.1} s at {n1} points, so about {predicted:.0} s a run here \
-             (exponent {exponent:.2}), over the {} s cap",
-            cap.as_secs()
-        )
-    })
+    let forecast = format!(
+        "skipped: {t1:.1} s at {n1} points, so about {predicted:.0} s a run here \
+         (exponent {exponent:.2})"
+    );
+    if predicted > cap.as_secs_f64() {
+        Some(format!("{forecast}, over the {} s cap", cap.as_secs()))
+    } else if predicted * rounds as f64 > SIZE_BUDGET.as_secs_f64() {
+        Some(format!(
+            "{forecast}, {:.0} s over its {rounds} rounds, over the {} s budget of a size",
+            predicted * rounds as f64,
+            SIZE_BUDGET.as_secs()
+        ))
+    } else {
+        None
+    }
 }
 
 /// Accuracy of `normals` against `reference` (the mesh's), point by point: the unsigned angle
@@ -474,7 +489,7 @@ pub fn measure(
                 ) {
                     Some(format!("refused: {e}"))
                 } else {
-                    forecast_skip(&done[i], n, cap)
+                    forecast_skip(&done[i], n, cap, rounds(quick))
                 }
             })
             .collect();
@@ -851,15 +866,23 @@ mod tests {
     #[test]
     fn the_forecast_and_the_ratios() {
         let cap = Duration::from_secs(300);
-        assert_eq!(forecast_skip(&[], 100, cap), None);
-        assert!(forecast_skip(&[(10, f64::NAN)], 100, cap).is_some());
-        // 117 s at 10^6 after 10 s at 10^5: exponent 1.07, about 250 s at 2·10^6.
-        assert_eq!(
-            forecast_skip(&[(100_000, 10.0), (1_000_000, 117.0)], 2_000_000, cap),
-            None
+        assert_eq!(forecast_skip(&[], 100, cap, 1), None);
+        assert!(forecast_skip(&[(10, f64::NAN)], 100, cap, 1).is_some());
+        // 117 s at 10^6 after 10 s at 10^5: exponent 1.07, about 250 s at 2·10^6: under the
+        // cap for one round, over the size's budget for three.
+        let done = [(100_000, 10.0), (1_000_000, 117.0)];
+        assert_eq!(forecast_skip(&done, 2_000_000, cap, 1), None);
+        assert_eq!(forecast_skip(&done, 2_000_000, cap, 2), None);
+        let why = forecast_skip(&done, 2_000_000, cap, 3).unwrap();
+        assert!(
+            why.contains("over its 3 rounds, over the 600 s budget"),
+            "{why}"
         );
-        let why = forecast_skip(&[(100_000, 10.0), (1_000_000, 117.0)], 10_000_000, cap).unwrap();
+        // 10 s at 10^5 alone: about 100 s a run at 10^6, 300 s over three rounds.
+        assert_eq!(forecast_skip(&done[..1], 1_000_000, cap, 3), None);
+        let why = forecast_skip(&done, 10_000_000, cap, 1).unwrap();
         assert!(why.contains("117.0 s at 1000000 points"), "{why}");
+        assert!(why.contains("over the 300 s cap"), "{why}");
         assert_eq!(
             sizes(&[10_000, 10_000_000]),
             vec![10_000, 2_000_000, 10_000_000]
