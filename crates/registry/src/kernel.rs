@@ -358,3 +358,95 @@ pub fn collect(cell: &Cell<'_>, input: Input<'_>) -> (Result<Preparation>, Answe
     });
     (prepared, answers)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+
+    use cloud::glam::DVec3;
+
+    use super::*;
+    use crate::card::Kind;
+    use crate::visibility::{Method, Output, Prepared, Setup};
+    use crate::{Memory, Reader};
+
+    /// Counts its preparations and its answers.
+    struct Counting {
+        prepared: AtomicUsize,
+        answered: AtomicUsize,
+    }
+
+    impl Method for Counting {
+        fn parse(&self, _: &mut Reader<'_>) -> Result<Box<dyn Setup>> {
+            let _ = self;
+            Ok(Box::new(CountingSetup(&COUNTING)))
+        }
+    }
+
+    struct CountingSetup(&'static Counting);
+
+    impl Setup for CountingSetup {
+        fn prepare<'a>(&'a self, _: Input<'a>) -> Result<Box<dyn Prepared + 'a>> {
+            self.0.prepared.fetch_add(1, Ordering::SeqCst);
+            Ok(Box::new(CountingPrepared(self.0)))
+        }
+    }
+
+    struct CountingPrepared(&'static Counting);
+
+    impl Prepared for CountingPrepared {
+        fn visible(&self, _: &Camera) -> Result<Output> {
+            self.0.answered.fetch_add(1, Ordering::SeqCst);
+            Ok(Output::default())
+        }
+        fn reported_build_seconds(&self) -> Option<f64> {
+            Some(0.25)
+        }
+    }
+
+    static COUNTING: Counting = Counting {
+        prepared: AtomicUsize::new(0),
+        answered: AtomicUsize::new(0),
+    };
+
+    #[test]
+    fn a_cell_prepares_once_for_all_its_views_and_reports_the_build_apart() {
+        static CARD: Card = Card::new(
+            "kernel-test-counting",
+            "test",
+            Kind::Visibility(&COUNTING),
+            &[],
+            Memory::Unknown,
+        );
+        let cloud =
+            cloud::PointCloud::from_positions(vec![DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::Z])
+                .unwrap();
+        let bbox = cloud.bbox().unwrap();
+        let views: Vec<View> = cloud::views::fibonacci_views(&bbox, &Default::default())
+            .unwrap()
+            .into_iter()
+            .take(5)
+            .enumerate()
+            .map(|(index, camera)| View { index, camera })
+            .collect();
+        assert_eq!(views.len(), 5);
+        let input = Input {
+            cloud: &cloud,
+            mesh: None,
+        };
+        for parallel in [false, true] {
+            let before = COUNTING.prepared.load(Ordering::SeqCst);
+            let answered = COUNTING.answered.load(Ordering::SeqCst);
+            let mut cell = Cell::new(&CARD, &Setting::default(), &views, 3);
+            cell.parallel = parallel;
+            let (prepared, answers) = collect(&cell, input);
+            let prepared = prepared.unwrap();
+            assert_eq!(COUNTING.prepared.load(Ordering::SeqCst), before + 1);
+            assert_eq!(COUNTING.answered.load(Ordering::SeqCst), answered + 15);
+            assert_eq!(answers.len(), 5);
+            assert!(answers.iter().all(|(_, a)| a.is_ok()));
+            assert_eq!(prepared.reported_seconds, Some(0.25));
+            assert!(prepared.seconds >= 0.0);
+        }
+    }
+}

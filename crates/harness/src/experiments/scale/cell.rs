@@ -71,6 +71,7 @@ pub fn cell(
         camera: cam,
     }];
     let prepare_seconds;
+    let mut build_seconds = f64::NAN;
     let seconds = if let Some(h) = method.strip_prefix("hull-") {
         let hull = hull::by_name(h)?;
         let mut flipped = hpr::transform::transform(
@@ -91,7 +92,8 @@ pub fn cell(
         };
         let (prepared, answers) =
             kernel::collect(&kernel::Cell::new(m, setting, &views, repeats), input);
-        prepared?;
+        let prepared = prepared?;
+        build_seconds = prepared.reported_seconds.unwrap_or(prepared.seconds);
         match answers.into_iter().next() {
             Some((_, Ok(a))) => a.timing.median,
             Some((_, Err(e))) => bail!(e),
@@ -128,6 +130,7 @@ pub fn cell(
         prepare_seconds,
         detail: String::new(),
         accuracy: Default::default(),
+        build_seconds,
     })
 }
 
@@ -251,6 +254,7 @@ fn ooc_cell(
                 mib(peak_rss_with_children()),
             ),
             accuracy: Default::default(),
+            build_seconds: f64::NAN,
         })
     })();
     let _ = std::fs::remove_dir_all(&dir);
@@ -269,6 +273,35 @@ fn lod_cell(name: &str) -> Option<(&'static registry::Card, bool)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_visibility_cell_reports_its_per_cloud_build_apart_from_its_view() {
+        let dir = tempfile::tempdir().unwrap();
+        let run = |method: &str| {
+            cell(
+                "torus-22321",
+                method,
+                &Setting::default(),
+                3_000,
+                dir.path(),
+                |_| {},
+            )
+            .unwrap()
+        };
+        // The caster's hierarchy and the learned method's feature pass are built once per
+        // cloud: their seconds are the row's build, beside one view's answer.
+        for method in ["raycast", "neuralvis"] {
+            let out = run(method);
+            assert!(out.seconds > 0.0, "{method}: {}", out.seconds);
+            assert!(
+                out.build_seconds.is_finite() && out.build_seconds > 0.0,
+                "{method}: {}",
+                out.build_seconds
+            );
+        }
+        let hull = run("hull-own");
+        assert!(hull.seconds > 0.0 && hull.build_seconds.is_nan());
+    }
 
     #[test]
     fn an_out_of_core_cell_builds_from_its_own_laz_and_leaves_nothing() {

@@ -292,6 +292,7 @@ fn run_child(
                         angle_median_deg: o.accuracy.angle_median_deg,
                         angle_p95_deg: o.accuracy.angle_p95_deg,
                         sign_agreement: o.accuracy.sign_agreement,
+                        build_seconds: o.build_seconds,
                         ..row(o.seconds, o.peak_rss_bytes, "ok".into(), o.prepare_seconds)
                     },
                     _ => row(

@@ -15,7 +15,9 @@
 //! 10^9) under caps of its own ([`plan::OOC_CAP`]) and
 //! a disk check. `seconds` is the operation alone (median of 3 runs up
 //! to 10^6 points, one run above; sampling and per-cloud preparation excluded for per-view
-//! operations, included for builds, which are the operation).
+//! operations, included for builds, which are the operation); a visibility cell's per-cloud
+//! preparation (the ray caster's hierarchy, a learned method's feature pass) is its row's
+//! `build_seconds`.
 //!
 //! Each cell runs in its own process (`pointsight scale-cell`, hidden: [`child::cell_entry`] is the
 //! entry point a program that embeds the registry and registers its own methods forwards to,

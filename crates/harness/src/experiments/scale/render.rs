@@ -258,6 +258,10 @@ pub fn render(dir: &Path) -> Result<()> {
                 .map_or("-".into(), |r| format!("{:.2}", r.prepare_seconds)),
             ok.iter()
                 .find(|r| r.n_points == largest)
+                .filter(|r| r.build_seconds.is_finite())
+                .map_or("-".into(), |r| format!("{:.3}", r.build_seconds)),
+            ok.iter()
+                .find(|r| r.n_points == largest)
                 .map_or("-".into(), |r| {
                     format!("{:.0}", r.peak_rss_bytes as f64 / 1048576.0)
                 }),
@@ -365,10 +369,13 @@ pub fn render(dir: &Path) -> Result<()> {
          from the dragon mesh, view 0, one process per cell (peak RSS is the cell's own: \
          the sampled cloud plus the method, and the largest program it waited for). Slopes are least-squares fits of log10 against \
          log10 over the sizes that finished (1: linear; memory slopes are lowered by the \
-         process's fixed overhead at the small sizes). `seconds` is the operation alone; \
-         `prepare s` the cell's input before it (sampling the cloud; a hull's flip; an LOD \
-         method's normals), under a cap of its own ({} s on the operation, {} s on the \
-         preparation). Cells not run or stopped say why.\n\n\
+         process's fixed overhead at the small sizes). `seconds` is the operation alone (a \
+         visibility method's: one view's answer); `build s` a visibility method's per-cloud \
+         preparation, which every view reuses and `seconds` leaves out (a tree, a learned \
+         method's feature pass; `-` where the method builds nothing it accounts for), inside \
+         the operation's cap; `prepare s` the cell's input before it (sampling the cloud; a \
+         hull's flip; an LOD method's normals), under a cap of its own ({} s on the \
+         operation, {} s on the preparation). Cells not run or stopped say why.\n\n\
          {over}{images}{}{ooc}{normals}{opted_out}\nRaw rows: [results.csv](results.csv).\n",
         cap,
         prepare_cap,
@@ -380,6 +387,7 @@ pub fn render(dir: &Path) -> Result<()> {
                 "sizes fitted",
                 "largest finished",
                 "seconds there",
+                "build s there",
                 "prepare s there",
                 "peak MiB there",
                 "not finished",

@@ -40,6 +40,11 @@ pub struct Row {
     /// See [`Accuracy::sign_agreement`].
     #[serde(default = "nan")]
     pub sign_agreement: f64,
+    /// A per-view cell's per-cloud preparation, outside `seconds` (see
+    /// [`CellOutput::build_seconds`]); NaN for the other cells and in reports written before
+    /// the column existed.
+    #[serde(default = "nan")]
+    pub build_seconds: f64,
 }
 
 impl Row {
@@ -57,6 +62,7 @@ impl Row {
             angle_median_deg: f64::NAN,
             angle_p95_deg: f64::NAN,
             sign_agreement: f64::NAN,
+            build_seconds: f64::NAN,
         }
     }
 }
@@ -105,6 +111,13 @@ pub struct CellOutput {
     /// See [`Row::accuracy`].
     #[serde(default)]
     pub accuracy: Accuracy,
+    /// A visibility cell's per-cloud preparation through the kernel, which `seconds` (one
+    /// view's answer) leaves out: the structure the method builds once per cloud and reuses
+    /// for every view, such as the ray caster's hierarchy or a learned method's feature pass,
+    /// as the method accounts for it (`registry::kernel::Preparation`, its reported seconds,
+    /// else its wall time); NaN for the other cells.
+    #[serde(default = "nan", deserialize_with = "null_as_nan")]
+    pub build_seconds: f64,
 }
 
 fn nan() -> f64 {
@@ -128,12 +141,14 @@ mod tests {
             prepare_seconds: 0.5,
             detail: String::new(),
             accuracy: Accuracy::default(),
+            build_seconds: f64::NAN,
         };
         let line = serde_json::to_string(&out).unwrap();
         let back: CellOutput = serde_json::from_str(&line).unwrap();
         assert!(back.accuracy.angle_median_deg.is_nan() && back.seconds == 1.5);
+        assert!(back.build_seconds.is_nan());
         let old: CellOutput =
             serde_json::from_str(r#"{"seconds":1.0,"peak_rss_bytes":1}"#).unwrap();
-        assert!(old.accuracy.sign_agreement.is_nan());
+        assert!(old.accuracy.sign_agreement.is_nan() && old.build_seconds.is_nan());
     }
 }
