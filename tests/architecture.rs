@@ -1585,3 +1585,30 @@ fn the_architecture_doc_names_what_exists() {
         missing.join("\n")
     );
 }
+
+#[test]
+fn the_lod_crates_share_one_file_layer() {
+    // One error type and one positional reader for both LOD crates' files (and the out-of-core
+    // preparation): neither crate declares an error enum of its own or opens a file to read it
+    // by position itself.
+    for name in ["qsplat", "spt"] {
+        for src in without_tests(crate_sources(name)) {
+            for twin in ["pub enum Error", "read_exact_at", "impl From<cloud::"] {
+                assert!(
+                    !src.code.contains(twin),
+                    "crates/{name}/src/{} has `{twin}`: use cloud::lod_file",
+                    src.file
+                );
+            }
+        }
+    }
+    let layer = crate_sources("cloud");
+    assert!(layer.iter().any(|s| s.file == "lod_file.rs"));
+    assert!(
+        layer
+            .iter()
+            .filter(|s| s.code.contains("pub enum Error"))
+            .all(|s| s.file == "lod_file.rs" || s.file == "error.rs"),
+        "one error type per concern in cloud"
+    );
+}

@@ -29,6 +29,7 @@ pub mod error;
 pub mod io;
 pub mod knn;
 pub mod knn_grid;
+pub mod lod_file;
 pub mod memory;
 pub mod mesh;
 pub mod normals;

@@ -27,12 +27,16 @@ use std::path::Path;
 
 use cloud::glam::DVec3;
 
-use crate::error::{Error, Result};
 use crate::quant;
 use crate::tree::{QTree, Word};
+use crate::{Error, Result};
 
 const MAGIC: &[u8; 8] = b"PSQSPLAT";
 const VERSION: u32 = 2;
+/// The format's name in the errors that say a file is damaged or too old.
+pub const FORMAT: &str = "QSplat";
+/// What the versions before [`VERSION`] lacked, as the version error says it.
+const CHANGES: &str = ", which adds checksums";
 const HEADER: usize = 8 + 4 + 4 + 8 + 8 + 32 + 4;
 
 /// Words per page: the unit [`crate::PagedTree`] reads and a checksum covers (64 KiB of words;
@@ -213,6 +217,7 @@ pub(crate) const HEADER_BYTES: usize = HEADER;
 /// errors.
 pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header> {
     let corrupt = |offset: usize, reason: String| Error::Corrupt {
+        format: FORMAT,
         path: name.to_owned(),
         offset: offset as u64,
         reason,
@@ -238,6 +243,8 @@ pub(crate) fn parse_header(b: &[u8], file_len: u64, name: &str) -> Result<Header
     let version = u32_at(8)?;
     if version == 1 {
         return Err(Error::OldVersion {
+            format: FORMAT,
+            changes: CHANGES,
             path: name.to_owned(),
             version,
             current: VERSION,
@@ -379,11 +386,13 @@ pub fn from_bytes(b: &[u8], name: &str) -> Result<QTree> {
 /// Walks the whole tree: every word visited once, codes in range, offsets consistent.
 fn validate(tree: &QTree, name: &str) -> Result<()> {
     let fail = |k: usize, reason: String| Error::Corrupt {
+        format: FORMAT,
         path: name.to_owned(),
         offset: (HEADER + 4 * k) as u64,
         reason,
     };
     let root = Word::unpack(tree.root_word).ok_or_else(|| Error::Corrupt {
+        format: FORMAT,
         path: name.to_owned(),
         offset: 64,
         reason: "bad root tree bits".into(),

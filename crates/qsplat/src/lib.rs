@@ -17,7 +17,6 @@
 //! every leaf sphere below it, which a property test checks.
 
 pub mod build;
-pub mod error;
 pub mod file;
 pub mod ooc;
 pub mod paged;
@@ -27,7 +26,7 @@ pub mod tree;
 
 use cloud::PointCloud;
 
-pub use error::{Error, Result};
+pub use cloud::lod_file::{Error, Result};
 pub use paged::PagedTree;
 pub use traverse::{Splat, TraverseParams, leaves, traverse, traverse_nodes};
 pub use tree::QTree;

@@ -23,13 +23,13 @@
 //! [`Error::Corrupt`] with the byte offset.
 
 use std::collections::VecDeque;
-use std::fs::File;
-use std::os::unix::fs::FileExt;
 use std::path::Path;
 
-use crate::error::{Error, Result};
+use cloud::lod_file::FileReader;
+
 use crate::file::{self, Header};
 use crate::traverse::{Nodes, Root};
+use crate::{Error, Result};
 
 /// Words per page (64 KiB of words; a colour page holds as many colours, 32 KiB): the unit a
 /// checksum covers.
@@ -40,8 +40,7 @@ pub const MIN_CACHE: u64 = 2 * (4 + 2) * PAGE_WORDS as u64;
 /// A QSplat file opened for selection.
 #[derive(Debug)]
 pub struct PagedTree {
-    file: File,
-    name: String,
+    file: FileReader,
     header: Header,
     root_color: u16,
     /// The page checksums (word pages, then colour pages).
@@ -49,8 +48,6 @@ pub struct PagedTree {
     cache: Cache,
     /// Pages read from the file so far.
     pub pages_read: u64,
-    /// Bytes read from the file so far (header included).
-    pub bytes_read: u64,
 }
 
 /// Cached pages, first in, first out, indexed by page number (a file of 10^9 points has
@@ -68,21 +65,14 @@ struct Cache {
 impl PagedTree {
     /// Opens `path`, keeping at most `cache_bytes` of pages (at least [`MIN_CACHE`]).
     pub fn open(path: &Path, cache_bytes: u64) -> Result<Self> {
-        let name = path.display().to_string();
-        let io = |source| Error::Io {
-            path: name.clone(),
-            source,
-        };
-        let file = File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
-        let mut head = vec![0u8; file::HEADER_BYTES.min(len as usize)];
-        file.read_exact_at(&mut head, 0).map_err(io)?;
-        let header = file::parse_header(&head, len, &name)?;
+        let mut file = FileReader::open(path)?;
+        let len = file.len();
+        let head = file.head(file::HEADER_BYTES)?;
+        let header = file::parse_header(&head, len, file.path())?;
         // The counts fit the file's length; the index costs 24 bytes per 64 KiB page.
         let pages = (header.n_words as usize).div_ceil(PAGE_WORDS);
         let mut tree = Self {
             file,
-            name,
             header,
             root_color: 0,
             sums: Vec::new(),
@@ -98,7 +88,6 @@ impl PagedTree {
                 limit: cache_bytes.max(MIN_CACHE),
             },
             pages_read: 0,
-            bytes_read: head.len() as u64,
         };
         let mut c = [0u8; 2];
         let root_color: &[u8] = if header.colored {
@@ -112,7 +101,7 @@ impl PagedTree {
         let tail = file::trailer_offset(header.n_words, header.colored);
         let mut table = vec![0u8; (len - tail) as usize];
         tree.read_at(&mut table, tail)?;
-        tree.sums = file::check_header_sum(&header, &head, root_color, &table, &tree.name)?;
+        tree.sums = file::check_header_sum(&header, &head, root_color, &table, tree.file.path())?;
         Ok(tree)
     }
 
@@ -136,15 +125,13 @@ impl PagedTree {
         self.cache.bytes
     }
 
+    /// Bytes read from the file so far (header included).
+    pub fn bytes_read(&self) -> u64 {
+        self.file.bytes_read()
+    }
+
     fn read_at(&mut self, buf: &mut [u8], offset: u64) -> Result<()> {
-        self.file
-            .read_exact_at(buf, offset)
-            .map_err(|source| Error::Io {
-                path: self.name.clone(),
-                source,
-            })?;
-        self.bytes_read += buf.len() as u64;
-        Ok(())
+        self.file.read_at(buf, offset)
     }
 
     /// Page `page` of the words (or of the colours), read when not cached.
@@ -198,7 +185,7 @@ impl PagedTree {
             colors,
             page as u64,
             &raw,
-            &self.name,
+            self.file.path(),
         )?;
         self.pages_read += 1;
         if colors {
@@ -282,7 +269,8 @@ impl Nodes for PagedTree {
 impl PagedTree {
     fn corrupt_error(&self, at: usize, reason: &str) -> Error {
         Error::Corrupt {
-            path: self.name.clone(),
+            format: file::FORMAT,
+            path: self.file.path().to_owned(),
             offset: if at == usize::MAX {
                 // The root's word, the header's last field.
                 (file::HEADER_BYTES - 4) as u64
@@ -405,9 +393,9 @@ mod tests {
         let got = traverse_nodes(&mut paged, &far, &params).unwrap();
         assert_eq!(got, traverse(&tree, &far, &params));
         assert!(
-            paged.bytes_read * 10 < file_bytes,
+            paged.bytes_read() * 10 < file_bytes,
             "{} of {file_bytes} bytes read for {} splats",
-            paged.bytes_read,
+            paged.bytes_read(),
             got.len()
         );
     }

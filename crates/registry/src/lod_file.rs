@@ -131,12 +131,12 @@ impl LodBuilt for FileBuilt {
 
 impl LodSelector for FileSel<'_> {
     fn select(&mut self, camera: &Camera) -> Result<()> {
-        let before = self.tree.bytes_read;
+        let before = self.tree.bytes_read();
         self.last =
             qsplat::traverse_nodes(&mut self.tree, camera, self.params).map_err(qsplat_err)?;
         self.reads.record(
             camera,
-            self.tree.bytes_read - before,
+            self.tree.bytes_read() - before,
             self.tree.cache_bytes(),
             (self.last.len() * size_of::<qsplat::Splat>()) as u64,
         );
@@ -324,7 +324,7 @@ impl LodSelector for SptFileSel {
     /// The cut and its splats, both read from the file (the prefix block by block, then the
     /// selected entries' splats): a view's whole cost from the file.
     fn select(&mut self, camera: &Camera) -> Result<()> {
-        let before = self.tree.bytes_read;
+        let before = self.tree.bytes_read();
         let eps = spt::epsilon_for_pixels(camera, self.pixels);
         self.tree
             .cut_into(camera.eye, eps, &mut self.entries)
@@ -333,7 +333,7 @@ impl LodSelector for SptFileSel {
         // No cache: the operating system's page cache holds what was read.
         self.reads.record(
             camera,
-            self.tree.bytes_read - before,
+            self.tree.bytes_read() - before,
             0,
             (self.last.len() * size_of::<spt::Splat>()) as u64,
         );

@@ -44,14 +44,18 @@ use std::path::Path;
 use cloud::glam::DVec3;
 
 use crate::Spt;
-use crate::error::{Error, Result};
 use crate::list::{Entry, Grid, Group, QBox};
 pub use crate::pack::{COLOR, SPLAT};
+use crate::{Error, Result};
 
 /// The file's magic.
 pub const MAGIC: &[u8; 8] = b"PSSPTREE";
 /// The format's version.
 pub const VERSION: u32 = 3;
+/// The format's name in the errors that say a file is damaged or too old.
+pub const FORMAT: &str = "sequential point tree";
+/// What the versions before [`VERSION`] lacked, as the version error says it.
+const CHANGES: &str = ": checksums since 2, quantised splats since 3";
 /// Items (groups, entries, splats or colours) per checksummed block.
 pub const BLOCK_ITEMS: usize = 256;
 /// The sections' names in errors.
@@ -377,6 +381,7 @@ impl Cursor<'_> {
 /// Parses and checks a header from the first [`HEADER`] bytes of a file of `len` bytes.
 pub fn parse_header(bytes: &[u8], len: u64, path: &str) -> Result<Header> {
     let corrupt = |offset: u64, reason: String| Error::Corrupt {
+        format: FORMAT,
         path: path.to_string(),
         offset,
         reason,
@@ -397,6 +402,8 @@ pub fn parse_header(bytes: &[u8], len: u64, path: &str) -> Result<Header> {
     let version = c.u32();
     if (1..VERSION).contains(&version) {
         return Err(Error::OldVersion {
+            format: FORMAT,
+            changes: CHANGES,
             path: path.to_string(),
             version,
             current: VERSION,

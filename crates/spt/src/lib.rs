@@ -18,7 +18,6 @@
 //! ε; the original (and the rest of the section) refines while the error is *above* ε and draws
 //! a node when it is below or the node is a leaf, which is what this crate does.
 
-pub mod error;
 pub mod file;
 pub mod hierarchy;
 pub mod list;
@@ -30,7 +29,7 @@ pub mod recursive;
 use cloud::glam::{DVec3, Vec3};
 use cloud::{Camera, PointCloud};
 
-pub use error::{Error, Result};
+pub use cloud::lod_file::{Error, Result};
 pub use list::CutStats;
 
 use hierarchy::Hierarchy;

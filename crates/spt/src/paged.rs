@@ -15,16 +15,15 @@
 //! each, errors sorted and finite, boxes ordered) and every splat read has a finite radius; a
 //! damaged file is [`Error::Corrupt`] with its byte offset.
 
-use std::fs::File;
-use std::os::unix::fs::FileExt;
 use std::path::Path;
 
 use cloud::glam::{DVec3, Vec3};
+use cloud::lod_file::FileReader;
 
-use crate::error::{Error, Result};
 use crate::file::{self, Header};
 use crate::list::{Entry, Group, QBox, dist2, scan_block};
 use crate::{CutStats, Splat, check};
+use crate::{Error, Result};
 
 /// Groups read at a time (a multiple of [`file::BLOCK_ITEMS`]).
 pub const BLOCK_GROUPS: usize = 1 << 14;
@@ -33,12 +32,9 @@ const _: () = assert!(BLOCK_GROUPS.is_multiple_of(file::BLOCK_ITEMS));
 /// An open tree file.
 #[derive(Debug)]
 pub struct PagedTree {
-    file: File,
-    path: String,
+    file: FileReader,
     header: Header,
     sections: [u64; 4],
-    /// Bytes read from the file so far.
-    pub bytes_read: u64,
     groups: Vec<Group>,
     entries: Vec<Entry>,
     raw: Vec<u8>,
@@ -47,22 +43,13 @@ pub struct PagedTree {
 impl PagedTree {
     /// Opens the file at `path` and checks its header.
     pub fn open(path: &Path) -> Result<Self> {
-        let name = path.display().to_string();
-        let io = |source| Error::Io {
-            path: name.clone(),
-            source,
-        };
-        let file = File::open(path).map_err(io)?;
-        let len = file.metadata().map_err(io)?.len();
-        let mut head = vec![0u8; file::HEADER.min(len as usize)];
-        file.read_exact_at(&mut head, 0).map_err(io)?;
-        let header = file::parse_header(&head, len, &name)?;
+        let mut file = FileReader::open(path)?;
+        let head = file.head(file::HEADER)?;
+        let header = file::parse_header(&head, file.len(), file.path())?;
         Ok(Self {
             file,
-            path: name,
             sections: header.sections(),
             header,
-            bytes_read: head.len() as u64,
             groups: Vec::new(),
             entries: Vec::new(),
             raw: Vec::new(),
@@ -76,22 +63,21 @@ impl PagedTree {
 
     fn corrupt(&self, offset: u64, reason: String) -> Error {
         Error::Corrupt {
-            path: self.path.clone(),
+            format: file::FORMAT,
+            path: self.file.path().to_owned(),
             offset,
             reason,
         }
     }
 
+    /// Bytes read from the file so far (header included).
+    pub fn bytes_read(&self) -> u64 {
+        self.file.bytes_read()
+    }
+
     fn read_at(&mut self, at: u64, len: usize) -> Result<()> {
         self.raw.resize(len, 0);
-        self.file
-            .read_exact_at(&mut self.raw, at)
-            .map_err(|source| Error::Io {
-                path: self.path.clone(),
-                source,
-            })?;
-        self.bytes_read += len as u64;
-        Ok(())
+        self.file.read_at(&mut self.raw, at)
     }
 
     /// Reads items `from..to` of section `section` (0 groups, 1 entries, 2 splats, 3 colours)
@@ -116,7 +102,7 @@ impl PagedTree {
         let sums = std::mem::take(&mut self.raw);
         self.read_at(start, (end - start) as usize)?;
         self.header
-            .check_blocks(section, b0 as u64, &self.raw, &sums, &self.path)?;
+            .check_blocks(section, b0 as u64, &self.raw, &sums, self.file.path())?;
         self.raw.drain(..(from - b0 * file::BLOCK_ITEMS) * size);
         self.raw.truncate((to - from) * size);
         Ok(())
@@ -428,7 +414,7 @@ mod tests {
         f.cut_into(DVec3::new(0.0, 0.0, 60.0), 1e-3, &mut out)
             .unwrap();
         f.splats(&out).unwrap();
-        assert!(f.bytes_read * 10 < len, "{} of {len}", f.bytes_read);
+        assert!(f.bytes_read() * 10 < len, "{} of {len}", f.bytes_read());
     }
 
     #[test]

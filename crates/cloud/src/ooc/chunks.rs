@@ -8,8 +8,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec3, Vec3};
 
-use super::error::{Error, Result};
 use super::record::{Layout, REC};
+use crate::lod_file::{Error, Result};
 use crate::spill::{Scratch, SpillFile, SpillWriter};
 
 /// A range of a scratch file: a set of points in input order (with its normals' files).

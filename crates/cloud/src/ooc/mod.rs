@@ -39,7 +39,6 @@
 //! A chunk and its halo must fit for the neighbour searches.
 
 mod chunks;
-pub mod error;
 mod neighbours;
 mod partition;
 mod record;
@@ -52,8 +51,8 @@ use glam::{DVec3, Vec3};
 
 use self::chunks::Set;
 pub use self::chunks::{Chunks, Part, PartKind, Points};
-use self::error::{Error, Result};
 pub use self::record::{Grid, Layout, REC, Records};
+use crate::lod_file::{Error, Result};
 use crate::spill::Scratch;
 
 /// Bytes of the reserve in use while the orientation's guide is built (the sample, the tree of

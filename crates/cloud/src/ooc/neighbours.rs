@@ -29,8 +29,8 @@ use glam::{DVec3, Vec3};
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 
 use super::chunks::{NORMAL, PATCH, PartKind, Set, normal_bytes, normal_of};
-use super::error::{Error, Result};
 use super::{HALO_BUFFER, NEIGHBOUR_BYTES_PER_POINT, Preparer, Stage};
+use crate::lod_file::{Error, Result};
 use crate::spill::{SpillFile, SpillWriter};
 
 impl Preparer<'_> {

@@ -29,8 +29,8 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::chunks::{Part, PartKind, Set};
-use super::error::Result;
 use super::{Preparer, Stage};
+use crate::lod_file::Result;
 use crate::spill::{SpillFile, SpillWriter};
 
 /// Records of an input segment.

@@ -18,7 +18,7 @@
 use glam::{DVec3, Vec3};
 
 use super::Point;
-use super::error::{Error, Result};
+use crate::lod_file::{Error, Result};
 
 /// The most bytes a record takes (position as `f64`, colour, index, normal): the size of the
 /// buffers records are read into.

@@ -8,8 +8,8 @@ use std::thread::Scope;
 
 use anyhow::Result;
 use cloud::glam::Vec3;
+use cloud::lod_file::Error;
 use cloud::ooc::Point;
-use cloud::ooc::error::Error;
 
 use super::read_ahead::ReadAhead;
 

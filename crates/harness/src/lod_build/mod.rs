@@ -313,9 +313,8 @@ fn build_unnamed(
             grid: info.grid,
             colors,
         };
-        let mut source = |batch: &mut Vec<Point>| -> Result<bool, cloud::ooc::error::Error> {
-            input.next(batch)
-        };
+        let mut source =
+            |batch: &mut Vec<Point>| -> Result<bool, cloud::lod_file::Error> { input.next(batch) };
         let built = if method == "spt" {
             let opts = prepare_options(
                 memory_limit,
@@ -381,8 +380,6 @@ fn build_unnamed(
                 ),
                 colors,
             );
-            let mut source =
-                |batch: &mut Vec<Point>| -> qsplat::Result<bool> { Ok(source(batch)?) };
             let summary = qsplat::ooc::build_file(&mut source, &opts, out, &mut |stage, count| {
                 set(
                     match stage {

@@ -22,8 +22,8 @@ use std::thread::{Scope, ScopedJoinHandle};
 use cloud::glam::Vec3;
 use cloud::io::las::{LasOptions, LasStream};
 use cloud::io::las_extra::ExtraNormals;
+use cloud::lod_file::Error;
 use cloud::ooc::Point;
-use cloud::ooc::error::Error;
 
 /// A batch, and whether more follow; or the reading's error.
 type Batch = Result<(Vec<Point>, bool), cloud::ReadError>;

@@ -9,9 +9,9 @@ use cloud::ooc::PartKind;
 
 use super::Stage;
 use super::encode::{Builder, Encoded, WREC};
-use crate::error::{Error, Result};
 use crate::file::PAGE_WORDS;
 use crate::tree;
+use crate::{Error, Result};
 use cloud::io::checksum::Summed;
 
 impl Builder<'_> {

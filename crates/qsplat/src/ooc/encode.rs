@@ -11,8 +11,8 @@ use cloud::spill::SpillFile;
 use rayon::prelude::*;
 
 use super::{Options, Stage};
+use crate::Result;
 use crate::build::{self, Node};
-use crate::error::Result;
 use crate::tree;
 
 /// Bytes of an encoded word on disk: word, colour, offset flag.

@@ -41,7 +41,7 @@ use cloud::glam::{DVec3, Vec3};
 use cloud::ooc::{Normals, Point, Prepared, Radius, Summary};
 
 use self::encode::Builder;
-use crate::error::Result;
+use crate::Result;
 use crate::tree::{self, QTree};
 
 /// Peak bytes of the in-memory build and encoding per point of a chunk.
@@ -99,7 +99,7 @@ pub enum Stage {
 
 /// Points per chunk under `memory_limit`, or the error naming why the limit is too small.
 pub fn chunk_capacity(memory_limit: u64) -> Result<u64> {
-    Ok(cloud::ooc::chunk_capacity(memory_limit, BYTES_PER_POINT)?)
+    cloud::ooc::chunk_capacity(memory_limit, BYTES_PER_POINT)
 }
 
 /// The in-memory build the out-of-core one equals: normals and leaf radius by the rules of

@@ -9,7 +9,7 @@ use cloud::ooc::{MIN_CHUNK, Normals, Point, RESERVE, Radius, Summary};
 use cloud::rng::{RngExt, seeded};
 
 use super::*;
-use crate::error::Error;
+use crate::Error;
 
 /// A cloud with clusters of coincident points (different normals and colours) and
 /// points one ulp apart, which exercise the halving by position, on a wavy sheet, and
@@ -263,6 +263,7 @@ fn bad_limits_and_inputs() {
         calls += 1;
         if calls == 3 {
             return Err(Error::Corrupt {
+                format: crate::file::FORMAT,
                 path: "in.las".into(),
                 offset: 1234,
                 reason: "truncated".into(),

@@ -14,9 +14,9 @@ use cloud::spill::SpillReader;
 
 use super::runs::{ENTRY_REC, GREC, Runs, key_order};
 use super::{Builder, SMALL_BUFFER, Stage, internal};
-use crate::error::{Error, Result};
 use crate::file::{self, Header};
 use crate::list::{Grid, Group, QBox};
+use crate::{Error, Result};
 
 /// Bytes of each section writer's buffer, so of each write. ext4 gives a write a page-cache
 /// folio as large as the write. On the 2-core VMs this project is measured on (free memory

@@ -66,10 +66,10 @@ use cloud::spill::{Scratch, SpillFile, SpillWriter};
 use self::plan::{Cell, Top, mark_chunks, plan};
 use self::record::{Layout, REC, pack, unpack};
 use crate::Spt;
-use crate::error::{Error, Result};
 use crate::file;
 use crate::hierarchy;
 use crate::list::Grid;
+use crate::{Error, Result};
 
 /// Peak bytes per point of a chunk while it is built and its groups sorted.
 pub const BYTES_PER_POINT: u64 = 700;

@@ -8,8 +8,8 @@ use cloud::spill::SpillFile;
 
 use super::record::DREC;
 use super::{Builder, Input, NONE, Point, REFINE, SMALL_BUFFER, Stage, Tally, internal};
-use crate::error::{Error, Result};
 use crate::hierarchy::{self, COLLAPSE};
+use crate::{Error, Result};
 
 /// A cell of the counted octree.
 pub(super) struct Cell {

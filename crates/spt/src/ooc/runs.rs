@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::plan::{LoadedBin, Top};
 use super::{Builder, Stage, internal};
-use crate::error::Result;
+use crate::Result;
 use crate::file;
 use crate::hierarchy::{self, Node};
 use crate::list::{Entry, Grid, QBox};
