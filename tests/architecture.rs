@@ -1175,8 +1175,12 @@ const MAY_NAME_IN_STRINGS: &[(&str, &str)] = &[
 /// The names of our methods: the registry's cards, with the repository's `methods/` folders.
 fn method_names() -> BTreeSet<String> {
     let methods = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods");
-    registry::register_external(&methods).expect("the methods folder loads");
-    registry::cards()
+    let mut catalogue = registry::Catalogue::builtin();
+    catalogue
+        .add_external(&methods)
+        .expect("the methods folder loads");
+    catalogue
+        .cards()
         .iter()
         .map(|c| c.name.to_owned())
         .collect()
@@ -1610,5 +1614,153 @@ fn the_lod_crates_share_one_file_layer() {
             .filter(|s| s.code.contains("pub enum Error"))
             .all(|s| s.file == "lod_file.rs" || s.file == "error.rs"),
         "one error type per concern in cloud"
+    );
+}
+
+/// The process-wide state the workspace keeps, each with its reason: (crate, file, name). None
+/// of it is a run's state (the catalogue, the datasets, the methods folders), which lives in
+/// the run's value (`harness::run::Run`, `registry::Catalogue`) and reaches a scale cell as one
+/// file. A listed item that is gone fails the test, as does any other.
+const PROCESS_STATE: &[(&str, &str, &str, &str)] = &[
+    (
+        "harness",
+        "progress.rs",
+        "QUIET",
+        "the progress display's --quiet, one terminal a process",
+    ),
+    (
+        "harness",
+        "progress.rs",
+        "ACTIVE",
+        "the progress display: one terminal a process",
+    ),
+    (
+        "harness",
+        "progress.rs",
+        "SAID",
+        "warnings said once a process, on its one terminal",
+    ),
+    (
+        "harness",
+        "output/figure.rs",
+        "REGISTERED",
+        "the embedded font, registered once with plotters",
+    ),
+    (
+        "python",
+        "bindings.rs",
+        "POOL",
+        "the thread pool of set_num_threads, one a Python process",
+    ),
+    ("qsplat", "build.rs", "RIGHT", "a thread's scratch buffer"),
+    (
+        "qsplat",
+        "quant.rs",
+        "TABLE",
+        "constant quantisation tables, computed once",
+    ),
+    ("spt", "hierarchy.rs", "LOCAL", "a thread's scratch buffers"),
+    (
+        "spt",
+        "hierarchy.rs",
+        "TABLE",
+        "constant direction table, computed once",
+    ),
+    (
+        "neuralvis",
+        "lib.rs",
+        "FOLDED",
+        "the committed weights, decoded once (constant)",
+    ),
+    ("cloud", "scratch.rs", "HOST", "the host name, read once"),
+    (
+        "cloud",
+        "scratch.rs",
+        "COUNTER",
+        "unique scratch names within a process",
+    ),
+    (
+        "cloud",
+        "scratch.rs",
+        "LIVE",
+        "the scratch reaper: paths a signal must remove",
+    ),
+    (
+        "cloud",
+        "io/atomic.rs",
+        "INPUTS",
+        "the files this process read, which no output may replace: recorded by the readers \
+         where they read; not yet part of the run's value",
+    ),
+    (
+        "cloud",
+        "orient.rs",
+        "GUIDES",
+        "ids of guides, so thread buffers know their owner",
+    ),
+    ("cloud", "orient.rs", "QUERIES", "a thread's query buffers"),
+    (
+        "cloud",
+        "ooc/partition.rs",
+        "SUBSET_POINTS",
+        "a test hook (cfg(test) only)",
+    ),
+];
+
+/// Every `static` holding mutable or lazily set state (a lock, a once-cell, an atomic, a cell,
+/// a thread-local) in the workspace's sources outside test modules: (crate, file, name).
+fn process_state() -> BTreeSet<(String, String, String)> {
+    const KINDS: [&str; 6] = ["Mutex", "RwLock", "OnceLock", "Atomic", "Cell<", "LazyLock"];
+    let mut out = BTreeSet::new();
+    for krate in workspace_crates() {
+        for src in without_tests(crate_sources(&krate)) {
+            for line in src.code.lines() {
+                let t = line.trim_start();
+                let Some(rest) = t
+                    .strip_prefix("pub(super) static ")
+                    .or_else(|| t.strip_prefix("pub(crate) static "))
+                    .or_else(|| t.strip_prefix("pub static "))
+                    .or_else(|| t.strip_prefix("static "))
+                else {
+                    continue;
+                };
+                let rest = rest.strip_prefix("mut ").unwrap_or(rest);
+                let Some((name, ty)) = rest.split_once(':') else {
+                    continue;
+                };
+                if KINDS.iter().any(|k| ty.contains(k)) {
+                    out.insert((krate.clone(), src.file.clone(), name.trim().to_owned()));
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn no_run_state_in_process_globals() {
+    let found = process_state();
+    let listed: BTreeSet<(String, String, String)> = PROCESS_STATE
+        .iter()
+        .map(|(k, f, n, _)| (k.to_string(), f.to_string(), n.to_string()))
+        .collect();
+    let unlisted: Vec<_> = found.difference(&listed).collect();
+    assert!(
+        unlisted.is_empty(),
+        "process-wide state without a listed reason (run state belongs in the run's value): \
+         {unlisted:?}"
+    );
+    let gone: Vec<_> = listed.difference(&found).collect();
+    assert!(gone.is_empty(), "listed but gone: {gone:?}");
+    // The scanner sees what it must.
+    assert!(found.contains(&("cloud".into(), "scratch.rs".into(), "LIVE".into())));
+    // The scale cells receive the run as one file: no variable passes it.
+    let child = crate_sources("harness")
+        .into_iter()
+        .find(|s| s.file == "experiments/scale/child.rs")
+        .expect("the scale cells' runner");
+    assert!(
+        !child.code.contains(".env(") && !child.code.contains("env::var"),
+        "scale cells get their run from the --run file, not environment variables"
     );
 }

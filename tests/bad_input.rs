@@ -676,7 +676,8 @@ fn the_bunny_with_20000_copies_costs_a_small_constant_more() {
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("../../bench-data"),
         PathBuf::from,
     );
-    let bunny = harness::datasets::load("bunny-69451", &data)
+    let bunny = harness::datasets::Datasets::default()
+        .load("bunny-69451", &data)
         .expect("bunny-69451 loads after `pointsight fetch`")
         .cloud
         .positions;

@@ -12,7 +12,9 @@ use registry::scoring::Score;
 use registry::{Output, Params, kernel};
 
 fn load(name: &str) -> Dataset {
-    datasets::load(name, Path::new("/nonexistent")).expect("a synthetic dataset")
+    datasets::Datasets::default()
+        .load(name, Path::new("/nonexistent"))
+        .expect("a synthetic dataset")
 }
 
 /// F1 of `method` (with `set`) from `camera` against the flags `truth`.
@@ -28,7 +30,7 @@ fn answer(ds: &Dataset, method: &str, set: &[&str], camera: &Camera) -> Result<O
         camera: *camera,
     }];
     let cell = kernel::Cell {
-        method: registry::card(method).expect("a registered method"),
+        method: registry::builtin_card(method).expect("a built-in method"),
         params: Params::parse(set).expect("valid parameters"),
         views: &views,
         repeats: 1,

@@ -92,7 +92,9 @@ fn export_writes_exactly_the_experiment_points() {
     ]);
     assert!(text.contains("points=22321"));
     let back = cloud::io::read(&path).unwrap().cloud;
-    let ds = harness::datasets::load("torus-22321", Path::new("/nonexistent")).unwrap();
+    let ds = harness::datasets::Datasets::default()
+        .load("torus-22321", Path::new("/nonexistent"))
+        .unwrap();
     assert_eq!(back.positions, ds.cloud.positions);
     let bytes = std::fs::read(&path).unwrap();
     assert!(bytes.starts_with(b"ply\nformat binary_little_endian 1.0\n"));
@@ -132,7 +134,9 @@ fn visible_follows_the_contract_and_is_right_on_the_sphere() {
         "ascending, no repeats"
     );
 
-    let ds = harness::datasets::load("sphere-20000", Path::new("/nonexistent")).unwrap();
+    let ds = harness::datasets::Datasets::default()
+        .load("sphere-20000", Path::new("/nonexistent"))
+        .unwrap();
     let eye = ds.views[3].eye;
     let mut flags = vec![false; ds.cloud.len()];
     for &i in &indices {

@@ -12,7 +12,7 @@ use std::path::Path;
 use std::process::Command;
 
 use harness::datasets;
-use registry::{Setting, Sweeps, kernel};
+use registry::{Setting, kernel};
 
 const DATASET: &str = "sphere-plane-24000";
 
@@ -93,16 +93,16 @@ fn kernel_visible(
 
 #[test]
 fn visible_view_and_the_experiments_run_the_same_default() {
-    let ds = datasets::load(DATASET, Path::new("/nonexistent")).expect("a synthetic dataset");
+    let ds = datasets::Datasets::default()
+        .load(DATASET, Path::new("/nonexistent"))
+        .expect("a synthetic dataset");
     let camera = *ds.view(0).expect("view 0");
     let views = [kernel::View { index: 0, camera }];
-    let sweeps = Sweeps::resolve(None).expect("the sweeps");
+    let catalogue = registry::Catalogue::builtin();
+    let sweeps = catalogue.sweeps(None).expect("the sweeps");
     let mut compared = Vec::new();
-    // External methods (registered by the test below, as it runs) are compared there.
-    for card in registry::visibility_cards()
-        .into_iter()
-        .filter(|c| !c.is_external())
-    {
+    // External methods are compared in the test below.
+    for card in catalogue.visibility_cards() {
         let Some(sweep) = sweeps.methods.get(card.name) else {
             continue;
         };
@@ -123,7 +123,8 @@ fn visible_view_and_the_experiments_run_the_same_default() {
             setting.label()
         );
         // `view`: its choice for the method, run as it runs it.
-        let chosen = harness::view::choose(Some(&[card.name.to_owned()]), &[]).expect("chosen");
+        let chosen =
+            harness::view::choose(&catalogue, Some(&[card.name.to_owned()]), &[]).expect("chosen");
         assert_eq!(chosen[0].2, setting.label(), "{}", card.name);
         let (page, _) = harness::view::run_method(chosen[0].0, &ds, &chosen[0].1, 0, &camera)
             .expect("view's run");
@@ -164,7 +165,9 @@ fn visible_view_and_the_experiments_run_the_same_default() {
 
 #[test]
 fn view_lod_and_the_lod_kernel_run_the_same_default() {
-    let ds = datasets::load(DATASET, Path::new("/nonexistent")).expect("a synthetic dataset");
+    let ds = datasets::Datasets::default()
+        .load(DATASET, Path::new("/nonexistent"))
+        .expect("a synthetic dataset");
     let views = [kernel::View {
         index: 0,
         camera: *ds.view(0).expect("view 0"),
@@ -175,8 +178,9 @@ fn view_lod_and_the_lod_kernel_run_the_same_default() {
             .expect("a texture");
     let data =
         registry::lod::LodData::prepare(ds.cloud.clone(), Some(texture), 1.0, 7).expect("LOD data");
-    let sweeps = Sweeps::resolve(None).expect("the sweeps");
-    for card in registry::lod_cards() {
+    let catalogue = registry::Catalogue::builtin();
+    let sweeps = catalogue.sweeps(None).expect("the sweeps");
+    for card in catalogue.lod_cards() {
         let default = card.default_setting();
         assert_eq!(
             sweeps.methods[card.name].default_setting(),
@@ -184,8 +188,8 @@ fn view_lod_and_the_lod_kernel_run_the_same_default() {
             "{}",
             card.name
         );
-        let chosen =
-            harness::view::lod::choose(Some(&[card.name.to_owned()]), &[]).expect("chosen");
+        let chosen = harness::view::lod::choose(&catalogue, Some(&[card.name.to_owned()]), &[])
+            .expect("chosen");
         assert_eq!(chosen[0].2, default.label(), "{}", card.name);
         // Given nothing, and given the default setting: the same selection.
         let settings = [Setting::default(), default];
@@ -241,17 +245,21 @@ fn an_external_method_runs_its_params_default_everywhere() {
     let (two, ran) = cli_visible_with("every-kth", &["k=2"], Some(dir.path()));
     assert_eq!((ran.label().as_str(), two.len()), ("k=2", 12_000));
 
-    registry::register_external(dir.path()).expect("registered");
-    let card = registry::card("every-kth").expect("its card");
+    let mut catalogue = registry::Catalogue::builtin();
+    catalogue.add_external(dir.path()).expect("added");
+    let card = catalogue.card("every-kth").expect("its card");
     assert_eq!(card.default_setting().label(), "k=3");
-    let sweeps = Sweeps::resolve(None).expect("the sweeps");
+    let sweeps = catalogue.sweeps(None).expect("the sweeps");
     let setting = sweeps.methods["every-kth"]
         .default_setting()
         .expect("a default");
     assert_eq!(setting.label(), "k=3");
-    let ds = datasets::load(DATASET, Path::new("/nonexistent")).expect("a synthetic dataset");
+    let ds = datasets::Datasets::default()
+        .load(DATASET, Path::new("/nonexistent"))
+        .expect("a synthetic dataset");
     let camera = *ds.view(0).expect("view 0");
-    let chosen = harness::view::choose(Some(&["every-kth".to_owned()]), &[]).expect("chosen");
+    let chosen =
+        harness::view::choose(&catalogue, Some(&["every-kth".to_owned()]), &[]).expect("chosen");
     assert_eq!(chosen[0].2, "k=3");
     let (page, _) =
         harness::view::run_method(chosen[0].0, &ds, &chosen[0].1, 0, &camera).expect("view");
@@ -261,10 +269,11 @@ fn an_external_method_runs_its_params_default_everywhere() {
     assert_eq!(experiment, cli, "visible and the experiments");
 
     // The installed peers: loaded, not run (their programs need `just peers`).
-    registry::register_external(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods"))
+    catalogue
+        .add_external(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods"))
         .expect("the methods folder");
-    let sweeps = Sweeps::resolve(None).expect("the sweeps");
-    let open3d = registry::card("open3d-hpr").expect("open3d-hpr");
+    let sweeps = catalogue.sweeps(None).expect("the sweeps");
+    let open3d = catalogue.card("open3d-hpr").expect("open3d-hpr");
     assert_eq!(open3d.default_setting().label(), "gamma=3");
     assert_eq!(
         sweeps.methods["open3d-hpr"]
@@ -272,7 +281,7 @@ fn an_external_method_runs_its_params_default_everywhere() {
             .map(|s| s.label()),
         Some("gamma=3".to_owned())
     );
-    for card in registry::cards().into_iter().filter(|c| c.is_external()) {
+    for card in catalogue.cards().into_iter().filter(|c| c.is_external()) {
         if let Some(sweep) = sweeps.methods.get(card.name) {
             assert_eq!(
                 sweep.default_setting().map(|s| s.label()),

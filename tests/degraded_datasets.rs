@@ -25,9 +25,13 @@ fn bunny_noise_has_sigma_half_a_spacing_and_clean_truth_positions() {
     if !real_data() {
         return;
     }
-    let ds = harness::datasets::load("bunny-noise-0.5", &data_dir()).expect("bunny-noise-0.5");
+    let ds = harness::datasets::Datasets::default()
+        .load("bunny-noise-0.5", &data_dir())
+        .expect("bunny-noise-0.5");
     let truth = ds.truth_positions.as_ref().expect("truth positions");
-    let clean = harness::datasets::load("bunny-69451", &data_dir()).expect("bunny-69451");
+    let clean = harness::datasets::Datasets::default()
+        .load("bunny-69451", &data_dir())
+        .expect("bunny-69451");
     assert_eq!(
         truth, &clean.cloud.positions,
         "the truth is the clean samples"
@@ -56,7 +60,9 @@ fn bunny_outliers_are_five_percent_and_flagged() {
     if !real_data() {
         return;
     }
-    let ds = harness::datasets::load("bunny-outliers-0.05", &data_dir()).expect("dataset");
+    let ds = harness::datasets::Datasets::default()
+        .load("bunny-outliers-0.05", &data_dir())
+        .expect("dataset");
     let outliers = ds.outliers.as_ref().expect("flags");
     assert_eq!(outliers.iter().filter(|&&o| o).count(), 3_473);
     let (off, _) = ds.off_surface().expect("off surface").expect("a mesh");
@@ -69,7 +75,9 @@ fn a_scan_keeps_only_what_its_scanners_see() {
     if !real_data() {
         return;
     }
-    let ds = harness::datasets::load("bunny-scan-4", &data_dir()).expect("bunny-scan-4");
+    let ds = harness::datasets::Datasets::default()
+        .load("bunny-scan-4", &data_dir())
+        .expect("bunny-scan-4");
     let mesh = ds.mesh.as_ref().expect("mesh");
     let exact = truth::ExactVisibility::new(mesh).expect("bvh");
     let bbox = mesh.bbox().expect("bbox");
@@ -96,7 +104,9 @@ fn a_mobile_pass_scans_profiles_across_its_line_and_is_seen_from_the_vehicle() {
     if !real_data() {
         return;
     }
-    let ds = harness::datasets::load("bunny-mobile", &data_dir()).expect("bunny-mobile");
+    let ds = harness::datasets::Datasets::default()
+        .load("bunny-mobile", &data_dir())
+        .expect("bunny-mobile");
     let mesh = ds.mesh.as_ref().expect("mesh");
     let exact = truth::ExactVisibility::new(mesh).expect("bvh");
     let bbox = mesh.bbox().expect("bbox");

@@ -55,7 +55,8 @@ fn goldens() -> Goldens {
 
 /// Runs exact HPR on every configuration of `dataset` and compares each digest.
 fn check(dataset: &str, goldens: &Goldens) {
-    let ds = harness::datasets::load(dataset, &data_dir())
+    let ds = harness::datasets::Datasets::default()
+        .load(dataset, &data_dir())
         .unwrap_or_else(|e| panic!("{dataset} loads (after `pointsight fetch` for meshes): {e:#}"));
     let own = hull::by_name("own").expect("the own hull");
     let mut compared = 0;

@@ -7,12 +7,12 @@
 //! for it (its sweep names none). The robustness run takes its grids from a sweeps file
 //! (`--config`), and HPR is tuned over that file's grid.
 //!
-//! A program of its own (`harness = false`), as a program embedding the registry is: it
-//! registers its methods first thing in `main`, and forwards a scale cell to
-//! `harness::experiments::scale::child::cell_entry`, because the scale experiment runs each cell by
-//! re-running the current executable (this test binary) as a child process. A second scale run
-//! on a dataset of a manifest the program set checks that the cells find it (`cell_entry` reads
-//! the parent's manifest from `POINTSIGHT_MANIFEST`).
+//! A program of its own (`harness = false`), as a program embedding the registry is: it adds
+//! its methods to its run (`harness::run::Run`) first thing in `main`, and forwards a scale
+//! cell with that run to `harness::experiments::scale::child::cell_entry`, because the scale
+//! experiment runs each cell by re-running the current executable (this test binary) as a
+//! child process. A second scale run on a dataset of a manifest the run holds checks that the
+//! cells find it (`cell_entry` reads the parent's run file).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -215,7 +215,7 @@ fn lines_with(path: &Path, needle: &str) -> Vec<String> {
 
 /// `pointsight visible`'s path, in process: `method` at its default setting on view 0 of
 /// sphere-plane-24000; the visible count the indices file holds.
-fn visible(root: &Path, method: &str) -> usize {
+fn visible(run: &harness::run::Run, root: &Path, method: &str) -> usize {
     let out = root.join(format!("visible-{method}.txt"));
     let request = harness::visible::Request {
         source: harness::visible::Source {
@@ -237,7 +237,7 @@ fn visible(root: &Path, method: &str) -> usize {
         parallel_views: harness::cli::ParallelViews::Auto,
         repeat: 1,
     };
-    harness::visible::run(&request, Path::new("/nonexistent-pointsight-data"))
+    harness::visible::run(run, &request, Path::new("/nonexistent-pointsight-data"))
         .unwrap_or_else(|e| panic!("visible --method {method}: {e:#}"));
     std::fs::read_to_string(&out)
         .expect("the indices file")
@@ -245,19 +245,22 @@ fn visible(root: &Path, method: &str) -> usize {
         .count()
 }
 
-fn every_experiment(root: &Path) {
+fn every_experiment(root: &Path, the_run: &harness::run::Run) {
     // `visible`: the nearest half of 24,000 points; the external z-buffer sees some.
-    assert_eq!(visible(root, "kernel-test-nearest"), 12_000);
-    assert!(visible(root, "kernel-test-zbuffer") > 1_000);
-    let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").expect("small grids")))
+    assert_eq!(visible(the_run, root, "kernel-test-nearest"), 12_000);
+    assert!(visible(the_run, root, "kernel-test-zbuffer") > 1_000);
+    let sweeps = the_run
+        .catalogue
+        .sweeps(Some(Sweeps::parse(SMALL, "small").expect("small grids")))
         .expect("the sweeps resolve");
     // Experiment `name` on `dataset`, its results in `root/out`.
-    let run_on = |name: &str, dataset: &str, out: &str| {
+    let run_on = |the_run: &harness::run::Run, name: &str, dataset: &str, out: &str| {
         let ctx = Context {
             sweeps: sweeps.clone(),
             repeats: 1,
             max_points: Some(10_000),
             ..Context::new(
+                std::sync::Arc::new(the_run.clone()),
                 PathBuf::from("/nonexistent-pointsight-data"),
                 root.join(out),
                 true,
@@ -268,7 +271,7 @@ fn every_experiment(root: &Path) {
         assert!(experiments::run(exp, &ctx).expect("the experiment runs"));
         root.join(out)
     };
-    let run = |name: &str| run_on(name, "sphere-plane-24000", name);
+    let run = |name: &str| run_on(the_run, name, "sphere-plane-24000", name);
     let vis = run("visibility");
     for m in ["kernel-test-nearest", "kernel-test-zbuffer"] {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
@@ -384,13 +387,22 @@ fn every_experiment(root: &Path) {
         "the summary has the family's section"
     );
     // A dataset of the run's manifest: each cell (this executable re-run) finds it only
-    // because `cell_entry` reads the manifest the parent passes as `POINTSIGHT_MANIFEST`.
+    // because `cell_entry` reads the run file the parent passes.
     let manifest = write_manifest(root);
-    harness::datasets::use_manifest(
-        harness::datasets::manifest::Manifest::discover(Some(&manifest))
-            .expect("the manifest reads"),
-    );
-    let results = run_on("scale", "kernel-manifest-cube", "scale-manifest").join("results.csv");
+    let with_manifest = harness::run::Run {
+        datasets: harness::datasets::Datasets::new(
+            harness::datasets::manifest::Manifest::discover(Some(&manifest))
+                .expect("the manifest reads"),
+        ),
+        ..the_run.clone()
+    };
+    let results = run_on(
+        &with_manifest,
+        "scale",
+        "kernel-manifest-cube",
+        "scale-manifest",
+    )
+    .join("results.csv");
     for m in ["kernel-test-nearest", "kernel-test-stride-build"] {
         let rows = lines_with(&results, &format!("{m},10000,"));
         assert_eq!(
@@ -437,22 +449,27 @@ fn write_manifest(root: &Path) -> PathBuf {
 }
 
 fn main() -> ExitCode {
-    registry::register(card(
-        "kernel-test-nearest",
-        "test only: the nearest half of the points",
-        &[],
-        "[[grid]]\n",
-        Kind::Visibility(&Nearest),
-    ))
-    .expect("a new visibility name");
-    registry::register(card(
-        "kernel-test-stride",
-        "test only: every stride-th point",
-        &[STRIDE],
-        "[[grid]]\nstride = [2, 4]\n",
-        Kind::Lod(&Stride),
-    ))
-    .expect("a new LOD name");
+    let mut the_run = harness::run::Run::builtin();
+    the_run
+        .catalogue
+        .add(card(
+            "kernel-test-nearest",
+            "test only: the nearest half of the points",
+            &[],
+            "[[grid]]\n",
+            Kind::Visibility(&Nearest),
+        ))
+        .expect("a new visibility name");
+    the_run
+        .catalogue
+        .add(card(
+            "kernel-test-stride",
+            "test only: every stride-th point",
+            &[STRIDE],
+            "[[grid]]\nstride = [2, 4]\n",
+            Kind::Lod(&Stride),
+        ))
+        .expect("a new LOD name");
     let args: Vec<String> = std::env::args().collect();
     // A scale cell (this executable re-run by the scale experiment) loads its parent's folder.
     let cell = args.get(1).map(String::as_str) == Some("scale-cell");
@@ -467,10 +484,14 @@ fn main() -> ExitCode {
     } else {
         external_folder(&root)
     };
-    registry::register_external(&methods).expect("the external folder loads");
-    if let Some(code) =
-        experiments::scale::child::cell_entry(&args, Path::new("/nonexistent-pointsight-data"))
-    {
+    the_run
+        .add_methods(&methods, "the test's")
+        .expect("the external folder loads");
+    if let Some(code) = experiments::scale::child::cell_entry(
+        &args,
+        Path::new("/nonexistent-pointsight-data"),
+        the_run.clone(),
+    ) {
         return code;
     }
     // libtest's flags (`--list`, filters) are not ours: only `--list` needs an answer.
@@ -478,7 +499,7 @@ fn main() -> ExitCode {
         println!("every_experiment: test");
         return ExitCode::SUCCESS;
     }
-    every_experiment(&root);
+    every_experiment(&root, &the_run);
     let _ = std::fs::remove_dir_all(&root);
     println!("1 passed, 0 failed");
     ExitCode::SUCCESS

@@ -23,6 +23,15 @@ fn methods_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods")
 }
 
+/// The built-in methods and the repository's methods folder's.
+fn catalogue() -> registry::Catalogue {
+    let mut catalogue = registry::Catalogue::builtin();
+    catalogue
+        .add_external(&methods_dir())
+        .expect("the methods folder loads");
+    catalogue
+}
+
 /// `Some(indices)` from `pointsight visible`, or `None` (skip) when `method` is a peer that is
 /// not installed outside CI; any other failure fails the test.
 fn visible(method: &str, dataset: &str, view: usize, sets: &[&str]) -> Option<Vec<u32>> {
@@ -90,8 +99,8 @@ fn jaccard(a: &[u32], b: &[u32]) -> f64 {
 
 #[test]
 fn every_peer_is_installed_under_ci() {
-    registry::register_external(&methods_dir()).expect("the methods folder loads");
-    let peers: Vec<(&str, &str, Result<(), String>)> = registry::cards()
+    let peers: Vec<(&str, &str, Result<(), String>)> = catalogue()
+        .cards()
         .into_iter()
         .filter_map(|m| Some((m.name, m.peer_of?, m.availability())))
         .collect();
@@ -285,7 +294,8 @@ fn vtk_zbuffer_follows_its_rule_and_agrees_with_our_splat_offscreen() {
         ["vtkEGLRenderWindow", "vtkOSOpenGLRenderWindow"].contains(&class.as_str()),
         "VTK opened {class:?}, not an offscreen EGL or OSMesa window"
     );
-    let ds = harness::datasets::load("sphere-20000", Path::new("/nonexistent"))
+    let ds = harness::datasets::Datasets::default()
+        .load("sphere-20000", Path::new("/nonexistent"))
         .expect("a synthetic dataset");
     let (mut worst_rule, mut worst_splat, mut worst_disc) = (1.0f64, 1.0f64, 1.0f64);
     for view in [0, 4, 9, 13] {
@@ -485,8 +495,7 @@ fn pcl_voxel_occlusion_against_a_brute_force_walk() {
 #[test]
 fn py3dtiles_lod_selection_shrinks_as_the_view_recedes() {
     use cloud::glam::{DVec3, Vec2, Vec3};
-    registry::register_external(&methods_dir()).expect("the methods folder loads");
-    let method = registry::card("py3dtiles-lod").expect("registered");
+    let method = catalogue().card("py3dtiles-lod").expect("in the catalogue");
     assert!(method.is_lod(), "an LOD method");
     assert_eq!(method.peer_of, Some("lod"));
     if let Err(why) = method.availability() {
@@ -574,8 +583,7 @@ fn py3dtiles_lod_selection_shrinks_as_the_view_recedes() {
 
 /// The COPC peer's program, or `None` (skip) when it is not installed outside CI.
 fn copc_lod() -> Option<PathBuf> {
-    registry::register_external(&methods_dir()).expect("the methods folder loads");
-    let method = registry::card("copc-lod").expect("registered");
+    let method = catalogue().card("copc-lod").expect("in the catalogue");
     assert!(method.is_lod(), "an LOD method");
     assert_eq!(method.peer_of, Some("lod"));
     if let Err(why) = method.availability() {
@@ -1081,7 +1089,7 @@ fn copc_lod_through_the_kernel_psnr_falls_as_the_threshold_grows() {
     if copc_lod().is_none() {
         return;
     }
-    let method = registry::card("copc-lod").expect("registered");
+    let method = catalogue().card("copc-lod").expect("in the catalogue");
     let positions = uneven_cloud();
     let n = positions.len();
     let normals: Vec<Vec3> = positions.iter().map(|p| p.normalize().as_vec3()).collect();

@@ -126,18 +126,23 @@ fn tmp(name: &str) -> PathBuf {
 
 #[test]
 fn a_registered_method_reaches_the_csv_plots_and_tables() {
-    registry::register(nearest()).unwrap();
+    let mut run = harness::run::Run::builtin();
+    run.catalogue.add(nearest()).unwrap();
     assert!(
-        registry::register(nearest()).is_err(),
-        "a name registers once"
+        run.catalogue.add(nearest()).is_err(),
+        "a name is added once"
     );
-    let sweeps = Sweeps::resolve(Some(Sweeps::parse(SMALL, "small").unwrap())).unwrap();
+    let sweeps = run
+        .catalogue
+        .sweeps(Some(Sweeps::parse(SMALL, "small").unwrap()))
+        .unwrap();
     assert_eq!(sweeps.methods["test-nearest"].grid.len(), 3);
     let out = tmp("visibility");
     let ctx = Context {
         sweeps,
         repeats: 2,
         ..Context::new(
+            std::sync::Arc::new(run),
             PathBuf::from("bench-data"),
             out.join("visibility"),
             true,
@@ -343,9 +348,10 @@ fn bad_shard_and_config_are_errors() {
     let out = pointsight(&["sweeps"]);
     let text = String::from_utf8(out.stdout).unwrap();
     let parsed = Sweeps::parse(&text, "printed").unwrap();
+    let catalogue = registry::Catalogue::builtin();
     assert_eq!(
-        Sweeps::resolve(Some(parsed)).unwrap(),
-        Sweeps::resolve(None).unwrap()
+        catalogue.sweeps(Some(parsed)).unwrap(),
+        catalogue.sweeps(None).unwrap()
     );
 }
 
@@ -410,14 +416,16 @@ impl LodSelector for EveryKthSel<'_> {
 
 #[test]
 fn a_registered_lod_method_reaches_the_csv_plots_and_tables() {
-    registry::register(card(
-        "test-every-kth",
-        "test only: every k-th point",
-        &[K],
-        None,
-        Kind::Lod(&EveryKth),
-    ))
-    .unwrap();
+    let mut run = harness::run::Run::builtin();
+    run.catalogue
+        .add(card(
+            "test-every-kth",
+            "test only: every k-th point",
+            &[K],
+            None,
+            Kind::Lod(&EveryKth),
+        ))
+        .unwrap();
     let config = r#"
         [test-every-kth]
         [[test-every-kth.grid]]
@@ -435,12 +443,16 @@ fn a_registered_lod_method_reaches_the_csv_plots_and_tables() {
         [[random.grid]]
         fraction = 0.25
     "#;
-    let sweeps = Sweeps::resolve(Some(Sweeps::parse(config, "lod config").unwrap())).unwrap();
+    let sweeps = run
+        .catalogue
+        .sweeps(Some(Sweeps::parse(config, "lod config").unwrap()))
+        .unwrap();
     let out = tmp("lod");
     let ctx = Context {
         sweeps,
         repeats: 1,
         ..Context::new(
+            std::sync::Arc::new(run),
             PathBuf::from("bench-data"),
             out.join("lod"),
             true,

@@ -19,7 +19,8 @@ fn reference_matches_the_exact_test_on_every_bunny_view() {
         eprintln!("POINTSIGHT_REAL_DATA is not 1: skipping the real-data check (run `just test`)");
         return;
     }
-    let ds = harness::datasets::load("bunny-69451", &data_dir())
+    let ds = harness::datasets::Datasets::default()
+        .load("bunny-69451", &data_dir())
         .expect("bunny-69451 loads after `pointsight fetch`");
     let reference = Reference::new(ds.mesh.as_ref().unwrap()).unwrap();
     for (k, cam) in ds.views.iter().enumerate() {

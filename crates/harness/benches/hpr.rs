@@ -21,7 +21,7 @@ fn data_dir() -> PathBuf {
 
 /// The dataset's points and view-0 eye, or a synthetic sphere of `n` points seen from outside.
 fn cloud(name: &str, n: usize) -> (String, Vec<DVec3>, DVec3) {
-    match harness::datasets::load(name, &data_dir()) {
+    match harness::datasets::Datasets::default().load(name, &data_dir()) {
         Ok(ds) => (name.to_owned(), ds.cloud.positions.clone(), ds.views[0].eye),
         Err(e) => {
             eprintln!("{name} unavailable ({e:#}); using a synthetic sphere of {n} points");

@@ -21,28 +21,30 @@ fn data_dir() -> PathBuf {
 }
 
 fn dragon() -> (String, PointCloud, Vec<Camera>) {
-    let ds = harness::datasets::load("dragon-871414", &data_dir()).or_else(|e| {
-        eprintln!("dragon-871414 unavailable ({e:#}); using torus samples of the same size");
-        let scene = cloud::synth::torus_scene(871_414, 1).expect("torus");
-        let bbox = scene.mesh.bbox().expect("bbox");
-        let views = cloud::views::fibonacci_views(&bbox, &cloud::views::ViewSpec::default())
-            .expect("views");
-        anyhow::Ok(harness::datasets::Dataset {
-            name: "torus-871414".into(),
-            description: "torus samples standing in for the dragon".into(),
-            cloud: scene.cloud,
-            mesh: Some(scene.mesh),
-            views,
-            files: Vec::new(),
-            origin: cloud::glam::DVec3::ZERO,
-            scale: (1.0, 1.0),
-            surface_tolerance: None,
-            truth_positions: None,
-            outliers: None,
-            mesh_fit: None,
-            allow_off_surface: false,
-        })
-    });
+    let ds = harness::datasets::Datasets::default()
+        .load("dragon-871414", &data_dir())
+        .or_else(|e| {
+            eprintln!("dragon-871414 unavailable ({e:#}); using torus samples of the same size");
+            let scene = cloud::synth::torus_scene(871_414, 1).expect("torus");
+            let bbox = scene.mesh.bbox().expect("bbox");
+            let views = cloud::views::fibonacci_views(&bbox, &cloud::views::ViewSpec::default())
+                .expect("views");
+            anyhow::Ok(harness::datasets::Dataset {
+                name: "torus-871414".into(),
+                description: "torus samples standing in for the dragon".into(),
+                cloud: scene.cloud,
+                mesh: Some(scene.mesh),
+                views,
+                files: Vec::new(),
+                origin: cloud::glam::DVec3::ZERO,
+                scale: (1.0, 1.0),
+                surface_tolerance: None,
+                truth_positions: None,
+                outliers: None,
+                mesh_fit: None,
+                allow_off_surface: false,
+            })
+        });
     let ds = ds.expect("dataset");
     (
         format!("{} ({} points)", ds.name(), ds.cloud.len()),

@@ -23,7 +23,7 @@ fn data_dir() -> PathBuf {
 }
 
 fn dragon() -> (String, Vec<DVec3>, Camera) {
-    match harness::datasets::load("dragon-871414", &data_dir()) {
+    match harness::datasets::Datasets::default().load("dragon-871414", &data_dir()) {
         Ok(ds) => (
             "dragon-871414".into(),
             ds.cloud.positions.clone(),
@@ -31,7 +31,9 @@ fn dragon() -> (String, Vec<DVec3>, Camera) {
         ),
         Err(e) => {
             eprintln!("dragon-871414 unavailable ({e:#}); using a synthetic sphere-plane scene");
-            let ds = harness::datasets::load("sphere-plane-24000", &data_dir()).expect("synthetic");
+            let ds = harness::datasets::Datasets::default()
+                .load("sphere-plane-24000", &data_dir())
+                .expect("synthetic");
             let pts = cloud::synth::sphere_plane_scene(300_000, 571_414, 1)
                 .0
                 .cloud

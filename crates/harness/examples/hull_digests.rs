@@ -16,7 +16,7 @@ fn main() -> Result<()> {
     let own = hull::by_name("own")?;
     println!("dataset,view,gamma,perturb,n_visible,sha256");
     for name in &args[3..] {
-        let ds = harness::datasets::load(name, &data_dir)?;
+        let ds = harness::datasets::Datasets::default().load(name, &data_dir)?;
         for view in 0..views {
             let cam = ds.view(view)?;
             for gamma in [2.0, 3.0, 4.0] {

@@ -36,11 +36,11 @@ fn main() -> Result<()> {
     if let Some(w) = &args.weights {
         pairs.push(format!("weights={w}"));
     }
-    let card = registry::card("neuralvis")?;
+    let card = registry::Catalogue::builtin().card("neuralvis")?;
     let (setup, _) = card.setup(&Params::parse(&pairs)?)?;
     let mut means = vec![0f64; thresholds.len()];
     for name in &args.datasets {
-        let ds = harness::datasets::load(name, &data_dir)?;
+        let ds = harness::datasets::Datasets::default().load(name, &data_dir)?;
         let mesh = ds.mesh.as_ref().context("a tuning dataset has a mesh")?;
         let reference = Reference::new(mesh)?;
         let prepared = setup.prepare(Input {

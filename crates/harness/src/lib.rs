@@ -29,6 +29,7 @@ pub mod output;
 pub mod paths;
 pub mod progress;
 pub mod rss;
+pub mod run;
 pub mod shard;
 pub mod stats;
 pub mod view;
@@ -41,34 +42,45 @@ use anyhow::Result;
 use crate::cli::{Cli, Command};
 
 /// Runs a parsed command line: resolves the folders ([`paths`]), reads the manifest and the
-/// external methods, then hands the command to its body in [`commands`].
+/// external methods into the run's one value ([`run::Run`]), then hands the command and the
+/// run to its body in [`commands`]. A scale cell given its parent's run file builds its run
+/// from that file alone.
 pub fn run(cli: Cli) -> Result<ExitCode> {
     progress::set_quiet(cli.quiet);
     let clone = paths::working_clone();
     let data = paths::data_dir(cli.data_dir, clone.as_deref())?;
     let data_dir = data.path.clone();
-    datasets::use_manifest(datasets::manifest::Manifest::discover(
-        cli.manifest.as_deref(),
-    )?);
     let methods = paths::methods_folders(
         std::env::var_os("POINTSIGHT_METHODS").as_deref(),
         clone.as_deref(),
         cli.no_installed_methods,
         &cli.methods_dir,
     );
-    paths::use_methods_dirs(methods.iter().map(|m| m.path.clone()).collect());
-    for folder in &methods {
-        match folder.warning() {
-            // Said where methods matter; the scale experiment's cells are its children, which
-            // the parent has warned for.
-            Some(warning) => {
-                if uses_methods(&cli.command) {
-                    eprintln!("{warning}");
+    let parents_run = match &cli.command {
+        Command::ScaleCell(cell) => cell.run.clone(),
+        _ => None,
+    };
+    let the_run = match parents_run {
+        Some(file) => run::Run::read_for_child(&file)?,
+        None => {
+            let mut the_run = run::Run::with_manifest(datasets::manifest::Manifest::discover(
+                cli.manifest.as_deref(),
+            )?);
+            for folder in &methods {
+                match folder.warning() {
+                    // Said where methods matter; the scale experiment's cells are its
+                    // children, which the parent has warned for.
+                    Some(warning) => {
+                        if uses_methods(&cli.command) {
+                            eprintln!("{warning}");
+                        }
+                    }
+                    None => the_run.add_methods(&folder.path, &folder.why())?,
                 }
             }
-            None => register_methods(folder)?,
+            the_run
         }
-    }
+    };
     let reports = |given: Option<std::path::PathBuf>, quick: bool| {
         given.unwrap_or_else(|| paths::reports_dir(quick, clone.as_deref()))
     };
@@ -77,15 +89,15 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     match cli.command {
         Command::Fetch => commands::data::fetch(&data_dir)?,
         Command::Paths => commands::data::paths(&data, &methods, clone.as_deref()),
-        Command::Datasets => commands::data::list_datasets(&data_dir, cli.manifest.as_deref())?,
-        Command::Methods { check } => commands::catalogue::list_methods(check)?,
+        Command::Datasets => commands::data::list_datasets(&the_run, &data_dir)?,
+        Command::Methods { check } => commands::catalogue::list_methods(&the_run, check)?,
         Command::Sweeps => commands::catalogue::sweeps(),
         Command::Clean { folders, remove } => guard::clean_command(folders, remove)?,
         Command::Export {
             dataset,
             out,
             normals,
-        } => commands::data::export(&dataset, &out, normals, &data_dir)?,
+        } => commands::data::export(&the_run, &dataset, &out, normals, &data_dir)?,
         Command::Inspect {
             file,
             format,
@@ -97,7 +109,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             dataset,
             out,
             format,
-        } => commands::data::views(&dataset, out.as_deref(), format, &data_dir)?,
+        } => commands::data::views(&the_run, &dataset, out.as_deref(), format, &data_dir)?,
         Command::Visible {
             source,
             view,
@@ -118,7 +130,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 parallel_views,
                 repeat,
             };
-            commands::look::visible(&request, &data_dir)?
+            commands::look::visible(&the_run, &request, &data_dir)?
         }
         Command::View {
             source,
@@ -140,7 +152,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 png,
                 out,
             };
-            commands::look::view(&request, lod, distance, &data_dir)?
+            commands::look::view(&the_run, &request, lod, distance, &data_dir)?
         }
         Command::LodBuild {
             cloud,
@@ -149,7 +161,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             out,
             in_memory,
         } => commands::lod::lod_build(&cloud, &method, &memory_limit, &out, in_memory)?,
-        Command::ScaleCell(cell) => commands::experiments::scale_cell(&cell, &data_dir)?,
+        Command::ScaleCell(cell) => commands::experiments::scale_cell(&the_run, &cell, &data_dir)?,
         Command::Run {
             experiment,
             datasets,
@@ -167,7 +179,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 source: commands::look::source_from(None, files, camera)?,
                 reports: reports(None, quick),
             };
-            commands::experiments::run(&request, &sweep, data_dir)?
+            commands::experiments::run(&the_run, &request, &sweep, data_dir)?
         }
         Command::Bench {
             quick,
@@ -176,6 +188,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             reports: given,
             sweep,
         } => commands::experiments::bench(
+            &the_run,
             quick,
             datasets,
             experiments,
@@ -183,12 +196,12 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             &sweep,
             &data_dir,
         )?,
-        Command::Merge { out, shards } => commands::experiments::merge(&out, &shards)?,
+        Command::Merge { out, shards } => commands::experiments::merge(&the_run, &out, &shards)?,
         Command::Report { reports: given } => {
-            commands::experiments::report(&reports(given, false), &data_dir)?
+            commands::experiments::report(&the_run, &reports(given, false), &data_dir)?
         }
         Command::Tables { reports: given } => {
-            commands::experiments::tables(&reports(given, false))?
+            commands::experiments::tables(&the_run, &reports(given, false))?
         }
     }
     Ok(ExitCode::SUCCESS)
@@ -196,33 +209,6 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
 
 /// True for the commands that run or list external methods, which say when the methods folder
 /// cannot be read.
-/// Registers the external methods of `folder`; one whose name an earlier folder's method took
-/// is an error naming both folders (a built-in name is refused by the registry).
-fn register_methods(folder: &paths::Place) -> Result<()> {
-    use registry::methods::external::manifest::ExternalMethod;
-    for m in ExternalMethod::load_dir(&folder.path)? {
-        if let Some(taken) = registry::card_named(m.name()).filter(|c| c.is_external()) {
-            let earlier = paths::methods_in_use()
-                .unwrap_or_default()
-                .iter()
-                .find(|p| p.join(taken.name).join("method.toml").is_file() && **p != folder.path)
-                .map_or_else(
-                    || "an earlier methods folder".to_owned(),
-                    |p| p.display().to_string(),
-                );
-            anyhow::bail!(
-                "method {} of {} ({}) is also in {earlier}: rename one folder's, or leave the \
-                 installed methods out with --no-installed-methods",
-                m.name(),
-                folder.path.display(),
-                folder.why()
-            );
-        }
-    }
-    registry::register_external(&folder.path)?;
-    Ok(())
-}
-
 fn uses_methods(command: &Command) -> bool {
     matches!(
         command,

@@ -45,7 +45,6 @@
 //! the same wherever its clone went.
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use anyhow::{Result, bail};
 
@@ -247,20 +246,6 @@ pub fn methods_folders(
         }
     }
     out
-}
-
-/// The methods folders this process resolved ([`methods_folders`]), set once at start.
-static METHODS_IN_USE: OnceLock<Vec<PathBuf>> = OnceLock::new();
-
-/// Records `paths` as this process's methods folders (a second call keeps the first).
-pub fn use_methods_dirs(paths: Vec<PathBuf>) {
-    let _ = METHODS_IN_USE.set(paths);
-}
-
-/// The methods folders this process resolved, when [`use_methods_dirs`] was called: what a
-/// child process of the same run must use too (the `scale` experiment's cells).
-pub fn methods_in_use() -> Option<&'static [PathBuf]> {
-    METHODS_IN_USE.get().map(Vec::as_slice)
 }
 
 /// The reports folder of a run without `--out`/`--reports`: `reports/` (`reports-quick/` for

@@ -262,7 +262,7 @@ fn score_line(
 
 /// The dataset `src` names, its views replaced by the views file or the camera flags when
 /// given; the errors `visible` gives for bad input.
-pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
+pub fn load_source(run: &crate::run::Run, src: &Source, data_dir: &Path) -> Result<Dataset> {
     let mut ds = match (&src.cloud, &src.dataset) {
         (Some(path), _) => {
             let is_e57 = src.read.format.or_else(|| cloud::io::Format::of_path(path))
@@ -295,7 +295,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
             if src.mesh.is_some() {
                 bail!("--mesh goes with --cloud; a dataset has its own mesh");
             }
-            datasets::load(name, data_dir)?
+            run.datasets.load(name, data_dir)?
         }
         (None, None) => bail!("give --dataset NAME or --cloud FILE"),
     };
@@ -324,7 +324,7 @@ pub fn load_source(src: &Source, data_dir: &Path) -> Result<Dataset> {
         let mesh = src
             .mesh
             .clone()
-            .or_else(|| datasets::manifest_mesh(&ds.name));
+            .or_else(|| run.datasets.manifest_mesh(&ds.name));
         datasets::fit::check(&mut ds, allow, mesh.as_deref())?;
         if let Some(fit) = ds.mesh_fit.as_ref().filter(|f| f.allowed) {
             crate::progress::warn_once(format!(
@@ -368,16 +368,16 @@ pub fn typed(
 }
 
 /// Runs the request; prints the contract lines.
-pub fn run(req: &Request, data_dir: &Path) -> Result<()> {
+pub fn run(run: &crate::run::Run, req: &Request, data_dir: &Path) -> Result<()> {
     // The setting first, typed by the method's card: a bad value is refused before the cloud
     // is read.
     let set = registry::Assignments::parse(&req.set)?;
     set.one_setting("visible")?;
-    let method = registry::card(&req.method)?;
-    set.check_targets(&[method])?;
+    let method = run.catalogue.card(&req.method)?;
+    set.check_targets(&run.catalogue, &[method])?;
     let params = set.over_params(method, &Params::default());
     typed(method, &params, &set)?;
-    let ds = load_source(&req.source, data_dir)?;
+    let ds = load_source(run, &req.source, data_dir)?;
     let many = req.source.views.is_some() || req.view.parse::<usize>().is_err();
     let reference = if req.score {
         Some(truth::Reference::new(ds.mesh("--score")?)?)

@@ -277,7 +277,8 @@ impl Camera {
 /// Runs registry method `method` with `params` (the `--set` keys) on `points` for each camera;
 /// `vertices`/`faces` give the mesh for `reference`. One index array per camera.
 #[pyfunction]
-#[pyo3(signature = (method, points, cameras, params, vertices=None, faces=None))]
+#[pyo3(signature = (method, points, cameras, params, vertices=None, faces=None, catalogue=None))]
+#[allow(clippy::too_many_arguments)]
 fn visible<'py>(
     py: Python<'py>,
     method: &str,
@@ -286,7 +287,9 @@ fn visible<'py>(
     params: Vec<(String, String)>,
     vertices: Option<PyReadonlyArray2<'py, f64>>,
     faces: Option<PyReadonlyArray2<'py, i64>>,
+    catalogue: Option<PyRef<'py, Catalogue>>,
 ) -> PyResult<Vec<Bound<'py, PyArray1<i64>>>> {
+    let catalogue = catalogue.map_or_else(registry::Catalogue::builtin, |c| c.inner.clone());
     let pts = points_of(&points)?;
     let mesh = match (vertices, faces) {
         (Some(v), Some(f)) => Some(mesh_of(&v, &f)?),
@@ -296,7 +299,7 @@ fn visible<'py>(
     let method = method.to_owned();
     let cams: Vec<cloud::Camera> = cameras.iter().map(|c| c.inner).collect();
     let results = run(py, move || {
-        let m = registry::card(&method).map_err(err)?;
+        let m = catalogue.card(&method).map_err(err)?;
         let p = registry::Params::from_pairs(
             &params
                 .iter()
@@ -547,7 +550,7 @@ impl Lod {
     /// texture (H, W, 3) uint8 (colours then come from it; SRN needs it), full-detail splats of
     /// `radius` (else `radius_spacings` density spacings), every random choice from `seed`.
     #[new]
-    #[pyo3(signature = (method, points, normals=None, colors=None, uvs=None, texture=None, radius=None, radius_spacings=1.0, seed=0))]
+    #[pyo3(signature = (method, points, normals=None, colors=None, uvs=None, texture=None, radius=None, radius_spacings=1.0, seed=0, catalogue=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -560,11 +563,14 @@ impl Lod {
         radius: Option<f64>,
         radius_spacings: f64,
         seed: u64,
+        catalogue: Option<PyRef<'_, Catalogue>>,
     ) -> PyResult<Self> {
-        let m = registry::card_named(method)
+        let catalogue = catalogue.map_or_else(registry::Catalogue::builtin, |c| c.inner.clone());
+        let m = catalogue
+            .card_named(method)
             .filter(|m| m.is_lod())
             .ok_or_else(|| {
-                let known: Vec<&str> = registry::lod_cards().iter().map(|m| m.name).collect();
+                let known: Vec<&str> = catalogue.lod_cards().iter().map(|m| m.name).collect();
                 PyValueError::new_err(format!(
                     "unknown level-of-detail method {method:?}; known: {}",
                     known.join(", ")
@@ -624,7 +630,8 @@ impl Lod {
     #[staticmethod]
     #[pyo3(signature = (path, cache_bytes=64 << 20))]
     fn open_qsplat_file(py: Python<'_>, path: PathBuf, cache_bytes: u64) -> PyResult<Self> {
-        let m = registry::card("qsplat").map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let m = registry::builtin_card("qsplat")
+            .ok_or_else(|| PyRuntimeError::new_err("qsplat is not built in"))?;
         let (built, timing) = run(py, move || {
             registry::timing::measure(1, || {
                 registry::lod_file::open_qsplat_file(&path, cache_bytes)
@@ -654,7 +661,8 @@ impl Lod {
                     .map_err(|e| registry_err(info.method, &e))?;
             Ok((built, timing, info.method))
         })?;
-        let m = registry::card(name).map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let m = registry::builtin_card(name)
+            .ok_or_else(|| PyRuntimeError::new_err(format!("{name} is not built in")))?;
         let size = built.size();
         Ok(Self {
             method: m,
@@ -799,14 +807,16 @@ fn srn_select<'py>(
     Ok((indices_array(py, kept), factors.into_pyarray(py)))
 }
 
-/// Every method of the registry, visibility (built-in and registered) then level of detail:
-/// name, one-line summary, and its parameters (key, default, help).
+/// Every method of `catalogue` (default: the built-in ones), visibility then level of
+/// detail: name, one-line summary, and its parameters (key, default, help).
 #[pyfunction]
-fn methods() -> Vec<MethodListing> {
-    let visibility = registry::visibility_cards();
-    visibility
+#[pyo3(signature = (catalogue=None))]
+fn methods(catalogue: Option<PyRef<'_, Catalogue>>) -> Vec<MethodListing> {
+    let catalogue = catalogue.map_or_else(registry::Catalogue::builtin, |c| c.inner.clone());
+    catalogue
+        .visibility_cards()
         .iter()
-        .chain(&registry::lod_cards())
+        .chain(&catalogue.lod_cards())
         .map(|m| {
             (
                 m.name.to_owned(),
@@ -820,24 +830,53 @@ fn methods() -> Vec<MethodListing> {
         .collect()
 }
 
-/// Loads the external methods under `dir` (`NAME/method.toml` each; see the repository's
-/// `methods/README.md`) for every later call in this process; returns their names.
-#[pyfunction]
-fn load_methods(dir: PathBuf) -> PyResult<Vec<String>> {
-    if !dir.is_dir() {
-        return Err(PyValueError::new_err(format!(
-            "methods folder {} does not exist",
-            dir.display()
-        )));
+/// The methods a caller runs: the built-in ones and the external folders it loaded. A value:
+/// two catalogues side by side know only their own folders; nothing is process state.
+#[pyclass(module = "pointsight._native")]
+#[derive(Clone, Default)]
+struct Catalogue {
+    inner: registry::Catalogue,
+}
+
+#[pymethods]
+impl Catalogue {
+    /// The built-in methods alone.
+    #[new]
+    fn new() -> Self {
+        Self::default()
     }
-    let before: Vec<&str> = registry::cards().iter().map(|m| m.name).collect();
-    registry::register_external(&dir).map_err(|e| PyValueError::new_err(e.to_string()))?;
-    Ok(registry::cards()
-        .iter()
-        .map(|m| m.name)
-        .filter(|n| !before.contains(n))
-        .map(str::to_owned)
-        .collect())
+
+    /// Loads the external methods under `dir` (`NAME/method.toml` each; see the repository's
+    /// `methods/README.md`) into this catalogue; returns their names.
+    fn load(&mut self, dir: PathBuf) -> PyResult<Vec<String>> {
+        if !dir.is_dir() {
+            return Err(PyValueError::new_err(format!(
+                "methods folder {} does not exist",
+                dir.display()
+            )));
+        }
+        let before: Vec<&str> = self.inner.cards().iter().map(|m| m.name).collect();
+        self.inner
+            .add_external(&dir)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        Ok(self
+            .inner
+            .cards()
+            .iter()
+            .map(|m| m.name)
+            .filter(|n| !before.contains(n))
+            .map(str::to_owned)
+            .collect())
+    }
+
+    /// Every method's name, visibility and level of detail.
+    fn names(&self) -> Vec<String> {
+        self.inner
+            .cards()
+            .iter()
+            .map(|m| m.name.to_owned())
+            .collect()
+    }
 }
 
 /// The module.
@@ -846,7 +885,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<Camera>()?;
     m.add_class::<Lod>()?;
     m.add_function(wrap_pyfunction!(spt_epsilon_for_pixels, m)?)?;
-    m.add_function(wrap_pyfunction!(load_methods, m)?)?;
+    m.add_class::<Catalogue>()?;
     m.add_function(wrap_pyfunction!(visible, m)?)?;
     m.add_function(wrap_pyfunction!(score, m)?)?;
     m.add_function(wrap_pyfunction!(convex_hull_vertices, m)?)?;

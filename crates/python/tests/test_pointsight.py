@@ -223,17 +223,21 @@ def test_every_lod_method_through_the_registry():
         ps.Lod("qsplat", bad, p)
 
 
-def test_an_external_method_loaded_from_python(tmp_path):
-    """`load_methods` registers a method folder (any language, methods/README.md); `visible`
-    then runs it by name through the kernel. The example is a point z-buffer, so its answer is
-    computed here with numpy from the camera's own projection."""
-    folder = tmp_path / "methods" / "py-test-zbuffer"
+def _zbuffer_folder(folder):
+    """The repository's example z-buffer method copied into `folder` (its name the folder's),
+    with the protocol helper it imports (from ../_shared, or beside it)."""
     folder.mkdir(parents=True)
     example = ROOT / "methods" / "example-zbuffer"
     shutil.copy(example / "zbuffer.py", folder / "zbuffer.py")
     shutil.copy(example / "method.toml", folder / "method.toml")
-    # The protocol helper it imports (from ../_shared, or beside it).
     shutil.copy(ROOT / "methods" / "_shared" / "pointsight_protocol.py", folder)
+
+
+def test_an_external_method_loaded_from_python(tmp_path):
+    """`load_methods` registers a method folder (any language, methods/README.md); `visible`
+    then runs it by name through the kernel. The example is a point z-buffer, so its answer is
+    computed here with numpy from the camera's own projection."""
+    _zbuffer_folder(tmp_path / "methods" / "py-test-zbuffer")
     assert ps.load_methods(tmp_path / "methods") == ["py-test-zbuffer"]
     assert ps.load_methods(tmp_path / "methods") == []  # loading twice is harmless
     assert "py-test-zbuffer" in {m[0] for m in ps.methods()}
@@ -257,6 +261,28 @@ def test_an_external_method_loaded_from_python(tmp_path):
         ps.visible("no-such-method", p, cam)
     with pytest.raises(ValueError, match="no-such-dir|No such file|not found|does not exist"):
         ps.load_methods(tmp_path / "no-such-dir")
+
+
+def test_catalogues_side_by_side_know_only_their_own_methods(tmp_path):
+    """A `Catalogue` is a value: one loaded with a folder runs its method; another, and the
+    module's default, do not know it; an unknown catalogue type is refused."""
+    _zbuffer_folder(tmp_path / "methods" / "py-side-zbuffer")
+    mine = ps.Catalogue()
+    assert mine.load(tmp_path / "methods") == ["py-side-zbuffer"]
+    other = ps.Catalogue()
+    assert "py-side-zbuffer" in mine.names() and "py-side-zbuffer" not in other.names()
+    assert "hpr" in other.names()
+    assert "py-side-zbuffer" in {m[0] for m in ps.methods(mine)}
+    assert "py-side-zbuffer" not in {m[0] for m in ps.methods(other)}
+    p = np.random.default_rng(7).normal(size=(500, 3))
+    cam = ps.Camera.look_at("pinhole", [0, 0, 6], [0, 0, 0], [0, 1, 0], 40, 30, fov_y_deg=40)
+    assert len(ps.visible("py-side-zbuffer", p, cam, catalogue=mine)) > 0
+    with pytest.raises(ValueError, match="unknown method"):
+        ps.visible("py-side-zbuffer", p, cam, catalogue=other)
+    with pytest.raises(ValueError, match="unknown method"):
+        ps.visible("py-side-zbuffer", p, cam)
+    with pytest.raises(TypeError, match="Catalogue"):
+        ps.visible("hpr", p, cam, catalogue="not a catalogue")
 
 
 def test_an_external_lod_method_loaded_from_python(tmp_path):

@@ -40,9 +40,7 @@ pub mod visibility;
 pub use card::{Card, Comparison, Family, Kind, Memory, Metric, PeerKey, Program};
 pub use error::{Error, Result};
 pub use lod::LodMethod;
-pub use methods::{
-    card, card_named, cards, lod_cards, register, register_external, visibility_cards,
-};
+pub use methods::{BUILT_IN, Catalogue, builtin_card};
 pub use params::{Param, ParamDefault, Params, Reader};
 pub use set::{Assignment, Assignments};
 pub use setting::{Setting, Value};

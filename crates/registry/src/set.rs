@@ -118,10 +118,10 @@ impl Assignments {
         }
     }
 
-    /// Refuses a pair no method of `cards` (the methods run) takes: an unknown method, a
-    /// method not run, a key its method does not have, or a key no method run has. Each error
-    /// names what is accepted.
-    pub fn check_targets(&self, cards: &[&Card]) -> Result<()> {
+    /// Refuses a pair no method of `cards` (the methods run, of `catalogue`) takes: an unknown
+    /// method, a method not run, a key its method does not have, or a key no method run has.
+    /// Each error names what is accepted.
+    pub fn check_targets(&self, catalogue: &crate::Catalogue, cards: &[&Card]) -> Result<()> {
         let names = || cards.iter().map(|c| c.name).collect::<Vec<_>>().join(", ");
         let unknown_key = |a: &Assignment, card: &Card| Error::UnknownParams {
             plural: "",
@@ -140,8 +140,8 @@ impl Assignments {
                     let card = match cards.iter().find(|c| c.name == m) {
                         Some(card) => *card,
                         None => {
-                            // Unknown: the registry's error lists every method.
-                            crate::methods::card(m)?;
+                            // Unknown: the catalogue's error lists every method.
+                            catalogue.card(m)?;
                             return Err(Error::BadPair {
                                 pair: a.text.clone(),
                                 reason: format!(
@@ -229,7 +229,7 @@ mod tests {
     use super::*;
 
     fn card(name: &str) -> &'static Card {
-        crate::methods::card(name).unwrap()
+        crate::builtin_card(name).unwrap()
     }
 
     #[test]
@@ -267,7 +267,7 @@ mod tests {
         let check = |pairs: &[&str], cards: &[&Card]| {
             Assignments::parse(pairs)
                 .unwrap()
-                .check_targets(cards)
+                .check_targets(&crate::Catalogue::builtin(), cards)
                 .map_err(|e| e.to_string())
         };
         check(&["gamma=3", "splat.radius_px=2"], &[hpr, splat]).unwrap();
@@ -310,7 +310,7 @@ mod tests {
         );
         // A sweep: the default setting with each key at each value, the first pair slowest.
         let a = Assignments::parse(&["hpr.gamma=2,3", "perturb=0,1e-5"]).unwrap();
-        let mut sweep = crate::Sweeps::resolve(None).unwrap().methods["hpr"].clone();
+        let mut sweep = crate::Catalogue::builtin().sweeps(None).unwrap().methods["hpr"].clone();
         assert!(a.over_sweep(hpr, &mut sweep));
         let labels: Vec<String> = sweep.settings(true).iter().map(Setting::label).collect();
         assert_eq!(

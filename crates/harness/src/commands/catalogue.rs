@@ -8,10 +8,12 @@
 use anyhow::Result;
 
 /// `pointsight methods [--check]`.
-pub fn list_methods(check: bool) -> Result<()> {
-    let cards: Vec<&registry::Card> = registry::visibility_cards()
+pub fn list_methods(run: &crate::run::Run, check: bool) -> Result<()> {
+    let cards: Vec<&registry::Card> = run
+        .catalogue
+        .visibility_cards()
         .into_iter()
-        .chain(registry::lod_cards())
+        .chain(run.catalogue.lod_cards())
         .collect();
     // The checks, in parallel (one process each), only when asked for.
     let availability: Vec<Option<std::result::Result<(), String>>> = if check {

@@ -83,7 +83,7 @@ pub fn paths(data: &paths::Place, methods: &[paths::Place], clone: Option<&Path>
 }
 
 /// `pointsight datasets`.
-pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
+pub fn list_datasets(run: &crate::run::Run, data_dir: &Path) -> Result<()> {
     for d in datasets::REGISTRY {
         let ready = match d.mesh_file() {
             None => "generated",
@@ -99,7 +99,7 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
             d.description
         );
     }
-    if let Some(m) = datasets::manifest::Manifest::discover(manifest)? {
+    if let Some(m) = run.datasets.manifest() {
         for (name, e) in &m.datasets {
             let ready = [&e.cloud, &e.mesh, &e.lod_file]
                 .into_iter()
@@ -126,9 +126,15 @@ pub fn list_datasets(data_dir: &Path, manifest: Option<&Path>) -> Result<()> {
 /// ([`export_sample`]: memory for the mesh and a batch, whatever the sample's size; the
 /// dataset's views, which `export` does not use, are not read then); any other dataset is
 /// loaded whole first.
-pub fn export(dataset: &str, out: &Path, normals: bool, data_dir: &Path) -> Result<()> {
+pub fn export(
+    run: &crate::run::Run,
+    dataset: &str,
+    out: &Path,
+    normals: bool,
+    data_dir: &Path,
+) -> Result<()> {
     let is_las = cloud::io::Format::of_path(out) == Some(cloud::io::Format::Las);
-    if is_las && let Some((mesh, n, seed)) = datasets::plain_sample(dataset)? {
+    if is_las && let Some((mesh, n, seed)) = run.datasets.plain_sample(dataset)? {
         let scale = export_sample(&mesh, n, seed, normals, out)
             .with_context(|| format!("exporting dataset {dataset}"))?;
         println!(
@@ -137,7 +143,7 @@ pub fn export(dataset: &str, out: &Path, normals: bool, data_dir: &Path) -> Resu
         );
         return Ok(());
     }
-    let ds = datasets::load(dataset, data_dir)?;
+    let ds = run.datasets.load(dataset, data_dir)?;
     // In world coordinates (the recentring and rescaling undone: exact).
     let positions = ds.world_positions();
     let n = positions.len();
@@ -309,12 +315,13 @@ pub fn inspect(
 
 /// `pointsight views`: a dataset's views as CSV or JSON lines, to a file or standard output.
 pub fn views(
+    run: &crate::run::Run,
     dataset: &str,
     out: Option<&Path>,
     format: ViewsFormat,
     data_dir: &Path,
 ) -> Result<()> {
-    let ds = datasets::load(dataset, data_dir)?;
+    let ds = run.datasets.load(dataset, data_dir)?;
     let text = match format {
         ViewsFormat::Csv => views_csv(&ds.views)?,
         ViewsFormat::Jsonl => cloud::io::views::write_views(&ds.views),

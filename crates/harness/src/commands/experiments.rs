@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
+use crate::run::Run;
 use crate::{cli, datasets, experiments, output, progress, shard, view, visible};
 
 /// What `pointsight run` was asked.
@@ -27,7 +28,7 @@ pub struct RunRequest {
 }
 
 /// `pointsight run`.
-pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Result<()> {
+pub fn run(run: &Run, req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Result<()> {
     let exp = experiments::experiment(&req.experiment)?;
     let on_files = req.source.cloud.is_some();
     let (datasets, seed_tables) = match (&req.source.name(), &req.datasets) {
@@ -50,7 +51,7 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         }
     } else {
         for name in &datasets {
-            datasets::check(name)?;
+            run.datasets.check(name)?;
         }
     }
     let default_out = req.out.is_none();
@@ -58,7 +59,7 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         .out
         .clone()
         .unwrap_or_else(|| req.reports.join(exp.name()));
-    let (sweeps, repeats) = sweep_settings(sweep)?;
+    let (sweeps, repeats) = sweep_settings(run, sweep)?;
     let ctx = experiments::Context {
         source: req.source.clone(),
         seed_tables,
@@ -68,7 +69,13 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
         time_budget: budget(sweep),
         shard: sweep.shard,
         max_points: sweep.max_points,
-        ..experiments::Context::new(data_dir, out_dir.clone(), req.quick, datasets)
+        ..experiments::Context::new(
+            std::sync::Arc::new(run.clone()),
+            data_dir,
+            out_dir.clone(),
+            req.quick,
+            datasets,
+        )
     };
     if !experiments::run(exp, &ctx)? {
         println!("{}: not in shard {}", exp.name(), shard_text(sweep.shard));
@@ -77,7 +84,7 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
     // A run into its own folder (a user's data) has its findings beside its results
     // already (`experiments::run`); one into the reports folder also updates the report.
     if default_out && sweep.shard.is_none() {
-        assemble_report(&req.reports)?;
+        assemble_report(run, &req.reports)?;
     }
     println!("{}: results in {}", exp.name(), out_dir.display());
     Ok(())
@@ -86,6 +93,7 @@ pub fn run(req: &RunRequest, sweep: &cli::SweepFlags, data_dir: PathBuf) -> Resu
 /// `pointsight bench`: every experiment (or those `only` names) into `reports`, then the
 /// report; progress on standard error ([`progress::Run`]).
 pub fn bench(
+    run: &Run,
     quick: bool,
     chosen: Option<Vec<String>>,
     only: Option<Vec<String>>,
@@ -93,10 +101,11 @@ pub fn bench(
     sweep: &cli::SweepFlags,
     data_dir: &Path,
 ) -> Result<()> {
-    let (sweeps, repeats) = sweep_settings(sweep)?;
+    let (sweeps, repeats) = sweep_settings(run, sweep)?;
     let start = std::time::Instant::now();
+    let shared = std::sync::Arc::new(run.clone());
     for name in chosen.iter().flatten() {
-        datasets::check(name)?;
+        run.datasets.check(name)?;
     }
     for name in only.iter().flatten() {
         experiments::experiment(name)?;
@@ -152,6 +161,7 @@ pub fn bench(
             max_points: sweep.max_points,
             seed_tables: true,
             ..experiments::Context::new(
+                shared.clone(),
                 data_dir.to_path_buf(),
                 reports.join(exp.name()),
                 quick,
@@ -179,8 +189,8 @@ pub fn bench(
     drop(progress);
     match sweep.shard {
         None => {
-            view::report::write_all(reports, data_dir)?;
-            assemble_report(reports)?;
+            view::report::write_all(run, reports, data_dir)?;
+            assemble_report(run, reports)?;
             println!(
                 "bench: {} experiment(s) in {:.1} s; see {}",
                 to_run.len(),
@@ -208,28 +218,28 @@ fn previous_seconds(dir: &Path, quick: bool, datasets: &[String]) -> Option<f64>
 }
 
 /// `pointsight merge`: the shards' results merged into `out`, then its report page.
-pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<()> {
-    for name in experiments::merge::merge(out, shards)? {
+pub fn merge(run: &Run, out: &Path, shards: &[PathBuf]) -> Result<()> {
+    for name in experiments::merge::merge(&run.catalogue, out, shards)? {
         println!("{name}: merged into {}", out.join(&name).display());
     }
-    assemble_report(out)
+    assemble_report(run, out)
 }
 
 /// `pointsight report`: the viewer pages and the report page of `reports`.
-pub fn report(reports: &Path, data_dir: &Path) -> Result<()> {
-    view::report::write_all(reports, data_dir)?;
-    assemble_report(reports)?;
+pub fn report(run: &Run, reports: &Path, data_dir: &Path) -> Result<()> {
+    view::report::write_all(run, reports, data_dir)?;
+    assemble_report(run, reports)?;
     println!("wrote {}", reports.join("README.md").display());
     Ok(())
 }
 
 /// `pointsight tables`.
-pub fn tables(reports: &Path) -> Result<()> {
+pub fn tables(run: &Run, reports: &Path) -> Result<()> {
     let mut rendered = 0;
     for exp in experiments::EXPERIMENTS {
         let dir = reports.join(exp.name());
         if dir.join("metadata.json").exists() {
-            exp.render(&dir)
+            exp.render(&run.catalogue, &dir)
                 .with_context(|| format!("redrawing {}", dir.display()))?;
             output::folder::seal(&dir)?;
             rendered += 1;
@@ -253,7 +263,7 @@ pub fn tables(reports: &Path) -> Result<()> {
             continue;
         };
         let dir = reports.join(&folder);
-        exp.render(&dir)
+        exp.render(&run.catalogue, &dir)
             .with_context(|| format!("redrawing {}", dir.display()))?;
         output::folder::seal(&dir)?;
     }
@@ -264,8 +274,8 @@ pub fn tables(reports: &Path) -> Result<()> {
         );
     }
     // The viewer pages keep their measured data; their script, styles and links are redrawn.
-    view::report::refresh(reports)?;
-    assemble_report(reports)?;
+    view::report::refresh(run, reports)?;
+    assemble_report(run, reports)?;
     println!(
         "redrew {rendered} experiment(s); wrote {}",
         reports.join("README.md").display()
@@ -274,28 +284,33 @@ pub fn tables(reports: &Path) -> Result<()> {
 }
 
 /// `pointsight scale-cell`: one cell of the scale experiment, its JSON line on standard output.
-pub fn scale_cell(cell: &experiments::scale::child::CellArgs, data_dir: &Path) -> Result<()> {
-    experiments::scale::child::run_in_this_process(cell, data_dir)
+pub fn scale_cell(
+    run: &Run,
+    cell: &experiments::scale::child::CellArgs,
+    data_dir: &Path,
+) -> Result<()> {
+    experiments::scale::child::run_in_this_process(run, cell, data_dir)
 }
 
 /// The sweeps (built-in, external methods', `--config`'s, then `--set`'s over them) and
 /// repeats of `flags`. The `--set` pairs must each be for a method with a sweep; the settings
 /// they make are typed by each method's card here, before any data is read.
-fn sweep_settings(flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<usize>)> {
+fn sweep_settings(run: &Run, flags: &cli::SweepFlags) -> Result<(registry::Sweeps, Option<usize>)> {
     let set = registry::Assignments::parse(&flags.set).map_err(visible::set_error)?;
     let user = flags
         .config
         .as_deref()
         .map(registry::Sweeps::read)
         .transpose()?;
-    let mut sweeps = registry::Sweeps::resolve(user)?;
+    let mut sweeps = run.catalogue.sweeps(user)?;
     if !set.is_empty() {
         let cards: Vec<&registry::Card> = sweeps
             .methods
             .keys()
-            .filter_map(|name| registry::card_named(name))
+            .filter_map(|name| run.catalogue.card_named(name))
             .collect();
-        set.check_targets(&cards).map_err(visible::set_error)?;
+        set.check_targets(&run.catalogue, &cards)
+            .map_err(visible::set_error)?;
         for card in cards {
             let Some(sweep) = sweeps.methods.get_mut(card.name) else {
                 continue;
@@ -318,7 +333,7 @@ fn budget(flags: &cli::SweepFlags) -> Option<f64> {
 
 /// Writes the findings (`findings.csv`, and each experiment's rows as `findings.csv` and
 /// `findings.md` in its folder) and the report page of `reports` over the experiment registry; the page is marked indicative when any experiment's results are a quick run's.
-fn assemble_report(reports: &Path) -> Result<()> {
+fn assemble_report(run: &Run, reports: &Path) -> Result<()> {
     let sections: Vec<output::report::Section<'_>> = experiments::EXPERIMENTS
         .iter()
         .map(|e| output::report::Section {
@@ -378,7 +393,7 @@ fn assemble_report(reports: &Path) -> Result<()> {
         quick,
         &view::report::section(reports)?,
     )?;
-    output::landing::write(reports, &sections, &method_infos())?;
+    output::landing::write(reports, &sections, &method_infos(&run.catalogue))?;
     // Each experiment's folder lists what the assembly added (its findings, its results page).
     for name in &names {
         let dir = reports.join(name);
@@ -395,8 +410,9 @@ fn shard_text(shard: Option<shard::Shard>) -> String {
 }
 
 /// What the landing page says of every registered method (its card, in registry order).
-fn method_infos() -> Vec<output::landing::MethodInfo> {
-    registry::cards()
+fn method_infos(catalogue: &registry::Catalogue) -> Vec<output::landing::MethodInfo> {
+    catalogue
+        .cards()
         .into_iter()
         .map(|card| output::landing::MethodInfo {
             name: card.name.to_owned(),

@@ -3,6 +3,7 @@
 //! method's visible set, [`crate::view`], or of each LOD method's selection with `--lod`): the
 //! command line's source flags made a [`visible::Source`].
 
+use crate::run::Run;
 use std::path::Path;
 
 use anyhow::Result;
@@ -22,20 +23,26 @@ pub fn default_view(view: Option<String>, source: &cli::SourceArgs) -> String {
 }
 
 /// `pointsight visible`.
-pub fn visible(request: &visible::Request, data_dir: &Path) -> Result<()> {
-    visible::run(request, data_dir).map_err(cli::frame_set)
+pub fn visible(run: &Run, request: &visible::Request, data_dir: &Path) -> Result<()> {
+    visible::run(run, request, data_dir).map_err(cli::frame_set)
 }
 
 /// `pointsight view`: the page of `request`, an LOD page with `lod` (its eye at `distance`
 /// times the view's distance); prints the page's line.
-pub fn view(request: &view::Request, lod: bool, distance: f64, data_dir: &Path) -> Result<()> {
+pub fn view(
+    run: &Run,
+    request: &view::Request,
+    lod: bool,
+    distance: f64,
+    data_dir: &Path,
+) -> Result<()> {
     let page = if lod {
-        view::lod::run(request, view::lod::LodRequest { distance }, data_dir)?
+        view::lod::run(run, request, view::lod::LodRequest { distance }, data_dir)?
     } else {
         if distance != view::lod::DEFAULT_DISTANCE {
             anyhow::bail!("--distance is for level-of-detail pages (--lod)");
         }
-        view::run(request, data_dir)?
+        view::run(run, request, data_dir)?
     };
     println!("{}", page.line());
     Ok(())

@@ -23,7 +23,6 @@ pub mod lod_file;
 pub mod manifest;
 
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
 
 use anyhow::{Context, Result, bail};
 use cloud::glam::DVec3;
@@ -35,50 +34,65 @@ pub use files::{FileDataset, ViewsFrom, load_files, read_mesh};
 pub use lod_file::LodFileDataset;
 use manifest::{Manifest, manifest_dataset, views_from};
 
-/// The manifest of this process (`--manifest`, or `pointsight.toml`), set once at start.
-static MANIFEST: OnceLock<Option<Manifest>> = OnceLock::new();
-
-/// Uses `manifest` for every later lookup (call once, before loading anything).
-pub fn use_manifest(manifest: Option<Manifest>) {
-    // A second call keeps the first manifest: the process has one.
-    let _ = MANIFEST.set(manifest);
+/// The datasets a run knows: the built-in ones and its manifest's (`--manifest`, or
+/// `pointsight.toml`). A value of the run ([`crate::run::Run`]), not process state.
+#[derive(Debug, Clone, Default)]
+pub struct Datasets {
+    manifest: Option<Manifest>,
 }
 
-fn manifest() -> Option<&'static Manifest> {
-    MANIFEST.get().and_then(Option::as_ref)
-}
-
-/// The file of this process's manifest, as given (`None` without one): what a child process
-/// of the same run must read too (the `scale` experiment's cells).
-pub fn manifest_path() -> Option<&'static Path> {
-    manifest().map(|m| m.path.as_path())
-}
-
-/// The names of every dataset: built-in, then the manifest's.
-pub fn names() -> Vec<String> {
-    let mut out: Vec<String> = REGISTRY.iter().map(|d| d.name.to_owned()).collect();
-    if let Some(m) = manifest() {
-        out.extend(m.datasets.keys().cloned());
+impl Datasets {
+    /// The built-in datasets and, when given, `manifest`'s.
+    pub fn new(manifest: Option<Manifest>) -> Self {
+        Self { manifest }
     }
-    out
+
+    /// The manifest, if any.
+    pub fn manifest(&self) -> Option<&Manifest> {
+        self.manifest.as_ref()
+    }
+
+    /// The manifest's file, as given (`None` without one): what a child process of the same
+    /// run must read too (the `scale` experiment's cells).
+    pub fn manifest_path(&self) -> Option<&Path> {
+        self.manifest.as_ref().map(|m| m.path.as_path())
+    }
+
+    /// The names of every dataset: built-in, then the manifest's.
+    pub fn names(&self) -> Vec<String> {
+        let mut out: Vec<String> = REGISTRY.iter().map(|d| d.name.to_owned()).collect();
+        if let Some(m) = &self.manifest {
+            out.extend(m.datasets.keys().cloned());
+        }
+        out
+    }
+
+    /// Looks a built-in dataset up by name (the error lists every name, the manifest's too).
+    pub fn info(&self, name: &str) -> Result<&'static DatasetInfo> {
+        REGISTRY.iter().find(|d| d.name == name).with_context(|| {
+            format!(
+                "unknown dataset {name:?}; known datasets: {}",
+                self.names().join(", ")
+            )
+        })
+    }
+
+    /// Fails unless `name` is a built-in or manifest dataset.
+    pub fn check(&self, name: &str) -> Result<()> {
+        if self
+            .manifest
+            .as_ref()
+            .is_some_and(|m| m.datasets.contains_key(name))
+        {
+            return Ok(());
+        }
+        self.info(name).map(|_| ())
+    }
 }
 
-/// Looks a built-in dataset up by name (the error lists every name, the manifest's too).
+/// Looks a built-in dataset up by name (the error lists the built-in names).
 pub fn info(name: &str) -> Result<&'static DatasetInfo> {
-    REGISTRY.iter().find(|d| d.name == name).with_context(|| {
-        format!(
-            "unknown dataset {name:?}; known datasets: {}",
-            names().join(", ")
-        )
-    })
-}
-
-/// Fails unless `name` is a built-in or manifest dataset.
-pub fn check(name: &str) -> Result<()> {
-    if manifest().is_some_and(|m| m.datasets.contains_key(name)) {
-        return Ok(());
-    }
-    info(name).map(|_| ())
+    Datasets::default().info(name)
 }
 
 /// A user file a dataset was made from: its path and SHA-256 (for the run metadata).
@@ -239,90 +253,96 @@ impl Dataset {
     }
 }
 
-/// Loads a dataset by name: the manifest's, else a built-in one (real datasets need
-/// `data_dir` to hold the fetched meshes).
-pub fn load(name: &str, data_dir: &Path) -> Result<Dataset> {
-    if let Some(m) = manifest()
-        && let Some(e) = m.datasets.get(name)
-    {
-        if e.lod_file.is_some() {
-            bail!(
-                "dataset {name} of {} is a built QSplat file (lod_file), not points: only the \
-                 lod experiment selects from it",
-                m.path.display()
-            );
+impl Datasets {
+    /// Loads a dataset by name: the manifest's, else a built-in one (real datasets need
+    /// `data_dir` to hold the fetched meshes).
+    pub fn load(&self, name: &str, data_dir: &Path) -> Result<Dataset> {
+        if let Some(m) = self.manifest.as_ref()
+            && let Some(e) = m.datasets.get(name)
+        {
+            if e.lod_file.is_some() {
+                bail!(
+                    "dataset {name} of {} is a built QSplat file (lod_file), not points: only the \
+                     lod experiment selects from it",
+                    m.path.display()
+                );
+            }
+            let ds = load_files(&manifest_dataset(m, name, e)?)
+                .with_context(|| format!("dataset {name} of {}", m.path.display()))?;
+            ds.check_views()?;
+            return Ok(ds);
         }
-        let ds = load_files(&manifest_dataset(m, name, e)?)
-            .with_context(|| format!("dataset {name} of {}", m.path.display()))?;
+        let ds = builtin::load(self.info(name)?, data_dir)?;
         ds.check_views()?;
-        return Ok(ds);
+        Ok(ds)
     }
-    let ds = builtin::load(info(name)?, data_dir)?;
-    ds.check_views()?;
-    Ok(ds)
-}
 
-/// The mesh file of manifest dataset `name` (resolved against the manifest's folder); `None`
-/// for any other dataset or one without a mesh.
-pub fn manifest_mesh(name: &str) -> Option<PathBuf> {
-    let m = manifest()?;
-    m.datasets.get(name)?.mesh.as_ref().map(|p| m.resolve(p))
-}
-
-/// The built LOD file of dataset `name` when the manifest gives it one (`lod_file`), opened
-/// with its views; `None` for a dataset of points.
-pub fn lod_file(name: &str) -> Result<Option<LodFileDataset>> {
-    let Some(m) = manifest() else {
-        return Ok(None);
-    };
-    let Some(e) = m.datasets.get(name) else {
-        return Ok(None);
-    };
-    let Some(path) = &e.lod_file else {
-        return Ok(None);
-    };
-    lod_file::open(name, &m.resolve(path), &views_from(m, e))
-        .with_context(|| format!("dataset {name} of {}", m.path.display()))
-        .map(Some)
-}
-
-/// The mesh and the sample `(n, seed)` of dataset `name` when it is a manifest's plain sample
-/// of a mesh ([`files::plain_sample`]): its points are the sampler's draws, which a command
-/// may write as they come instead of loading the dataset. `None` for any other dataset.
-pub fn plain_sample(name: &str) -> Result<Option<(TriMesh, usize, u64)>> {
-    let Some(m) = manifest() else {
-        return Ok(None);
-    };
-    let Some(e) = m.datasets.get(name) else {
-        return Ok(None);
-    };
-    if e.lod_file.is_some() {
-        return Ok(None);
+    /// The mesh file of manifest dataset `name` (resolved against the manifest's folder); `None`
+    /// for any other dataset or one without a mesh.
+    pub fn manifest_mesh(&self, name: &str) -> Option<PathBuf> {
+        let m = self.manifest.as_ref()?;
+        m.datasets.get(name)?.mesh.as_ref().map(|p| m.resolve(p))
     }
-    let spec = manifest_dataset(m, name, e)?;
-    files::plain_sample(&spec).with_context(|| format!("dataset {name} of {}", m.path.display()))
-}
 
-/// The mesh of dataset `name` alone, with the user's file it came from (none for a built-in
-/// dataset): neither its cloud file nor its sample is read or drawn, so a `scale` cell's peak
-/// holds only what it measures and a sample larger than memory is no obstacle. A manifest's
-/// mesh comes from [`files::load_mesh`] (recentred by its own exact offset), a built-in
-/// dataset's as its file has it.
-pub fn load_mesh_of(name: &str, data_dir: &Path) -> Result<(TriMesh, Vec<SourceFile>)> {
-    if let Some(m) = manifest()
-        && let Some(e) = m.datasets.get(name)
-    {
+    /// The built LOD file of dataset `name` when the manifest gives it one (`lod_file`), opened
+    /// with its views; `None` for a dataset of points.
+    pub fn lod_file(&self, name: &str) -> Result<Option<LodFileDataset>> {
+        let Some(m) = self.manifest.as_ref() else {
+            return Ok(None);
+        };
+        let Some(e) = m.datasets.get(name) else {
+            return Ok(None);
+        };
+        let Some(path) = &e.lod_file else {
+            return Ok(None);
+        };
+        lod_file::open(name, &m.resolve(path), &views_from(m, e))
+            .with_context(|| format!("dataset {name} of {}", m.path.display()))
+            .map(Some)
+    }
+
+    /// The mesh and the sample `(n, seed)` of dataset `name` when it is a manifest's plain sample
+    /// of a mesh ([`files::plain_sample`]): its points are the sampler's draws, which a command
+    /// may write as they come instead of loading the dataset. `None` for any other dataset.
+    pub fn plain_sample(&self, name: &str) -> Result<Option<(TriMesh, usize, u64)>> {
+        let Some(m) = self.manifest.as_ref() else {
+            return Ok(None);
+        };
+        let Some(e) = m.datasets.get(name) else {
+            return Ok(None);
+        };
         if e.lod_file.is_some() {
-            bail!(
-                "dataset {name} of {} is a built QSplat file (lod_file), not a mesh",
-                m.path.display()
-            );
+            return Ok(None);
         }
-        return files::load_mesh(&manifest_dataset(m, name, e)?)
-            .map(|(mesh, file)| (mesh, vec![file]))
-            .with_context(|| format!("dataset {name} of {}", m.path.display()));
+        let spec = manifest_dataset(m, name, e)?;
+        files::plain_sample(&spec)
+            .with_context(|| format!("dataset {name} of {}", m.path.display()))
     }
-    Ok((builtin::load_mesh_of(info(name)?, data_dir)?, Vec::new()))
+
+    /// The mesh of dataset `name` alone, with the user's file it came from (none for a built-in
+    /// dataset): neither its cloud file nor its sample is read or drawn, so a `scale` cell's peak
+    /// holds only what it measures and a sample larger than memory is no obstacle. A manifest's
+    /// mesh comes from [`files::load_mesh`] (recentred by its own exact offset), a built-in
+    /// dataset's as its file has it.
+    pub fn load_mesh_of(&self, name: &str, data_dir: &Path) -> Result<(TriMesh, Vec<SourceFile>)> {
+        if let Some(m) = self.manifest.as_ref()
+            && let Some(e) = m.datasets.get(name)
+        {
+            if e.lod_file.is_some() {
+                bail!(
+                    "dataset {name} of {} is a built QSplat file (lod_file), not a mesh",
+                    m.path.display()
+                );
+            }
+            return files::load_mesh(&manifest_dataset(m, name, e)?)
+                .map(|(mesh, file)| (mesh, vec![file]))
+                .with_context(|| format!("dataset {name} of {}", m.path.display()));
+        }
+        Ok((
+            builtin::load_mesh_of(self.info(name)?, data_dir)?,
+            Vec::new(),
+        ))
+    }
 }
 
 #[cfg(test)]
@@ -332,7 +352,9 @@ mod tests {
     #[test]
     fn synthetic_datasets_load_with_their_registered_sizes() {
         for info in REGISTRY.iter().filter(|d| !d.needs_fetch()) {
-            let ds = load(info.name, Path::new("/nonexistent")).unwrap();
+            let ds = Datasets::default()
+                .load(info.name, Path::new("/nonexistent"))
+                .unwrap();
             assert_eq!(ds.cloud.len(), info.n_points, "{}", info.name);
             assert_eq!(ds.views.len(), 16);
         }
@@ -340,7 +362,9 @@ mod tests {
 
     #[test]
     fn real_dataset_without_data_says_to_fetch() {
-        let err = load("bunny", Path::new("/nonexistent")).unwrap_err();
+        let err = Datasets::default()
+            .load("bunny", Path::new("/nonexistent"))
+            .unwrap_err();
         assert!(format!("{err:#}").contains("pointsight fetch"), "{err:#}");
     }
 

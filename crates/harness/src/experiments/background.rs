@@ -210,7 +210,7 @@ impl Experiment for BackgroundExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, _: &registry::Catalogue, dir: &Path) -> Result<()> {
         let frames: Vec<Frame> = read_csv(&dir.join("results.csv"))?;
         let datasets = crate::output::distinct(frames.iter().map(|f| f.dataset.as_str()));
         let mut f1_panels: Vec<Panel> = Vec::new();

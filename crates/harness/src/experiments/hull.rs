@@ -179,7 +179,10 @@ impl Experiment for HullExperiment {
             PERTURBS
         };
         let mut rows = Vec::new();
-        let cgal = registry::card(CGAL_METHOD)
+        let cgal = ctx
+            .run
+            .catalogue
+            .card(CGAL_METHOD)
             .map_err(|e| e.to_string())
             .and_then(|m| m.availability().map(|()| m));
         let mut not_run = Vec::new();
@@ -357,7 +360,7 @@ impl Experiment for HullExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, _: &registry::Catalogue, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let meta = crate::output::meta::RunMeta::read(dir)?;
         let repeats = meta.parameters["repeats"]

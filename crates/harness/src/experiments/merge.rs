@@ -25,7 +25,11 @@ use crate::output::meta::RunMeta;
 /// A shard folder is either what `run EXPERIMENT --shard K/N --out DIR` wrote (`DIR` holds
 /// `metadata.json` and the results of that one experiment) or what `bench --shard K/N
 /// --reports DIR` wrote (`DIR/EXPERIMENT/metadata.json` for each experiment).
-pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<String>> {
+pub fn merge(
+    catalogue: &registry::Catalogue,
+    out: &Path,
+    shards: &[PathBuf],
+) -> Result<Vec<String>> {
     // A folder of one run names its experiment in its metadata.
     let mut single: Vec<Option<RunMeta>> = Vec::with_capacity(shards.len());
     for s in shards {
@@ -57,7 +61,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<String>> {
         if parts.is_empty() {
             continue;
         }
-        merge_experiment(*exp, &parts, &out.join(exp.name()))?;
+        merge_experiment(catalogue, *exp, &parts, &out.join(exp.name()))?;
         merged.push(exp.name().to_owned());
     }
     if merged.is_empty() {
@@ -75,7 +79,12 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<Vec<String>> {
     Ok(merged)
 }
 
-fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Path) -> Result<()> {
+fn merge_experiment(
+    catalogue: &registry::Catalogue,
+    exp: &dyn Experiment,
+    parts: &[(PathBuf, RunMeta)],
+    out: &Path,
+) -> Result<()> {
     let name = exp.name();
     let first = &parts[0].1;
     let Some(shard) = first.shard else {
@@ -142,13 +151,18 @@ fn merge_experiment(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], out: &Pa
 
     // Written whole, replacing only a folder of pointsight's (`output::folder`).
     crate::output::folder::replace(out, crate::output::folder::Role::Experiment, |staging| {
-        fill(exp, parts, staging)
+        fill(catalogue, exp, parts, staging)
     })
 }
 
 /// Writes the merged experiment into `staging`, renders it and writes its findings beside it,
 /// as an unsharded run of it would have.
-fn fill(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], staging: &Path) -> Result<()> {
+fn fill(
+    catalogue: &registry::Catalogue,
+    exp: &dyn Experiment,
+    parts: &[(PathBuf, RunMeta)],
+    staging: &Path,
+) -> Result<()> {
     let first = &parts[0].1;
     // Every file of every part: CSVs concatenated, others copied from the part that has them.
     let mut files: BTreeSet<String> = BTreeSet::new();
@@ -187,7 +201,7 @@ fn fill(exp: &dyn Experiment, parts: &[(PathBuf, RunMeta)], staging: &Path) -> R
     }
     meta.files = None;
     meta.write(staging)?;
-    exp.render(staging)?;
+    exp.render(catalogue, staging)?;
     super::findings::write_in(staging, exp.name())?;
     crate::output::folder::seal(staging)
 }

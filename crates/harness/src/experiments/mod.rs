@@ -28,6 +28,8 @@ use crate::shard::Shard;
 /// Where and how an experiment runs.
 #[derive(Debug, Clone)]
 pub struct Context {
+    /// The run: its catalogue of methods and its datasets.
+    pub run: std::sync::Arc<crate::run::Run>,
     /// Fetched data (`bench-data/`).
     pub data_dir: PathBuf,
     /// Output folder of this experiment (`reports/NAME/` by default).
@@ -65,9 +67,16 @@ pub struct Context {
 }
 
 impl Context {
-    /// A context with the built-in sweeps, [`REPEATS`] and no shard.
-    pub fn new(data_dir: PathBuf, out_dir: PathBuf, quick: bool, datasets: Vec<String>) -> Self {
+    /// A context of `run` with the built-in sweeps, [`REPEATS`] and no shard.
+    pub fn new(
+        run: std::sync::Arc<crate::run::Run>,
+        data_dir: PathBuf,
+        out_dir: PathBuf,
+        quick: bool,
+        datasets: Vec<String>,
+    ) -> Self {
         Self {
+            run,
             data_dir,
             out_dir,
             quick,
@@ -106,7 +115,7 @@ impl Context {
     ) {
         let mut not_run = Vec::new();
         let mut out = Vec::new();
-        for m in registry::visibility_cards() {
+        for m in self.run.catalogue.visibility_cards() {
             let Some(sweep) = self
                 .sweeps
                 .methods
@@ -141,7 +150,7 @@ impl Context {
         } else {
             self.source.for_dataset(name)
         };
-        let ds = crate::visible::load_source(&source, &self.data_dir)?;
+        let ds = crate::visible::load_source(&self.run, &source, &self.data_dir)?;
         self.record_files(&ds.files);
         Ok(ds)
     }
@@ -174,7 +183,7 @@ pub trait Experiment: Sync {
     /// Measures; writes CSVs into `ctx.out_dir`; returns the parameters for the metadata.
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value>;
     /// Reads the CSVs in `dir` and writes plots, tables and `summary.md`.
-    fn render(&self, dir: &Path) -> Result<()>;
+    fn render(&self, catalogue: &registry::Catalogue, dir: &Path) -> Result<()>;
     /// True when the experiment splits its (dataset, view) cells over shards
     /// ([`Context::owns`]) and its CSVs are rows of those cells, which `pointsight merge`
     /// concatenates. Otherwise a sharded run gives the whole experiment to one shard.
@@ -251,10 +260,12 @@ pub fn run(exp: &dyn Experiment, ctx: &Context) -> Result<bool> {
     Ok(true)
 }
 
-/// Every registered peer, visibility and LOD (a method whose `peer_of` names one of ours), with
-/// what it pairs with and its version (its `version` command, run once per process), or
+/// Every peer of `catalogue`, visibility and LOD (a method whose `peer_of` names one of ours),
+/// with what it pairs with and its version (its `version` command, run once per process), or
 /// `not installed` and why: the run metadata's `peers`.
-pub fn peers_metadata() -> serde_json::Map<String, serde_json::Value> {
+pub fn peers_metadata(
+    catalogue: &registry::Catalogue,
+) -> serde_json::Map<String, serde_json::Value> {
     let mut out = serde_json::Map::new();
     let mut add = |name: &str,
                    peer_of: &str,
@@ -273,7 +284,7 @@ pub fn peers_metadata() -> serde_json::Map<String, serde_json::Value> {
         };
         out.insert(name.to_owned(), entry);
     };
-    for m in registry::cards() {
+    for m in catalogue.cards() {
         if let Some(p) = m.peer_of {
             add(m.name, p, m.availability(), &|| m.version());
         }
@@ -296,13 +307,13 @@ fn stage(
     meta.shard = ctx.shard;
     meta.parameters = exp.measure(&staged)?;
     meta.user_files = ctx.files.lock().map(|f| f.clone()).unwrap_or_default();
-    meta.peers = peers_metadata();
+    meta.peers = peers_metadata(&ctx.run.catalogue);
     meta.seconds = start.elapsed().as_secs_f64();
     meta.write(staging)?;
     // A shard's output is drawn once merged (`pointsight merge`); a shard alone may hold too
     // few cells for some plots.
     if ctx.shard.is_none() {
-        exp.render(staging)?;
+        exp.render(&ctx.run.catalogue, staging)?;
         findings::write_in(staging, exp.name())?;
     }
     crate::output::folder::seal(staging)
@@ -360,7 +371,7 @@ mod tests {
                 anyhow::bail!("injected failure in measure")
             }
         }
-        fn render(&self, _dir: &Path) -> Result<()> {
+        fn render(&self, _: &registry::Catalogue, _dir: &Path) -> Result<()> {
             anyhow::bail!("injected failure in render")
         }
     }
@@ -372,7 +383,13 @@ mod tests {
             let out = dir.path().join("failing");
             std::fs::create_dir_all(&out).unwrap();
             std::fs::write(out.join("results.csv"), "previous").unwrap();
-            let ctx = Context::new(dir.path().into(), out.clone(), true, Vec::new());
+            let ctx = Context::new(
+                Default::default(),
+                dir.path().into(),
+                out.clone(),
+                true,
+                Vec::new(),
+            );
             let err = run(&Failing { in_render }, &ctx).unwrap_err().to_string();
             let stage = if in_render { "render" } else { "measure" };
             assert_eq!(err, format!("injected failure in {stage}"));

@@ -128,7 +128,7 @@ impl Experiment for ReferenceExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, _: &registry::Catalogue, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let mut groups: BTreeMap<(String, String), Vec<&Row>> = BTreeMap::new();
         for r in &rows {

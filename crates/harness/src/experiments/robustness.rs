@@ -289,7 +289,7 @@ impl Experiment for RobustnessExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         // (dataset, degradation, method, setting) -> level -> the rows of the views.
         let mut groups: BTreeMap<Curve, BTreeMap<i64, Vec<&Row>>> = BTreeMap::new();
@@ -422,7 +422,7 @@ impl Experiment for RobustnessExperiment {
                         .first()
                         .or_else(|| levels.values().flatten().next())
                         .map_or("", |r| r.params.as_str());
-                    let family = style::family(method, params);
+                    let family = style::family(catalogue, method, params);
                     series.push(Series::new(method, &family, setting, Draw::Line, pts));
                 }
                 if series.is_empty() {
@@ -496,7 +496,13 @@ impl Experiment for RobustnessExperiment {
                             )
                         })
                         .collect();
-                    Series::new(m, &style::family(m, params), st, Draw::Points, points)
+                    Series::new(
+                        m,
+                        &style::family(catalogue, m, params),
+                        st,
+                        Draw::Points,
+                        points,
+                    )
                 })
                 .collect();
             let fig = Figure::new(
@@ -529,8 +535,8 @@ impl Experiment for RobustnessExperiment {
         for part in [
             tables::winners(&rows),
             tables::methods_by_datasets(&rows),
-            tables::mehra(&rows),
-            tables::biasutti(&rows),
+            tables::mehra(catalogue, &rows),
+            tables::biasutti(catalogue, &rows),
         ] {
             text.push_str(&part);
             text.push('\n');

@@ -17,9 +17,9 @@
 //! - **marker by variant**: `settings` (a cloud of every setting) a circle, `best` a square,
 //!   `auto` a triangle, `default` a diamond, a level-of-detail distance `×k` by k, ...;
 //!   variants ranked over a run (the values of a parameter, [`ordinal`]) by their rank.
-//! - families outside the table (a user's own method) take the dash-dot slots, in the order of
-//!   their names among the registered methods outside the table (so two of them never share a
-//!   style while there are at most ten), else a slot by a hash of the name.
+//! - families outside the table (a user's own method) take a colour and a broken dash by a
+//!   hash of the name, the same in every figure; two that meet in one figure are kept apart
+//!   there by the figure's shade ladder, like two variants of one family.
 //!
 //! [`CONTEXT`] is the thin grey of series drawn as context for the others (the other families
 //! in small multiples), outside the distinct-style rule.
@@ -399,37 +399,17 @@ fn hash(name: &str) -> u64 {
     })
 }
 
-/// The families of the registered methods (visibility and LOD) that the table does not hold,
-/// sorted, each with whether it is a peer.
-fn registered_outside_table() -> Vec<(String, bool)> {
-    let mut out: Vec<(String, bool)> = Vec::new();
-    for m in registry::cards() {
-        out.push((m.family(&m.default_setting()), m.peer_of.is_some()));
-    }
-    out.retain(|(f, _)| !TABLE.iter().any(|e| e.0 == f));
-    out.sort();
-    out.dedup_by(|a, b| a.0 == b.0);
-    out
-}
-
 /// The colour, dash and peer flag of a family.
 fn family_slot(family: &str) -> ([u8; 3], Dash, bool) {
     if let Some(&(_, c, shade, dash, peer)) = TABLE.iter().find(|e| e.0 == family) {
         return (shade.of(PALETTE[c]), dash, peer);
     }
-    let others = registered_outside_table();
-    match others.iter().position(|(f, _)| f == family) {
-        Some(rank) if rank < PALETTE.len() => (PALETTE[rank], Dash::DashDot, others[rank].1),
-        found => {
-            let h = hash(family);
-            let dash = [Dash::DashDot, Dash::Dashed, Dash::Dotted][(h / 10 % 3) as usize];
-            (
-                PALETTE[(h % 10) as usize],
-                dash,
-                found.is_some_and(|rank| others[rank].1),
-            )
-        }
-    }
+    // Outside the table (a user's external method): a slot by the name alone, so that the
+    // family looks the same in every figure of every run; two such families that meet in
+    // one figure are kept apart there by the figure's shade ladder.
+    let h = hash(family);
+    let dash = [Dash::DashDot, Dash::Dashed, Dash::Dotted][(h / 10 % 3) as usize];
+    (PALETTE[(h % 10) as usize], dash, false)
 }
 
 /// The style of `variant` of `family`: colour and dash by family, marker by variant, hollow
@@ -475,10 +455,10 @@ pub fn ordinal(family: &str, rank: usize) -> Style {
 }
 
 /// The family of `method` at the setting labelled `setting` (`k=v` pairs joined by `;`):
-/// `registry::Method::family` for a visibility method, the name for an LOD method or a name
-/// the registry does not know (results of a method no longer registered).
-pub fn family(method: &str, setting: &str) -> String {
-    match registry::card_named(method) {
+/// `registry::Method::family` for a visibility method of `catalogue`, the name for an LOD
+/// method or a name the catalogue does not know (results of a method no longer in it).
+pub fn family(catalogue: &registry::Catalogue, method: &str, setting: &str) -> String {
+    match catalogue.card_named(method) {
         Some(m) => m.family(&registry::Setting::parse(setting)),
         None => method.to_owned(),
     }
@@ -588,7 +568,7 @@ mod tests {
         assert_eq!(front.color, FRONT_COLOR);
         assert!(!PALETTE.contains(&front.color));
         assert!(!PALETTE.contains(&CONTEXT_COLOR));
-        for card in registry::cards() {
+        for card in registry::Catalogue::builtin().cards() {
             let family = card.family(&card.default_setting());
             assert_ne!(style(&family, "best").color, front.color, "{family}");
         }

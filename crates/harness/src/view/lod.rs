@@ -54,8 +54,12 @@ pub type ChosenLod = (&'static Card, Params, String);
 
 /// The LOD methods to show: those named, else every available one with a sweep default, each
 /// at its sweep's default setting with the `--set` pairs over it ([`super::apply_set`]).
-pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>> {
-    let sweeps = registry::Sweeps::resolve(None)?;
+pub fn choose(
+    catalogue: &registry::Catalogue,
+    names: Option<&[String]>,
+    set: &[String],
+) -> Result<Vec<ChosenLod>> {
+    let sweeps = catalogue.sweeps(None)?;
     let label = |m: &Card| {
         sweeps
             .methods
@@ -64,7 +68,8 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>
             .map(|s| s.label())
     };
     let base: Vec<(&'static Card, String)> = match names {
-        None => registry::lod_cards()
+        None => catalogue
+            .lod_cards()
             .into_iter()
             .filter(|m| m.availability().is_ok())
             .filter_map(|m| Some((m, label(m)?)))
@@ -72,7 +77,8 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>
         Some(names) => {
             let mut out: Vec<(&'static Card, String)> = Vec::new();
             for name in names {
-                let m = registry::card_named(name.trim())
+                let m = catalogue
+                    .card_named(name.trim())
                     .filter(|m| m.is_lod())
                     .with_context(|| {
                         format!(
@@ -94,7 +100,7 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<ChosenLod>
     if base.is_empty() {
         bail!("no level-of-detail method to show: name some with --methods");
     }
-    let settings = super::apply_set(&base, set)?;
+    let settings = super::apply_set(catalogue, &base, set)?;
     Ok(base
         .into_iter()
         .zip(settings)
@@ -175,6 +181,8 @@ pub fn select(
 /// One LOD page's content.
 #[derive(Debug, Clone, Copy)]
 pub struct LodPage<'a> {
+    /// The run's methods, whose families style the page.
+    pub catalogue: &'a registry::Catalogue,
     /// The dataset.
     pub ds: &'a Dataset,
     /// The view's index.
@@ -274,34 +282,37 @@ impl LodPage<'_> {
         };
         let target = cam.target;
         // Each method's look in every figure of the report, beside its name.
-        Ok(super::page::with_styles(serde_json::json!({
-            "kind": "lod",
-            "title": format!("{}, view {}, level of detail at {}× distance", self.ds.name(), self.view, self.distance),
-            "dataset": self.ds.name(),
-            "view": self.view,
-            "distance": self.distance,
-            "note": format!(
-                "{}Each splat at its world radius, coloured and shaded as splat::render draws it \
-                 for this view (the shading stays that of the view's eye while you orbit). PSNR: \
-                 each method's render against the full detail's at the view's camera, as in the \
-                 lod experiment.{subsample}",
-                self.note.map(|s| format!("{s} ")).unwrap_or_default()
-            ),
-            "box": {"min": lo, "max": hi},
-            "rmax": rmax,
-            "camera": {
-                "model": cam.model().name(),
-                "eye": cam.eye.to_array(),
-                "target": target.to_array(),
-                "forward": cam.forward().to_array(),
-                "right": cam.right().to_array(),
-                "up": cam.true_up().to_array(),
-                "fov_y_deg": super::page::fov_y_deg(cam),
-                "width": cam.width,
-                "height": cam.height,
-            },
-            "methods": methods,
-        })))
+        Ok(super::page::with_styles(
+            self.catalogue,
+            serde_json::json!({
+                "kind": "lod",
+                "title": format!("{}, view {}, level of detail at {}× distance", self.ds.name(), self.view, self.distance),
+                "dataset": self.ds.name(),
+                "view": self.view,
+                "distance": self.distance,
+                "note": format!(
+                    "{}Each splat at its world radius, coloured and shaded as splat::render draws it \
+                     for this view (the shading stays that of the view's eye while you orbit). PSNR: \
+                     each method's render against the full detail's at the view's camera, as in the \
+                     lod experiment.{subsample}",
+                    self.note.map(|s| format!("{s} ")).unwrap_or_default()
+                ),
+                "box": {"min": lo, "max": hi},
+                "rmax": rmax,
+                "camera": {
+                    "model": cam.model().name(),
+                    "eye": cam.eye.to_array(),
+                    "target": target.to_array(),
+                    "forward": cam.forward().to_array(),
+                    "right": cam.right().to_array(),
+                    "up": cam.true_up().to_array(),
+                    "fov_y_deg": super::page::fov_y_deg(cam),
+                    "width": cam.width,
+                    "height": cam.height,
+                },
+                "methods": methods,
+            }),
+        ))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.
@@ -320,6 +331,7 @@ pub struct LodRequest {
 
 /// Runs a `view --lod` request: the selections, then the page (and the full detail's render).
 pub fn run(
+    run: &crate::run::Run,
     req: &super::Request,
     lod: LodRequest,
     data_dir: &std::path::Path,
@@ -335,14 +347,15 @@ pub fn run(
         );
     }
     // The methods and their settings, typed, before any data is read.
-    let chosen = choose(req.methods.as_deref(), &req.set)?;
-    let ds = crate::visible::load_source(&req.source, data_dir)?;
+    let chosen = choose(&run.catalogue, req.methods.as_deref(), &req.set)?;
+    let ds = crate::visible::load_source(run, &req.source, data_dir)?;
     let camera = at_distance(ds.view(req.view)?, lod.distance)?;
     let (selected, failed) = select(&ds, req.view, &camera, &chosen)?;
     if let Some((_, e)) = failed.into_iter().next() {
         return Err(e);
     }
     let html = LodPage {
+        catalogue: &run.catalogue,
         ds: &ds,
         view: req.view,
         distance: lod.distance,
@@ -378,14 +391,20 @@ mod tests {
 
     #[test]
     fn quantised_radii_and_shading_follow_the_splats() {
-        let ds =
-            crate::datasets::load("sphere-20000", std::path::Path::new("/nonexistent")).unwrap();
+        let ds = crate::datasets::Datasets::default()
+            .load("sphere-20000", std::path::Path::new("/nonexistent"))
+            .unwrap();
         let view = 0;
         let camera = at_distance(ds.view(view).unwrap(), 2.0).unwrap();
         let base = ds.view(view).unwrap();
         let want = base.target + (base.eye - base.target) * 2.0;
         assert!((camera.eye - want).length() < 1e-9);
-        let chosen = choose(Some(&["qsplat".to_owned()]), &["threshold_px=8".into()]).unwrap();
+        let chosen = choose(
+            &registry::Catalogue::builtin(),
+            Some(&["qsplat".to_owned()]),
+            &["threshold_px=8".into()],
+        )
+        .unwrap();
         assert_eq!(chosen[0].2, "threshold_px=8");
         let (selected, failed) = select(&ds, view, &camera, &chosen).unwrap();
         assert!(failed.is_empty());
@@ -395,6 +414,7 @@ mod tests {
         assert!(selected[1].splats.len() < selected[0].splats.len());
         assert!(selected[1].psnr.is_finite() && selected[1].psnr > 10.0);
         let page = LodPage {
+            catalogue: &registry::Catalogue::builtin(),
             ds: &ds,
             view,
             distance: 2.0,
@@ -429,7 +449,21 @@ mod tests {
         }
         assert!(data["note"].as_str().unwrap().contains("uniform subsample"));
         // Bad requests: an unknown method, a pair no method takes.
-        assert!(choose(Some(&["nosuch".to_owned()]), &[]).is_err());
-        assert!(choose(Some(&["qsplat".to_owned()]), &["gamma=2".into()]).is_err());
+        assert!(
+            choose(
+                &registry::Catalogue::builtin(),
+                Some(&["nosuch".to_owned()]),
+                &[]
+            )
+            .is_err()
+        );
+        assert!(
+            choose(
+                &registry::Catalogue::builtin(),
+                Some(&["qsplat".to_owned()]),
+                &["gamma=2".into()]
+            )
+            .is_err()
+        );
     }
 }

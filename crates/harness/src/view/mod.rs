@@ -22,7 +22,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use cloud::Camera;
-use registry::{Card, Output, Params};
+use registry::{Card, Catalogue, Output, Params};
 
 use crate::datasets::Dataset;
 use crate::output;
@@ -96,9 +96,10 @@ impl Written {
 
 /// Every registered method with a sweep default that can run here (external methods and
 /// installed peers included), in registry order, with that default's label.
-pub fn default_methods() -> Result<Vec<(&'static Card, String)>> {
-    let sweeps = registry::Sweeps::resolve(None)?;
-    Ok(registry::visibility_cards()
+pub fn default_methods(catalogue: &Catalogue) -> Result<Vec<(&'static Card, String)>> {
+    let sweeps = catalogue.sweeps(None)?;
+    Ok(catalogue
+        .visibility_cards()
         .into_iter()
         .filter(|m| m.availability().is_ok())
         .filter_map(|m| {
@@ -114,14 +115,18 @@ pub type Chosen = (&'static Card, Params, String);
 /// The chosen methods with their parameters: each method's default setting (its sweep's, else
 /// its card's), then the `--set` pairs that are its (`METHOD.KEY=VALUE`, or `KEY=VALUE` for every
 /// chosen method that has KEY). A pair no chosen method takes is an error.
-pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
-    let sweeps = registry::Sweeps::resolve(None)?;
+pub fn choose(
+    catalogue: &Catalogue,
+    names: Option<&[String]>,
+    set: &[String],
+) -> Result<Vec<Chosen>> {
+    let sweeps = catalogue.sweeps(None)?;
     let base: Vec<(&'static Card, String)> = match names {
-        None => default_methods()?,
+        None => default_methods(catalogue)?,
         Some(names) => {
             let mut out = Vec::new();
             for name in names {
-                let m = registry::card(name.trim())?;
+                let m = catalogue.card(name.trim())?;
                 if m.is_lod() {
                     bail!("{} is a level-of-detail method: show it with --lod", m.name);
                 }
@@ -145,7 +150,7 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
     if base.is_empty() {
         bail!("no method to show: name some with --methods");
     }
-    let settings = apply_set(&base, set)?;
+    let settings = apply_set(catalogue, &base, set)?;
     Ok(base
         .into_iter()
         .zip(settings)
@@ -158,13 +163,15 @@ pub fn choose(names: Option<&[String]>, set: &[String]) -> Result<Vec<Chosen>> {
 /// value each), as parameters and their sorted label, typed by each method's card (no data is
 /// read). A pair no method takes is an error naming what they accept.
 pub fn apply_set(
+    catalogue: &Catalogue,
     methods: &[(&'static Card, String)],
     set: &[String],
 ) -> Result<Vec<(Params, String)>> {
     let set = registry::Assignments::parse(set).map_err(visible::set_error)?;
     set.one_setting("view").map_err(visible::set_error)?;
     let cards: Vec<&Card> = methods.iter().map(|(m, _)| *m).collect();
-    set.check_targets(&cards).map_err(visible::set_error)?;
+    set.check_targets(catalogue, &cards)
+        .map_err(visible::set_error)?;
     methods
         .iter()
         .map(|(m, label)| {
@@ -210,15 +217,15 @@ pub fn run_method(
 }
 
 /// Runs the request: every method on the view, then the page (and the static render).
-pub fn run(req: &Request, data_dir: &Path) -> Result<Written> {
+pub fn run(run: &crate::run::Run, req: &Request, data_dir: &Path) -> Result<Written> {
     // The script first: a missing bundle is reported before any work.
     let script = page::bundle()?;
     if req.max_points == Some(0) {
         bail!("--max-points must be at least 1");
     }
     // The methods and their settings, typed, before any data is read.
-    let chosen = choose(req.methods.as_deref(), &req.set)?;
-    let ds = visible::load_source(&req.source, data_dir)?;
+    let chosen = choose(&run.catalogue, req.methods.as_deref(), &req.set)?;
+    let ds = visible::load_source(run, &req.source, data_dir)?;
     let camera = *ds.view(req.view)?;
     let mut runs = Vec::new();
     for (m, params, setting) in &chosen {
@@ -234,6 +241,7 @@ pub fn run(req: &Request, data_dir: &Path) -> Result<Written> {
     }
     let truth = page::Truth::of(&ds, &camera, &runs)?;
     let html = page::Page {
+        catalogue: &run.catalogue,
         ds: &ds,
         view: req.view,
         camera: &camera,
@@ -271,7 +279,7 @@ mod tests {
 
     #[test]
     fn defaults_are_the_swept_methods() {
-        let names: Vec<&str> = default_methods()
+        let names: Vec<&str> = default_methods(&Catalogue::builtin())
             .unwrap()
             .iter()
             .map(|(m, _)| m.name)
@@ -293,6 +301,7 @@ mod tests {
     fn set_pairs_go_to_the_methods_that_have_them() {
         let names = ["hpr".to_owned(), "splat".to_owned()];
         let chosen = choose(
+            &Catalogue::builtin(),
             Some(&names),
             &["gamma=3.5".into(), "splat.radius_px=1".into()],
         )
@@ -300,11 +309,23 @@ mod tests {
         assert!(chosen[0].2.contains("gamma=3.5"), "{}", chosen[0].2);
         assert!(chosen[1].2.contains("radius_px=1"), "{}", chosen[1].2);
         assert!(!chosen[1].2.contains("gamma"), "{}", chosen[1].2);
-        let err = error_of(choose(Some(&names), &["nonsense=1".into()]));
+        let err = error_of(choose(
+            &Catalogue::builtin(),
+            Some(&names),
+            &["nonsense=1".into()],
+        ));
         assert!(err.contains("no chosen method"), "{err}");
-        let err = error_of(choose(Some(&["nosuch".to_owned()]), &[]));
+        let err = error_of(choose(
+            &Catalogue::builtin(),
+            Some(&["nosuch".to_owned()]),
+            &[],
+        ));
         assert!(err.contains("nosuch"), "{err}");
-        let err = error_of(choose(Some(&["hpr".to_owned(), "hpr".to_owned()]), &[]));
+        let err = error_of(choose(
+            &Catalogue::builtin(),
+            Some(&["hpr".to_owned(), "hpr".to_owned()]),
+            &[],
+        ));
         assert!(err.contains("twice"), "{err}");
     }
 }

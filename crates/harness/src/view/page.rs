@@ -42,20 +42,24 @@ pub fn bundle() -> Result<String> {
 
 /// The family a page's method is styled by (`output::style`): the registry's at its setting;
 /// the LOD page's `full detail`, the full cloud's (`full`).
-pub fn method_family(name: &str, setting: &str) -> String {
+pub fn method_family(catalogue: &registry::Catalogue, name: &str, setting: &str) -> String {
     if name == "full detail" {
         "full".to_owned()
     } else {
-        crate::output::style::family(name, setting)
+        crate::output::style::family(catalogue, name, setting)
     }
 }
 
 /// A page's data with each method's family and style (in `variant` `default`: every page shows
 /// the methods at their default setting) and the marker shapes its swatches are drawn from.
-pub fn with_styles(mut data: serde_json::Value) -> serde_json::Value {
+pub fn with_styles(
+    catalogue: &registry::Catalogue,
+    mut data: serde_json::Value,
+) -> serde_json::Value {
     if let Some(methods) = data["methods"].as_array_mut() {
         for m in methods {
             let family = method_family(
+                catalogue,
                 m["name"].as_str().unwrap_or_default(),
                 m["setting"].as_str().unwrap_or_default(),
             );
@@ -179,6 +183,8 @@ pub use crate::output::escape_html;
 /// One page's content.
 #[derive(Debug, Clone, Copy)]
 pub struct Page<'a> {
+    /// The run's methods, whose families style the page.
+    pub catalogue: &'a registry::Catalogue,
     /// The dataset (internal coordinates: points and camera alike).
     pub ds: &'a Dataset,
     /// The view's index.
@@ -261,46 +267,49 @@ impl Page<'_> {
             String::new()
         };
         // Each method's look in every figure of the report, beside its name.
-        Ok(with_styles(serde_json::json!({
-            "title": format!("{}, view {}", ds.name(), self.view),
-            "dataset": ds.name(),
-            "view": self.view,
-            "n": shown,
-            "n_total": n_total,
-            "note": format!("{}{against}{off_note}{subsample}",
-                self.note.map(|s| format!("{s} ")).unwrap_or_default()),
-            "box": {"min": lo, "max": hi},
-            "positions": b64(&positions),
-            "truth": b64(&bitset(&ord, |i| truth[i])),
-            "truth_kind": if self.truth.is_reference { "reference" } else { "majority" },
-            "off": off.map(|f| b64(&bitset(&ord, |i| f[i]))),
-            "score_columns": if self.truth.is_reference {
-                ["precision", "recall", "F1"]
-            } else {
-                ["P*", "R*", "Jaccard*"]
-            },
-            "score_note": if self.truth.is_reference {
-                "Precision, recall and F1 of the whole cloud against the reference (off-surface points left out); click a row to show that method."
-            } else {
-                "*: against the methods' majority, whole cloud; click a row to show that method."
-            },
-            "camera": {
-                "model": cam.model().name(),
-                "eye": cam.eye.to_array(),
-                "target": cam.target.to_array(),
-                "forward": cam.forward().to_array(),
-                "right": cam.right().to_array(),
-                "up": cam.true_up().to_array(),
-                "fov_y_deg": fov_y_deg(cam),
-                "width": cam.width,
-                "height": cam.height,
-            },
-            "colors": {
-                "hidden": HIDDEN, "tp": TRUE_POSITIVE, "fn": FALSE_NEGATIVE,
-                "fp": FALSE_POSITIVE, "off": OFF_SURFACE,
-            },
-            "methods": methods,
-        })))
+        Ok(with_styles(
+            self.catalogue,
+            serde_json::json!({
+                "title": format!("{}, view {}", ds.name(), self.view),
+                "dataset": ds.name(),
+                "view": self.view,
+                "n": shown,
+                "n_total": n_total,
+                "note": format!("{}{against}{off_note}{subsample}",
+                    self.note.map(|s| format!("{s} ")).unwrap_or_default()),
+                "box": {"min": lo, "max": hi},
+                "positions": b64(&positions),
+                "truth": b64(&bitset(&ord, |i| truth[i])),
+                "truth_kind": if self.truth.is_reference { "reference" } else { "majority" },
+                "off": off.map(|f| b64(&bitset(&ord, |i| f[i]))),
+                "score_columns": if self.truth.is_reference {
+                    ["precision", "recall", "F1"]
+                } else {
+                    ["P*", "R*", "Jaccard*"]
+                },
+                "score_note": if self.truth.is_reference {
+                    "Precision, recall and F1 of the whole cloud against the reference (off-surface points left out); click a row to show that method."
+                } else {
+                    "*: against the methods' majority, whole cloud; click a row to show that method."
+                },
+                "camera": {
+                    "model": cam.model().name(),
+                    "eye": cam.eye.to_array(),
+                    "target": cam.target.to_array(),
+                    "forward": cam.forward().to_array(),
+                    "right": cam.right().to_array(),
+                    "up": cam.true_up().to_array(),
+                    "fov_y_deg": fov_y_deg(cam),
+                    "width": cam.width,
+                    "height": cam.height,
+                },
+                "colors": {
+                    "hidden": HIDDEN, "tp": TRUE_POSITIVE, "fn": FALSE_NEGATIVE,
+                    "fp": FALSE_POSITIVE, "off": OFF_SURFACE,
+                },
+                "methods": methods,
+            }),
+        ))
     }
 
     /// The whole page, `script` (the viewer bundle) embedded.

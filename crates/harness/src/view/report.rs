@@ -11,6 +11,7 @@
 //! module writes (those the previous `pages.json` listed, and pages named as it names them),
 //! nothing else in the folder.
 
+use crate::run::Run;
 use std::path::Path;
 
 use anyhow::{Context, Result};
@@ -47,10 +48,16 @@ pub struct Entry {
 
 /// Writes every page of the report ([`write_pages`], [`write_lod_pages`]) and
 /// `viewer/pages.json` (nothing when there is no real dataset in the results).
-pub fn write_all(reports: &Path, data_dir: &Path) -> Result<Vec<Entry>> {
+pub fn write_all(run: &Run, reports: &Path, data_dir: &Path) -> Result<Vec<Entry>> {
     let previous = listed(reports);
-    let mut entries = write_pages(reports, &real_datasets(reports, "visibility")?, data_dir)?;
+    let mut entries = write_pages(
+        run,
+        reports,
+        &real_datasets(reports, "visibility")?,
+        data_dir,
+    )?;
     entries.extend(write_lod_pages(
+        run,
         reports,
         &real_datasets(reports, "lod")?,
         data_dir,
@@ -154,7 +161,12 @@ fn fit(start: usize, html_at: impl Fn(usize) -> Result<String>) -> Result<(Strin
 
 /// Writes the page of each of `names` (view 0); a dataset whose files are missing is left out
 /// with a line on standard error.
-pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
+pub fn write_pages(
+    run: &Run,
+    reports: &Path,
+    names: &[String],
+    data_dir: &Path,
+) -> Result<Vec<Entry>> {
     if names.is_empty() {
         return Ok(Vec::new());
     }
@@ -162,7 +174,7 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
     let measured = measured_seconds(reports);
     let mut entries = Vec::new();
     for name in names {
-        let ds = match datasets::load(name, data_dir) {
+        let ds = match run.datasets.load(name, data_dir) {
             Ok(ds) => ds,
             Err(e) => {
                 eprintln!("viewer pages: {name} left out: {e:#}");
@@ -172,7 +184,7 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         let view = 0;
         let camera = *ds.view(view)?;
         let mut runs = Vec::new();
-        for (m, params, setting) in choose(None, &[])? {
+        for (m, params, setting) in choose(&run.catalogue, None, &[])? {
             match run_method(m, &ds, &params, view, &camera) {
                 Ok((out, seconds)) => {
                     let (seconds, timing) =
@@ -199,6 +211,7 @@ pub fn write_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<
         );
         let (html, max_points) = fit(max_points, |k| {
             let data = page::Page {
+                catalogue: &run.catalogue,
                 ds: &ds,
                 view,
                 camera: &camera,
@@ -289,7 +302,12 @@ fn measured_seconds(reports: &Path) -> Vec<Measured> {
 /// Writes the level-of-detail page of each of `names` (view 0 at the `lod` experiment's
 /// farther distance, every default LOD method); a dataset whose files are missing, or a
 /// method that fails on it, is left out with a line on standard error.
-pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Result<Vec<Entry>> {
+pub fn write_lod_pages(
+    run: &Run,
+    reports: &Path,
+    names: &[String],
+    data_dir: &Path,
+) -> Result<Vec<Entry>> {
     if names.is_empty() {
         return Ok(Vec::new());
     }
@@ -297,7 +315,7 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
     let distance = lod::DEFAULT_DISTANCE;
     let mut entries = Vec::new();
     for name in names {
-        let ds = match datasets::load(name, data_dir) {
+        let ds = match run.datasets.load(name, data_dir) {
             Ok(ds) => ds,
             Err(e) => {
                 eprintln!("viewer pages: {name} (LOD) left out: {e:#}");
@@ -306,7 +324,8 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
         };
         let view = 0;
         let camera = crate::experiments::lod::at_distance(ds.view(view)?, distance)?;
-        let (selected, failed) = lod::select(&ds, view, &camera, &lod::choose(None, &[])?)?;
+        let (selected, failed) =
+            lod::select(&ds, view, &camera, &lod::choose(&run.catalogue, None, &[])?)?;
         // A method that cannot select here is left out, not the page.
         for (method, e) in failed {
             eprintln!("viewer pages: {name} (LOD): {method} left out: {e:#}");
@@ -340,6 +359,7 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
         );
         let (html, max_splats) = fit(max_splats, |k| {
             let data = lod::LodPage {
+                catalogue: &run.catalogue,
                 ds: &ds,
                 view,
                 distance,
@@ -379,7 +399,7 @@ pub fn write_lod_pages(reports: &Path, names: &[String], data_dir: &Path) -> Res
 /// without measuring: the current viewer script, each method's style, the links to the
 /// results pages (`pointsight tables`). Returns how many; none when the viewer script is not
 /// built (said on standard error) or there are no pages.
-pub fn refresh(reports: &Path) -> Result<usize> {
+pub fn refresh(run: &Run, reports: &Path) -> Result<usize> {
     let list = reports.join("viewer/pages.json");
     if !list.exists() {
         return Ok(0);
@@ -409,7 +429,10 @@ pub fn refresh(reports: &Path) -> Result<usize> {
         let data: serde_json::Value = serde_json::from_str(json)
             .with_context(|| format!("malformed page data in {}", path.display()))?;
         let experiment = if e.kind == "lod" { "lod" } else { "visibility" };
-        let page = page::html_of(&with_links(page::with_styles(data), experiment), &script)?;
+        let page = page::html_of(
+            &with_links(page::with_styles(&run.catalogue, data), experiment),
+            &script,
+        )?;
         write_atomic(&path, page.as_bytes())?;
         n += 1;
     }
@@ -586,12 +609,14 @@ mod tests {
         let measured = measured_seconds(&reports);
         assert!(!measured.is_empty(), "no committed visibility results");
         let dataset = &measured[0].dataset;
-        let defaults = choose(None, &[]).unwrap();
+        let defaults = choose(&registry::Catalogue::builtin(), None, &[]).unwrap();
         let in_report: Vec<_> = defaults
             .into_iter()
             .filter(|(m, _, _)| measured.iter().any(|r| r.method == m.name))
             .collect();
-        let all = choose(None, &[]).unwrap().len();
+        let all = choose(&registry::Catalogue::builtin(), None, &[])
+            .unwrap()
+            .len();
         assert!(
             in_report.len() + 1 >= all,
             "only {} of {all} default methods in the committed report",

@@ -30,6 +30,7 @@ from ._native import Camera
 
 __all__ = [
     "Camera",
+    "Catalogue",
     "Lod",
     "QSplat",
     "SequentialPointTree",
@@ -201,13 +202,14 @@ def visible(
     vertices: Optional[ArrayLike] = None,
     faces: Optional[ArrayLike] = None,
     as_mask: bool = False,
+    catalogue: Optional["Catalogue"] = None,
     **params: Any,
 ) -> Union[np.ndarray, list]:
-    """The points `method` (any name of `methods()`: built-in, registered, or loaded with
-    `load_methods`) finds visible from `camera`, at the setting `params` (the registry's keys,
-    as the command line's ``--set``). A list of cameras gives one result per camera (the
-    method prepared once; the position in the list is the view index). `vertices`/`faces`: the
-    mesh, for methods that need one (``reference``)."""
+    """The points `method` (any name of `methods()`: built-in, or loaded with `load_methods`;
+    or of `catalogue`, a `Catalogue` of your own) finds visible from `camera`, at the setting
+    `params` (the registry's keys, as the command line's ``--set``). A list of cameras gives
+    one result per camera (the method prepared once; the position in the list is the view
+    index). `vertices`/`faces`: the mesh, for methods that need one (``reference``)."""
     p = _points(points)
     cams = _cameras(camera)
     mesh: tuple = ()
@@ -218,15 +220,37 @@ def visible(
         if not np.issubdtype(f.dtype, np.integer):
             raise TypeError(f"faces: expected an (F, 3) integer array, got dtype {f.dtype}")
         mesh = (_points(vertices, "vertices"), np.ascontiguousarray(f, dtype=np.int64))
-    out = _native.visible(str(method), p, cams, _params(**params), *mesh)
+    if not mesh:
+        mesh = (None, None)
+    out = _native.visible(
+        str(method), p, cams, _params(**params), *mesh, _catalogue_or_default(catalogue)
+    )
     res = [_result(v, len(p), as_mask) for v in out]
     return res if isinstance(camera, (list, tuple)) else res[0]
 
 
+#: The methods a caller runs: the built-in ones and the external folders loaded into it
+#: (``Catalogue().load(folder)``). Two catalogues side by side know only their own folders;
+#: pass one as ``catalogue=`` to `visible`, `Lod` and `methods`.
+Catalogue = _native.Catalogue
+
+#: The catalogue of calls that name none: `load_methods` loads into it.
+_default_catalogue = _native.Catalogue()
+
+
+def _catalogue_or_default(catalogue: Optional["Catalogue"]) -> "Catalogue":
+    if catalogue is None:
+        return _default_catalogue
+    if not isinstance(catalogue, _native.Catalogue):
+        raise TypeError(f"catalogue: expected a pointsight.Catalogue, got {type(catalogue).__name__}")
+    return catalogue
+
+
 def load_methods(folder: str) -> list:
     """Loads the external methods under `folder` (one ``NAME/method.toml`` each, the protocol
-    of the repository's ``methods/README.md``) for every later call; returns their names."""
-    return _native.load_methods(str(folder))
+    of the repository's ``methods/README.md``) into the module's default catalogue, which every
+    call that names no ``catalogue=`` uses; returns their names."""
+    return _default_catalogue.load(str(folder))
 
 
 def raycast(
@@ -373,6 +397,7 @@ class Lod:
         radius: Optional[float] = None,
         radius_spacings: float = 1.0,
         seed: int = 0,
+        catalogue: Optional["Catalogue"] = None,
     ) -> None:
         p = _points(points)
         n = None if normals is None else _points(normals, "normals")
@@ -386,6 +411,7 @@ class Lod:
         self._native = _native.Lod(
             str(method), p, n, _colors(colors), u, t,
             None if radius is None else float(radius), float(radius_spacings), int(seed),
+            _catalogue_or_default(catalogue),
         )
 
     def select(self, camera: Any, *, repeats: int = 1, **params: Any) -> Union[dict, list]:
@@ -488,7 +514,8 @@ def set_num_threads(n: int) -> None:
     _native.set_num_threads(n)
 
 
-def methods() -> list:
-    """Every method of the registry (built-in, registered, loaded with `load_methods`),
-    visibility then level of detail: (name, summary, [(key, default, help), ...])."""
-    return _native.methods()
+def methods(catalogue: Optional["Catalogue"] = None) -> list:
+    """Every method of `catalogue` (default: the built-in ones and those loaded with
+    `load_methods`), visibility then level of detail: (name, summary, [(key, default, help),
+    ...])."""
+    return _native.methods(_catalogue_or_default(catalogue))

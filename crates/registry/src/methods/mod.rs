@@ -28,13 +28,9 @@ mod srn;
 mod tests;
 mod vardensity;
 
-use std::sync::RwLock;
-
 use crate::card::Card;
 use crate::error::{Error, Result};
 use crate::sweep::{BUILTIN, Sweeps};
-
-pub use external::register_external;
 
 /// The built-in methods, in listing order: visibility, then level of detail.
 pub static BUILT_IN: &[&Card] = &[
@@ -55,65 +51,118 @@ pub static BUILT_IN: &[&Card] = &[
     &random::CARD,
 ];
 
-/// The cards registered at run time, in registration order.
-static REGISTERED: RwLock<Vec<&'static Card>> = RwLock::new(Vec::new());
+/// The methods one run knows: the built-in ones ([`BUILT_IN`]), then those it added (external
+/// programs' folders, a program's or a test's own cards), in the order added. A value, not
+/// process state: each run, test or Python session builds its own, side by side.
+#[derive(Clone, Default)]
+pub struct Catalogue {
+    added: Vec<&'static Card>,
+}
 
-/// Adds `card` for every later lookup in this process (a program embedding the registry, or a
-/// test, plugs its own method in here: one card, one call). Its name must be new among
-/// visibility and LOD methods alike.
-pub fn register(card: &'static Card) -> Result<()> {
-    if card_named(card.name).is_some() {
-        return Err(Error::Unsupported(format!(
-            "a method named {} is already registered",
-            card.name
-        )));
+impl std::fmt::Debug for Catalogue {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_list()
+            .entries(self.cards().iter().map(|c| c.name))
+            .finish()
     }
-    REGISTERED
-        .write()
-        .map_err(|_| Error::Unsupported("the method registry is poisoned".into()))?
-        .push(card);
-    Ok(())
 }
 
-/// Every method: built-in, then those registered at run time.
-pub fn cards() -> Vec<&'static Card> {
-    let registered = REGISTERED.read().map(|r| r.clone()).unwrap_or_default();
-    BUILT_IN.iter().copied().chain(registered).collect()
-}
+impl Catalogue {
+    /// The built-in methods alone.
+    pub fn builtin() -> Self {
+        Self::default()
+    }
 
-/// The visibility methods, in listing order.
-pub fn visibility_cards() -> Vec<&'static Card> {
-    cards().into_iter().filter(|c| !c.is_lod()).collect()
-}
+    /// Adds `card` (a program embedding the registry, or a test, plugs its own method in
+    /// here: one card, one call). Its name must be new among visibility and LOD methods alike.
+    pub fn add(&mut self, card: &'static Card) -> Result<()> {
+        if self.card_named(card.name).is_some() {
+            return Err(Error::Unsupported(format!(
+                "a method named {} is already registered",
+                card.name
+            )));
+        }
+        self.added.push(card);
+        Ok(())
+    }
 
-/// The level-of-detail methods, in listing order.
-pub fn lod_cards() -> Vec<&'static Card> {
-    cards().into_iter().filter(|c| c.is_lod()).collect()
-}
-
-/// The method called `name`, if any.
-pub fn card_named(name: &str) -> Option<&'static Card> {
-    cards().into_iter().find(|c| c.name == name)
-}
-
-/// The method called `name`, or an error listing the known ones.
-pub fn card(name: &str) -> Result<&'static Card> {
-    card_named(name).ok_or_else(|| Error::UnknownMethod {
-        name: name.to_owned(),
-        known: cards()
+    /// Every method: built-in, then the added ones.
+    pub fn cards(&self) -> Vec<&'static Card> {
+        BUILT_IN
             .iter()
-            .map(|c| c.name)
-            .collect::<Vec<_>>()
-            .join(", "),
-    })
+            .copied()
+            .chain(self.added.iter().copied())
+            .collect()
+    }
+
+    /// The visibility methods, in listing order.
+    pub fn visibility_cards(&self) -> Vec<&'static Card> {
+        self.cards().into_iter().filter(|c| !c.is_lod()).collect()
+    }
+
+    /// The level-of-detail methods, in listing order.
+    pub fn lod_cards(&self) -> Vec<&'static Card> {
+        self.cards().into_iter().filter(|c| c.is_lod()).collect()
+    }
+
+    /// The method called `name`, if any.
+    pub fn card_named(&self, name: &str) -> Option<&'static Card> {
+        BUILT_IN
+            .iter()
+            .chain(&self.added)
+            .copied()
+            .find(|c| c.name == name)
+    }
+
+    /// The method called `name`, or an error listing the known ones.
+    pub fn card(&self, name: &str) -> Result<&'static Card> {
+        self.card_named(name).ok_or_else(|| Error::UnknownMethod {
+            name: name.to_owned(),
+            known: self
+                .cards()
+                .iter()
+                .map(|c| c.name)
+                .collect::<Vec<_>>()
+                .join(", "),
+        })
+    }
+
+    /// Every method with a sweep: the built-in grids, the external methods' and added cards'
+    /// own, then `user` over them (each of our methods' default setting its card's unless a
+    /// file names one). A method `user` names that is not in the catalogue is an error.
+    pub fn sweeps(&self, user: Option<Sweeps>) -> Result<Sweeps> {
+        let mut base = Sweeps::parse(BUILTIN, "registry/src/sweeps.toml")?;
+        for c in self.cards() {
+            if let Some(s) = &c.sweep {
+                base.methods.insert(c.name.to_owned(), s.clone());
+            }
+        }
+        if let Some(user) = &user {
+            for name in user.methods.keys() {
+                self.card(name)?;
+            }
+        }
+        Ok(with_card_defaults(
+            match user {
+                Some(u) => base.overlay(u),
+                None => base,
+            },
+            self,
+        ))
+    }
+}
+
+/// The built-in method called `name`, if any.
+pub fn builtin_card(name: &str) -> Option<&'static Card> {
+    BUILT_IN.iter().copied().find(|c| c.name == name)
 }
 
 /// Gives every sweep of one of our methods (not an external program's, whose manifest says)
 /// that names no default setting its card's.
-fn with_card_defaults(mut sweeps: Sweeps) -> Sweeps {
+fn with_card_defaults(mut sweeps: Sweeps, catalogue: &Catalogue) -> Sweeps {
     for (name, sweep) in &mut sweeps.methods {
         if sweep.default.is_none()
-            && let Some(card) = card_named(name).filter(|c| !c.is_external())
+            && let Some(card) = catalogue.card_named(name).filter(|c| !c.is_external())
         {
             sweep.default = Some(card.default_setting());
         }
@@ -125,28 +174,9 @@ impl Sweeps {
     /// The built-in grids (`sweeps.toml`), each method's default setting its card's.
     pub fn builtin() -> Self {
         // The file is part of this crate and tested; an error is a build defect.
-        with_card_defaults(Self::parse(BUILTIN, "registry/src/sweeps.toml").unwrap_or_default())
-    }
-
-    /// Every registered method with a sweep: the built-in grids, the external methods' and
-    /// registered cards' own, then `user` over them (each of our methods' default setting its
-    /// card's unless a file names one). A method `user` names that is not registered is an
-    /// error.
-    pub fn resolve(user: Option<Sweeps>) -> Result<Self> {
-        let mut base = Self::parse(BUILTIN, "registry/src/sweeps.toml")?;
-        for c in cards() {
-            if let Some(s) = &c.sweep {
-                base.methods.insert(c.name.to_owned(), s.clone());
-            }
-        }
-        if let Some(user) = &user {
-            for name in user.methods.keys() {
-                card(name)?;
-            }
-        }
-        Ok(with_card_defaults(match user {
-            Some(u) => base.overlay(u),
-            None => base,
-        }))
+        with_card_defaults(
+            Self::parse(BUILTIN, "registry/src/sweeps.toml").unwrap_or_default(),
+            &Catalogue::builtin(),
+        )
     }
 }

@@ -6,7 +6,7 @@
 use cloud::{Camera, PointCloud};
 use srn::texture::Texture;
 
-use super::{BUILT_IN, card, card_named, cards, register, register_external};
+use super::{BUILT_IN, Catalogue};
 use crate::card::{Card, Kind, Memory, Metric};
 use crate::error::{Error, Result};
 use crate::kernel::{self, LodCell, View};
@@ -15,6 +15,11 @@ use crate::params::{Params, Reader};
 use crate::setting::Setting;
 use crate::sweep::{BUILTIN, Sweeps};
 use crate::visibility::{Method, Setup};
+
+/// A built-in method's card, or the catalogue's error.
+fn card(name: &str) -> Result<&'static Card> {
+    Catalogue::builtin().card(name)
+}
 
 /// A method that only has a name: it reads nothing and prepares nothing.
 struct Nothing;
@@ -52,21 +57,49 @@ fn named(name: &'static str, lod: bool) -> &'static Card {
 
 #[test]
 fn one_namespace_for_visibility_and_lod_methods() {
+    let mut catalogue = Catalogue::builtin();
     // Built-in names of either kind are taken for both kinds.
-    assert!(register(named("srn", false)).is_err());
-    assert!(register(named("hpr", false)).is_err());
-    assert!(register(named("hpr", true)).is_err());
-    assert!(register(named("qsplat", true)).is_err());
-    // A new name registers once, for its kind, and is then taken for the other kind too.
-    register(named("plugins-test-vis", false)).unwrap();
-    assert!(card("plugins-test-vis").is_ok_and(|c| !c.is_lod()));
-    assert!(register(named("plugins-test-vis", false)).is_err());
-    assert!(register(named("plugins-test-vis", true)).is_err());
-    register(named("plugins-test-lod", true)).unwrap();
-    assert!(card_named("plugins-test-lod").is_some_and(|c| c.is_lod()));
-    assert!(register(named("plugins-test-lod", false)).is_err());
-    let err = card("no-such-method").err().unwrap().to_string();
+    assert!(catalogue.add(named("srn", false)).is_err());
+    assert!(catalogue.add(named("hpr", false)).is_err());
+    assert!(catalogue.add(named("hpr", true)).is_err());
+    assert!(catalogue.add(named("qsplat", true)).is_err());
+    // A new name is added once, for its kind, and is then taken for the other kind too.
+    catalogue.add(named("plugins-test-vis", false)).unwrap();
+    assert!(
+        catalogue
+            .card("plugins-test-vis")
+            .is_ok_and(|c| !c.is_lod())
+    );
+    assert!(catalogue.add(named("plugins-test-vis", false)).is_err());
+    assert!(catalogue.add(named("plugins-test-vis", true)).is_err());
+    catalogue.add(named("plugins-test-lod", true)).unwrap();
+    assert!(
+        catalogue
+            .card_named("plugins-test-lod")
+            .is_some_and(|c| c.is_lod())
+    );
+    assert!(catalogue.add(named("plugins-test-lod", false)).is_err());
+    let err = catalogue.card("no-such-method").err().unwrap().to_string();
     assert!(err.contains("hpr") && err.contains("qsplat"), "{err}");
+    // Catalogues are values: another one, side by side, knows none of this one's additions.
+    let other = Catalogue::builtin();
+    assert!(other.card_named("plugins-test-vis").is_none());
+    assert_eq!(other.cards().len(), BUILT_IN.len());
+    assert_eq!(catalogue.cards().len(), BUILT_IN.len() + 2);
+    assert_eq!(
+        catalogue
+            .lod_cards()
+            .iter()
+            .filter(|c| c.name == "plugins-test-lod")
+            .count(),
+        1
+    );
+    assert!(
+        catalogue
+            .visibility_cards()
+            .iter()
+            .any(|c| c.name == "plugins-test-vis")
+    );
 }
 
 #[test]
@@ -79,7 +112,10 @@ fn an_external_method_may_not_take_a_built_in_lod_name() {
         "protocol = 1\nsummary = \"test\"\ncommand = [\"true\"]\n",
     )
     .unwrap();
-    let err = register_external(dir.path()).unwrap_err().to_string();
+    let err = Catalogue::builtin()
+        .add_external(dir.path())
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("shadows a built-in method"), "{err}");
 }
 
@@ -165,7 +201,7 @@ fn builtin_grids_parse_and_name_registered_methods_and_keys() {
 #[test]
 fn user_file_replaces_named_methods_only_and_keeps_the_cards_default() {
     let user = Sweeps::parse("[hpr]\n[[hpr.grid]]\ngamma = [2, 3]", "u").unwrap();
-    let s = Sweeps::resolve(Some(user)).unwrap();
+    let s = Catalogue::builtin().sweeps(Some(user)).unwrap();
     assert_eq!(s.methods["hpr"].grid.len(), 2);
     assert_eq!(
         s.methods["hpr"].default_setting(),
@@ -174,12 +210,16 @@ fn user_file_replaces_named_methods_only_and_keeps_the_cards_default() {
     assert_eq!(s.methods["raycast"], Sweeps::builtin().methods["raycast"]);
     // A file's own default stands.
     let user = Sweeps::parse("[hpr]\ndefault = {gamma = 3}\n[[hpr.grid]]\ngamma = 3", "u").unwrap();
-    let s = Sweeps::resolve(Some(user)).unwrap();
+    let s = Catalogue::builtin().sweeps(Some(user)).unwrap();
     assert_eq!(
         s.methods["hpr"].default_setting().unwrap().label(),
         "gamma=3"
     );
-    assert!(Sweeps::resolve(Some(Sweeps::parse("[nosuch]", "u").unwrap())).is_err());
+    assert!(
+        Catalogue::builtin()
+            .sweeps(Some(Sweeps::parse("[nosuch]", "u").unwrap()))
+            .is_err()
+    );
 }
 
 /// A unit sphere of `n` points with no normals and no colours, as a scan file gives.
@@ -287,7 +327,14 @@ fn the_split_kernel_selects_as_run_lod_does() {
     .expect("built");
     assert!(errors[0].contains("threshold_px=x"), "{errors:?}");
     assert!(errors[1].contains("unknown parameter pixels"), "{errors:?}");
-    assert_eq!(cards().iter().filter(|c| c.name == "qsplat").count(), 1);
+    assert_eq!(
+        Catalogue::builtin()
+            .cards()
+            .iter()
+            .filter(|c| c.name == "qsplat")
+            .count(),
+        1
+    );
 }
 
 #[test]

@@ -69,7 +69,7 @@ mod tests {
 
     /// `name`'s setting read and prepared on `input`, or the first error.
     fn prepared(name: &str, input: Input<'_>, params: &Params) -> Result<()> {
-        let card = super::super::card(name).expect("registered");
+        let card = crate::builtin_card(name).expect("built in");
         let (setup, _) = card.setup(params)?;
         setup.prepare(input).map(|_| ())
     }
@@ -103,7 +103,7 @@ mod tests {
     fn every_camera_model_gives_pixels_and_scores() {
         let scene = cloud::synth::sphere_plane_scene(1_500, 3_000, 2).0;
         for name in ["screenspace", "vardensity"] {
-            let card = super::super::card(name).expect("registered");
+            let card = crate::builtin_card(name).expect("built in");
             let params = Params::from_pairs(&[("depth_tolerance", "0.01".into())]);
             let input = Input {
                 cloud: &scene.cloud,

@@ -99,7 +99,7 @@ pub(super) fn measure(
         )
         .crop(crop.0, crop.1, crop.2, crop.3),
     ];
-    let method = registry::card(ds.method)?;
+    let method = ctx.run.catalogue.card(ds.method)?;
     let settings = ctx
         .sweeps
         .methods

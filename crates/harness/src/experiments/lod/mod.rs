@@ -170,7 +170,9 @@ pub fn lod_data(cloud: PointCloud) -> Result<LodData> {
 /// Every LOD method with a non-empty sweep that can run here, with its settings (an external
 /// one whose environment is missing is not run: [`methods_not_run`]).
 pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static Card, Vec<Setting>)> {
-    registry::lod_cards()
+    ctx.run
+        .catalogue
+        .lod_cards()
         .into_iter()
         .filter(|m| m.availability().is_ok())
         .filter_map(|m| {
@@ -182,7 +184,9 @@ pub(crate) fn methods_to_run(ctx: &Context) -> Vec<(&'static Card, Vec<Setting>)
 
 /// The LOD methods with a sweep that cannot run here (a peer not installed), each with why.
 pub(crate) fn methods_not_run(ctx: &Context) -> Vec<String> {
-    registry::lod_cards()
+    ctx.run
+        .catalogue
+        .lod_cards()
         .into_iter()
         .filter(|m| {
             ctx.sweeps
@@ -466,7 +470,7 @@ impl Experiment for LodExperiment {
             let file = if ctx.on_user_files() {
                 None
             } else {
-                crate::datasets::lod_file(name)?
+                ctx.run.datasets.lod_file(name)?
             };
             match file {
                 Some(mut file) => {
@@ -497,7 +501,7 @@ impl Experiment for LodExperiment {
             "seed_tables": ctx.seed_tables,
             "distances": DISTANCES,
             "reference_radius_spacings": REF_RADIUS,
-            "sweeps": registry::lod_cards()
+            "sweeps": ctx.run.catalogue.lod_cards()
                 .iter()
                 .filter_map(|m| {
                     let s = ctx.sweeps.methods.get(m.name)?;
@@ -514,7 +518,7 @@ impl Experiment for LodExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let builds: Vec<BuildRow> = read_csv(&dir.join("builds.csv"))?;
         let srn_rows: Vec<SrnRow> = read_csv(&dir.join("srn_table.csv"))?;
@@ -533,7 +537,9 @@ impl Experiment for LodExperiment {
         } else {
             Vec::new()
         };
-        render_outputs(dir, &rows, &builds, &srn_rows, repeats, &not_run, quick)?;
+        render_outputs(
+            catalogue, dir, &rows, &builds, &srn_rows, repeats, &not_run, quick,
+        )?;
         if reads.is_empty() {
             return Ok(());
         }
@@ -644,7 +650,9 @@ fn identical_note(rows: &[Row], ds: &str, distances: &[f64], methods: &[String])
     })
 }
 
+#[allow(clippy::too_many_arguments)]
 fn render_outputs(
+    catalogue: &registry::Catalogue,
     dir: &Path,
     rows: &[Row],
     builds: &[BuildRow],
@@ -792,7 +800,10 @@ fn render_outputs(
                     },
                     // Bytes per point without colour, where the method's paper counts them
                     // (QSplat: 4 bytes a node, offset words included).
-                    match registry::card_named(&b.method).and_then(|c| c.bare_node_bytes) {
+                    match catalogue
+                        .card_named(&b.method)
+                        .and_then(|c| c.bare_node_bytes)
+                    {
                         Some(bytes) => {
                             format!(
                                 "{:.2}",

@@ -133,7 +133,7 @@ pub(super) fn measure(ctx: &Context) -> Result<Vec<SrnRow>> {
             bar.inc(1);
             continue;
         }
-        let mut ds = datasets::load(m.dataset, &ctx.data_dir)?;
+        let mut ds = ctx.run.datasets.load(m.dataset, &ctx.data_dir)?;
         let cam = *ds.view(0)?;
         let texture = (m.texture)();
         let mut cloud = std::mem::take(&mut ds.cloud);

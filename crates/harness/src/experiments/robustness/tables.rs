@@ -243,13 +243,15 @@ pub fn methods_by_datasets(rows: &[Row]) -> String {
 }
 
 /// True when the method called `name` is one `paper` compared (its card says so).
-fn compared_in(name: &str, paper: Comparison) -> bool {
-    registry::card_named(name).is_some_and(|c| c.compared_in.contains(&paper))
+fn compared_in(catalogue: &registry::Catalogue, name: &str, paper: Comparison) -> bool {
+    catalogue
+        .card_named(name)
+        .is_some_and(|c| c.compared_in.contains(&paper))
 }
 
 /// False-positive and false-negative rates of HPR and the robust operator on the clean cloud and
 /// under the uniform noise along the normal (degradation `jitter`).
-pub fn mehra(rows: &[Row]) -> String {
+pub fn mehra(catalogue: &registry::Catalogue, rows: &[Row]) -> String {
     type Key = (String, i64, String, String);
     /// Per view: false-positive rate, false-negative rate, F1.
     type Rates = (Vec<f64>, Vec<f64>, Vec<f64>);
@@ -257,7 +259,7 @@ pub fn mehra(rows: &[Row]) -> String {
     for r in rows.iter().filter(|r| {
         r.status == "ok"
             && (r.degradation == "jitter" || r.degradation == "clean")
-            && compared_in(&r.method, Comparison::Mehra2010)
+            && compared_in(catalogue, &r.method, Comparison::Mehra2010)
     }) {
         let surface = r.n_points - r.outliers;
         let visible = r.true_positives + r.false_negatives;
@@ -322,7 +324,7 @@ pub fn mehra(rows: &[Row]) -> String {
 
 /// Every method on the simulated scans (mobile first), the methods of Biasutti et al.'s
 /// comparison marked.
-pub fn biasutti(rows: &[Row]) -> String {
+pub fn biasutti(catalogue: &registry::Catalogue, rows: &[Row]) -> String {
     type Key = (bool, String, String, String);
     let mut cells: BTreeMap<Key, Vec<&Row>> = BTreeMap::new();
     for r in rows.iter().filter(|r| r.degradation == "scan") {
@@ -344,7 +346,7 @@ pub fn biasutti(rows: &[Row]) -> String {
         .map(|((_, ds, method, setting), rs)| {
             let ok: Vec<&&Row> = rs.iter().filter(|r| r.status == "ok").collect();
             let m = |f: fn(&Row) -> f64| median(ok.iter().map(|r| f(r)).collect());
-            let theirs = compared_in(&method, Comparison::Biasutti2019);
+            let theirs = compared_in(catalogue, &method, Comparison::Biasutti2019);
             vec![
                 ds,
                 if theirs {
@@ -430,7 +432,7 @@ mod tests {
             row("jitter", 0.01, "robust", 0, 40, 12),
             row("jitter", 0.01, "splat", 0, 40, 0),
         ];
-        let t = mehra(&rows);
+        let t = mehra(&registry::Catalogue::builtin(), &rows);
         // hpr: 6 of 60 hidden reported (10 %), 10 of 40 visible missed (25 %).
         assert!(
             t.contains("| d | 0.01 | hpr best | 10.00 % | 25.00 % |"),
@@ -444,7 +446,7 @@ mod tests {
             !t.contains("splat"),
             "only HPR and the robust operator: {t}"
         );
-        assert_eq!(mehra(&rows[..0]), "");
+        assert_eq!(mehra(&registry::Catalogue::builtin(), &rows[..0]), "");
     }
 
     #[test]
@@ -491,13 +493,17 @@ mod tests {
             row("scan", 0.0, "vardensity", 0, 40, 0),
             row("scan", 0.0, "raycast", 0, 40, 0),
         ];
-        assert_eq!(biasutti(&rows), "", "no mobile scan, no table");
+        assert_eq!(
+            biasutti(&registry::Catalogue::builtin(), &rows),
+            "",
+            "no mobile scan, no table"
+        );
         rows.iter_mut().for_each(|r| r.dataset = "x-mobile".into());
         rows.push(Row {
             dataset: "x-scan-4".into(),
             ..row("scan", 0.0, "hpr", 0, 40, 0)
         });
-        let t = biasutti(&rows);
+        let t = biasutti(&registry::Catalogue::builtin(), &rows);
         let mobile = t.find("| x-mobile | **vardensity**").expect(&t);
         let terrestrial = t.find("| x-scan-4 | **hpr**").expect(&t);
         assert!(

@@ -3,6 +3,7 @@
 //! LOD build or selection through the kernel's LOD form, or an out-of-core build from a LAZ
 //! file the cell writes, [`ooc_cell`]), and the process's peak memory.
 
+use crate::run::Run;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -23,6 +24,7 @@ pub fn ooc_dir(data_dir: &Path, method: &str, n: u64) -> PathBuf {
 /// `on_prepared` with the seconds the input took (sampling, and a hull cell's flip or an LOD
 /// cell's normals), runs `method` at `setting`, returns its seconds and this process's peak RSS.
 pub fn cell(
+    run: &Run,
     dataset: &str,
     method: &str,
     setting: &Setting,
@@ -38,7 +40,7 @@ pub fn cell(
         seconds
     };
     // The mesh alone (not the dataset's own cloud: it would count in the peak).
-    let (mesh, _) = crate::datasets::load_mesh_of(dataset, data_dir)?;
+    let (mesh, _) = run.datasets.load_mesh_of(dataset, data_dir)?;
     let bbox = mesh.bbox().context("the mesh has no vertices")?;
     let cam = cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default())?[0];
     if let Some(m) = method.strip_suffix(OOC_SUFFIX) {
@@ -46,7 +48,7 @@ pub fn cell(
             index: 0,
             camera: cam,
         };
-        return ooc_cell(m, &mesh, &bbox, n, data_dir, (setting, &view), || {
+        return ooc_cell(run, m, &mesh, &bbox, n, data_dir, (setting, &view), || {
             ready(&on_prepared)
         });
     }
@@ -84,7 +86,7 @@ pub fn cell(
         prepare_seconds = ready(&on_prepared);
         let (_, t) = registry::timing::measure(repeats, || hull.vertices(&flipped))?;
         t.median
-    } else if let Some(m) = registry::card_named(method).filter(|m| !m.is_lod()) {
+    } else if let Some(m) = run.catalogue.card_named(method).filter(|m| !m.is_lod()) {
         prepare_seconds = ready(&on_prepared);
         let input = registry::Input {
             cloud: &cloud,
@@ -99,7 +101,7 @@ pub fn cell(
             Some((_, Err(e))) => bail!(e),
             None => bail!("the kernel answered no view"),
         }
-    } else if let Some((m, build)) = lod_cell(method) {
+    } else if let Some((m, build)) = lod_cell(&run.catalogue, method) {
         let data = crate::experiments::lod::lod_data(cloud)?;
         prepare_seconds = ready(&on_prepared);
         let settings = [setting.clone()];
@@ -142,7 +144,9 @@ pub fn cell(
 /// [`crate::experiments::lod::FILE_CACHE_BYTES`]) at `select`'s setting and view, through the kernel,
 /// [`repeats`] timed runs: its time, splats and reads go in the detail, beside the in-memory
 /// `NAME-select` cell's.
+#[allow(clippy::too_many_arguments)]
 fn ooc_cell(
+    run: &Run,
     method: &str,
     mesh: &cloud::TriMesh,
     bbox: &cloud::Aabb,
@@ -202,7 +206,7 @@ fn ooc_cell(
         let mib = |b: u64| b as f64 / 1048576.0;
         let (setting, view) = select;
         let file = registry::lod_file::open_file(&out, crate::experiments::lod::FILE_CACHE_BYTES)?;
-        let m = registry::card(method)?;
+        let m = run.catalogue.card(method)?;
         let settings = [setting.clone()];
         let views = [*view];
         let cell = kernel::LodCell {
@@ -262,12 +266,15 @@ fn ooc_cell(
 }
 
 /// The LOD method of a `NAME-build` or `NAME-select` cell, and whether it is the build.
-fn lod_cell(name: &str) -> Option<(&'static registry::Card, bool)> {
+fn lod_cell(
+    catalogue: &registry::Catalogue,
+    name: &str,
+) -> Option<(&'static registry::Card, bool)> {
     let (m, build) = name
         .strip_suffix("-build")
         .map(|m| (m, true))
         .or_else(|| name.strip_suffix("-select").map(|m| (m, false)))?;
-    Some((registry::card_named(m).filter(|m| m.is_lod())?, build))
+    Some((catalogue.card_named(m).filter(|m| m.is_lod())?, build))
 }
 
 #[cfg(test)]
@@ -279,6 +286,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let run = |method: &str| {
             cell(
+                &Run::builtin(),
                 "torus-22321",
                 method,
                 &Setting::default(),
@@ -314,6 +322,7 @@ mod tests {
         };
         let setting = Setting::parse("threshold_px=2");
         let out = ooc_cell(
+            &Run::builtin(),
             "qsplat",
             &mesh,
             &bbox,
@@ -348,6 +357,7 @@ mod tests {
         // The same points with their triangles' normals in the LAZ: the build reads them and
         // estimates none (its neighbour queries are the spacing sample's alone).
         let given = ooc_cell(
+            &Run::builtin(),
             "qsplat-given",
             &mesh,
             &bbox,
@@ -376,6 +386,7 @@ mod tests {
         assert!(!ooc_dir(dir.path(), "qsplat-given-build-ooc", 5_000).exists());
         assert!(
             ooc_cell(
+                &Run::builtin(),
                 "spt",
                 &mesh,
                 &bbox,
@@ -405,6 +416,7 @@ mod tests {
             camera: cloud::views::fibonacci_views(&bbox, &cloud::ViewSpec::default()).unwrap()[0],
         };
         let out = ooc_cell(
+            &Run::builtin(),
             "copc_converter",
             &mesh,
             &bbox,

@@ -17,6 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::cell::{cell, ooc_dir};
 use super::plan::PREPARE_CAP_FACTOR;
 use super::row::{CellOutput, Row};
+use crate::run::Run;
 
 /// The subcommand a cell process runs under (hidden from `pointsight --help`).
 pub const SUBCOMMAND: &str = "scale-cell";
@@ -37,6 +38,10 @@ pub struct CellArgs {
     /// The method's setting (a `registry::Setting` label; empty: its defaults).
     #[arg(long, default_value = "")]
     pub setting: String,
+    /// The parent's run (`crate::run::Run::write_for_child`: its manifest and methods
+    /// folders), read instead of this process's own flags and variables.
+    #[arg(long)]
+    pub run: Option<PathBuf>,
 }
 
 impl CellArgs {
@@ -52,6 +57,13 @@ impl CellArgs {
             "--setting".into(),
             self.setting.clone(),
         ]
+        .into_iter()
+        .chain(
+            self.run
+                .iter()
+                .flat_map(|p| ["--run".into(), p.display().to_string()]),
+        )
+        .collect()
     }
 }
 
@@ -69,9 +81,10 @@ struct EntryLine {
 
 /// Runs the cell `args` asks for in this process: [`cell`], the [`Prepared`] line when its
 /// input is ready, then its [`CellOutput`] as one JSON line on standard output.
-pub fn run_in_this_process(args: &CellArgs, data_dir: &Path) -> Result<()> {
+pub fn run_in_this_process(run: &Run, args: &CellArgs, data_dir: &Path) -> Result<()> {
     let setting = Setting::parse(&args.setting);
     let out = cell(
+        run,
         &args.dataset,
         &args.method,
         &setting,
@@ -86,26 +99,24 @@ pub fn run_in_this_process(args: &CellArgs, data_dir: &Path) -> Result<()> {
 /// The entry point of a cell process: when `args` (the process's arguments, program name
 /// first) ask for a scale cell, runs it ([`run_in_this_process`]) and returns the exit code;
 /// else `None`. `pointsight` reaches it through its own command line; a program that embeds
-/// the registry, registers its own methods and runs the scale experiment (whose cells re-run
-/// the current executable) calls it first thing in `main`, after registering; the run's
-/// manifest reaches it as `POINTSIGHT_MANIFEST` (read here unless the program set its own).
-pub fn cell_entry(args: &[String], data_dir: &Path) -> Option<ExitCode> {
+/// the registry, adds its own methods to its run and runs the scale experiment (whose cells
+/// re-run the current executable) calls it first thing in `main` with that run (`run`), to
+/// which the parent's run file adds the parent's manifest and methods folders.
+pub fn cell_entry(args: &[String], data_dir: &Path, run: Run) -> Option<ExitCode> {
     let rest = args.get(1..)?;
     if rest.first().map(String::as_str) != Some(SUBCOMMAND) {
         return None;
     }
-    let run = || -> Result<()> {
+    let go = || -> Result<()> {
         let line = EntryLine::try_parse_from(rest)?;
-        // The parent run's manifest (a program's own, set before, is kept).
-        if let Some(p) = std::env::var_os("POINTSIGHT_MANIFEST").filter(|p| !p.is_empty()) {
-            crate::datasets::use_manifest(crate::datasets::manifest::Manifest::discover(Some(
-                Path::new(&p),
-            ))?);
-        }
+        let run = match &line.cell.run {
+            Some(file) => Run::read_for_child_onto(file, run)?,
+            None => run,
+        };
         let data_dir = line.data_dir.as_deref().unwrap_or(data_dir);
-        run_in_this_process(&line.cell, data_dir)
+        run_in_this_process(&run, &line.cell, data_dir)
     };
-    Some(match run() {
+    Some(match go() {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
@@ -140,6 +151,7 @@ pub fn print_prepared(seconds: f64) {
 /// The child's stdout and stderr are read by threads as it writes, so a chatty child cannot
 /// block on a full pipe.
 pub fn run_cell(
+    run_file: &Path,
     dataset: &str,
     method: &str,
     setting: &Setting,
@@ -147,7 +159,7 @@ pub fn run_cell(
     data_dir: &Path,
     cap: Duration,
 ) -> Row {
-    let row = run_child(dataset, method, setting, n, data_dir, cap);
+    let row = run_child(run_file, dataset, method, setting, n, data_dir, cap);
     // An out-of-core cell's files, whether it finished, failed or was killed.
     let dir = ooc_dir(data_dir, method, n);
     if dir.exists() {
@@ -157,6 +169,7 @@ pub fn run_cell(
 }
 
 fn run_child(
+    run_file: &Path,
     dataset: &str,
     method: &str,
     setting: &Setting,
@@ -174,32 +187,20 @@ fn run_child(
         Ok(e) => e,
         Err(e) => return row(f64::NAN, 0, format!("error: {e}"), f64::NAN),
     };
+    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
     let args = CellArgs {
         dataset: dataset.to_owned(),
         method: method.to_owned(),
         n,
         setting: setting.label(),
+        run: Some(absolute(run_file)),
     };
-    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
     let mut command = Command::new(exe);
     command
         .arg(SUBCOMMAND)
         .args(args.to_args())
         .arg("--data-dir")
         .arg(absolute(data_dir));
-    // The run's manifest and methods folder, whether given by flag, variable or found, as the
-    // variables `pointsight` reads ([`cell_entry`] reads the manifest's too; a program that
-    // embeds the registry has no such flags); every path absolute, so that the child does not
-    // depend on its working directory.
-    if let Some(p) = crate::datasets::manifest_path() {
-        command.env("POINTSIGHT_MANIFEST", absolute(p));
-    }
-    // Every methods folder of the run, joined as PATH is (none: the child's own rule).
-    if let Some(folders) = crate::paths::methods_in_use().filter(|f| !f.is_empty())
-        && let Ok(joined) = std::env::join_paths(folders.iter().map(|p| absolute(p)))
-    {
-        command.env("POINTSIGHT_METHODS", joined);
-    }
     let child = command
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -344,6 +345,7 @@ mod tests {
             method: "hpr".into(),
             n: 10_000,
             setting: "gamma=4".into(),
+            run: Some(PathBuf::from("/tmp/run.json")),
         };
         let line = [SUBCOMMAND.to_owned()]
             .into_iter()
@@ -366,6 +368,13 @@ mod tests {
         .unwrap_err();
         assert!(e.to_string().contains("ten"), "{e}");
         // Not a cell: the program goes on.
-        assert!(cell_entry(&["prog".into(), "other".into()], Path::new("/")).is_none());
+        assert!(
+            cell_entry(
+                &["prog".into(), "other".into()],
+                Path::new("/"),
+                Run::builtin()
+            )
+            .is_none()
+        );
     }
 }

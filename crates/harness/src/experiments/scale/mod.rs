@@ -58,7 +58,7 @@ pub mod plan;
 pub mod render;
 pub mod row;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use anyhow::{Context as _, Result};
@@ -97,12 +97,17 @@ impl Experiment for ScaleExperiment {
             .datasets
             .first()
             .context("scale needs a dataset with a mesh")?;
-        let (_, files) = crate::datasets::load_mesh_of(dataset, &ctx.data_dir)?;
+        let (_, files) = ctx.run.datasets.load_mesh_of(dataset, &ctx.data_dir)?;
         ctx.record_files(&files);
+        // The run the cells build again (its manifest and methods folders): one file in the
+        // staging folder, gone before the folder is published, whatever happens.
+        let run_guard = RunFile(ctx.out_dir.join(".cells-run.json"));
+        ctx.run.write_for_child(&run_guard.0)?;
+        let run_file = run_guard.0.clone();
         let cap = Duration::from_secs(if ctx.quick { 30 } else { 40 });
         let in_core_sizes = sizes(ctx.quick, ctx.max_points);
         let ooc_sizes = ooc_sizes(ctx.quick, ctx.max_points);
-        let kinds = cells(&ctx.sweeps);
+        let kinds = cells(&ctx.run.catalogue, &ctx.sweeps);
         let sizes_of = |kind: &CellKind| {
             if kind.out_of_core {
                 &ooc_sizes
@@ -182,7 +187,15 @@ impl Experiment for ScaleExperiment {
                 } else if let Some(why) = skip_reason(previous, before, n, cap) {
                     not_run(why)
                 } else {
-                    run_cell(dataset, method, &kind.setting, n, &ctx.data_dir, cap)
+                    run_cell(
+                        &run_file,
+                        dataset,
+                        method,
+                        &kind.setting,
+                        n,
+                        &ctx.data_dir,
+                        cap,
+                    )
                 };
                 before = previous;
                 previous = Some((row.seconds, row.prepare_seconds));
@@ -199,6 +212,7 @@ impl Experiment for ScaleExperiment {
             ctx.quick,
             |m, n| {
                 let row = run_cell(
+                    &run_file,
                     dataset,
                     m,
                     &registry::Setting::default(),
@@ -254,7 +268,16 @@ impl Experiment for ScaleExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
-        render::render(dir)
+    fn render(&self, catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
+        render::render(catalogue, dir)
+    }
+}
+
+/// The run file of the cells ([`crate::run::Run::write_for_child`]), removed when dropped.
+struct RunFile(PathBuf);
+
+impl Drop for RunFile {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
     }
 }

@@ -136,7 +136,7 @@ pub fn disk_free(dir: &Path) -> Result<u64> {
 
 /// Every cell kind, in report order: visibility methods, hulls, then each LOD method's build
 /// and selection.
-pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
+pub fn cells(catalogue: &registry::Catalogue, sweeps: &registry::Sweeps) -> Vec<CellKind> {
     let default_of = |name: &str| {
         sweeps
             .methods
@@ -144,7 +144,8 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
             .and_then(registry::MethodSweep::default_setting)
             .unwrap_or_default()
     };
-    let mut out: Vec<CellKind> = registry::visibility_cards()
+    let mut out: Vec<CellKind> = catalogue
+        .visibility_cards()
         .into_iter()
         .map(|m| CellKind {
             name: m.name.to_owned(),
@@ -161,7 +162,7 @@ pub fn cells(sweeps: &registry::Sweeps) -> Vec<CellKind> {
         unavailable: None,
         out_of_core: false,
     }));
-    for m in registry::lod_cards() {
+    for m in catalogue.lod_cards() {
         for part in ["build", "select"] {
             out.push(CellKind {
                 name: format!("{}-{part}", m.name),

@@ -164,7 +164,7 @@ pub fn group(m: &str) -> usize {
 }
 
 /// Draws the plots and writes `summary.md` of the results in `dir`.
-pub fn render(dir: &Path) -> Result<()> {
+pub fn render(catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
     let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
     let wrong = crate::experiments::rules::wrong::for_scale(dir)?;
     let mut methods: Vec<String> = rows.iter().map(|r| r.method.clone()).collect();
@@ -183,7 +183,7 @@ pub fn render(dir: &Path) -> Result<()> {
         if m.starts_with("hull-") {
             (m.to_owned(), String::new())
         } else {
-            (style::family(m, ""), "default".to_owned())
+            (style::family(catalogue, m, ""), "default".to_owned())
         }
     };
     let mut time_series: [Vec<Series>; 4] = Default::default();
@@ -488,7 +488,7 @@ mod tests {
              hull-own,10000,0.5,1048576,ok,0.1,\n",
         )
         .unwrap();
-        render(dir.path()).unwrap();
+        render(&registry::Catalogue::builtin(), dir.path()).unwrap();
         let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
         assert!(
             summary.contains("No cell of the visibility methods finished at any size"),

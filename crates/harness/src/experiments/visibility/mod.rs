@@ -376,7 +376,7 @@ impl Experiment for VisibilityExperiment {
     fn measure(&self, ctx: &Context) -> Result<serde_json::Value> {
         let (mut methods, mut not_run) = ctx.methods_to_run();
         // Each peer's settings with its partner's; ours run at those the sweep lacks.
-        let pairing = pair_peers(&mut methods, &ctx.sweeps, ctx.quick);
+        let pairing = pair_peers(&ctx.run.catalogue, &mut methods, &ctx.sweeps, ctx.quick);
         let partner_runs: std::collections::BTreeSet<(String, String)> =
             pairing.values().flatten().cloned().collect();
         // The setting that stands for each method (agreement on clouds without a mesh).
@@ -605,7 +605,15 @@ impl Experiment for VisibilityExperiment {
                 if truths.get(&view).is_some_and(Option::is_none) {
                     agreement.extend(agreement_rows(name, view, runs, &defaults));
                 }
-                peers.extend(peer_rows(name, view, runs, &ds_rows, &ds_builds, &pairing));
+                peers.extend(peer_rows(
+                    &ctx.run.catalogue,
+                    name,
+                    view,
+                    runs,
+                    &ds_rows,
+                    &ds_builds,
+                    &pairing,
+                ));
             }
             if let (Some(reference), Some(runs)) = (
                 reference.filter(|_| Some(name.as_str()) == render_ds),
@@ -659,7 +667,7 @@ impl Experiment for VisibilityExperiment {
         }))
     }
 
-    fn render(&self, dir: &Path) -> Result<()> {
+    fn render(&self, catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
         let rows: Vec<Row> = read_csv(&dir.join("results.csv"))?;
         let pixels: Vec<PixelRow> = read_csv(&dir.join("pixels.csv"))?;
         let agreement: Vec<AgreementRow> = read_csv(&dir.join("agreement.csv"))?;
@@ -700,7 +708,7 @@ impl Experiment for VisibilityExperiment {
         );
         let render_ds = meta.parameters["render_dataset"].as_str();
         render(
-            dir, &rows, &pixels, &agreement, &peers_md, &defaults, render_ds,
+            catalogue, dir, &rows, &pixels, &agreement, &peers_md, &defaults, render_ds,
         )
     }
 }
@@ -740,6 +748,7 @@ fn pixel_row(
 /// its `peer_of` names no visibility method of ours); the partners' settings their sweeps lack
 /// are added to them (a partner without a sweep joins with those alone).
 fn pair_peers(
+    catalogue: &registry::Catalogue,
     methods: &mut Vec<(&'static registry::Card, registry::MethodSweep)>,
     sweeps: &registry::Sweeps,
     quick: bool,
@@ -753,7 +762,7 @@ fn pair_peers(
     for (peer, settings) in peers {
         let partner = peer
             .peer_of
-            .and_then(registry::card_named)
+            .and_then(|p| catalogue.card_named(p))
             .filter(|p| !p.is_lod())
             .filter(|p| p.peer_of.is_none() && p.availability().is_ok());
         for setting in settings {
@@ -796,6 +805,7 @@ fn pair_peers(
 /// Each peer's run against its partner's at the paired setting, same view (a peer without a
 /// partner: its own figures alone).
 fn peer_rows(
+    catalogue: &registry::Catalogue,
     dataset: &str,
     view: usize,
     runs: &[Run],
@@ -818,7 +828,8 @@ fn peer_rows(
         let Some(paired) = pairing.get(&(peer.method.clone(), peer.params.clone())) else {
             continue;
         };
-        let peer_of = registry::card(&peer.method)
+        let peer_of = catalogue
+            .card(&peer.method)
             .ok()
             .and_then(|m| m.peer_of)
             .unwrap_or_default();
@@ -848,7 +859,7 @@ fn peer_rows(
             }),
             peer_build_seconds: build(&peer.method, &peer.params, true),
             partner_build_seconds: ours.map_or(f64::NAN, |o| build(&o.method, &o.params, false)),
-            claims_exact: registry::card(&peer.method).is_ok_and(|m| m.exact),
+            claims_exact: catalogue.card(&peer.method).is_ok_and(|m| m.exact),
         });
     }
     out

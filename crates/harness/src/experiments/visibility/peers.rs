@@ -120,7 +120,7 @@ mod tests {
 
     #[test]
     fn an_hpr_peer_pairs_with_linear_hpr_at_its_gamma() {
-        let hpr = registry::card("hpr").expect("hpr");
+        let hpr = registry::builtin_card("hpr").expect("hpr");
         let peer = peer(&["gamma", "radius"]);
         for g in ["2", "3", "4"] {
             let s = partner_setting(
@@ -151,7 +151,7 @@ mod tests {
 
     #[test]
     fn translated_and_shared_keys_pick_the_partners_setting() {
-        let splat = registry::card("splat").expect("splat");
+        let splat = registry::builtin_card("splat").expect("splat");
         let peer = peer(&["point_size", "depth_tolerance", "only_mine"]);
         let s = partner_setting(
             peer,
@@ -162,7 +162,7 @@ mod tests {
         assert_eq!(s.number("radius_px"), Some(3.0), "{}", s.label());
         assert_eq!(s.number("depth_tolerance"), Some(0.03), "{}", s.label());
         assert!(s.get("only_mine").is_none());
-        let raycast = registry::card("raycast").expect("raycast");
+        let raycast = registry::builtin_card("raycast").expect("raycast");
         let peer = self::peer(&["radius_factor", "width", "height", "subdivs"]);
         let s = partner_setting(
             peer,
@@ -183,7 +183,7 @@ mod tests {
 
     #[test]
     fn ours_runs_at_the_paired_settings_its_sweep_lacks() {
-        let splat = registry::card("splat").expect("splat");
+        let splat = registry::builtin_card("splat").expect("splat");
         let peer = peer(&["point_size", "depth_tolerance"]);
         let peer_sweep = MethodSweep {
             grid: vec![
@@ -196,7 +196,12 @@ mod tests {
         let mut methods: Vec<(&'static Card, MethodSweep)> =
             vec![(peer, peer_sweep.clone()), (splat, sweep_of("splat"))];
         let before = methods[1].1.grid.len();
-        let pairing = super::super::pair_peers(&mut methods, &sweeps, false);
+        let pairing = super::super::pair_peers(
+            &registry::Catalogue::builtin(),
+            &mut methods,
+            &sweeps,
+            false,
+        );
         let partner = |label: &str| {
             pairing[&("peer".to_owned(), label.to_owned())]
                 .clone()
@@ -214,7 +219,7 @@ mod tests {
         assert_eq!(methods[1].1.grid.len(), before + 1);
         // Without ours in the run, ours joins with the paired settings alone.
         let mut alone: Vec<(&'static Card, MethodSweep)> = vec![(peer, peer_sweep)];
-        super::super::pair_peers(&mut alone, &sweeps, false);
+        super::super::pair_peers(&registry::Catalogue::builtin(), &mut alone, &sweeps, false);
         assert_eq!(alone.len(), 2);
         assert_eq!(alone[1].0.name, "splat");
         assert_eq!(alone[1].1.grid.len(), 2);

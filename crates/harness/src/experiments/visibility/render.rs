@@ -124,6 +124,7 @@ fn mean(v: impl Iterator<Item = f64>) -> f64 {
 /// paired per view: the speed ratio (geometric mean of per-view ratios) and the F1 difference
 /// (mean of per-view differences), each with its bootstrap 95 % interval.
 fn versus_table(
+    catalogue: &registry::Catalogue,
     rows: &[Row],
     datasets: &[String],
     families: &[String],
@@ -142,7 +143,7 @@ fn versus_table(
         let is_peer = |f: &str| {
             rows.iter()
                 .find(|r| r.family == f)
-                .and_then(|r| registry::card(&r.method).ok())
+                .and_then(|r| catalogue.card(&r.method).ok())
                 .is_some_and(|c| c.peer_of.is_some())
         };
         for fam in families.iter().filter(|f| *f != BASE && !is_peer(f)) {
@@ -495,7 +496,9 @@ pub(super) fn peers_summary(peers: &[PeerRow], not_run: &[String]) -> String {
     s
 }
 
+#[allow(clippy::too_many_arguments)]
 pub(super) fn render(
+    catalogue: &registry::Catalogue,
     dir: &Path,
     rows: &[Row],
     pixels: &[PixelRow],
@@ -694,7 +697,7 @@ pub(super) fn render(
 
     let versus = format!(
         "{}{}{}",
-        versus_table(rows, &datasets, &families, &protocol),
+        versus_table(catalogue, rows, &datasets, &families, &protocol),
         super::papers::machado(rows, &datasets),
         super::papers::katz_tal(rows, &datasets, &protocol)
     );

@@ -137,23 +137,26 @@ pub fn card(m: &'static ExternalMethod) -> &'static Card {
     }))
 }
 
-/// Loads the external methods under `dir` (`NAME/method.toml` each) and registers their cards
-/// for every later lookup. Names must not shadow built-in methods (visibility or LOD: one
-/// namespace); a method already loaded under the same name is kept (loading the same folder
-/// twice is harmless).
-pub fn register_external(dir: &Path) -> Result<()> {
-    for m in ExternalMethod::load_dir(dir)? {
-        if super::BUILT_IN.iter().any(|b| b.name == m.name()) {
-            return Err(Error::Unsupported(format!(
-                "external method {} in {} shadows a built-in method",
-                m.name(),
-                dir.display()
-            )));
+impl super::Catalogue {
+    /// Loads the external methods under `dir` (`NAME/method.toml` each) and adds their cards.
+    /// Names must not shadow built-in methods (visibility or LOD: one namespace); a method
+    /// already in the catalogue under the same name is kept (adding the same folder twice is
+    /// harmless). An external card and its manifest live for the process (the cards' fields
+    /// are `'static`): a few kilobytes a folder loaded.
+    pub fn add_external(&mut self, dir: &Path) -> Result<()> {
+        for m in ExternalMethod::load_dir(dir)? {
+            if super::builtin_card(m.name()).is_some() {
+                return Err(Error::Unsupported(format!(
+                    "external method {} in {} shadows a built-in method",
+                    m.name(),
+                    dir.display()
+                )));
+            }
+            if self.card_named(m.name()).is_some() {
+                continue;
+            }
+            self.add(card(Box::leak(Box::new(m))))?;
         }
-        if super::card_named(m.name()).is_some() {
-            continue;
-        }
-        super::register(card(Box::leak(Box::new(m))))?;
+        Ok(())
     }
-    Ok(())
 }

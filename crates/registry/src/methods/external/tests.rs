@@ -136,8 +136,8 @@ fn an_exactness_claim_is_read_and_absent_means_none() {
     assert!(exact("exact = true\n").unwrap());
     assert!(exact("exact = \"yes\"\n").is_err());
     // Of the built-in cards, exact HPR claims it; the approximations do not.
-    assert!(crate::card("hpr").unwrap().exact);
-    assert!(!crate::card("hpr-approx").unwrap().exact);
+    assert!(crate::builtin_card("hpr").unwrap().exact);
+    assert!(!crate::builtin_card("hpr-approx").unwrap().exact);
 }
 
 /// End of input means exit: a program the caller is done with has its input closed and

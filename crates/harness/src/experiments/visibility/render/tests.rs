@@ -47,7 +47,7 @@ fn a_peer_with_wrong_answers_is_drawn_apart_and_left_off_the_front() {
     std::fs::write(dir.path().join("peers.csv"), out).unwrap();
     crate::experiments::experiment("visibility")
         .unwrap()
-        .render(dir.path())
+        .render(&registry::Catalogue::builtin(), dir.path())
         .unwrap();
     let read = |name: &str| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join(name)).unwrap()).unwrap()
