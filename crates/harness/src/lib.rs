@@ -121,8 +121,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             repeat,
         } => {
             let request = visible::Request {
-                view: commands::look::default_view(view, &source),
-                source: commands::look::source_of(source)?,
+                view: commands::visible_view::default_view(view, &source),
+                source: commands::visible_view::source_of(source)?,
                 method,
                 set,
                 out,
@@ -130,7 +130,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 parallel_views,
                 repeat,
             };
-            commands::look::visible(&the_run, &request, &data_dir)?
+            commands::visible_view::visible(&the_run, &request, &data_dir)?
         }
         Command::View {
             source,
@@ -144,7 +144,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
             distance,
         } => {
             let request = view::Request {
-                source: commands::look::source_of(source)?,
+                source: commands::visible_view::source_of(source)?,
                 view,
                 methods,
                 set,
@@ -152,7 +152,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 png,
                 out,
             };
-            commands::look::view(&the_run, &request, lod, distance, &data_dir)?
+            commands::visible_view::view(&the_run, &request, lod, distance, &data_dir)?
         }
         Command::LodBuild {
             cloud,
@@ -176,7 +176,7 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
                 datasets,
                 quick,
                 out,
-                source: commands::look::source_from(None, files, camera)?,
+                source: commands::visible_view::source_from(None, files, camera)?,
                 reports: reports(None, quick),
             };
             commands::experiments::run(&the_run, &request, &sweep, data_dir)?

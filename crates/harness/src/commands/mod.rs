@@ -3,7 +3,7 @@
 //!
 //! - [`data`]: `fetch`, `datasets`, `export`, `inspect`, `views` (datasets and files);
 //! - [`catalogue`]: `methods`, `sweeps` (what can be measured and how);
-//! - [`look`]: `visible`, `view` (one method's or every method's visible set);
+//! - [`visible_view`]: `visible`, `view` (one method's or every method's visible set);
 //! - [`lod`]: `lod-build` (an LOD file within a memory limit);
 //! - [`experiments`]: `run`, `bench`, `merge`, `report`, `tables`, `scale-cell`.
 
@@ -11,7 +11,7 @@ pub mod catalogue;
 pub mod data;
 pub mod experiments;
 pub mod lod;
-pub mod look;
+pub mod visible_view;
 
 use anyhow::{Context, Result};
 

@@ -58,7 +58,7 @@ mod papers;
 mod peers;
 mod pixel_table;
 mod render;
-mod tuned;
+mod tuned_table;
 pub(crate) mod tuning;
 use crate::output::{read_csv, write_csv};
 use crate::progress;

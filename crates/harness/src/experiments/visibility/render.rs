@@ -12,7 +12,7 @@ use registry::Setting;
 use truth::{Reference, ReferenceParams};
 
 use super::papers::chosen;
-use super::tuned::{by_dataset, protocol_text, tuned_table};
+use super::tuned_table::{by_dataset, protocol_text, tuned_table};
 use super::tuning::{Protocol, observations, roles_of};
 use super::{AgreementRow, PeerRow, PixelRow, Row, Run, is_auto};
 use crate::datasets;
