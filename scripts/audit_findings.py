@@ -620,7 +620,7 @@ def scale_findings(folder: Path, quick: bool) -> list[dict]:
         return ooc
 
     out = []
-    for g, name in [(0, "visibility methods"), (1, "hulls"), (2, "LOD builds in core"),
+    for g, name in [(0, "visibility methods (one view; per-cloud build apart)"), (1, "hulls"), (2, "LOD builds in core"),
                     (3, "LOD builds out of core")]:
         mine = rows[[in_group(m, g) for m in rows["method"]]]
         ok = mine[(mine["status"] == "ok") & np.isfinite(mine["seconds"]) & ~mine["method"].isin(wrong)]

@@ -288,6 +288,8 @@ const TABLE: &[Entry] = &[
     ("screenspace", 9, Base, Dash::Solid, false),
     ("vardensity", 2, Dark, Dash::Dashed, false),
     ("example-zbuffer", 5, Dark, Dash::Dashed, false),
+    // The learned method: a dark green of its own line (not a light shade, which washes out).
+    ("neuralvis", 3, Dark, Dash::DashDot, false),
     // Visibility, peers: the partner's hue, their own shade, hollow.
     ("cgal-hpr", 0, Light, Dash::Dashed, true),
     ("open3d-hpr", 0, Lighter, Dash::Dotted, true),
@@ -619,6 +621,16 @@ mod tests {
         assert_eq!(style("hpr-exp", "auto"), style("hpr-exp", "auto"));
         let ranked: BTreeSet<_> = (0..24).map(|r| ordinal("splat", r)).collect();
         assert_eq!(ranked.len(), 24);
+    }
+
+    #[test]
+    fn every_built_in_method_has_its_row() {
+        // A built-in family left to the name's slot could share a colour and dash with one
+        // in the table (neuralvis's did: hpr-log's teal).
+        for card in registry::BUILT_IN {
+            let family = card.family(&card.default_setting());
+            assert!(TABLE.iter().any(|e| e.0 == family), "{family} has no row");
+        }
     }
 
     #[test]

@@ -44,7 +44,7 @@ pub(super) fn scale(dir: &Path, quick: bool) -> Result<Vec<Finding>> {
         _ => ooc(&r.method),
     };
     let groups = [
-        (0, "visibility methods"),
+        (0, "visibility methods (one view; per-cloud build apart)"),
         (1, "hulls"),
         (2, "LOD builds in core"),
         (3, "LOD builds out of core"),

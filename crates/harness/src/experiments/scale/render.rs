@@ -254,12 +254,12 @@ pub fn render(catalogue: &registry::Catalogue, dir: &Path) -> Result<()> {
                 .map_or("-".into(), |r| format!("{:.3}", r.seconds)),
             ok.iter()
                 .find(|r| r.n_points == largest)
-                .filter(|r| r.prepare_seconds.is_finite())
-                .map_or("-".into(), |r| format!("{:.2}", r.prepare_seconds)),
-            ok.iter()
-                .find(|r| r.n_points == largest)
                 .filter(|r| r.build_seconds.is_finite())
                 .map_or("-".into(), |r| format!("{:.3}", r.build_seconds)),
+            ok.iter()
+                .find(|r| r.n_points == largest)
+                .filter(|r| r.prepare_seconds.is_finite())
+                .map_or("-".into(), |r| format!("{:.2}", r.prepare_seconds)),
             ok.iter()
                 .find(|r| r.n_points == largest)
                 .map_or("-".into(), |r| {
@@ -496,6 +496,32 @@ mod tests {
         );
         assert!(!dir.path().join("seconds_visibility.png").exists());
         assert!(dir.path().join("seconds_hulls.png").exists());
+        // A hull cell builds nothing per cloud: `-` under `build s`, its flip under `prepare s`.
+        assert!(summary.contains("| 0.500 | - | 0.10 |"), "{summary}");
+    }
+
+    #[test]
+    fn a_visibility_cells_build_is_its_own_column() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("results.csv"),
+            "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds,detail,runs_seconds,\
+             angle_median_deg,angle_p95_deg,sign_agreement,build_seconds\n\
+             raycast,10000,0.25,1048576,ok,0.5,,,NaN,NaN,NaN,1.75\n\
+             raycast,100000,0.5,2097152,ok,0.75,,,NaN,NaN,NaN,3.5\n",
+        )
+        .unwrap();
+        render(&registry::Catalogue::builtin(), dir.path()).unwrap();
+        let summary = std::fs::read_to_string(dir.path().join("summary.md")).unwrap();
+        let header = summary
+            .lines()
+            .find(|l| l.starts_with("| method |"))
+            .unwrap();
+        assert!(
+            header.contains("| seconds there | build s there | prepare s there |"),
+            "{header}"
+        );
+        assert!(summary.contains("| 0.500 | 3.500 | 0.75 |"), "{summary}");
     }
 
     /// A row of an out-of-core cell: `seconds`, peak MiB, status.
