@@ -25,7 +25,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "scale/results.csv",
-        "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds,detail,runs_seconds,angle_median_deg,angle_p95_deg,sign_agreement",
+        "method,n_points,seconds,peak_rss_bytes,status,prepare_seconds,detail,runs_seconds,angle_median_deg,angle_p95_deg,sign_agreement,build_seconds",
     ),
     (
         "lod/results.csv",

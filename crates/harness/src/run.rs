@@ -109,7 +109,7 @@ impl Run {
             ..base
         };
         for dir in &child.methods_dirs {
-            if !run.methods_dirs.contains(dir) {
+            if !run.methods_dirs.iter().any(|d| absolute(d) == *dir) {
                 run.add_methods(dir, "the parent run's")?;
             }
         }
