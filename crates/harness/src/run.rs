@@ -118,7 +118,7 @@ impl Run {
 }
 
 /// `p` made absolute against the current folder (a child may run elsewhere).
-fn absolute(p: &Path) -> PathBuf {
+pub(crate) fn absolute(p: &Path) -> PathBuf {
     std::path::absolute(p).unwrap_or_else(|_| p.to_owned())
 }
 

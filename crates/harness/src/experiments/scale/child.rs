@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 use super::cell::{cell, ooc_dir};
 use super::plan::PREPARE_CAP_FACTOR;
 use super::row::{CellOutput, Row};
-use crate::run::Run;
+use crate::run::{Run, absolute};
 
 /// The subcommand a cell process runs under (hidden from `pointsight --help`).
 pub const SUBCOMMAND: &str = "scale-cell";
@@ -187,7 +187,6 @@ fn run_child(
         Ok(e) => e,
         Err(e) => return row(f64::NAN, 0, format!("error: {e}"), f64::NAN),
     };
-    let absolute = |p: &Path| std::path::absolute(p).unwrap_or_else(|_| p.to_owned());
     let args = CellArgs {
         dataset: dataset.to_owned(),
         method: method.to_owned(),
