@@ -356,3 +356,35 @@ fn unsupported_models_are_named() {
     );
     assert!(c.require("hpr", &["pinhole", "spherical"]).is_ok());
 }
+
+#[test]
+fn pinhole_ray_tables_give_every_pixel_centres_ray_bit_for_bit() {
+    for model in models() {
+        let camera = Camera::look_at(
+            DVec3::new(0.3, -2.0, 1.1),
+            DVec3::new(0.1, 0.2, -0.3),
+            DVec3::Z,
+            model,
+            37,
+            23,
+        )
+        .unwrap();
+        let Some((columns, rows)) = camera.pinhole_ray_tables() else {
+            assert!(!matches!(model, Model::Pinhole { .. }), "{model:?}");
+            continue;
+        };
+        assert_eq!((columns.len(), rows.len()), (37, 23));
+        for y in 0..23_u32 {
+            for x in 0..37_u32 {
+                let (origin, dir) = camera.ray(f64::from(x) + 0.5, f64::from(y) + 0.5);
+                let table = columns[x as usize] + rows[y as usize];
+                assert_eq!(origin, camera.eye);
+                assert_eq!(
+                    table.to_array().map(f64::to_bits),
+                    dir.to_array().map(f64::to_bits),
+                    "{model:?} pixel ({x}, {y})"
+                );
+            }
+        }
+    }
+}

@@ -273,12 +273,44 @@ fn drawn_in_shares(
 ) -> Result<PixelChoice> {
     let (w, h) = (camera.width as usize, camera.height as usize);
     let spherical = matches!(camera.model(), cloud::Model::Spherical);
+    // A pinhole ray is a column's term plus a row's, the same bits as `camera.ray`'s.
+    let tables = camera.pinhole_ray_tables();
     // One image per share of the points, merged pixel by pixel: the lexicographic minimum of
     // (entry, index) does not depend on the order, so the result is the sequential one's.
     let draw = |share: &[u32]| {
         let mut best = vec![(f64::INFINITY, NONE); w * h];
         for &i in share {
             let c = points[i as usize];
+            let footprint = footprint(camera, c, radius);
+            if let (Some((columns, rows)), Some(Footprint::Rect(x0, x1, y0, y1))) =
+                (&tables, footprint)
+            {
+                // `entry` from the eye, its per-sphere terms hoisted out of the pixel loop.
+                let oc = c - camera.eye;
+                let k = oc.length_squared() - radius * radius;
+                for y in y0..=y1 {
+                    let (row, line) = (rows[y as usize], y as usize * w);
+                    for x in x0..=x1 {
+                        let dir = columns[x as usize] + row;
+                        let a = dir.length_squared();
+                        let b = dir.dot(oc);
+                        let disc = b * b - a * k;
+                        if disc < 0.0 {
+                            continue;
+                        }
+                        let s = disc.sqrt();
+                        if (b + s) / a > 0.0 {
+                            let t = ((b - s) / a).max(0.0);
+                            let best = &mut best[line + x as usize];
+                            // `(t, i) < *best`, written out (the tuple's partial_cmp is slow).
+                            if t < best.0 || (t == best.0 && i < best.1) {
+                                *best = (t, i);
+                            }
+                        }
+                    }
+                }
+                continue;
+            }
             let mut test = |x: i64, y: i64| {
                 let (o, d) = camera.ray(x as f64 + 0.5, y as f64 + 0.5);
                 if let Some(t) = entry(o, d, c, radius) {
@@ -288,7 +320,7 @@ fn drawn_in_shares(
                     }
                 }
             };
-            match footprint(camera, c, radius) {
+            match footprint {
                 None => {}
                 Some(Footprint::Rect(x0, x1, y0, y1)) => {
                     for y in y0..=y1 {
