@@ -531,7 +531,13 @@ fn run_visibility_on_your_files_gives_the_manifest_routes_rows() {
             "out",
         ],
     ));
-    let timing = ["seconds", "seconds_min", "seconds_max", "samples"];
+    let timing = [
+        "seconds",
+        "seconds_min",
+        "seconds_max",
+        "samples",
+        "wall_seconds",
+    ];
     let from_files = rows_without(&s.work.join("files/results.csv"), &timing);
     let from_manifest = rows_without(&m.join("out/results.csv"), &timing);
     assert!(from_files.len() >= 10, "{} rows", from_files.len());

@@ -1017,8 +1017,19 @@ fn stale_scratch_of_dead_runs_is_reclaimed_and_other_hosts_left() {
         std::fs::create_dir(p).unwrap();
         std::fs::write(p.join("junk.csv"), b"left by a killed run").unwrap();
     }
-    // `clean` lists (a dry run), then removes what is stale.
-    let o = ps(&["clean", d.to_str().unwrap()]);
+    // `clean` lists (a dry run), then removes what is stale (its temporary folder its own:
+    // clean lists the external methods' folders there too, which other tests' runs hold).
+    let tmp = tempfile::tempdir().unwrap();
+    let clean = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_pointsight"))
+            .arg("clean")
+            .args(args)
+            .env("POINTSIGHT_DATA", "/nonexistent/pointsight-data")
+            .env("TMPDIR", tmp.path())
+            .output()
+            .expect("the pointsight binary runs")
+    };
+    let o = clean(&[d.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{}", stderr_of(&o));
     assert!(
@@ -1053,7 +1064,7 @@ fn stale_scratch_of_dead_runs_is_reclaimed_and_other_hosts_left() {
     ]);
     assert!(o.status.success(), "{}", stderr_of(&o));
     assert!(!d.join("r/junk.csv").exists());
-    let o = ps(&["clean", "--remove", d.to_str().unwrap()]);
+    let o = clean(&["--remove", d.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("0 stale path(s) reclaimed"), "{text}");
     let mut want = vec![

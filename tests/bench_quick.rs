@@ -17,7 +17,7 @@ const CSVS: &[(&str, &str)] = &[
     ),
     (
         "visibility/results.csv",
-        "dataset,n_points,view,method,family,params,detail,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status,made_for,visible_sha256,mesh_fit",
+        "dataset,n_points,view,method,family,params,detail,seconds,rays,n_visible,precision,recall,f1,off_surface_visible,seconds_min,seconds_max,samples,status,made_for,visible_sha256,mesh_fit,wall_seconds",
     ),
     (
         "robustness/results.csv",

@@ -1,4 +1,4 @@
-//! External methods (protocol 1, methods/README.md): the plain-Python example through
+//! External methods (methods/README.md): the plain-Python examples (protocols 1 and 3) through
 //! `pointsight visible`, and broken programs (crash, hang, garbage, out-of-range and repeated
 //! indices, a reported error, a failing check) each turned into a clear error.
 
@@ -29,32 +29,29 @@ fn method(dir: &Path, name: &str, script: &str, extra: &str) {
 const ANSWER: &str =
     "import sys, json\nfor line in sys.stdin:\n    print(json.dumps(ANSWER), flush=True)\n";
 
-#[test]
-fn the_example_method_keeps_the_visible_contract() {
-    let dir = tempfile::tempdir().unwrap();
-    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods/example-zbuffer");
-    let folder = dir.path().join("example-zbuffer");
-    std::fs::create_dir_all(&folder).unwrap();
-    for f in ["method.toml", "zbuffer.py"] {
-        std::fs::copy(example.join(f), folder.join(f)).unwrap();
+/// A methods folder holding the example `name` (its `files`) and the protocol helper it
+/// imports, where it looks for it (a methods folder's `_shared/`).
+fn example(dir: &Path, name: &str, files: &[&str]) {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../methods");
+    let folder = dir.join(name);
+    std::fs::create_dir_all(&folder).expect("test setup");
+    for f in files {
+        std::fs::copy(example.join(name).join(f), folder.join(f)).expect("test setup");
     }
-    // The protocol helper it imports, where it looks for it (a methods folder's `_shared/`).
-    let shared = dir.path().join("_shared");
-    std::fs::create_dir_all(&shared).unwrap();
+    let shared = dir.join("_shared");
+    std::fs::create_dir_all(&shared).expect("test setup");
     std::fs::copy(
-        example.join("../_shared/pointsight_protocol.py"),
+        example.join("_shared/pointsight_protocol.py"),
         shared.join("pointsight_protocol.py"),
     )
-    .unwrap();
-    let listing = pointsight(dir.path(), &["methods"]);
-    let text = String::from_utf8_lossy(&listing.stdout);
-    assert!(
-        text.contains("example-zbuffer") && text.contains("--set scale="),
-        "{text}"
-    );
-    let out = dir.path().join("v.txt");
+    .expect("test setup");
+}
+
+/// `pointsight visible` of `method` at `scale` on view 2 of sphere-20000: the indices.
+fn example_visible(methods: &Path, method: &str, scale: &str) -> Vec<usize> {
+    let out = methods.join(format!("{method}-{scale}.txt"));
     let run = pointsight(
-        dir.path(),
+        methods,
         &[
             "visible",
             "--dataset",
@@ -62,11 +59,11 @@ fn the_example_method_keeps_the_visible_contract() {
             "--view",
             "2",
             "--method",
-            "example-zbuffer",
+            method,
             "--set",
-            "scale=2",
+            &format!("scale={scale}"),
             "--out",
-            out.to_str().unwrap(),
+            out.to_str().expect("test setup"),
         ],
     );
     assert!(
@@ -75,33 +72,58 @@ fn the_example_method_keeps_the_visible_contract() {
         String::from_utf8_lossy(&run.stderr)
     );
     let stdout = String::from_utf8_lossy(&run.stdout);
-    let last = stdout.lines().last().unwrap();
+    let last = stdout.lines().last().expect("test setup");
     assert!(
-        last.starts_with("method=example-zbuffer points=20000 visible="),
+        last.starts_with(&format!("method={method} points=20000 visible=")),
         "{last}"
     );
-    let indices: Vec<usize> = std::fs::read_to_string(&out)
-        .unwrap()
+    std::fs::read_to_string(&out)
+        .expect("test setup")
         .lines()
-        .map(|l| l.parse().unwrap())
-        .collect();
-    assert!(indices.len() > 5_000 && indices.windows(2).all(|w| w[0] < w[1]));
-    // A key the manifest does not declare is refused, as for built-in methods.
-    let bad = pointsight(
+        .map(|l| l.parse().expect("test setup"))
+        .collect()
+}
+
+#[test]
+fn the_example_methods_keep_the_visible_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    example(
         dir.path(),
-        &[
-            "visible",
-            "--dataset",
-            "sphere-20000",
-            "--method",
-            "example-zbuffer",
-            "--set",
-            "gamma=3",
-            "--out",
-            out.to_str().unwrap(),
-        ],
+        "example-zbuffer",
+        &["method.toml", "zbuffer.py"],
     );
-    assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown parameter gamma"));
+    example(dir.path(), "example-warm", &["method.toml", "warm.py"]);
+    let listing = pointsight(dir.path(), &["methods"]);
+    let text = String::from_utf8_lossy(&listing.stdout);
+    assert!(
+        text.contains("example-zbuffer")
+            && text.contains("example-warm")
+            && text.contains("--set scale="),
+        "{text}"
+    );
+    let indices = example_visible(dir.path(), "example-zbuffer", "2");
+    assert!(indices.len() > 5_000 && indices.windows(2).all(|w| w[0] < w[1]));
+    // The protocol 3 example is the same z-buffer, its setting sent with the request.
+    assert_eq!(example_visible(dir.path(), "example-warm", "2"), indices);
+    assert_ne!(example_visible(dir.path(), "example-warm", "1"), indices);
+    // A key the manifest does not declare is refused, as for built-in methods.
+    for method in ["example-zbuffer", "example-warm"] {
+        let bad = pointsight(
+            dir.path(),
+            &[
+                "visible",
+                "--dataset",
+                "sphere-20000",
+                "--method",
+                method,
+                "--set",
+                "gamma=3",
+                "--out",
+                dir.path().join("bad.txt").to_str().unwrap(),
+            ],
+        );
+        assert!(String::from_utf8_lossy(&bad.stderr).contains("unknown parameter gamma"));
+    }
 }
 
 #[test]
@@ -441,13 +463,13 @@ fn manifest_keys_are_checked() {
     std::fs::create_dir_all(&folder).unwrap();
     std::fs::write(
         folder.join("method.toml"),
-        "protocol = 3\ncommand = [\"true\"]\n",
+        "protocol = 4\ncommand = [\"true\"]\n",
     )
     .unwrap();
     let run = pointsight(d, &["methods"]);
     assert!(
         String::from_utf8_lossy(&run.stderr)
-            .contains("protocol 3 (this pointsight speaks 1 and 2)"),
+            .contains("protocol 4 (this pointsight speaks 1, 2 and 3)"),
         "{}",
         String::from_utf8_lossy(&run.stderr)
     );
@@ -469,28 +491,56 @@ fn still_running(pid: u32) -> bool {
     }
 }
 
-#[test]
-fn a_signal_ends_the_program_its_children_and_its_points_file() {
-    // It notes its id, its child's and its points file, then hangs on its first view.
+/// What a hanging program noted once `pointsight visible` had started it: its id, its
+/// child's, its escaped grandchild's (a double fork with `setsid`), its points file.
+struct Hanging {
+    run: std::process::Child,
+    program: u32,
+    child: u32,
+    escaped: u32,
+    points: std::path::PathBuf,
+}
+
+/// `pointsight visible` of a method (in `d`) that starts a child and an escaped grandchild,
+/// notes their ids and hangs on its first view, with `tmp` as the temporary folder.
+fn start_hanging(d: &Path, tmp: &Path) -> Hanging {
     let script = r#"
 import sys, os, subprocess, time
 args = sys.argv[1:]
 p = subprocess.Popen(["sleep", "60"], stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                      stderr=subprocess.DEVNULL)
+first = os.fork()
+if first == 0:
+    os.setsid()
+    if os.fork() == 0:
+        null = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(null, fd)
+        open("escaped.tmp", "w").write(str(os.getpid()))
+        os.rename("escaped.tmp", "escaped")
+        os.execvp("sleep", ["sleep", "60"])
+    os._exit(0)
+os.waitpid(first, 0)
+while not os.path.exists("escaped"):
+    time.sleep(0.01)
 open("ids.tmp", "w").write("%d %d %s" % (os.getpid(), p.pid, args[args.index("--points") + 1]))
 os.rename("ids.tmp", "ids")
 for line in sys.stdin:
     time.sleep(60)
 "#;
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
     method2(d, "hangs", script, "timeout_seconds = 100\n");
     let out = d.join("v.txt");
-    let mut run = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+    let run = Command::new(env!("CARGO_BIN_EXE_pointsight"))
         .args(["visible", "--dataset", "sphere-20000", "--view", "0"])
-        .args(["--method", "hangs", "--out", out.to_str().unwrap()])
+        .args([
+            "--method",
+            "hangs",
+            "--out",
+            out.to_str().expect("test setup"),
+        ])
         .env("POINTSIGHT_METHODS", d)
         .env("POINTSIGHT_DATA", "/nonexistent")
+        .env("TMPDIR", tmp)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
@@ -504,38 +554,148 @@ for line in sys.stdin:
         );
         std::thread::sleep(std::time::Duration::from_millis(50));
     }
-    let ids = std::fs::read_to_string(ids).unwrap();
+    let ids = std::fs::read_to_string(ids).expect("test setup");
     let mut words = ids.split(' ');
-    let program: u32 = words.next().unwrap().parse().unwrap();
-    let child: u32 = words.next().unwrap().parse().unwrap();
-    let points = Path::new(words.next().unwrap()).to_owned();
+    let program: u32 = words
+        .next()
+        .expect("test setup")
+        .parse()
+        .expect("test setup");
+    let child: u32 = words
+        .next()
+        .expect("test setup")
+        .parse()
+        .expect("test setup");
+    let points = Path::new(words.next().expect("test setup")).to_owned();
+    let escaped = std::fs::read_to_string(d.join("hangs/escaped"))
+        .expect("test setup")
+        .parse()
+        .expect("test setup");
     assert!(points.exists());
     // Its first request is on its way: pointsight waits for the answer.
     std::thread::sleep(std::time::Duration::from_millis(300));
-    let term = Command::new("kill")
-        .args(["-TERM", &run.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(term.success());
-    let status = run.wait().unwrap();
-    let left: Vec<u32> = [program, child]
-        .into_iter()
-        .filter(|&p| still_running(p))
-        .collect();
+    Hanging {
+        run,
+        program,
+        child,
+        escaped,
+        points,
+    }
+}
+
+/// A process id above the kernel's maximum: no process has it.
+fn dead_pid() -> u32 {
+    std::fs::read_to_string("/proc/sys/kernel/pid_max")
+        .ok()
+        .and_then(|s| s.trim().parse::<u32>().ok())
+        .map_or(u32::MAX - 1, |m| m + 1)
+}
+
+/// The processes of `ids` still running, each killed (not left behind by the test either).
+fn left_running(ids: &[u32]) -> Vec<u32> {
+    let left: Vec<u32> = ids.iter().copied().filter(|&p| still_running(p)).collect();
     for p in &left {
-        // Not left behind by the test either.
         let _ = Command::new("kill")
             .args(["-KILL", &p.to_string()])
             .status();
     }
-    assert_eq!(status.code(), Some(128 + 15), "{status:?}");
-    assert!(left.is_empty(), "left running: {left:?}");
+    left
+}
+
+#[test]
+fn a_signal_ends_the_program_its_children_and_its_points_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut h = start_hanging(d, tmp.path());
+    // The program's folder is in the temporary folder, named with pointsight's host and id.
+    let folder = h.points.parent().unwrap().to_owned();
+    let name = folder.file_name().unwrap().to_string_lossy().into_owned();
     assert!(
-        !points.parent().unwrap().exists(),
-        "{} left behind",
-        points.display()
+        folder.starts_with(tmp.path()) && name.starts_with(".pointsight.program-"),
+        "{}",
+        folder.display()
     );
-    assert!(!out.exists());
+    assert!(name.contains(&format!("-{}-", h.run.id())), "{name}");
+    let term = Command::new("kill")
+        .args(["-TERM", &h.run.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(term.success());
+    let status = h.run.wait().unwrap();
+    let left = left_running(&[h.program, h.child, h.escaped]);
+    assert_eq!(status.code(), Some(128 + 15), "{status:?}");
+    assert!(
+        left.is_empty(),
+        "left running: {left:?} (program {}, child {}, escaped grandchild {})",
+        h.program,
+        h.child,
+        h.escaped
+    );
+    assert!(!folder.exists(), "{} left behind", folder.display());
+    assert!(!d.join("v.txt").exists());
+}
+
+#[test]
+fn after_a_kill_9_clean_reclaims_the_programs_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut h = start_hanging(d, tmp.path());
+    let folder = h.points.parent().unwrap().to_owned();
+    h.run.kill().unwrap();
+    h.run.wait().unwrap();
+    // Nothing ran: the folder is left, and its owner is gone.
+    assert!(folder.exists());
+    let _ = left_running(&[h.program, h.child, h.escaped]);
+    let clean = |remove: bool| {
+        let mut args = vec!["clean"];
+        if remove {
+            args.push("--remove");
+        }
+        args.push(d.to_str().unwrap());
+        let o = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+            .args(&args)
+            .env("POINTSIGHT_DATA", "/nonexistent")
+            .env("TMPDIR", tmp.path())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let listed = clean(false);
+    assert!(
+        listed.contains(&format!("{} kind=program", folder.display()))
+            && listed.contains("state=stale"),
+        "{listed}"
+    );
+    assert!(folder.exists(), "a dry run removes nothing");
+    let removed = clean(true);
+    assert!(removed.contains("state=removed"), "{removed}");
+    // And a run after a kill -9 reclaims it first: a folder of a dead process of this host.
+    let dead = folder.with_file_name(format!(
+        ".pointsight.program-{}-{}-0",
+        cloud::scratch::host(),
+        dead_pid()
+    ));
+    std::fs::create_dir(&dead).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_pointsight"))
+        .args(["visible", "--dataset", "sphere-20000", "--method", "hpr"])
+        .args(["--out", d.join("after.txt").to_str().unwrap()])
+        .env("POINTSIGHT_DATA", "/nonexistent")
+        .env("TMPDIR", tmp.path())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        !dead.exists(),
+        "the next run reclaims a killed run's folder"
+    );
+    assert_eq!(
+        std::fs::read_dir(tmp.path()).unwrap().count(),
+        0,
+        "the temporary folder holds nothing of pointsight's"
+    );
 }
 
 #[test]

@@ -277,16 +277,17 @@ fn every_experiment(root: &Path, the_run: &harness::run::Run) {
         let rows = lines_with(&vis.join("results.csv"), &format!(",{m},"));
         assert_eq!(rows.len(), 2, "visibility: {m} on 2 views: {rows:?}");
         // The last columns say what the method was made for (points or pixels), the digest of
-        // the visible set, and that the mesh fits the points (`mesh_fit`).
+        // the visible set, that the mesh fits the points (`mesh_fit`), and the wall seconds.
         assert!(
             rows.iter().all(|r| {
-                let cols: Vec<&str> = r.rsplitn(4, ',').collect();
-                cols.len() == 4
-                    && cols[0] == "ok"
-                    && cols[1].len() == 64
-                    && cols[1].bytes().all(|b| b.is_ascii_hexdigit())
-                    && (cols[2] == "points" || cols[2] == "pixels")
-                    && cols[3].ends_with(",ok")
+                let cols: Vec<&str> = r.rsplitn(5, ',').collect();
+                cols.len() == 5
+                    && cols[0].parse::<f64>().is_ok_and(|s| s >= 0.0)
+                    && cols[1] == "ok"
+                    && cols[2].len() == 64
+                    && cols[2].bytes().all(|b| b.is_ascii_hexdigit())
+                    && (cols[3] == "points" || cols[3] == "pixels")
+                    && cols[4].ends_with(",ok")
             }),
             "{rows:?}"
         );

@@ -2,8 +2,11 @@
 
 What every method program shares: its arguments (`arguments`), the points file pointsight
 writes (binary little-endian PLY: `read_rows` as a numpy structured array, `read_xyz` with the
-standard library alone), and the JSON-lines loop (`send`, `built`, `serve`: one request line
-in, one answer line out, flushed). A method imports it with
+standard library alone), the setting a request asks for (`setting`: the request's `params`
+with protocol 3 and the LOD form, else the start-up `--params`), and the JSON-lines loop
+(`send`, `built`, `serve`: one request line in, one answer line out, flushed, echoing the
+request's `id` when it has one). The same program serves protocols 1, 2 and 3 when it reads
+its setting with `setting` (per request) and answers through `serve`. A method imports it with
 
     sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "_shared"))
     import pointsight_protocol as protocol
@@ -21,10 +24,11 @@ _NUMPY = {"double": "<f8", "float": "<f4", "uchar": "u1"}
 
 
 def arguments(extra=None):
-    """The arguments pointsight appends (`--points FILE --params JSON --protocol P`, protocol 2's
-    `--normals W --spacing S`, the LOD form's `--lod --radius R`) as (args, params): `params`
-    the `--params` object (strings by key; keys not given are absent). `extra(parser)` may add
-    a method's own flags; `--points` is then optional (the method checks it)."""
+    """The arguments pointsight appends (`--points FILE --protocol P`, with `--params JSON` in
+    protocols 1 and 2, protocol 2's and 3's `--normals W --spacing S`, the LOD form's `--lod
+    --radius R`) as (args, params): `params` the `--params` object (strings by key; keys not
+    given are absent; `{}` when none is passed, as in protocol 3). `extra(parser)` may add a
+    method's own flags; `--points` is then optional (the method checks it)."""
     ap = argparse.ArgumentParser()
     ap.add_argument("--points", required=extra is None)
     ap.add_argument("--params", default="{}")
@@ -87,6 +91,16 @@ def read_xyz(path):
     return [struct.unpack_from("<ddd", data, stride * k) for k in range(n)]
 
 
+def setting(request, params):
+    """The setting `request` asks for, strings by key (keys not given are absent: the method's
+    own default applies): the request's `params` (protocol 3, where one process serves every
+    setting, and the LOD form), else `params`, the start-up `--params` object of `arguments`
+    (protocols 1 and 2: one process per setting). Whatever depends on the setting is read from
+    this per request."""
+    given = request.get("params")
+    return params if given is None else given
+
+
 def send(answer):
     """One line of JSON on standard output, flushed (pointsight waits for it)."""
     print(json.dumps(answer), flush=True)
@@ -99,13 +113,18 @@ def built(seconds, **extra):
 
 
 def serve(answer, errors=(ValueError, KeyError)):
-    """The loop: for each request line (`{"view": K, "camera": CAMERA}`, the LOD form's with
-    `params`) sends `answer(request)` (a dict: `visible`, `seconds`, ...); a request that
-    raises one of `errors` is answered `{"error": message}` and the loop goes on. End of input
-    ends it."""
+    """The loop: for each request line (`{"view": K, "camera": CAMERA}`; protocol 3's and the
+    LOD form's with `params`; protocol 3's with `"id": N` first) sends `answer(request)` (a
+    dict: `visible`, `seconds`, ...); a request that raises one of `errors` is answered
+    `{"error": message}` and the loop goes on. A request's `id` is the first key of its reply,
+    an error reply's too (a line that is not JSON has none to echo). End of input ends it."""
     for line in sys.stdin:
+        request = None
         try:
-            reply = answer(json.loads(line))
+            request = json.loads(line)
+            reply = answer(request)
         except errors as e:
             reply = {"error": str(e)}
+        if isinstance(request, dict) and "id" in request:
+            reply = {"id": request["id"], **{k: v for k, v in reply.items() if k != "id"}}
         send(reply)

@@ -1,4 +1,4 @@
-// CGAL peer for pointsight (external-method protocol 1 or 2, methods/README.md): Hidden Point
+// CGAL peer for pointsight (external-method protocol 1, 2 or 3, methods/README.md): Hidden Point
 // Removal (Katz, Tal & Basri 2007) with CGAL's exact-predicate hull. Per view: translate to the
 // eye C, flip every point exactly as pointsight's `hpr` crate does (p^ = v * ((2R - |v|) / |v|),
 // v = p - C, |v| = sqrt(x*x + y*y + z*z), R = max|v| * 10^gamma, or `radius`), then
@@ -7,9 +7,14 @@
 // coincident input point included (as pointsight's hpr). Built without FMA contraction so the
 // flipped coordinates are bit-identical to pointsight's.
 //
+// One process serves every setting: each request's setting (`gamma`, default 3, or `radius`)
+// is its "params" (protocol 3), else --params (protocols 1 and 2). The points and their
+// coincident groups are read and found once, at start.
+//
 // The protocol's arguments, points file and loop: ../_shared/pointsight_protocol.hpp.
 //
-// Usage: cgal_hpr --points FILE --params JSON --protocol P [--normals W]   (views on stdin)
+// Usage: cgal_hpr --points FILE --protocol 3 [--normals W] [--spacing S]   (views on stdin)
+//        cgal_hpr --points FILE --params JSON --protocol 1|2 [--normals W] [--spacing S]
 //        cgal_hpr --version
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Extreme_points_traits_adapter_3.h>
@@ -41,9 +46,6 @@ int main(int argc, char** argv) {
   }
   try {
     if (args.points.empty()) throw std::runtime_error("no --points");
-    double gamma = 3.0, radius = 0.0;
-    bool absolute = protocol::json_number(args.params, "radius", radius);
-    protocol::json_number(args.params, "gamma", gamma);
     struct {
       std::vector<double> xyz;  // 3 per point
       size_t n = 0;
@@ -77,7 +79,11 @@ int main(int argc, char** argv) {
     std::vector<Point_3> flipped(c.n + 1);
     std::vector<std::size_t> indices(c.n + 1);
     for (size_t i = 0; i <= c.n; ++i) indices[i] = i;
-    protocol::serve([&](const std::string&, const double eye[3]) {
+    protocol::serve([&](const std::string&, const double eye[3], const std::string& params) {
+      // The setting: R = `radius`, else max|v| * 10^`gamma`.
+      double gamma = 3.0, radius = 0.0;
+      bool absolute = protocol::param_number(params, "radius", radius);
+      protocol::param_number(params, "gamma", gamma);
       auto t0 = std::chrono::steady_clock::now();
       double maxd = 0.0;
       std::vector<double> d(c.n);
@@ -123,7 +129,7 @@ int main(int argc, char** argv) {
       double seconds =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       protocol::send_visible(visible, "", seconds);
-    });
+    }, args.params);
   } catch (const std::exception& e) {
     protocol::send_error(e.what());
     std::fprintf(stderr, "cgal_hpr: %s\n", e.what());

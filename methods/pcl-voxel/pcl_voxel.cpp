@@ -1,4 +1,4 @@
-// PCL peer for pointsight (external-method protocol 1 or 2, methods/README.md): voxel
+// PCL peer for pointsight (external-method protocol 1, 2 or 3, methods/README.md): voxel
 // occlusion with pcl::VoxelGridOcclusionEstimation<pcl::PointXYZ>. Per view the cloud's
 // sensor origin is set to the eye and the voxel grid (leaf = `leaf_factor` density spacings,
 // or `leaf_size` world units) is initialised; each occupied voxel is then asked
@@ -11,9 +11,14 @@
 // and rounding (PCL issues #2046 and #5941) are PCL's, not corrected here. Points are floats
 // (pcl::PointXYZ), as PCL stores them.
 //
+// One process serves every setting: each request's setting (`leaf_size`, else `leaf_factor`,
+// default 2) is its "params" (protocol 3), else --params (protocols 1 and 2, whose setting is
+// checked at start, before the points are read). The points are read and converted once.
+//
 // The protocol's arguments, points file and loop: ../_shared/pointsight_protocol.hpp.
 //
-// Usage: pcl_voxel --points FILE --params JSON --protocol P [--normals W] [--spacing S]
+// Usage: pcl_voxel --points FILE --protocol 3 [--normals W] [--spacing S]   (views on stdin)
+//        pcl_voxel --points FILE --params JSON --protocol 1|2 [--normals W] [--spacing S]
 //        pcl_voxel --version
 #include <pcl/filters/voxel_grid_occlusion_estimation.h>
 #include <pcl/pcl_config.h>
@@ -34,24 +39,31 @@
 
 namespace protocol = pointsight_protocol;
 
+// The voxel leaf of a setting (its params object): `leaf_size` world units, else
+// `leaf_factor` (default 2) density spacings; throws when it cannot be had or is not > 0.
+static double leaf_of(const std::string& params, double spacing) {
+  double leaf = 0.0, factor = 2.0;
+  if (!protocol::param_number(params, "leaf_size", leaf)) {
+    protocol::param_number(params, "leaf_factor", factor);
+    if (!(spacing > 0.0))
+      throw std::runtime_error("no --spacing sent (protocol 1, or <= 8 points): give leaf_size");
+    leaf = factor * spacing;
+  }
+  if (!(leaf > 0.0) || !std::isfinite(leaf)) throw std::runtime_error("leaf size must be > 0");
+  return leaf;
+}
+
 int main(int argc, char** argv) {
   protocol::Args args = protocol::parse_args(argc, argv);
   if (args.version) {
     std::printf("PCL %s\n", PCL_VERSION_PRETTY);
     return 0;
   }
-  const std::string& params = args.params;
   const double spacing = args.spacing;
   try {
     if (args.points.empty()) throw std::runtime_error("no --points");
-    double leaf = 0.0, factor = 2.0;
-    if (!protocol::json_number(params, "leaf_size", leaf)) {
-      protocol::json_number(params, "leaf_factor", factor);
-      if (!(spacing > 0.0))
-        throw std::runtime_error("no --spacing sent (protocol 1, or <= 8 points): give leaf_size");
-      leaf = factor * spacing;
-    }
-    if (!(leaf > 0.0) || !std::isfinite(leaf)) throw std::runtime_error("leaf size must be > 0");
+    // Protocols 1 and 2: the one setting fails here, before the points are read.
+    if (args.protocol < 3) leaf_of(args.params, spacing);
     std::vector<double> xyz = protocol::read_xyz(args.points);
     size_t n = xyz.size() / 3;
     if (n == 0) throw std::runtime_error("the point cloud is empty");
@@ -59,8 +71,9 @@ int main(int argc, char** argv) {
     cloud->resize(n);
     for (size_t i = 0; i < n; ++i)
       (*cloud)[i] = pcl::PointXYZ(float(xyz[3 * i]), float(xyz[3 * i + 1]), float(xyz[3 * i + 2]));
-    float lf = float(leaf);
-    protocol::serve([&](const std::string&, const double eye[3]) {
+    protocol::serve([&](const std::string&, const double eye[3], const std::string& params) {
+      const double leaf = leaf_of(params, spacing);
+      const float lf = float(leaf);
       auto t0 = std::chrono::steady_clock::now();
       cloud->sensor_origin_ = Eigen::Vector4f(float(eye[0]), float(eye[1]), float(eye[2]), 0.f);
       pcl::VoxelGridOcclusionEstimation<pcl::PointXYZ> grid;
@@ -97,7 +110,7 @@ int main(int argc, char** argv) {
       std::snprintf(leaf_field, sizeof leaf_field, "],\"leaf\":%.9g", leaf);
       extra += leaf_field;
       protocol::send_visible(visible, extra, seconds);
-    });
+    }, args.params);
   } catch (const std::exception& e) {
     protocol::send_error(e.what());
     std::fprintf(stderr, "pcl_voxel: %s\n", e.what());

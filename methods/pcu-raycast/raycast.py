@@ -1,10 +1,13 @@
-"""point-cloud-utils' RaySurfelIntersector as a pointsight external method (protocol 2).
+"""point-cloud-utils' RaySurfelIntersector as a pointsight external method (protocol 3).
 
 Every point is an oriented disc (a surfel: a circle of `subdivs` triangles perpendicular to its
-normal, the dataset's normals or pointsight's estimates, sent by protocol 2) of radius
+normal, the dataset's normals or pointsight's estimates, sent since protocol 2) of radius
 `radius_factor` density spacings (the `--spacing` pointsight sends, the unit of its own
-`raycast`'s radius), or `radius` world units; Embree builds its BVH once per setting (timed
-apart: the protocol's optional `built` line, and standard error). Per view one ray per pixel centre (x + 0.5, y + 0.5) of the pinhole
+`raycast`'s radius), or `radius` world units. One process serves every setting on its cloud:
+the points and normals are read once; Embree's BVH depends on the disc radius and `subdivs`,
+so it is built the first time a request asks for that pair and kept for the next requests
+(the last `KEEP` pairs), its build timed apart from the request's seconds and sent with that
+answer as protocol 3's `built_seconds`. Per request one ray per pixel centre (x + 0.5, y + 0.5) of the pinhole
 camera, at the view's resolution or `width` x `height`; a point is visible when some ray's
 nearest hit is its disc. Against pointsight's `raycast`: its `primitive=disc` casts the same
 discs (exact circles, doubles; `primitive` here only says so, so that the two pair); its
@@ -58,33 +61,50 @@ def pixel_rays(cam, width, height):
     return np.ascontiguousarray(o, dtype=np.float32), np.ascontiguousarray(d, dtype=np.float32)
 
 
+# The BVHs kept, one per (radius, subdivs): the visibility experiment's grid has two radii;
+# each BVH is most of the program's memory (memory_bytes_per_point counts one).
+KEEP = 2
+
+
 def main():
     args, params = protocol.arguments()
     points, normals = read_ply(args.points)
-    if "radius" in params:
-        radius = float(params["radius"])
-    else:
-        if args.spacing is None:
-            raise SystemExit("no --spacing sent (a cloud of at most 8 points): give radius")
-        radius = float(params.get("radius_factor", "1.5")) * args.spacing
-    if params.get("primitive", "disc") != "disc":
-        raise SystemExit(f"pcu-raycast: primitive={params['primitive']}: surfels are discs (disc only)")
-    subdivs = int(params.get("subdivs", "7"))
-    width = int(params["width"]) if "width" in params else None
-    height = int(params["height"]) if "height" in params else None
-    start = time.perf_counter()
-    # The radius as a float32 array like the points: a scalar double is refused.
-    radii = np.full(len(points), radius, dtype=np.float32)
-    isect = pcu.RaySurfelIntersector(points, normals, r=radii, subdivs=subdivs)
-    built = time.perf_counter() - start
-    print(f"pcu-raycast: BVH of {len(points)} surfels built in "
-          f"{built:.6f} s (radius {radius:g})", file=sys.stderr, flush=True)
-    # The protocol's optional first line: the build, reported apart from the per-view times.
-    protocol.built(built)
+    bvhs = {}  # (radius, subdivs) -> intersector, least recently used first
+
+    def intersector(radius, subdivs):
+        """The BVH of discs of `radius` and `subdivs`, and its build seconds when built now."""
+        key = (radius, subdivs)
+        if key in bvhs:
+            bvhs[key] = bvhs.pop(key)
+            return bvhs[key], None
+        while len(bvhs) >= KEEP:
+            # Dropped before the next is built: at most KEEP in memory at once.
+            del bvhs[next(iter(bvhs))]
+        start = time.perf_counter()
+        # The radius as a float32 array like the points: a scalar double is refused.
+        radii = np.full(len(points), radius, dtype=np.float32)
+        isect = pcu.RaySurfelIntersector(points, normals, r=radii, subdivs=subdivs)
+        built = time.perf_counter() - start
+        bvhs[key] = isect
+        return isect, built
 
     def answer(request):
+        setting = protocol.setting(request, params)
+        if setting.get("primitive", "disc") != "disc":
+            raise ValueError(f"pcu-raycast: primitive={setting['primitive']}: surfels are discs (disc only)")
+        if "radius" in setting:
+            radius = float(setting["radius"])
+        elif args.spacing is None:
+            raise ValueError("no --spacing sent (a cloud of at most 8 points): give radius")
+        else:
+            radius = float(setting.get("radius_factor", "1.5")) * args.spacing
+        if not radius > 0:
+            raise ValueError(f"pcu-raycast: disc radius {radius:g} is not positive")
+        subdivs = int(setting.get("subdivs", "7"))
         cam = request["camera"]
-        w, h = width or cam["width"], height or cam["height"]
+        w = int(setting["width"]) if "width" in setting else cam["width"]
+        h = int(setting["height"]) if "height" in setting else cam["height"]
+        isect, built = intersector(radius, subdivs)
         o, d = pixel_rays(cam, w, h)
         t0 = time.perf_counter()
         # point-cloud-utils 0.3x returns (point ids, distances), whatever its docstring says.
@@ -92,7 +112,10 @@ def main():
         pid = np.asarray(a if np.issubdtype(np.asarray(a).dtype, np.integer) else b)
         visible = np.unique(pid[pid >= 0])
         seconds = time.perf_counter() - t0
-        return {"visible": visible.tolist(), "seconds": seconds}
+        reply = {"visible": visible.tolist(), "seconds": seconds}
+        if built is not None:
+            reply["built_seconds"] = built
+        return reply
 
     protocol.serve(answer)
 

@@ -1,11 +1,12 @@
-"""py3dtiles' 3D Tiles point-cloud tileset as a pointsight LOD method (protocol 2, LOD form).
+"""py3dtiles' 3D Tiles point-cloud tileset as a pointsight LOD method (protocol 3, LOD form).
 
 Build (once per cloud, its own time reported): the cloud is written as PLY with its colours and
 an extra attribute `index`, the point's original index (3D Tiles reorders and quantises the
 points), and converted by `py3dtiles convert --extra-fields index` into an octree tileset
 (`tileset.json` + `.pnts` tiles); every tile's original indices are read back from its batch
-table. Per view the tileset is cut by 3D Tiles' own rule (3D Tiles 1.0 specification,
-"Geometric error" and "Refinement"): a tile is refined when its screen-space error
+table. Per request (one process serves every setting on its cloud: the setting is the
+request's) the tileset is cut by 3D Tiles' own rule (3D Tiles 1.0 specification, "Geometric
+error" and "Refinement"): a tile is refined when its screen-space error
 SSE = geometricError · height / (2 · d · tan(fov_y / 2)) exceeds `sse_px` pixels (Cesium's
 maximumScreenSpaceError, default 16), d the distance from the eye to the tile's bounding sphere;
 `REPLACE` tiles draw their children instead of themselves, `ADD` tiles draw both. Each selected
@@ -72,7 +73,7 @@ def cut(tile, eye, k, sse_px, base_radius, out):
 
 
 def main():
-    args, _ = protocol.arguments()
+    args, params = protocol.arguments()
     if not args.lod:
         protocol.send({"error": "py3dtiles-lod speaks the LOD form only (kind = lod)"})
         return
@@ -110,8 +111,7 @@ def main():
 
         def answer(req):
             cam = req["camera"]
-            params = req.get("params", {})
-            sse_px = float(params.get("sse_px", "16"))
+            sse_px = float(protocol.setting(req, params).get("sse_px", "16"))
             t0 = time.perf_counter()
             eye = np.array(cam["eye"], dtype=np.float64)
             if cam["model"] == "pinhole":

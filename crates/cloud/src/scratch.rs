@@ -25,8 +25,9 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, OnceLock};
 
-/// The kinds of path, as they appear in names (`.NAME.KIND-HOST-PID-K`).
-pub const KINDS: [&str; 3] = ["chunks", "partial", "previous"];
+/// The kinds of path, as they appear in names (`.NAME.KIND-HOST-PID-K`): `program` is an
+/// external method's scratch folder in the temporary folder ([`program_dir`]).
+pub const KINDS: [&str; 4] = ["chunks", "partial", "previous", "program"];
 
 /// This machine's name as paths carry it: the kernel's host name (`/proc/sys/kernel/hostname`,
 /// else `$HOSTNAME`, else `localhost`), every character but letters, digits, `.`, `_` and `-`
@@ -70,6 +71,33 @@ pub fn beside(out: &Path, kind: &str) -> PathBuf {
         .map_or_else(|| "output".into(), |n| n.to_string_lossy().into_owned());
     let k = COUNTER.fetch_add(1, Ordering::Relaxed);
     out.with_file_name(format!(".{name}.{kind}-{}-{k}", owner_tag()))
+}
+
+/// A fresh path for an external method's scratch folder (its points file, its `TMPDIR`):
+/// `.pointsight.program-HOST-PID-K` in the temporary folder (`$TMPDIR`, else `/tmp`), so that
+/// after a `kill -9` the next run and `pointsight clean` find it ([`stale_programs`]).
+pub fn program_dir() -> PathBuf {
+    beside(&std::env::temp_dir().join("pointsight"), "program")
+}
+
+/// The external methods' scratch folders in the temporary folder ([`program_dir`]), each
+/// with its state.
+pub fn programs() -> Vec<Leftover> {
+    leftovers_in(&std::env::temp_dir())
+        .into_iter()
+        .filter(|l| l.kind == "program")
+        .collect()
+}
+
+/// Removes the stale external methods' scratch folders in the temporary folder (this host's,
+/// their process gone): what a run does before it starts. Returns the paths removed.
+pub fn remove_stale_programs() -> Vec<PathBuf> {
+    programs()
+        .into_iter()
+        .filter(|l| l.state == State::Stale)
+        .filter(|l| reclaim(l).is_ok())
+        .map(|l| l.path)
+        .collect()
 }
 
 type Hook = Box<dyn Fn() + Send + Sync>;

@@ -169,6 +169,11 @@ pub fn begin(
     reports: &dyn Fn(Option<PathBuf>, bool) -> PathBuf,
 ) -> Result<RunGuard> {
     install_signal_handler();
+    if !matches!(command, Command::Clean { .. }) {
+        // External methods' scratch folders left by a run that was killed (`clean` lists
+        // them, and removes them when asked).
+        cloud::scratch::remove_stale_programs();
+    }
     let (outputs, inputs) = outputs_and_inputs(command, reports);
     let inputs: Vec<&Path> = inputs.iter().map(PathBuf::as_path).collect();
     let mut locks = Vec::new();
@@ -362,12 +367,44 @@ pub fn install_signal_handler() {
 }
 
 /// `pointsight clean`: the scratch and staging paths in `folders` and their subfolders (links
-/// not followed), each with its owner and state; with `remove`, the stale ones (this host's,
-/// their process gone) are removed (a `previous` folder whose output is missing is put back)
-/// and unheld lock files removed. Returns the lines printed.
+/// not followed), and the external methods' scratch folders in the temporary folder, each
+/// with its owner and state; with `remove`, the stale ones (this host's, their process gone)
+/// are removed (a `previous` folder whose output is missing is put back) and unheld lock
+/// files removed. Returns the lines printed.
 pub fn clean(folders: &[PathBuf], remove: bool) -> Result<Vec<String>> {
     let mut lines = Vec::new();
     let mut stale = 0usize;
+    let mut seen = std::collections::BTreeSet::new();
+    let mut describe = |l: &cloud::scratch::Leftover, lines: &mut Vec<String>| {
+        if !seen.insert(l.path.clone()) {
+            return;
+        }
+        let state = match l.state {
+            cloud::scratch::State::Stale => {
+                stale += 1;
+                if remove {
+                    match cloud::scratch::reclaim(l) {
+                        Ok(done) => done.to_owned(),
+                        Err(e) => format!("stale, cannot remove: {e}"),
+                    }
+                } else {
+                    "stale".to_owned()
+                }
+            }
+            cloud::scratch::State::Running => "in use".to_owned(),
+            cloud::scratch::State::OtherHost => "another host's, left".to_owned(),
+        };
+        lines.push(format!(
+            "{} kind={} host={} pid={} state={state}",
+            l.path.display(),
+            l.kind,
+            l.host,
+            l.pid
+        ));
+    };
+    for l in &cloud::scratch::programs() {
+        describe(l, &mut lines);
+    }
     for root in folders {
         if !root.is_dir() {
             bail!("{} is not a folder", root.display());
@@ -376,28 +413,7 @@ pub fn clean(folders: &[PathBuf], remove: bool) -> Result<Vec<String>> {
         while let Some(dir) = stack.pop() {
             let leftovers = cloud::scratch::leftovers_in(&dir);
             for l in &leftovers {
-                let state = match l.state {
-                    cloud::scratch::State::Stale => {
-                        stale += 1;
-                        if remove {
-                            match cloud::scratch::reclaim(l) {
-                                Ok(done) => done.to_owned(),
-                                Err(e) => format!("stale, cannot remove: {e}"),
-                            }
-                        } else {
-                            "stale".to_owned()
-                        }
-                    }
-                    cloud::scratch::State::Running => "in use".to_owned(),
-                    cloud::scratch::State::OtherHost => "another host's, left".to_owned(),
-                };
-                lines.push(format!(
-                    "{} kind={} host={} pid={} state={state}",
-                    l.path.display(),
-                    l.kind,
-                    l.host,
-                    l.pid
-                ));
+                describe(l, &mut lines);
             }
             let Ok(entries) = std::fs::read_dir(&dir) else {
                 continue;

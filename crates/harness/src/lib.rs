@@ -86,6 +86,8 @@ pub fn run(cli: Cli) -> Result<ExitCode> {
     };
     // Outputs checked and locked, stale scratch reclaimed, signals answered.
     let _guard = guard::begin(&cli.command, &reports)?;
+    // Dropped before the guard: the warm programs end before the run's outputs are released.
+    let _programs = the_run.catalogue.end_programs_on_drop();
     match cli.command {
         Command::Fetch => commands::data::fetch(&data_dir)?,
         Command::Paths => commands::data::paths(&data, &methods, clone.as_deref()),

@@ -404,7 +404,7 @@ pub fn run(run: &crate::run::Run, req: &Request, data_dir: &Path) -> Result<()> 
         };
         let (prepared, answers) = kernel::collect(&cell, ds.input());
         let preparation = prepared?;
-        let kernel::Answer { output, timing } = answers
+        let kernel::Answer { output, timing, .. } = answers
             .into_iter()
             .next()
             .context("the kernel answered no view")?

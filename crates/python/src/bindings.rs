@@ -290,6 +290,8 @@ fn visible<'py>(
     catalogue: Option<PyRef<'py, Catalogue>>,
 ) -> PyResult<Vec<Bound<'py, PyArray1<i64>>>> {
     let catalogue = catalogue.map_or_else(registry::Catalogue::builtin, |c| c.inner.clone());
+    // No program outlives the call (no subreaper in a user's process: docs/python.md).
+    let _programs = catalogue.end_programs_on_drop();
     let pts = points_of(&points)?;
     let mesh = match (vertices, faces) {
         (Some(v), Some(f)) => Some(mesh_of(&v, &f)?),

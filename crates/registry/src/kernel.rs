@@ -91,8 +91,12 @@ impl<'a> Cell<'a> {
 pub struct Answer {
     /// The last run's output.
     pub output: Output,
-    /// Median and spread of the runs.
+    /// Median and spread of the runs: the method's own seconds when it reports them on every
+    /// run (an external program), else the wall clock's.
     pub timing: Timing,
+    /// Median and spread of the wall clock around each run, whatever the method reports
+    /// (for an external program: the protocol and the transfer of answers too).
+    pub wall: Timing,
 }
 
 /// A cell's preparation, timed once.
@@ -106,6 +110,9 @@ pub struct Preparation {
     /// program's `built` line, its BVH or render window; the ray caster's point hierarchy), when the
     /// method accounts for it.
     pub reported_seconds: Option<f64>,
+    /// The cold call of an external program the views started
+    /// ([`Prepared::cold_call_seconds`]).
+    pub cold_call_seconds: Option<f64>,
     /// The setting as it ran: every key the method read, with the value given or its default.
     pub setting: Setting,
 }
@@ -161,6 +168,7 @@ pub fn run<'a>(
     Ok(Preparation {
         seconds: prepare_seconds,
         reported_seconds: prepared.reported_build_seconds(),
+        cold_call_seconds: prepared.cold_call_seconds(),
         setting,
     })
 }
@@ -196,6 +204,7 @@ fn timed(
     Ok(Answer {
         output,
         timing: own_or_wall(reported, wall),
+        wall,
     })
 }
 

@@ -65,6 +65,9 @@ pub trait Method: Sync {
     /// Reads the setting (through `args`, which remembers the keys read) into the method's own
     /// typed struct, checking every value, before any work.
     fn parse(&self, args: &mut Reader<'_>) -> Result<Box<dyn Setup>>;
+    /// Ends what it keeps running between preparations (an external method's protocol 3
+    /// program, warm for its last cloud), if anything; a later preparation starts afresh.
+    fn end(&self) {}
 }
 
 /// A visibility method's setting, read: it prepares on a cloud.
@@ -89,6 +92,13 @@ pub trait Prepared: Sync {
     /// tree (without the normals and density spacing, which a peer is sent ready); asked after
     /// the views.
     fn reported_build_seconds(&self) -> Option<f64> {
+        None
+    }
+    /// The cold call of an external program these views started: wall seconds from starting
+    /// it to its first answer (its start-up, imports, build and first view), which its
+    /// views' own seconds leave out; asked after the views. `None` for methods that start no
+    /// program, and for views answered by a program already running (protocol 3's warm one).
+    fn cold_call_seconds(&self) -> Option<f64> {
         None
     }
 }

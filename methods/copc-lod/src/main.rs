@@ -1,8 +1,9 @@
 //! `copc-lod`: copc_converter's COPC octree as a pointsight LOD method (methods/README.md,
-//! protocol 2, the LOD form).
+//! protocol 3 or 2, the LOD form).
 //!
-//! Started once per cloud with `--points FILE --params JSON --protocol 2 [--normals W]
-//! [--spacing S] --lod --radius R`, it
+//! Started once per cloud with `--points FILE --protocol 3 [--normals W] [--spacing S] --lod
+//! --radius R` (protocol 2: `--params JSON` too, ignored: each request carries its setting
+//! either way), one process serving every setting, it
 //! 1. reads the points (`ply`) and writes them as an uncompressed LAS 1.4 file with each
 //!    point's original index as the Extra Bytes attribute `index` (`input`);
 //! 2. runs copc_converter on it (the binary beside this one, else on PATH) with `--threads T`
@@ -13,11 +14,14 @@
 //!    LAS before it and checking the file after it are said on standard error);
 //! 3. opens the COPC file (`copc`) and checks that every original index comes back exactly
 //!    once;
-//! 4. per view, reads `{"view", "camera", "params": {"spacing_px": T}}`, selects the octree's
-//!    nodes for the view (`select`), reads and decodes their chunks from the file, and answers
-//!    `{"visible": [...], "radius": [...], "seconds": T, "bytes_read": B}`: the indices of the
-//!    selected nodes' points, each point's splat radius, its own seconds for the view
-//!    (traversal, reads, decoding, radii) and the bytes of the chunks it read.
+//! 4. per view and setting, reads `{"id": N, "view", "camera", "params": {"spacing_px": T}}`,
+//!    selects the octree's nodes for the view (`select`), reads and decodes their chunks from
+//!    the file, and answers `{"id": N, "visible": [...], "radius": [...], "seconds": T,
+//!    "bytes_read": B}`: the indices of the selected nodes' points, each point's splat radius,
+//!    its own seconds for the view (traversal, reads, decoding, radii) and the bytes of the
+//!    chunks it read. A request it cannot answer gets `{"id": N, "error": "..."}`. The id
+//!    (protocol 3) is echoed as sent, first; a request without one (protocol 2) gets an answer
+//!    without one.
 //!
 //! `--copc FILE` opens an existing COPC file of the same cloud instead of building one (its
 //! build seconds are then 0); `--save-copc FILE` keeps a copy of the one built. The scratch
@@ -67,8 +71,16 @@ fn parse_args() -> Result<Args> {
     while let Some(k) = it.next() {
         match k.as_str() {
             "--points" => a.points = it.next().map(PathBuf::from),
-            "--params" | "--protocol" | "--normals" => {
+            "--params" | "--normals" => {
                 it.next();
+            }
+            "--protocol" => {
+                let v = it.next().unwrap_or_default();
+                if v != "2" && v != "3" {
+                    return Err(Error::Usage(format!(
+                        "--protocol {v:?}: copc-lod speaks protocol 2 or 3 (the LOD form)"
+                    )));
+                }
             }
             "--spacing" => a.spacing = Some(number(&k, it.next())?),
             "--radius" => a.radius = Some(number(&k, it.next())?),
@@ -171,6 +183,22 @@ fn say(line: &str) -> Result<()> {
 
 fn error_line(e: &Error) -> String {
     serde_json::json!({ "error": e.to_string() }).to_string()
+}
+
+/// `answer` (a JSON object's text) with the request's `id` as its first member, when the
+/// request had one.
+fn with_id(id: Option<&serde_json::Value>, answer: String) -> String {
+    match (id, answer.strip_prefix('{')) {
+        (Some(id), Some(rest)) => {
+            let sep = if rest.trim_start().starts_with('}') {
+                ""
+            } else {
+                ","
+            };
+            format!("{{\"id\":{id}{sep}{rest}")
+        }
+        _ => answer,
+    }
 }
 
 /// The threshold of a request's `params` (`spacing_px`, pixels, default 1).
@@ -300,13 +328,13 @@ fn run(args: &Args) -> Result<()> {
         if line.trim().is_empty() {
             continue;
         }
-        let reply = serde_json::from_str::<serde_json::Value>(&line)
-            .map_err(|e| Error::Usage(format!("request is not JSON: {e}")))
-            .and_then(|request| answer(&file, &request, &radii));
-        match reply {
-            Ok(a) => say(&a)?,
-            Err(e) => say(&error_line(&e))?,
-        }
+        let request = serde_json::from_str::<serde_json::Value>(&line)
+            .map_err(|e| Error::Usage(format!("request is not JSON: {e}")));
+        let id = request.as_ref().ok().and_then(|r| r.get("id")).cloned();
+        let reply = request
+            .and_then(|request| answer(&file, &request, &radii))
+            .unwrap_or_else(|e| error_line(&e));
+        say(&with_id(id.as_ref(), reply))?;
     }
     Ok(())
 }
@@ -356,5 +384,28 @@ fn main() -> ExitCode {
             let _ = say(&error_line(&e));
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn answers_echo_the_request_id_first() {
+        let id = serde_json::json!(7);
+        let answer = r#"{"visible":[1,2],"radius":1.5,"seconds":0.1}"#.to_string();
+        assert_eq!(
+            with_id(Some(&id), answer.clone()),
+            r#"{"id":7,"visible":[1,2],"radius":1.5,"seconds":0.1}"#
+        );
+        assert_eq!(with_id(None, answer.clone()), answer);
+        let error = error_line(&Error::Usage("request has no camera".into()));
+        assert_eq!(
+            with_id(Some(&id), error.clone()),
+            r#"{"id":7,"error":"request has no camera"}"#
+        );
+        assert_eq!(with_id(None, error), r#"{"error":"request has no camera"}"#);
+        assert_eq!(with_id(Some(&id), "{}".into()), r#"{"id":7}"#);
     }
 }

@@ -59,6 +59,15 @@ pub struct Catalogue {
     added: Vec<&'static Card>,
 }
 
+/// Ends a catalogue's warm programs when dropped ([`Catalogue::end_programs_on_drop`]).
+pub struct EndPrograms(Catalogue);
+
+impl Drop for EndPrograms {
+    fn drop(&mut self) {
+        self.0.end_programs();
+    }
+}
+
 impl std::fmt::Debug for Catalogue {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_list()
@@ -84,6 +93,24 @@ impl Catalogue {
         }
         self.added.push(card);
         Ok(())
+    }
+
+    /// Ends the programs its external methods keep running between preparations (protocol
+    /// 3's warm program, one per method and cloud), once no preparation holds them: what a
+    /// run, a test or a Python call does when it is done with its methods. A later
+    /// preparation starts a fresh one.
+    pub fn end_programs(&self) {
+        for card in &self.added {
+            if let crate::card::Kind::Visibility(method) = card.kind {
+                method.end();
+            }
+        }
+    }
+
+    /// A guard that ends its warm programs ([`Catalogue::end_programs`]) when dropped: at the
+    /// end of a command or a call, whether it succeeded or not.
+    pub fn end_programs_on_drop(&self) -> EndPrograms {
+        EndPrograms(self.clone())
     }
 
     /// Every method: built-in, then the added ones.

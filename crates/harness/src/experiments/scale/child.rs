@@ -114,6 +114,7 @@ pub fn cell_entry(args: &[String], data_dir: &Path, run: Run) -> Option<ExitCode
             None => run,
         };
         let data_dir = line.data_dir.as_deref().unwrap_or(data_dir);
+        let _programs = run.catalogue.end_programs_on_drop();
         run_in_this_process(&run, &line.cell, data_dir)
     };
     Some(match go() {

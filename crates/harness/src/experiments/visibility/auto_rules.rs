@@ -128,6 +128,7 @@ mod tests {
             made_for: "pixels".into(),
             visible_sha256: String::new(),
             mesh_fit: String::new(),
+            wall_seconds: f64::NAN,
         }
     }
 

@@ -54,6 +54,7 @@ use truth::{NO_TRIANGLE, Reference, ReferenceParams};
 use super::{Context, Experiment};
 
 mod auto_rules;
+mod builds;
 mod papers;
 mod peers;
 mod pixel_table;
@@ -62,6 +63,7 @@ mod tuned_table;
 pub(crate) mod tuning;
 use crate::output::{read_csv, write_csv};
 use crate::progress;
+pub use builds::BuildRow;
 use registry::scoring::{PixelScore, Score, pixels};
 use render::{peers_summary, render, render_bunny};
 
@@ -125,6 +127,11 @@ pub struct Row {
     /// not fit was used anyway (`--allow-off-surface`: `datasets::fit`), empty without a mesh.
     #[serde(default)]
     pub mesh_fit: String,
+    /// Median wall seconds around each run, as the harness timed it: `seconds` for our
+    /// methods; for an external program its own seconds are `seconds`, and this adds the
+    /// protocol (the request, the answer's transfer and checks).
+    #[serde(default = "nan")]
+    pub wall_seconds: f64,
 }
 
 /// SHA-256 of the visible set, its indices sorted, as little-endian `u32`s.
@@ -274,37 +281,6 @@ impl PeerRow {
 
 fn nan() -> f64 {
     f64::NAN
-}
-
-/// One row of `builds.csv`: one method's preparation at one setting on one dataset (one row
-/// per shard that ran it).
-#[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct BuildRow {
-    /// Dataset.
-    pub dataset: String,
-    /// Method.
-    pub method: String,
-    /// Setting.
-    pub params: String,
-    /// The views this preparation answered.
-    pub views: usize,
-    /// Wall seconds of the preparation (one run): a built-in method's per-cloud state; for an
-    /// external method, writing the points file it reads (normals and spacing included).
-    pub prepare_seconds: f64,
-    /// The structure's build alone as the method accounts for it (an external program's
-    /// `built` line, the ray caster's point hierarchy); NaN when it gives none.
-    pub build_seconds: f64,
-}
-
-impl BuildRow {
-    /// The build a pairing compares: the structure's own, else the whole preparation.
-    fn structure_seconds(&self, external: bool) -> f64 {
-        match (self.build_seconds.is_nan(), external) {
-            (false, _) => self.build_seconds,
-            (true, false) => self.prepare_seconds,
-            (true, true) => f64::NAN,
-        }
-    }
 }
 
 fn is_auto(params: &str) -> bool {
@@ -487,6 +463,7 @@ impl Experiment for VisibilityExperiment {
                             views: kviews.len(),
                             prepare_seconds: p.seconds,
                             build_seconds: p.reported_seconds.unwrap_or(f64::NAN),
+                            cold_call_seconds: p.cold_call_seconds.unwrap_or(f64::NAN),
                         });
                     }
                     for (v, outcome) in answers {
@@ -514,11 +491,13 @@ impl Experiment for VisibilityExperiment {
                             made_for: m.made_for.as_str().to_owned(),
                             visible_sha256: String::new(),
                             mesh_fit: ds.mesh_fit_mark().to_owned(),
+                            wall_seconds: f64::NAN,
                         };
                         match outcome {
                             Ok(kernel::Answer {
                                 output: mut out,
                                 timing: t,
+                                wall,
                             }) => {
                                 if let Some(t) = truth {
                                     let s = Score::of_on_surface(&out.visible, t, off_flags);
@@ -533,6 +512,7 @@ impl Experiment for VisibilityExperiment {
                                 row.rays = out.rays;
                                 (row.seconds, row.seconds_min, row.seconds_max, row.samples) =
                                     (t.median, t.min, t.max, t.samples);
+                                row.wall_seconds = wall.median;
                                 row.detail = out
                                     .detail
                                     .iter()

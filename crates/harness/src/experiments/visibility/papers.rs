@@ -219,6 +219,7 @@ mod tests {
             made_for: "points".into(),
             visible_sha256: String::new(),
             mesh_fit: String::new(),
+            wall_seconds: f64::NAN,
         }
     }
 

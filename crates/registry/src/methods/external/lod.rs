@@ -1,4 +1,4 @@
-//! The level-of-detail form of an external method (`kind = "lod"`, protocol 2): one program
+//! The level-of-detail form of an external method (`kind = "lod"`, protocol 2 or 3): one program
 //! per cloud builds its structure and says so on its first line; then per view and setting it
 //! is asked for the splats (indices and radii), its setting the JSON object of the keys its
 //! manifest declares.
@@ -115,53 +115,53 @@ impl ExternalLodSel<'_> {
             self.params
         );
         let answer = Mutex::new(None);
-        let wall = session.ask(&format!("view {view}"), Some(&request), &|line| {
-            let v = Session::json(line)?;
-            let visible = session.indices(&v)?;
-            let radii: Vec<f64> = match v.get("radius") {
-                Some(serde_json::Value::Array(list)) => {
-                    if list.len() != visible.len() {
-                        return Err(format!(
-                            "{} radii for {} indices",
-                            list.len(),
-                            visible.len()
-                        ));
+        let wall = session
+            .ask(&format!("view {view}"), Some(&request), &|v| {
+                let visible = session.indices(v)?;
+                let radii: Vec<f64> = match v.get("radius") {
+                    Some(serde_json::Value::Array(list)) => {
+                        if list.len() != visible.len() {
+                            return Err(format!(
+                                "{} radii for {} indices",
+                                list.len(),
+                                visible.len()
+                            ));
+                        }
+                        // The radii follow the answer's order; the indices were sorted, so
+                        // re-read the pairs in the answer's order.
+                        let order = answer_order(v, session)?;
+                        let mut pairs: Vec<(u32, f64)> = order
+                            .into_iter()
+                            .zip(list)
+                            .map(|(i, r)| r.as_f64().map(|r| (i, r)).ok_or("radius not a number"))
+                            .collect::<std::result::Result<_, _>>()?;
+                        pairs.sort_unstable_by_key(|p| p.0);
+                        pairs.into_iter().map(|p| p.1).collect()
                     }
-                    // The radii follow the answer's order; the indices were sorted, so
-                    // re-read the pairs in the answer's order.
-                    let order = answer_order(&v, session)?;
-                    let mut pairs: Vec<(u32, f64)> = order
-                        .into_iter()
-                        .zip(list)
-                        .map(|(i, r)| r.as_f64().map(|r| (i, r)).ok_or("radius not a number"))
-                        .collect::<std::result::Result<_, _>>()?;
-                    pairs.sort_unstable_by_key(|p| p.0);
-                    pairs.into_iter().map(|p| p.1).collect()
+                    Some(r) => {
+                        let r = r.as_f64().ok_or("\"radius\" is not a number")?;
+                        vec![r; visible.len()]
+                    }
+                    None => return Err("answer has no \"radius\"".into()),
+                };
+                if let Some(r) = radii.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
+                    return Err(format!("splat radius {r} is not a positive number"));
                 }
-                Some(r) => {
-                    let r = r.as_f64().ok_or("\"radius\" is not a number")?;
-                    vec![r; visible.len()]
-                }
-                None => return Err("answer has no \"radius\"".into()),
-            };
-            if let Some(r) = radii.iter().find(|r| !(r.is_finite() && **r > 0.0)) {
-                return Err(format!("splat radius {r} is not a positive number"));
-            }
-            let seconds = session.seconds(&v)?;
-            let bytes_read =
-                match v.get("bytes_read") {
+                let seconds = session.seconds(v)?;
+                let bytes_read = match v.get("bytes_read") {
                     None => None,
                     Some(b) => Some(b.as_u64().ok_or_else(|| {
                         format!("\"bytes_read\" {b} is not a whole number of bytes")
                     })?),
                 };
-            *answer.lock().map_err(|_| "lock")? = Some((
-                visible.into_iter().zip(radii).collect::<Vec<_>>(),
-                seconds,
-                bytes_read,
-            ));
-            Ok(())
-        })?;
+                *answer.lock().map_err(|_| "lock")? = Some((
+                    visible.into_iter().zip(radii).collect::<Vec<_>>(),
+                    seconds,
+                    bytes_read,
+                ));
+                Ok(())
+            })?
+            .wall;
         let (last, seconds, bytes_read) = answer
             .into_inner()
             .ok()

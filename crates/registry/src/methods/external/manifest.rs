@@ -20,10 +20,10 @@ use crate::setting::{Setting, Value};
 use crate::sweep::MethodSweep;
 
 /// The newest protocol version this crate speaks.
-pub const PROTOCOL: u32 = 2;
+pub const PROTOCOL: u32 = 3;
 
 /// The versions it accepts.
-pub const PROTOCOLS: &[u32] = &[1, 2];
+pub const PROTOCOLS: &[u32] = &[1, 2, 3];
 
 /// A parameter of an external method.
 #[derive(Debug, Clone, Deserialize)]
@@ -61,6 +61,7 @@ struct Manifest {
     default: Option<toml::Value>,
     family: Option<String>,
     memory_bytes_per_point: Option<u64>,
+    normals: Option<bool>,
     skip_robustness: Option<toml::Value>,
     #[serde(default)]
     peer_keys: BTreeMap<String, PeerKeyEntry>,
@@ -114,6 +115,9 @@ pub struct ExternalMethod {
     pub(super) sweep: Option<MethodSweep>,
     pub(super) family: Option<String>,
     pub(super) memory_bytes_per_point: Option<u64>,
+    /// Protocol 2 and later: the points file carries normals (`normals = false`: the program
+    /// reads none, so none are estimated for it).
+    pub(super) sends_normals: bool,
     pub(super) peer_keys: &'static [PeerKey],
 }
 
@@ -139,14 +143,12 @@ impl ExternalMethod {
             .map_err(|e| Error::Unsupported(format!("{}: {e}", path.display())))?;
         let bad = |what: String| Error::Unsupported(format!("{}: {what}", path.display()));
         if !PROTOCOLS.contains(&m.protocol) {
+            let (last, first) = PROTOCOLS.split_last().unwrap_or((&PROTOCOL, &[]));
+            let first: Vec<String> = first.iter().map(u32::to_string).collect();
             return Err(bad(format!(
-                "protocol {} (this pointsight speaks {})",
+                "protocol {} (this pointsight speaks {} and {last})",
                 m.protocol,
-                PROTOCOLS
-                    .iter()
-                    .map(u32::to_string)
-                    .collect::<Vec<_>>()
-                    .join(" and ")
+                first.join(", ")
             )));
         }
         if m.command.is_empty() {
@@ -296,6 +298,7 @@ impl ExternalMethod {
             sweep,
             family: m.family,
             memory_bytes_per_point: m.memory_bytes_per_point,
+            sends_normals: m.normals.unwrap_or(true),
             peer_keys: Box::leak(peer_keys.into_boxed_slice()),
         })
     }

@@ -1,14 +1,15 @@
-//! The points handed to an external program: the cloud written once per preparation as binary
-//! little-endian PLY (`x y z` doubles; with protocol 2 the normals, the dataset's or estimated
-//! ones, and the dataset's colours and texture coordinates), and the normals protocol 2 sends
-//! (which our disc ray cast, a peer's partner, uses too).
+//! The points handed to an external program: the cloud written once per program as binary
+//! little-endian PLY (`x y z` doubles; with protocol 2 and later the normals, the dataset's
+//! or estimated ones, unless the manifest says `normals = false`, and the dataset's colours
+//! and texture coordinates), and the normals protocol 2 sends (which our disc ray cast, a
+//! peer's partner, uses too).
 
 use std::borrow::Cow;
 use std::path::Path;
 
 use cloud::glam::Vec3;
 
-use super::manifest::external_error;
+use super::manifest::{ExternalMethod, external_error};
 use crate::error::Result;
 
 /// The normals protocol 2 sends for a cloud without its own: 16 nearest neighbours (fewer on
@@ -34,17 +35,17 @@ pub fn cloud_normals(cloud: &cloud::PointCloud) -> Result<(Cow<'_, [Vec3]>, &'st
     })
 }
 
-/// Writes the cloud for `method`'s program: `x y z` (protocol 1); with protocol 2 the normals
-/// (`normals`, else the dataset's, else estimated), colours and texture coordinates too.
-/// Returns the `--normals` word (protocol 2).
+/// Writes the cloud for `method`'s program: `x y z` (protocol 1); with protocol 2 and later
+/// the normals too (`normals`, else the dataset's, else estimated) unless its manifest says
+/// `normals = false`, and the dataset's colours and texture coordinates. Returns the
+/// `--normals` word (when normals are sent).
 pub(super) fn write_points(
-    method: &str,
-    protocol: u32,
+    method: &ExternalMethod,
     path: &Path,
     cloud: &cloud::PointCloud,
     normals: Option<&[Vec3]>,
 ) -> Result<Option<&'static str>> {
-    if protocol < 2 {
+    if method.protocol < 2 {
         let positions_only = cloud::PointCloud {
             positions: cloud.positions.clone(),
             ..Default::default()
@@ -52,18 +53,23 @@ pub(super) fn write_points(
         cloud::io::ply_write::write_ply(path, &positions_only)?;
         return Ok(None);
     }
-    let (normals, origin) = match normals {
-        Some(n) => (Cow::Borrowed(n), "given"),
-        None => cloud_normals(cloud)
-            .map_err(|e| external_error(method, format!("cannot estimate normals to send: {e}")))?,
+    let (normals, origin) = match (normals, method.sends_normals) {
+        (_, false) => (None, None),
+        (Some(n), true) => (Some(Cow::Borrowed(n)), Some("given")),
+        (None, true) => {
+            let (n, origin) = cloud_normals(cloud).map_err(|e| {
+                external_error(method.name, format!("cannot estimate normals to send: {e}"))
+            })?;
+            (Some(n), Some(origin))
+        }
     };
     let out = cloud::PointCloud {
         positions: cloud.positions.clone(),
-        normals: Some(normals.into_owned()),
+        normals: normals.map(Cow::into_owned),
         colors: cloud.colors.clone(),
         uvs: cloud.uvs.clone(),
         ..Default::default()
     };
     cloud::io::ply_write::write_ply(path, &out)?;
-    Ok(Some(origin))
+    Ok(origin)
 }

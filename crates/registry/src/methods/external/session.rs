@@ -1,12 +1,15 @@
-//! The wire protocol of an external method: one program per setting ([`Session`]), started in
-//! its folder with the points file and the setting, asked one JSON line per view (and setting,
-//! for the LOD form), its answers read with bounded memory ([`answer_limit`]) and checked (one
-//! line per request, `seconds`, a `visible_file` confined to its scratch folder); its standard
-//! error kept as a bounded tail in memory ([`STDERR_TAIL`]). Each program runs in a process
-//! group of its own, ended as a group: one that fails is killed at once and the next request
-//! starts a fresh one, one the caller is done with gets the end of its input and
-//! [`EXIT_GRACE`] to exit, and a signal to pointsight kills what still runs (a
-//! `cloud::scratch` hook, with the scratch folder registered there too).
+//! The wire protocol of an external method: one program ([`Session`]) per setting (protocols
+//! 1 and 2) or per cloud (protocol 3, whose requests carry their setting and an id the
+//! answer echoes), started in its folder with the points file, asked one JSON line per view
+//! (and setting, for the LOD form), its answers read with bounded memory ([`answer_limit`])
+//! and checked (one line per request, the echoed id, `seconds`, a `visible_file` confined to
+//! its scratch folder); its standard error kept as a bounded tail in memory
+//! ([`STDERR_TAIL`]). Each program runs in a process group of its own, ended as a group: one
+//! that fails is killed at once and the next request starts a fresh one, one the caller is
+//! done with gets the end of its input and [`EXIT_GRACE`] to exit, and a signal to
+//! pointsight kills what still runs (a `cloud::scratch` hook, with the scratch folder
+//! registered there too). The first answer of a program just started is its cold call
+//! ([`Cold`]), timed from its start.
 
 use std::collections::VecDeque;
 use std::ffi::OsString;
@@ -111,19 +114,81 @@ struct Running {
     fresh: bool,
     /// The request last answered (for a second answer line to it).
     answered: Option<String>,
+    /// When it was started (its cold call's clock).
+    started: Instant,
+    /// Protocol 3: the id of its next request (1, 2, 3, … per program).
+    next_id: u64,
     /// The end of its standard error, and word when it is read to its end.
     stderr: Arc<Mutex<Tail>>,
     stderr_done: Receiver<()>,
     /// Kills the group at `cloud::scratch::cleanup` while it runs.
     hook: Option<cloud::scratch::HookGuard>,
+    /// The session's token ([`TOKEN_VARIABLE`]).
+    token: String,
 }
 
 /// How long a program whose input was closed has to exit before it is killed.
 pub(super) const EXIT_GRACE: Duration = Duration::from_secs(3);
 
-/// Kills process group `pgid`, whatever is left of it.
-fn kill_group(pgid: Pid) {
+/// The environment variable every program of a session carries, its value the session's
+/// token (its scratch folder's name): inherited by whatever the program starts, so that a
+/// descendant that left the process group (`setsid`) is still found ([`kill_escaped`]).
+const TOKEN_VARIABLE: &str = "POINTSIGHT_PROGRAM";
+
+/// Kills process group `pgid`, whatever is left of it, and the processes that left it
+/// carrying `token` ([`kill_escaped`]).
+fn kill_group(pgid: Pid, token: &str) {
     let _ = killpg(pgid, Signal::SIGKILL);
+    kill_escaped(token, pgid);
+}
+
+/// Kills every other process whose environment holds `POINTSIGHT_PROGRAM=token` (a
+/// program's descendant that left its group; the `pointsight` binary is their subreaper, so
+/// they are its children once their parent is gone, and are reaped here). The group's
+/// leader `leader` is left to its owner, which reaps it. Linux's `/proc`; elsewhere nothing.
+fn kill_escaped(token: &str, leader: Pid) {
+    let needle = format!("{TOKEN_VARIABLE}={token}\0").into_bytes();
+    let me = std::process::id();
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let Some(pid) = entry
+            .file_name()
+            .to_str()
+            .and_then(|n| n.parse::<i32>().ok())
+        else {
+            continue;
+        };
+        if pid == leader.as_raw() || pid.cast_unsigned() == me {
+            continue;
+        }
+        let Ok(environ) = std::fs::read(entry.path().join("environ")) else {
+            continue;
+        };
+        let carries = environ
+            .split_inclusive(|&b| b == 0)
+            .any(|var| var == needle.as_slice());
+        if !carries {
+            continue;
+        }
+        let pid = Pid::from_raw(pid);
+        let _ = nix::sys::signal::kill(pid, Signal::SIGKILL);
+        let parent = std::fs::read_to_string(entry.path().join("stat"))
+            .ok()
+            .and_then(|stat| {
+                stat.rsplit(')')
+                    .next()?
+                    .split_whitespace()
+                    .nth(1)?
+                    .parse::<u32>()
+                    .ok()
+            });
+        if parent == Some(me) {
+            // Ours (reparented to the subreaper): reaped, not left a zombie.
+            let _ = nix::sys::wait::waitpid(pid, None);
+        }
+    }
 }
 
 impl Running {
@@ -150,7 +215,7 @@ impl Drop for Running {
         while Instant::now() < deadline && !self.exited() {
             std::thread::sleep(Duration::from_millis(5));
         }
-        kill_group(self.pgid);
+        kill_group(self.pgid, &self.token);
         drop(self.hook.take());
         let _ = self.child.wait();
     }
@@ -195,7 +260,42 @@ pub(super) fn read_line_bounded(
         .map_err(|_| "its answer is not UTF-8".to_owned())
 }
 
-/// One program per setting, answering requests line by line.
+/// A program's scratch folder ([`cloud::scratch::program_dir`]: named with this host and
+/// process, so that the next run and `pointsight clean` reclaim it after a `kill -9`),
+/// private to its owner, removed with what it holds when the session ends and by
+/// `cloud::scratch::cleanup` on a signal.
+struct ProgramDir {
+    path: PathBuf,
+    /// Its name: the session's token ([`TOKEN_VARIABLE`]).
+    token: String,
+    _registered: cloud::scratch::Registered,
+}
+
+impl ProgramDir {
+    fn create() -> std::io::Result<Self> {
+        use std::os::unix::fs::DirBuilderExt;
+        let path = cloud::scratch::program_dir();
+        let registered = cloud::scratch::register(&path);
+        std::fs::DirBuilder::new().mode(0o700).create(&path)?;
+        let token = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        Ok(Self {
+            path,
+            token,
+            _registered: registered,
+        })
+    }
+}
+
+impl Drop for ProgramDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.path);
+    }
+}
+
+/// One program (per setting, or with protocol 3 per cloud), answering requests line by line.
 pub(super) struct Session {
     pub(super) method: &'static str,
     pub(super) folder: PathBuf,
@@ -208,11 +308,11 @@ pub(super) struct Session {
     /// The program's own scratch folder (the points file's; its `TMPDIR`), resolved: the one
     /// place a `visible_file` may be.
     scratch: PathBuf,
-    _dir: tempfile::TempDir,
-    /// The folder, removed by `cloud::scratch::cleanup` if a signal stops pointsight.
-    _registered: cloud::scratch::Registered,
+    dir: ProgramDir,
     /// The LOD form: the program greets with its build line.
     lod: bool,
+    /// Its protocol version (3: requests carry ids its answers echo).
+    protocol: u32,
     /// The LOD form's last build line: its own seconds and the structure's size.
     pub(super) built: Mutex<Option<(Option<f64>, LodSize)>>,
 }
@@ -223,11 +323,13 @@ impl Session {
             .command
             .split_first()
             .ok_or_else(|| external_error(self.method, "empty command"))?;
+        let started = Instant::now();
         let mut child = Command::new(program)
             .args(args)
             .args(&self.args)
             .current_dir(&self.folder)
             .env("TMPDIR", &self.scratch)
+            .env(TOKEN_VARIABLE, &self.dir.token)
             .process_group(0)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
@@ -236,7 +338,8 @@ impl Session {
             .map_err(|e| external_error(self.method, format!("cannot start {program}: {e}")))?;
         let pgid = Pid::from_raw(child.id().cast_signed());
         // From here on the group is killed whatever happens: on drop, and on a signal.
-        let hook = cloud::scratch::on_cleanup(move || kill_group(pgid));
+        let token = self.dir.token.clone();
+        let hook = cloud::scratch::on_cleanup(move || kill_group(pgid, &token));
         let (stdin, stdout, stderr) =
             (child.stdin.take(), child.stdout.take(), child.stderr.take());
         let mut running = Running {
@@ -246,9 +349,12 @@ impl Session {
             lines: channel().1,
             fresh: true,
             answered: None,
+            started,
+            next_id: 1,
             stderr: Arc::default(),
             stderr_done: channel().1,
             hook: Some(hook),
+            token: self.dir.token.clone(),
         };
         let (Some(stdout), Some(mut stderr)) = (stdout, stderr) else {
             return Err(external_error(self.method, "no stdout or stderr"));
@@ -336,24 +442,27 @@ impl Session {
         }
     }
 
-    /// Sends `request` (one JSON line) and reads the answer line; the process is started
-    /// first when none runs (`greet` then reads and checks its first line). Errors kill the
-    /// process (its group) and name the view `what`, quoting the end of its stderr.
+    /// Sends `request` (one JSON object) and reads the answer line; the process is started
+    /// first when none runs (the LOD form's then reads and checks its first line). With
+    /// protocol 3 the request gets the program's next id as its first key, and an answer must
+    /// echo it. `parse` gets the answer's JSON (an `{"error": ...}` answer is an error before
+    /// it). Errors kill the process (its group) and name the request `what`, quoting the end
+    /// of its stderr.
     pub(super) fn ask(
         &self,
         what: &str,
         request: Option<&str>,
-        parse: &dyn Fn(&str) -> std::result::Result<(), String>,
-    ) -> Result<f64> {
+        parse: &dyn Fn(&serde_json::Value) -> std::result::Result<(), String>,
+    ) -> Result<Answered> {
         let mut guard = self
             .process
             .lock()
             .map_err(|_| external_error(self.method, "process lock poisoned"))?;
-        let fail = |guard: &mut Option<Running>, why: String| {
+        let fail = |guard: &mut Option<Running>, what: &str, why: String| {
             // Kill it (its group): the next request starts a fresh process.
             let quote = guard.take().map_or_else(String::new, |mut running| {
                 // No grace: it failed.
-                kill_group(running.pgid);
+                kill_group(running.pgid, &running.token);
                 let tail = Arc::clone(&running.stderr);
                 let done = std::mem::replace(&mut running.stderr_done, channel().1);
                 drop(running);
@@ -372,18 +481,37 @@ impl Session {
                     Self::receive(&mut running, self.timeout).and_then(|(l, _)| self.greet(&l));
                 if let Err(why) = first {
                     *guard = Some(running);
-                    return fail(&mut guard, why);
+                    return fail(&mut guard, what, why);
                 }
                 running.fresh = false;
             }
             *guard = Some(running);
         }
         let Some(request) = request else {
-            return Ok(0.0);
+            return Ok(Answered {
+                wall: 0.0,
+                cold: None,
+            });
         };
         let running = guard
             .as_mut()
             .ok_or_else(|| external_error(self.method, "no process"))?;
+        let id = (self.protocol >= 3).then(|| {
+            running.next_id += 1;
+            running.next_id - 1
+        });
+        let (what, request) = match id {
+            Some(id) => (
+                format!("{what} (request {id})"),
+                format!(
+                    "{{\"id\":{id},{}",
+                    request.strip_prefix('{').unwrap_or(request)
+                ),
+            ),
+            None => (what.to_owned(), request.to_owned()),
+        };
+        let what = what.as_str();
+        let cold_call = running.answered.is_none();
         if !running.fresh {
             // Exactly one answer line per request: a line here answers nothing asked (a
             // second answer to the last request would shift every later answer by one).
@@ -399,6 +527,7 @@ impl Session {
                     .unwrap_or_else(|| "the build".to_owned());
                 return fail(
                     &mut guard,
+                    what,
                     format!(
                         "a second answer line to {last} (one line per request; the answers \
                          would shift by one): {extra}"
@@ -415,29 +544,36 @@ impl Session {
             None => Err(std::io::Error::other("its input is closed")),
         };
         if let Err(e) = sent {
-            return fail(&mut guard, format!("the program is gone ({e})"));
+            return fail(&mut guard, what, format!("the program is gone ({e})"));
         }
         let mut start = start;
         let (mut line, mut more) = match Self::receive(running, self.timeout) {
             Ok(line) => line,
-            Err(why) => return fail(&mut guard, why),
+            Err(why) => return fail(&mut guard, what, why),
         };
+        let mut built = None;
         if std::mem::take(&mut running.fresh) && is_built_line(&line) {
             // The visibility form's optional first line: the program's own set-up time.
-            if let Err(why) = self.greet(&line) {
-                return fail(&mut guard, why);
+            match self.greet(&line) {
+                Ok(seconds) => built = Some(seconds),
+                Err(why) => return fail(&mut guard, what, why),
             }
             start = Instant::now();
             (line, more) = match Self::receive(running, self.timeout) {
                 Ok(line) => line,
-                Err(why) => return fail(&mut guard, why),
+                Err(why) => return fail(&mut guard, what, why),
             };
         }
         let wall = start.elapsed().as_secs_f64();
+        let cold = cold_call.then(|| Cold {
+            seconds: running.started.elapsed().as_secs_f64(),
+            built: built.flatten(),
+        });
         if more {
             // More came with the answer: which line answers this request is not known.
             return fail(
                 &mut guard,
+                what,
                 format!(
                     "more than one answer line to {what} (one line per request; the answers \
                      would shift by one): {}",
@@ -447,15 +583,31 @@ impl Session {
         }
         running.fresh = false;
         running.answered = Some(what.to_owned());
-        match parse(&line) {
-            Ok(()) => Ok(wall),
-            Err(why) => fail(&mut guard, why),
+        let answer = serde_json::from_str::<serde_json::Value>(&line)
+            .map_err(|e| format!("answer is not JSON ({e}): {}", trunc(&line)))
+            .and_then(|v| match id {
+                Some(id) => check_id(&v, id).map(|()| v),
+                None => Ok(v),
+            })
+            .and_then(|v| match v.get("error") {
+                Some(msg) => Err(format!("it reported an error: {}", trunc(&msg.to_string()))),
+                None => Ok(v),
+            })
+            .and_then(|v| parse(&v));
+        match answer {
+            Ok(()) => Ok(Answered { wall, cold }),
+            Err(why) => fail(&mut guard, what, why),
         }
     }
 
-    /// The LOD form's first line: `{"built": true, "seconds": T, "nodes": K, "bytes": B}`.
-    fn greet(&self, line: &str) -> std::result::Result<(), String> {
-        let v = Self::json(line)?;
+    /// A program's build line, `{"built": true, "seconds": T}` and for the LOD form `"nodes": K,
+    /// "bytes": B` too: kept (the LOD form's size), its seconds returned.
+    fn greet(&self, line: &str) -> std::result::Result<Option<f64>, String> {
+        let v: serde_json::Value = serde_json::from_str(line)
+            .map_err(|e| format!("its first line is not JSON ({e}): {}", trunc(line)))?;
+        if let Some(msg) = v.get("error") {
+            return Err(format!("it reported an error: {}", trunc(&msg.to_string())));
+        }
         if v.get("built").and_then(serde_json::Value::as_bool) != Some(true) {
             return Err(format!(
                 "its first line is not {{\"built\": true, ...}}: {}",
@@ -473,7 +625,7 @@ impl Session {
                 bytes: num("bytes").unwrap_or(0.0).max(0.0),
             },
         ));
-        Ok(())
+        Ok(seconds)
     }
 
     /// An answer's (or build line's) `seconds`, when given: a number of seconds from 0 to the
@@ -482,14 +634,24 @@ impl Session {
         &self,
         v: &serde_json::Value,
     ) -> std::result::Result<Option<f64>, String> {
-        let Some(t) = v.get("seconds").filter(|t| !t.is_null()) else {
+        self.seconds_at(v, "seconds")
+    }
+
+    /// The seconds under `key` (`seconds`, or protocol 3's `built_seconds`), checked as
+    /// [`Session::seconds`].
+    pub(super) fn seconds_at(
+        &self,
+        v: &serde_json::Value,
+        key: &str,
+    ) -> std::result::Result<Option<f64>, String> {
+        let Some(t) = v.get(key).filter(|t| !t.is_null()) else {
             return Ok(None);
         };
         let limit = self.timeout.as_secs_f64();
         match t.as_f64() {
             Some(s) if s.is_finite() && (0.0..=limit).contains(&s) => Ok(Some(s)),
             _ => Err(format!(
-                "\"seconds\" {} is not a number >= 0 and at most its timeout of {limit} s",
+                "\"{key}\" {} is not a number >= 0 and at most its timeout of {limit} s",
                 trunc(&t.to_string())
             )),
         }
@@ -602,15 +764,40 @@ impl Session {
             .map_err(|e| format!("cannot read visible_file {path}: {e}"))?;
         Ok(text)
     }
+}
 
-    /// A parsed answer line: `{"error": ...}` is an error, else the JSON.
-    pub(super) fn json(line: &str) -> std::result::Result<serde_json::Value, String> {
-        let v: serde_json::Value = serde_json::from_str(line)
-            .map_err(|e| format!("answer is not JSON ({e}): {}", trunc(line)))?;
-        if let Some(msg) = v.get("error") {
-            return Err(format!("it reported an error: {}", trunc(&msg.to_string())));
-        }
-        Ok(v)
+/// What answering a request took.
+pub(super) struct Answered {
+    /// Wall seconds from sending the request to its answer (after a build line, from that).
+    pub(super) wall: f64,
+    /// For the first answer of a program just started: its cold call.
+    pub(super) cold: Option<Cold>,
+}
+
+/// A program's cold call: from starting it to its first answer (its interpreter, its
+/// imports, reading the points, its build and the first request), reported apart from the
+/// requests' own seconds.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Cold {
+    /// Wall seconds from starting the program to its first answer.
+    pub(super) seconds: f64,
+    /// Its build line's own seconds, when it sent one.
+    pub(super) built: Option<f64>,
+}
+
+/// Protocol 3: the answer echoes request `id`'s id, else an error naming both.
+fn check_id(v: &serde_json::Value, id: u64) -> std::result::Result<(), String> {
+    match v.get("id") {
+        Some(got) if got.as_u64() == Some(id) => Ok(()),
+        Some(got) => Err(format!(
+            "the answer carries id {} while request {id} is the one outstanding (a protocol 3 \
+             answer echoes its request's id; another request's answer would shift the results)",
+            trunc(&got.to_string())
+        )),
+        None => Err(format!(
+            "the answer has no \"id\" (a protocol 3 answer echoes its request's id, {id} here): {}",
+            trunc(&v.to_string())
+        )),
     }
 }
 
@@ -639,22 +826,19 @@ impl ExternalMethod {
         params: serde_json::Value,
         lod_radius: Option<f64>,
     ) -> Result<Session> {
-        let dir = tempfile::tempdir().map_err(|e| external_error(self.name, e))?;
-        let registered = cloud::scratch::register(dir.path());
+        let dir = ProgramDir::create().map_err(|e| external_error(self.name, e))?;
         let scratch = dir
-            .path()
+            .path
             .canonicalize()
             .map_err(|e| external_error(self.name, e))?;
-        let points = dir.path().join("points.ply");
-        let origin = write_points(self.name, self.protocol, &points, cloud, normals)?;
-        let mut args: Vec<OsString> = vec![
-            "--points".into(),
-            points.into(),
-            "--params".into(),
-            params.to_string().into(),
-            "--protocol".into(),
-            self.protocol.to_string().into(),
-        ];
+        let points = dir.path.join("points.ply");
+        let origin = write_points(self, &points, cloud, normals)?;
+        let mut args: Vec<OsString> = vec!["--points".into(), points.into()];
+        if self.protocol < 3 {
+            // Protocol 3's requests carry their setting: one program serves every setting.
+            args.extend(["--params".into(), params.to_string().into()]);
+        }
+        args.extend(["--protocol".into(), self.protocol.to_string().into()]);
         if let Some(origin) = origin {
             // "given" (the caller's normals, the LOD input's) reads as the dataset's or the
             // estimated ones the lod experiment made; say which the program gets.
@@ -691,9 +875,9 @@ impl ExternalMethod {
             timeout: self.timeout,
             process: Mutex::new(None),
             scratch,
-            _dir: dir,
-            _registered: registered,
+            dir,
             lod: lod_radius.is_some(),
+            protocol: self.protocol,
             built: Mutex::new(None),
         })
     }

@@ -1,5 +1,6 @@
 //! External programs held to account: their process group ended on timeout, on
-//! error and when the caller is done (no child left running), their stderr kept as a bounded
+//! error and when the caller is done (no child left running, nor a grandchild that left the
+//! group), their stderr kept as a bounded
 //! tail in memory and quoted, one answer line per request, `seconds` a number from 0 to the
 //! timeout, and `visible_file` confined to the program's own scratch folder.
 
@@ -14,7 +15,7 @@ use crate::lod::LodInput;
 use crate::params::Params;
 
 /// Whether process `pid` runs (a zombie does not), waiting up to 5 s for it to end.
-fn still_running(pid: u32) -> bool {
+pub(super) fn still_running(pid: u32) -> bool {
     let deadline = Instant::now() + Duration::from_secs(5);
     loop {
         let running = std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|stat| {
@@ -39,14 +40,27 @@ fn pid_in(dir: &Path, file: &str) -> u32 {
         .unwrap()
 }
 
-/// Starts a child (`sleep 60`) that writes nothing, notes its id in `child`, then does
-/// `then` for each request.
+/// Starts a child (`sleep 60`) that writes nothing, notes its id in `child`; starts a
+/// grandchild that leaves the process group (a double fork with `setsid`, then `sleep 60`),
+/// notes its id in `escaped`; then does `then` for each request.
 fn with_a_child(then: &str) -> String {
     format!(
-        "import sys, json, subprocess\n\
+        "import sys, json, os, subprocess, time\n\
          p = subprocess.Popen(['sleep', '60'], stdin=subprocess.DEVNULL, \
          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)\n\
          open('child', 'w').write(str(p.pid))\n\
+         first = os.fork()\n\
+         if first == 0:\n    \
+             os.setsid()\n    \
+             if os.fork() == 0:\n        \
+                 null = os.open(os.devnull, os.O_RDWR)\n        \
+                 for fd in (0, 1, 2):\n            os.dup2(null, fd)\n        \
+                 open('escaped.tmp', 'w').write(str(os.getpid()))\n        \
+                 os.rename('escaped.tmp', 'escaped')\n        \
+                 os.execvp('sleep', ['sleep', '60'])\n    \
+             os._exit(0)\n\
+         os.waitpid(first, 0)\n\
+         while not os.path.exists('escaped'):\n    time.sleep(0.01)\n\
          for line in sys.stdin:\n    {then}\n"
     )
 }
@@ -80,15 +94,17 @@ fn a_program_is_ended_with_its_children_on_timeout_error_and_exit() {
             Ok(_) => assert!(needle.is_empty(), "{name}: answered"),
             Err(e) => assert!(!needle.is_empty() && e.contains(needle), "{name}: {e}"),
         }
-        let child = pid_in(dir.path(), "child");
-        let alive = still_running(child);
-        if alive {
-            // Not left behind by the test either.
-            let _ = std::process::Command::new("kill")
-                .arg(child.to_string())
-                .status();
+        for (who, file) in [("child", "child"), ("escaped grandchild", "escaped")] {
+            let pid = pid_in(dir.path(), file);
+            let alive = still_running(pid);
+            if alive {
+                // Not left behind by the test either.
+                let _ = std::process::Command::new("kill")
+                    .arg(pid.to_string())
+                    .status();
+            }
+            assert!(!alive, "{name}: the program's {who} {pid} outlived it");
         }
-        assert!(!alive, "{name}: the program's child {child} outlived it");
     }
 }
 
