@@ -75,7 +75,7 @@ pub fn beside(out: &Path, kind: &str) -> PathBuf {
 
 /// A fresh path for an external method's scratch folder (its points file, its `TMPDIR`):
 /// `.pointsight.program-HOST-PID-K` in the temporary folder (`$TMPDIR`, else `/tmp`), so that
-/// after a `kill -9` the next run and `pointsight clean` find it ([`stale_programs`]).
+/// after a `kill -9` the next run and `pointsight clean` find it ([`programs`]).
 pub fn program_dir() -> PathBuf {
     beside(&std::env::temp_dir().join("pointsight"), "program")
 }

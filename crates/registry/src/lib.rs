@@ -40,6 +40,7 @@ pub mod visibility;
 pub use card::{Card, Comparison, Family, Kind, Memory, Metric, PeerKey, Program};
 pub use error::{Error, Result};
 pub use lod::LodMethod;
+pub use methods::external::end_programs_of;
 pub use methods::{BUILT_IN, Catalogue, EndPrograms, builtin_card};
 pub use params::{Param, ParamDefault, Params, Reader};
 pub use set::{Assignment, Assignments};

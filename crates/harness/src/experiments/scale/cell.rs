@@ -94,6 +94,8 @@ pub fn cell(
         };
         let (prepared, answers) =
             kernel::collect(&kernel::Cell::new(m, setting, &views, repeats), input);
+        // A protocol 3 program ended and reaped now, so that its memory is in the peak.
+        run.catalogue.end_programs();
         let prepared = prepared?;
         build_seconds = prepared.reported_seconds.unwrap_or(prepared.seconds);
         match answers.into_iter().next() {
@@ -309,6 +311,41 @@ mod tests {
         }
         let hull = run("hull-own");
         assert!(hull.seconds > 0.0 && hull.build_seconds.is_nan());
+    }
+
+    #[test]
+    fn a_warm_programs_memory_is_in_the_cells_peak() {
+        // A protocol 3 program that holds 700 MB while it answers: the cell ends it before
+        // reading the peak, which counts the children it waited for.
+        let methods = tempfile::tempdir().unwrap();
+        let folder = methods.path().join("holds-700mb");
+        std::fs::create_dir(&folder).unwrap();
+        std::fs::write(
+            folder.join("method.toml"),
+            "protocol = 3\ncommand = [\"python3\", \"m.py\"]\nnormals = false\n",
+        )
+        .unwrap();
+        std::fs::write(
+            folder.join("m.py"),
+            "import sys, json\nheld = b'\\x01' * (700 << 20)\nfor line in sys.stdin:\n    \
+             r = json.loads(line)\n    \
+             print(json.dumps({'id': r['id'], 'visible': [0], 'seconds': 0.0}), flush=True)\n",
+        )
+        .unwrap();
+        let mut run = Run::builtin();
+        run.add_methods(methods.path(), "the test's").unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let out = cell(
+            &run,
+            "torus-22321",
+            "holds-700mb",
+            &Setting::default(),
+            3_000,
+            dir.path(),
+            |_| {},
+        )
+        .unwrap();
+        assert!(out.peak_rss_bytes >= 700 << 20, "{out:?}");
     }
 
     #[test]

@@ -317,6 +317,10 @@ fn run_child(
                 if start.elapsed() > limit {
                     let _ = child.kill();
                     let _ = child.wait();
+                    // What its external programs left (their groups and folders): a killed
+                    // cell ran no cleanup of its own.
+                    registry::end_programs_of(child.id());
+                    cloud::scratch::remove_stale_programs();
                     let status = if preparing {
                         format!(
                             "timeout: preparing the input took over {} s",

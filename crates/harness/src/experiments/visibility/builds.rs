@@ -3,9 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
-fn nan() -> f64 {
-    f64::NAN
-}
+use super::nan;
 
 /// One row of `builds.csv`: one method's preparation at one setting on one dataset (one row
 /// per shard that ran it).
@@ -20,7 +18,9 @@ pub struct BuildRow {
     /// The views this preparation answered.
     pub views: usize,
     /// Wall seconds of the preparation (one run): a built-in method's per-cloud state; for an
-    /// external method, writing the points file it reads (normals and spacing included).
+    /// external method, writing the points file it reads (normals and spacing included) when
+    /// its program starts for this setting (protocols 1 and 2, and protocol 3's first setting
+    /// on a cloud; a warm one's settings pay only for recognising the cloud).
     pub prepare_seconds: f64,
     /// The structure's build alone as the method accounts for it (an external program's
     /// `built` line, the ray caster's point hierarchy); NaN when it gives none.

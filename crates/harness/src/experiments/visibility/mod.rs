@@ -129,7 +129,8 @@ pub struct Row {
     pub mesh_fit: String,
     /// Median wall seconds around each run, as the harness timed it: `seconds` for our
     /// methods; for an external program its own seconds are `seconds`, and this adds the
-    /// protocol (the request, the answer's transfer and checks).
+    /// protocol (the request, the answer's transfer and checks) and, on the first view after
+    /// the program started, its start (its cold call, also in `builds.csv`).
     #[serde(default = "nan")]
     pub wall_seconds: f64,
 }
@@ -576,6 +577,9 @@ impl Experiment for VisibilityExperiment {
                         bar.inc(1);
                     }
                 }
+                // Its warm program (protocol 3) ends with its settings: it holds no memory or
+                // core while the next methods are timed.
+                ctx.run.catalogue.end_programs();
             }
             bar.finish_and_clear();
             // Rows in (view, method, setting) order, whatever the loop order was.

@@ -2,9 +2,10 @@
 //! visibility method (or, with `kind = "lod"`, a level-of-detail method) without a Rust
 //! change: its card is made from the manifest ([`card`]) and added to a catalogue like any
 //! other ([`super::Catalogue::add_external`]). The parts: [`manifest`] (the file, checked),
-//! `session` (the program and the wire protocol), `warm` (protocol 3's one program per
-//! cloud), [`points`] (the points handed over), `visibility` and `lod` (the two forms). The
-//! protocol (versions 1 to 3; `methods/README.md` is the user's documentation):
+//! `session` (the program and the wire protocol), `process` (its end: group, escapees,
+//! scratch folder), `warm` (protocol 3's one program per cloud), [`points`] (the points
+//! handed over), `visibility` and `lod` (the two forms). The protocol (versions 1 to 3;
+//! `methods/README.md` is the user's documentation):
 //!
 //! - The caller writes the cloud once per program as binary little-endian PLY: `x y z`
 //!   doubles (point k is index k); from protocol 2 also `nx ny nz` floats (unless the manifest
@@ -33,8 +34,8 @@
 //!   radius). Exactly one line per request. End of input means exit. Before its first answer
 //!   a program may write `{"built": true, "seconds": T}`: its own per-cloud set-up (a BVH, a
 //!   render window), reported apart from the per-view times
-//!   (`Prepared::reported_build_seconds`, for the setting whose views started it; again
-//!   after a restart, the last one kept). The cold call, from starting the program to its
+//!   (`Prepared::reported_build_seconds`, for the setting whose views started it; after a
+//!   restart, the restarted program's). The cold call, from starting the program to its
 //!   first answer, is reported apart too (`Prepared::cold_call_seconds`).
 //! - The LOD form (`kind = "lod"`, protocol 2 or 3): started once per cloud with `--lod --radius R`
 //!   appended too (R the full-detail splat radius, world units), the program builds its structure and says so on its first line, `{"built": true,
@@ -103,6 +104,7 @@
 mod lod;
 pub mod manifest;
 pub mod points;
+mod process;
 mod session;
 #[cfg(test)]
 mod tests;
@@ -119,6 +121,7 @@ use crate::card::{Card, Family, Kind as CardKind, Memory};
 use crate::error::{Error, Result};
 
 pub use manifest::{ExternalMethod, Kind, PROTOCOL, PROTOCOLS};
+pub use process::end_programs_of;
 pub use session::answer_limit;
 
 /// The card of an external method (leaked, as the method is: the registry's methods live for

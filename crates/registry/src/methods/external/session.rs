@@ -24,12 +24,12 @@ use std::time::{Duration, Instant};
 
 use cloud::glam::Vec3;
 use nix::fcntl::OFlag;
-use nix::sys::signal::{Signal, killpg};
 use nix::sys::wait::{Id, WaitPidFlag, WaitStatus, waitid};
 use nix::unistd::Pid;
 
 use super::manifest::{ExternalMethod, external_error};
 use super::points::write_points;
+use super::process::{ProgramDir, TOKEN_VARIABLE, kill_group, reap};
 use crate::error::Result;
 use crate::lod::LodSize;
 
@@ -130,67 +130,6 @@ struct Running {
 /// How long a program whose input was closed has to exit before it is killed.
 pub(super) const EXIT_GRACE: Duration = Duration::from_secs(3);
 
-/// The environment variable every program of a session carries, its value the session's
-/// token (its scratch folder's name): inherited by whatever the program starts, so that a
-/// descendant that left the process group (`setsid`) is still found ([`kill_escaped`]).
-const TOKEN_VARIABLE: &str = "POINTSIGHT_PROGRAM";
-
-/// Kills process group `pgid`, whatever is left of it, and the processes that left it
-/// carrying `token` ([`kill_escaped`]).
-fn kill_group(pgid: Pid, token: &str) {
-    let _ = killpg(pgid, Signal::SIGKILL);
-    kill_escaped(token, pgid);
-}
-
-/// Kills every other process whose environment holds `POINTSIGHT_PROGRAM=token` (a
-/// program's descendant that left its group; the `pointsight` binary is their subreaper, so
-/// they are its children once their parent is gone, and are reaped here). The group's
-/// leader `leader` is left to its owner, which reaps it. Linux's `/proc`; elsewhere nothing.
-fn kill_escaped(token: &str, leader: Pid) {
-    let needle = format!("{TOKEN_VARIABLE}={token}\0").into_bytes();
-    let me = std::process::id();
-    let Ok(entries) = std::fs::read_dir("/proc") else {
-        return;
-    };
-    for entry in entries.flatten() {
-        let Some(pid) = entry
-            .file_name()
-            .to_str()
-            .and_then(|n| n.parse::<i32>().ok())
-        else {
-            continue;
-        };
-        if pid == leader.as_raw() || pid.cast_unsigned() == me {
-            continue;
-        }
-        let Ok(environ) = std::fs::read(entry.path().join("environ")) else {
-            continue;
-        };
-        let carries = environ
-            .split_inclusive(|&b| b == 0)
-            .any(|var| var == needle.as_slice());
-        if !carries {
-            continue;
-        }
-        let pid = Pid::from_raw(pid);
-        let _ = nix::sys::signal::kill(pid, Signal::SIGKILL);
-        let parent = std::fs::read_to_string(entry.path().join("stat"))
-            .ok()
-            .and_then(|stat| {
-                stat.rsplit(')')
-                    .next()?
-                    .split_whitespace()
-                    .nth(1)?
-                    .parse::<u32>()
-                    .ok()
-            });
-        if parent == Some(me) {
-            // Ours (reparented to the subreaper): reaped, not left a zombie.
-            let _ = nix::sys::wait::waitpid(pid, None);
-        }
-    }
-}
-
 impl Running {
     /// Whether the program (the group's leader) has exited; it is not reaped, so its id
     /// (the group's) is not reused before the group is killed.
@@ -215,9 +154,10 @@ impl Drop for Running {
         while Instant::now() < deadline && !self.exited() {
             std::thread::sleep(Duration::from_millis(5));
         }
-        kill_group(self.pgid, &self.token);
+        let killed = kill_group(self.pgid, &self.token);
         drop(self.hook.take());
         let _ = self.child.wait();
+        reap(&killed, self.pgid);
     }
 }
 
@@ -258,41 +198,6 @@ pub(super) fn read_line_bounded(
     String::from_utf8(line)
         .map(Some)
         .map_err(|_| "its answer is not UTF-8".to_owned())
-}
-
-/// A program's scratch folder ([`cloud::scratch::program_dir`]: named with this host and
-/// process, so that the next run and `pointsight clean` reclaim it after a `kill -9`),
-/// private to its owner, removed with what it holds when the session ends and by
-/// `cloud::scratch::cleanup` on a signal.
-struct ProgramDir {
-    path: PathBuf,
-    /// Its name: the session's token ([`TOKEN_VARIABLE`]).
-    token: String,
-    _registered: cloud::scratch::Registered,
-}
-
-impl ProgramDir {
-    fn create() -> std::io::Result<Self> {
-        use std::os::unix::fs::DirBuilderExt;
-        let path = cloud::scratch::program_dir();
-        let registered = cloud::scratch::register(&path);
-        std::fs::DirBuilder::new().mode(0o700).create(&path)?;
-        let token = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        Ok(Self {
-            path,
-            token,
-            _registered: registered,
-        })
-    }
-}
-
-impl Drop for ProgramDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.path);
-    }
 }
 
 /// One program (per setting, or with protocol 3 per cloud), answering requests line by line.
@@ -339,7 +244,9 @@ impl Session {
         let pgid = Pid::from_raw(child.id().cast_signed());
         // From here on the group is killed whatever happens: on drop, and on a signal.
         let token = self.dir.token.clone();
-        let hook = cloud::scratch::on_cleanup(move || kill_group(pgid, &token));
+        let hook = cloud::scratch::on_cleanup(move || {
+            kill_group(pgid, &token);
+        });
         let (stdin, stdout, stderr) =
             (child.stdin.take(), child.stdout.take(), child.stderr.take());
         let mut running = Running {
@@ -462,7 +369,7 @@ impl Session {
             // Kill it (its group): the next request starts a fresh process.
             let quote = guard.take().map_or_else(String::new, |mut running| {
                 // No grace: it failed.
-                kill_group(running.pgid, &running.token);
+                let _ = kill_group(running.pgid, &running.token);
                 let tail = Arc::clone(&running.stderr);
                 let done = std::mem::replace(&mut running.stderr_done, channel().1);
                 drop(running);
@@ -503,10 +410,16 @@ impl Session {
         let (what, request) = match id {
             Some(id) => (
                 format!("{what} (request {id})"),
-                format!(
-                    "{{\"id\":{id},{}",
-                    request.strip_prefix('{').unwrap_or(request)
-                ),
+                match request.trim().strip_prefix('{').map(str::trim_start) {
+                    Some(rest) if rest.starts_with('}') => format!("{{\"id\":{id}}}"),
+                    Some(rest) => format!("{{\"id\":{id},{rest}"),
+                    None => {
+                        return Err(external_error(
+                            self.method,
+                            format!("{what}: the request is not a JSON object"),
+                        ));
+                    }
+                },
             ),
             None => (what.to_owned(), request.to_owned()),
         };
@@ -585,13 +498,18 @@ impl Session {
         running.answered = Some(what.to_owned());
         let answer = serde_json::from_str::<serde_json::Value>(&line)
             .map_err(|e| format!("answer is not JSON ({e}): {}", trunc(&line)))
-            .and_then(|v| match id {
-                Some(id) => check_id(&v, id).map(|()| v),
-                None => Ok(v),
-            })
-            .and_then(|v| match v.get("error") {
-                Some(msg) => Err(format!("it reported an error: {}", trunc(&msg.to_string()))),
-                None => Ok(v),
+            .and_then(|v| {
+                // Another request's answer first (an error of the last request included);
+                // then this request's error, with or without its id; then a missing id.
+                let other = id.is_some() && v.get("id").is_some();
+                match (id, v.get("error")) {
+                    (Some(id), _) if other => check_id(&v, id).map(|()| v),
+                    (_, Some(msg)) => {
+                        Err(format!("it reported an error: {}", trunc(&msg.to_string())))
+                    }
+                    (Some(id), None) => check_id(&v, id).map(|()| v),
+                    (None, None) => Ok(v),
+                }
             })
             .and_then(|v| parse(&v));
         match answer {
