@@ -50,9 +50,16 @@ pub fn footprint_radius(points: &[DVec3]) -> Result<f64> {
 #[inline]
 fn entry(origin: DVec3, dir: DVec3, c: DVec3, r: f64) -> Option<f64> {
     let oc = c - origin;
+    entry_from(dir, oc, oc.length_squared() - r * r)
+}
+
+/// [`entry`] from the sphere's terms relative to the ray's origin: `oc` (centre − origin)
+/// and `k` (|oc|² − r²), which a caller testing many rays from one origin computes once.
+#[inline]
+fn entry_from(dir: DVec3, oc: DVec3, k: f64) -> Option<f64> {
     let a = dir.length_squared();
     let b = dir.dot(oc);
-    let disc = b * b - a * (oc.length_squared() - r * r);
+    let disc = b * b - a * k;
     if disc < 0.0 {
         return None;
     }
@@ -285,22 +292,13 @@ fn drawn_in_shares(
             if let (Some((columns, rows)), Some(Footprint::Rect(x0, x1, y0, y1))) =
                 (&tables, footprint)
             {
-                // `entry` from the eye, its per-sphere terms hoisted out of the pixel loop.
+                // `entry` from the eye, the sphere's terms hoisted out of the pixel loop.
                 let oc = c - camera.eye;
                 let k = oc.length_squared() - radius * radius;
                 for y in y0..=y1 {
                     let (row, line) = (rows[y as usize], y as usize * w);
                     for x in x0..=x1 {
-                        let dir = columns[x as usize] + row;
-                        let a = dir.length_squared();
-                        let b = dir.dot(oc);
-                        let disc = b * b - a * k;
-                        if disc < 0.0 {
-                            continue;
-                        }
-                        let s = disc.sqrt();
-                        if (b + s) / a > 0.0 {
-                            let t = ((b - s) / a).max(0.0);
+                        if let Some(t) = entry_from(columns[x as usize] + row, oc, k) {
                             let best = &mut best[line + x as usize];
                             // `(t, i) < *best`, written out (the tuple's partial_cmp is slow).
                             if t < best.0 || (t == best.0 && i < best.1) {
